@@ -1,0 +1,71 @@
+#include "cpu_tiles.h"
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+typedef struct pool_state {
+    const vsd_tile_job *job;
+    int tiles_x, tiles_total;
+    atomic_int next, done;
+    pthread_mutex_t lock;
+} pool_state;
+
+int vsd_cpu_thread_count(int threads)
+{
+    long n = threads > 0 ? threads : sysconf(_SC_NPROCESSORS_ONLN);
+    if (n < 1) n = 1;
+    if (n > 256) n = 256;
+    return (int)n;
+}
+
+static void *worker(void *arg)
+{
+    pool_state *ps = arg;
+    const vsd_tile_job *job = ps->job;
+    for (;;) {
+        int t, tx, ty, finished;
+        if (job->cancel && *job->cancel) break;
+        t = atomic_fetch_add(&ps->next, 1);
+        if (t >= ps->tiles_total) break;
+        tx = t % ps->tiles_x;
+        ty = t / ps->tiles_x;
+        {
+            int x0 = tx * VSD_TILE_SIZE, y0 = ty * VSD_TILE_SIZE;
+            int x1 = x0 + VSD_TILE_SIZE, y1 = y0 + VSD_TILE_SIZE;
+            job->fn(job->user, x0, y0, x1 < job->width ? x1 : job->width, y1 < job->height ? y1 : job->height);
+        }
+        finished = atomic_fetch_add(&ps->done, 1) + 1;
+        if (job->progress) {
+            pthread_mutex_lock(&ps->lock);
+            job->progress(job->progress_user, job->stage,
+                          job->progress_base + job->progress_span * (float)finished / (float)ps->tiles_total);
+            pthread_mutex_unlock(&ps->lock);
+        }
+    }
+    return NULL;
+}
+
+vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job)
+{
+    pool_state ps;
+    int n = vsd_cpu_thread_count(job->threads), i;
+    pthread_t *th;
+    ps.job = job;
+    ps.tiles_x = (job->width + VSD_TILE_SIZE - 1) / VSD_TILE_SIZE;
+    ps.tiles_total = ps.tiles_x * ((job->height + VSD_TILE_SIZE - 1) / VSD_TILE_SIZE);
+    atomic_init(&ps.next, 0);
+    atomic_init(&ps.done, 0);
+    pthread_mutex_init(&ps.lock, NULL);
+    if (n > ps.tiles_total) n = ps.tiles_total > 0 ? ps.tiles_total : 1;
+    th = calloc((size_t)n, sizeof *th);
+    /* the calling thread works too; extra threads are a bonus if creation fails */
+    for (i = 1; th && i < n; i++)
+        if (pthread_create(&th[i], NULL, worker, &ps) != 0) { n = i; break; }
+    worker(&ps);
+    for (i = 1; th && i < n; i++) pthread_join(th[i], NULL);
+    free(th);
+    pthread_mutex_destroy(&ps.lock);
+    if (job->cancel && *job->cancel) return VSD_ERR_CANCELLED;
+    return VSD_OK;
+}

@@ -1,0 +1,32 @@
+/* cpu_tiles.h — the CPU backend: a pool of POSIX threads pulling image tiles from an
+ * atomic counter. Each pixel's result depends only on its own (seed, pixel, sample)
+ * random stream, so the image is identical whatever the thread count or tile order. */
+#ifndef VSD_CPU_TILES_H
+#define VSD_CPU_TILES_H
+#include "vsd/status.h"
+#include "vsd/render.h"
+
+#define VSD_TILE_SIZE 16
+
+/* Work on the pixel rectangle [x0,x1) x [y0,y1). */
+typedef void (*vsd_tile_fn)(void *user, int x0, int y0, int x1, int y1);
+
+typedef struct vsd_tile_job {
+    int width, height;
+    int threads;                 /* 0 = all cores */
+    vsd_tile_fn fn;
+    void *user;
+    const char *stage;           /* progress stage name */
+    vsd_progress_fn progress;    /* may be 0; called under a lock */
+    void *progress_user;
+    float progress_base, progress_span; /* fraction reported = base + span * done/total */
+    volatile int *cancel;        /* may be 0 */
+} vsd_tile_job;
+
+/* Runs every tile; VSD_ERR_CANCELLED when *cancel became non-zero. */
+vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job);
+
+/* The thread count a request for `threads` (0 = all) resolves to. */
+int vsd_cpu_thread_count(int threads);
+
+#endif

@@ -1,0 +1,38 @@
+/* vsd/env.h — equirectangular environment maps (DESIGN.md §3).
+ *
+ * Pixels are scene-linear RGB floats, row 0 = top of the image = straight up (+Z), mapped
+ * exactly as Cycles' Environment Texture: direction d -> u = 0.5 - atan2(d.y,d.x)/(2 pi),
+ * v = 1 - acos(d.z)/pi (v = 1 at row 0). Strength and Z rotation are applied at lookup time
+ * (see kernel/kernel_env.h), not baked into the pixels, so changing them costs nothing.
+ *
+ * Ownership: vsd_env_load/vsd_env_create_uniform return an env freed by vsd_env_destroy. */
+#ifndef VSD_ENV_H
+#define VSD_ENV_H
+#include "vsd/status.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vsd_env {
+    int width, height;
+    float *rgb;          /* [width*height*3] */
+    char file[1024];
+} vsd_env;
+
+/* Load .exr (any compression Blender writes, via OpenEXR's C++ API) or Radiance .hdr/.pic
+ * (RGBE, flat or run-length encoded), chosen by file content, not extension. When
+ * `colorspace` is non-NULL and non-empty the pixels are converted from that OpenColorIO
+ * colour space to the config's scene_linear role (config from $OCIO, else Blender's). */
+vsd_status vsd_env_load(const char *path, const char *colorspace, vsd_env **out,
+                        char *err, size_t errlen);
+
+/* A constant-colour map (width x height) — the "world colour" case and the furnace test. */
+vsd_status vsd_env_create_uniform(const float rgb[3], int width, int height, vsd_env **out,
+                                  char *err, size_t errlen);
+
+void vsd_env_destroy(vsd_env *env);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

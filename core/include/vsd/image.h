@@ -1,0 +1,98 @@
+/* vsd/image.h — render passes in memory and their files: multilayer EXR (OpenEXR C API),
+ * EXR reading for tests/tools (C++ API behind a C shim), and the display preview PNG
+ * through an OpenColorIO view transform (DESIGN.md §6).
+ *
+ * Ownership: vsd_framebuffer_create/destroy; vsd_exr_read returns a vsd_exr_image freed
+ * by vsd_exr_image_destroy. Writers never take ownership of their inputs. */
+#ifndef VSD_IMAGE_H
+#define VSD_IMAGE_H
+#include <stddef.h>
+#include "vsd/status.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum vsd_pass {
+    VSD_PASS_COMBINED = 0,   /* RGBA, premultiplied, alpha = 1 - mean transmittance */
+    VSD_PASS_VOLUME_DIR,     /* RGB: light scattered once toward the camera */
+    VSD_PASS_VOLUME_IND,     /* RGB: light scattered more than once */
+    VSD_PASS_EMIT,           /* RGB: emission reaching the camera */
+    VSD_PASS_TRANSMITTANCE,  /* RGB: transmittance of the view ray through the volume */
+    VSD_PASS_DEPTH,          /* Z: distance along the view ray to the first interaction estimate; 1e10 when empty */
+    VSD_PASS_COUNT
+} vsd_pass;
+
+#define VSD_PASS_BIT(p) (1u << (p))
+#define VSD_PASS_ALL ((1u << VSD_PASS_COUNT) - 1u)
+#define VSD_DEPTH_EMPTY 1e10f
+
+/* Blender pass name ("Combined", "VolumeDir", ...) and channel count (4, 3 or 1). */
+const char *vsd_pass_name(vsd_pass p);
+int vsd_pass_channels(vsd_pass p);
+/* Parse a pass name; returns VSD_PASS_COUNT when unknown. */
+vsd_pass vsd_pass_from_name(const char *name);
+
+/* All passes allocated, interleaved per pixel (Combined: RGBARGBA..., Depth: one float),
+ * row 0 = top of the image, zero-filled (Depth filled with VSD_DEPTH_EMPTY). */
+typedef struct vsd_framebuffer {
+    int width, height;
+    float *pass[VSD_PASS_COUNT];
+} vsd_framebuffer;
+
+vsd_status vsd_framebuffer_create(int width, int height, vsd_framebuffer **out,
+                                  char *err, size_t errlen);
+void vsd_framebuffer_clear(vsd_framebuffer *fb);
+void vsd_framebuffer_destroy(vsd_framebuffer *fb);
+
+typedef struct vsd_exr_attr {
+    const char *name;   /* e.g. "vsd/method" */
+    const char *value;  /* written as an EXR string attribute */
+} vsd_exr_attr;
+
+typedef struct vsd_exr_write_options {
+    const char *layer;        /* 0 = "ViewLayer" */
+    unsigned pass_mask;       /* 0 = all passes */
+    int half;                 /* 0 = float32 channels, 1 = half */
+    const vsd_exr_attr *attrs;/* extra header attributes */
+    int attr_count;
+} vsd_exr_write_options;
+
+/* Write a multilayer EXR with channels "<layer>.<Pass>.<R|G|B|A|Z>" (Blender's names), ZIP
+ * compressed, to `path` via a temporary file in the same folder that is renamed on success
+ * (a crash never leaves a half-written frame). Creates no folders. */
+vsd_status vsd_exr_write(const char *path, const vsd_framebuffer *fb,
+                         const vsd_exr_write_options *opt, char *err, size_t errlen);
+
+/* Any EXR (any compression), all channels as float planes, row 0 = top. */
+typedef struct vsd_exr_image {
+    int width, height, channel_count;
+    char **channel_names;   /* [channel_count] */
+    float **channels;       /* [channel_count][width*height] */
+} vsd_exr_image;
+
+vsd_status vsd_exr_read(const char *path, vsd_exr_image **out, char *err, size_t errlen);
+/* Plane of the named channel, or NULL. */
+const float *vsd_exr_channel(const vsd_exr_image *img, const char *name);
+/* Header string attribute value (caller buffer), VSD_ERR_NOT_FOUND if absent. */
+vsd_status vsd_exr_read_attr(const char *path, const char *attr, char *value, size_t len,
+                             char *err, size_t errlen);
+void vsd_exr_image_destroy(vsd_exr_image *img);
+
+typedef struct vsd_preview_options {
+    const char *view;        /* 0 = config's default view ("Standard"/"Filmic" in Blender's) */
+    const char *display;     /* 0 = config's default display */
+    float exposure;          /* stops, 0 = none */
+} vsd_preview_options;
+
+/* Display-referred 8-bit RGBA PNG of the Combined pass through an OpenColorIO
+ * display/view transform. Config: $OCIO, else Blender's installed config, else a plain
+ * sRGB transfer — `note` (may be NULL) then says which was used, for the CLI to print.
+ * Written via a temporary name and renamed, like EXR. */
+vsd_status vsd_preview_write_png(const char *path, const vsd_framebuffer *fb,
+                                 const vsd_preview_options *opt, char *note, size_t notelen,
+                                 char *err, size_t errlen);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,75 @@
+/* vsd/render.h — rendering a scene: the one pipeline the CLI, the daemon and the tests use.
+ *
+ * A vsd_renderer holds what one scene needs across frames and views: the loaded volume
+ * frame, the environment map with its sampling tables, and the method's prepared state.
+ * vsd_renderer_render() reuses whatever is still valid (same frame file, same map) so a new
+ * camera or a second view costs only the view pass.
+ *
+ * Ownership: vsd_renderer_create copies the scene; vsd_renderer_destroy frees everything.
+ * The framebuffer passed to render is the caller's. */
+#ifndef VSD_RENDER_H
+#define VSD_RENDER_H
+#include "vsd/status.h"
+#include "vsd/scene.h"
+#include "vsd/image.h"
+#include "vsd/volume.h"
+#include "vsd/env.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Called from worker threads under a lock; `fraction` in [0,1] of the current stage. */
+typedef void (*vsd_progress_fn)(void *user, const char *stage, float fraction);
+
+typedef struct vsd_render_options {
+    int threads;                 /* 0 = all cores (overrides render.threads when > 0) */
+    vsd_progress_fn progress;    /* 0 = silent */
+    void *user;
+    volatile int *cancel;        /* set non-zero from anywhere to stop: VSD_ERR_CANCELLED */
+} vsd_render_options;
+
+typedef struct vsd_render_stats {
+    double load_seconds;         /* reading VDB and environment files */
+    double prepare_seconds;      /* method preparation (per frame / per lighting) */
+    double render_seconds;       /* the view pass */
+    int samples;                 /* samples per pixel actually taken */
+    int threads;
+    unsigned long long active_voxels;
+    char method[64];
+    char device[16];             /* "cpu" or "cuda" */
+} vsd_render_stats;
+
+typedef struct vsd_renderer vsd_renderer;
+
+vsd_status vsd_renderer_create(const vsd_scene *scene, const vsd_render_options *opt,
+                               vsd_renderer **out, char *err, size_t errlen);
+/* Replace the scene (camera, medium, options...); caches stay where still valid. */
+vsd_status vsd_renderer_set_scene(vsd_renderer *r, const vsd_scene *scene, char *err, size_t errlen);
+/* Render `frame` into fb (resized to the film if needed). */
+vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fb,
+                               vsd_render_stats *stats, char *err, size_t errlen);
+void vsd_renderer_destroy(vsd_renderer *r);
+
+/* Render from volumes / an environment already in memory instead of the scene's files
+ * (the daemon's blob caches, tests, synthetic scenes). Borrowed: the caller keeps them
+ * alive until the renderer is destroyed or they are replaced; NULL returns to files.
+ * The pointer identity is the cache key, so pass a new object for new contents. */
+void vsd_renderer_use_volumes(vsd_renderer *r, const vsd_volume *density, const vsd_volume *emission);
+void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env);
+
+/* Write the frame's EXR (and preview PNG when the scene asks for one) with header
+ * attributes recording method, options, timings and version. `note` (may be NULL) gets
+ * the preview's colour-management note. Paths come from scene->output with #### filled. */
+vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_framebuffer *fb,
+                                   const vsd_render_stats *stats, char *exr_path, size_t exr_len,
+                                   char *note, size_t notelen, char *err, size_t errlen);
+
+/* Names of the methods this build renders (NULL-terminated, static). */
+const char *const *vsd_method_names(void);
+
+const char *vsd_version(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

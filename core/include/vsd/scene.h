@@ -1,0 +1,112 @@
+/* vsd/scene.h — the scene file v1 (DESIGN.md §4) as a plain struct.
+ *
+ * vsd_scene_load() parses JSON (cJSON) after applying command-line style overrides
+ * ("render.samples=256"), fills every absent field with its documented default (see
+ * docs/scene-file.md), rejects unknown keys and wrong types with an error naming the
+ * path ("camera.fov: expected number"), resolves relative paths against the scene file's
+ * folder and reduces the camera to a camera-to-world matrix plus a field of view.
+ * The struct owns no heap memory: copy it, memset it, free nothing. */
+#ifndef VSD_SCENE_H
+#define VSD_SCENE_H
+#include "vsd/status.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define VSD_PATH_LEN 1024
+#define VSD_NAME_LEN 128
+#define VSD_OPTIONS_LEN 4096
+
+typedef enum vsd_camera_type { VSD_CAMERA_PERSPECTIVE = 0, VSD_CAMERA_ORTHOGRAPHIC = 1 } vsd_camera_type;
+
+typedef struct vsd_scene {
+    int version;                         /* 1 */
+    char base_dir[VSD_PATH_LEN];         /* folder of the scene file ("" = cwd) */
+
+    struct {
+        char file[VSD_PATH_LEN];         /* resolved path, may contain #### */
+        char grid[VSD_NAME_LEN];         /* default "density" ("" = first float grid) */
+        int grid_index;                  /* -1 = by name (default) */
+        char emission_grid[VSD_NAME_LEN];/* "" = none (default) */
+        double matrix[16];               /* object matrix, row-major, default identity */
+    } volume;
+
+    struct {
+        float density;                   /* default 1 */
+        float albedo[3];                 /* default 0.8 (Principled Volume's default colour is 0.5; see docs) */
+        float anisotropy;                /* default 0 */
+        float emission_color[3];         /* default 1,1,1 */
+        float emission_strength;         /* default 0 */
+        float ior;                       /* default 1 */
+    } medium;
+
+    struct {
+        char file[VSD_PATH_LEN];         /* "" = uniform colour */
+        float color[3];                  /* used when file is "" (default 0.05 grey, Blender's world) */
+        float strength;                  /* default 1 */
+        float rotation_z;                /* radians, default 0 */
+        char colorspace[VSD_NAME_LEN];   /* "" = file is already scene-linear */
+    } environment;
+
+    int light_count;                     /* lights[] must be empty in this version */
+
+    struct {
+        vsd_camera_type type;            /* default perspective */
+        double matrix[16];               /* camera-to-world, row-major; camera looks down -Z, +Y up */
+        double fov;                      /* radians across the larger image dimension (perspective) */
+        double ortho_scale;              /* world width across the larger dimension (orthographic) */
+        double clip_start, clip_end;     /* defaults 0.1, 1000 (Blender's) */
+    } camera;
+
+    struct {
+        int width, height;               /* default 640x360 */
+        int transparent;                 /* default 1 */
+    } film;
+
+    struct {
+        char method[VSD_NAME_LEN];       /* default "reference" */
+        char device[32];                 /* "auto" (default), "cpu", "cuda" */
+        int samples;                     /* default 64 */
+        int seed;                        /* default 1 */
+        int threads;                     /* default 0 = all cores */
+        char options_json[VSD_OPTIONS_LEN]; /* method options object, serialised ("{}" default) */
+    } render;
+
+    struct { int start, end; } frames;   /* default 1..1 */
+
+    struct {
+        char exr[VSD_PATH_LEN];          /* resolved, may contain ####; default "out/frame_####.exr" */
+        unsigned pass_mask;              /* vsd_pass bits; default all */
+        char layer[VSD_NAME_LEN];        /* default "ViewLayer" */
+        int half;                        /* default 0 */
+        char preview_png[VSD_PATH_LEN];  /* "" = none (default) */
+        char view[VSD_NAME_LEN];         /* OCIO view for the preview, "" = config default */
+    } output;
+} vsd_scene;
+
+/* Fill every field with its default. */
+void vsd_scene_defaults(vsd_scene *scene);
+
+/* Parse a scene file, applying `overrides` ("key.path=value"; value parsed as JSON, else
+ * taken as a string) before validation. */
+vsd_status vsd_scene_load(const char *path, const char *const *overrides, int override_count,
+                          vsd_scene *scene, char *err, size_t errlen);
+
+/* Same from a JSON string; relative paths resolve against base_dir ("" = cwd). */
+vsd_status vsd_scene_parse(const char *json, const char *base_dir,
+                           const char *const *overrides, int override_count,
+                           vsd_scene *scene, char *err, size_t errlen);
+
+/* Replace the run of '#' in `pattern` by `frame` zero-padded to the run's length
+ * ("smoke_####.vdb", 7 -> "smoke_0007.vdb"); patterns without '#' are copied. */
+vsd_status vsd_frame_path(const char *pattern, int frame, char *out, size_t outlen,
+                          char *err, size_t errlen);
+
+/* Look up a method option (from render.options) as number/int/bool/string with default. */
+double vsd_scene_option_number(const vsd_scene *scene, const char *key, double fallback);
+int vsd_scene_option_string(const vsd_scene *scene, const char *key, char *out, size_t outlen);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,109 @@
+/* Method `raymarch`: the brute-force single-scattering baseline (raymarch_kernel.h).
+ * Lighting preparation picks the K fixed environment directions; the view pass marches
+ * one ray through each pixel centre. Options: lights (K, default 256), step (world units,
+ * default half the smallest voxel). */
+#include "src/render/method.h"
+#include "src/render/accum.h"
+#include "src/render/env_lights.h"
+#include "device/cpu/cpu_tiles.h"
+#include "raymarch_kernel.h"
+#include <stdlib.h>
+
+static const char *const raymarch_options[] = { "lights", "step", NULL };
+
+typedef struct raymarch_state {
+    float *lights;
+    int count;
+} raymarch_state;
+
+typedef struct raymarch_pass {
+    const vsd_kernel_data *kd;
+    vsd_accum *acc;
+} raymarch_pass;
+
+static vsd_status raymarch_create(void **state, const vsd_scene *scene, char *err, size_t errlen)
+{
+    raymarch_state *s = calloc(1, sizeof *s);
+    double k = vsd_scene_option_number(scene, "lights", 256);
+    if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    if (k < 1 || k > 65536) {
+        free(s);
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.lights: %g is out of range 1..65536", k);
+    }
+    if (vsd_scene_option_number(scene, "step", 1.0) <= 0) {
+        free(s);
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.step: must be > 0");
+    }
+    s->count = (int)k;
+    *state = s;
+    return VSD_OK;
+}
+
+static vsd_status raymarch_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    raymarch_state *s = state;
+    free(s->lights);
+    s->lights = malloc(sizeof(float) * 8 * (size_t)s->count);
+    if (!s->lights) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d lights", s->count);
+    vsd_env_importance_lights(&ctx->kd.env, s->count, s->lights);
+    return VSD_OK;
+}
+
+static void raymarch_tile(void *user, int x0, int y0, int x1, int y1)
+{
+    raymarch_pass *p = user;
+    int x, y;
+    for (y = y0; y < y1; y++)
+        for (x = x0; x < x1; x++) {
+            vsd_sample_result res = vsd_raymarch_pixel(p->kd, x, y);
+            vsd_accum_add(p->acc, x, y, &res);
+        }
+}
+
+static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
+                                  char *err, size_t errlen)
+{
+    raymarch_state *s = state;
+    vsd_accum acc;
+    raymarch_pass pass;
+    vsd_tile_job job = {0};
+    vsd_status st;
+    float step = (float)vsd_scene_option_number(ctx->scene, "step", 0.0);
+    ctx->kd.lights = s->lights;
+    ctx->kd.light_count = s->count;
+    ctx->kd.march_step = step > 0 ? step : (ctx->kd.density.step > 0 ? ctx->kd.density.step : ctx->kd.emission.step);
+    if (!(ctx->kd.march_step > 0)) ctx->kd.march_step = 0.01f;
+    st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
+    if (st) return st;
+    pass.kd = &ctx->kd;
+    pass.acc = &acc;
+    job.width = fb->width;
+    job.height = fb->height;
+    job.threads = ctx->threads;
+    job.fn = raymarch_tile;
+    job.user = &pass;
+    job.stage = "ray marching";
+    job.progress = ctx->progress;
+    job.progress_user = ctx->user;
+    job.progress_span = 1.0f;
+    job.cancel = ctx->cancel;
+    st = vsd_cpu_run_tiles(&job);
+    if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
+    vsd_accum_resolve(&acc, 1, ctx->scene->film.transparent, fb);
+    vsd_accum_free(&acc);
+    *samples = 1;
+    return st;
+}
+
+static void raymarch_destroy(void *state)
+{
+    raymarch_state *s = state;
+    if (!s) return;
+    free(s->lights);
+    free(s);
+}
+
+const vsd_method vsd_method_raymarch = {
+    "raymarch", raymarch_options, raymarch_create, NULL, raymarch_prepare_lighting, raymarch_render,
+    raymarch_destroy,
+};

@@ -1,0 +1,76 @@
+/* Method `reference`: progressive unbiased volumetric path tracing (reference_kernel.h).
+ * Samples are taken in rounds (1, 1, 2, 4, ... up to render.samples) over all tiles, so
+ * progress and intermediate images reflect the whole frame. */
+#include "src/render/method.h"
+#include "src/render/accum.h"
+#include "device/cpu/cpu_tiles.h"
+#include "reference_kernel.h"
+#include <stdlib.h>
+
+static const char *const reference_options[] = { "max_bounces", NULL };
+
+typedef struct reference_round {
+    const vsd_kernel_data *kd;
+    vsd_accum *acc;
+    int s0, s1;
+} reference_round;
+
+static void reference_tile(void *user, int x0, int y0, int x1, int y1)
+{
+    reference_round *r = user;
+    int x, y, s;
+    for (y = y0; y < y1; y++)
+        for (x = x0; x < x1; x++)
+            for (s = r->s0; s < r->s1; s++) {
+                vsd_sample_result res = vsd_reference_sample(r->kd, x, y, (uint32_t)s);
+                vsd_accum_add(r->acc, x, y, &res);
+            }
+}
+
+static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
+                                   char *err, size_t errlen)
+{
+    const vsd_scene *sc = ctx->scene;
+    vsd_accum acc;
+    reference_round round;
+    vsd_tile_job job = {0};
+    vsd_status st;
+    int total = sc->render.samples, done = 0, batch = 1;
+    (void)state;
+    ctx->kd.max_bounces = (int)vsd_scene_option_number(sc, "max_bounces", 1024);
+    if (ctx->kd.max_bounces < 1)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.max_bounces: must be >= 1");
+    st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
+    if (st) return st;
+    round.kd = &ctx->kd;
+    round.acc = &acc;
+    job.width = fb->width;
+    job.height = fb->height;
+    job.threads = ctx->threads;
+    job.fn = reference_tile;
+    job.user = &round;
+    job.stage = "path tracing";
+    job.progress = ctx->progress;
+    job.progress_user = ctx->user;
+    job.cancel = ctx->cancel;
+    while (done < total) {
+        int n = batch < total - done ? batch : total - done;
+        round.s0 = done;
+        round.s1 = done + n;
+        job.progress_base = (float)done / (float)total;
+        job.progress_span = (float)n / (float)total;
+        st = vsd_cpu_run_tiles(&job);
+        if (st) break;
+        done += n;
+        if (done >= 2) batch *= 2;
+    }
+    if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled after %d samples", done);
+    vsd_accum_resolve(&acc, done, sc->film.transparent, fb);
+    vsd_accum_free(&acc);
+    *samples = done;
+    return st;
+}
+
+const vsd_method vsd_method_reference = {
+    "reference", reference_options, NULL, NULL, NULL, reference_render, NULL,
+};

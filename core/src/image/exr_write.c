@@ -1,0 +1,271 @@
+/* Multilayer EXR writer on OpenEXR's C API (openexr.h): one scanline part, ZIP compressed,
+ * channels "<layer>.<Pass>.<chan>" as Blender writes them, through a temporary file that is
+ * renamed into place only once the whole file is on disk (DESIGN.md §6). */
+#define _POSIX_C_SOURCE 200809L
+#include "src/image/imageio_internal.h"
+#include <errno.h>
+#include <openexr.h>
+#include <Imath/half.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define LAYER_MAX 200                 /* keeps every channel name within a fixed buffer */
+#define EXR_SHORT_NAME_MAX 31         /* longer names need the EXR "long names" flag */
+
+typedef struct exr_chan {
+    char name[LAYER_MAX + 32];
+    vsd_pass pass;
+    int comp;                         /* index into the pass's interleaved channels */
+    int half;                         /* stored as half (else float32) */
+} exr_chan;
+
+/* Per-write state reachable from OpenEXR's callbacks through the context's user data. */
+typedef struct exr_writer {
+    vsd_io_tmpfile file;
+    char msg[512];                    /* first error OpenEXR reported */
+    int write_errno;                  /* errno of a failed pwrite, 0 if none */
+} exr_writer;
+
+/* OpenEXR reports errors through this callback instead of returning text; keep the first
+ * message (later ones are usually consequences) instead of letting it print to stderr. */
+static void on_exr_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    void *ud = NULL;
+    exr_writer *w = (ctxt && exr_get_user_data(ctxt, &ud) == EXR_ERR_SUCCESS) ? ud : NULL;
+    if (w && !w->msg[0])
+        snprintf(w->msg, sizeof w->msg, "%s", msg ? msg : exr_get_default_error_message(code));
+}
+
+/* Our own write callback on the already-open temporary file: pwrite at the offsets the
+ * library asks for (it writes the chunk table last, back near the start of the file). */
+static int64_t write_fn(exr_const_context_t ctxt, void *userdata, const void *buffer,
+                        uint64_t sz, uint64_t offset, exr_stream_error_func_ptr_t error_cb)
+{
+    exr_writer *w = userdata;
+    const char *p = buffer;
+    uint64_t done = 0;
+    while (done < sz) {
+        ssize_t n = pwrite(w->file.fd, p + done, (size_t)(sz - done), (off_t)(offset + done));
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            w->write_errno = n < 0 ? errno : EIO;
+            error_cb(ctxt, EXR_ERR_WRITE_IO, "%s", strerror(w->write_errno));
+            return -1;
+        }
+        done += (uint64_t)n;
+    }
+    return (int64_t)sz;
+}
+
+/* The channel list for the selected passes. Depth stays float32 even when half is asked
+ * for, as Blender does for its non-colour passes: the 1e10 "empty" marker and distances
+ * beyond 2048 units do not survive half precision. */
+static vsd_status build_channels(const vsd_exr_write_options *opt, exr_chan *chans, int *count,
+                                 int *long_names, char *err, size_t errlen)
+{
+    const char *layer = opt && opt->layer && *opt->layer ? opt->layer : "ViewLayer";
+    unsigned mask = opt && opt->pass_mask ? opt->pass_mask : VSD_PASS_ALL;
+    if (strlen(layer) > LAYER_MAX)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR layer name longer than %d characters",
+                        LAYER_MAX);
+    if (mask & ~VSD_PASS_ALL)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR pass mask 0x%x has unknown bits", mask);
+    int n = 0;
+    *long_names = 0;
+    for (int p = 0; p < VSD_PASS_COUNT; p++) {
+        if (!(mask & VSD_PASS_BIT(p)))
+            continue;
+        const char *ids = vsd_pass_chan_ids((vsd_pass)p);
+        for (int c = 0; ids[c]; c++, n++) {
+            snprintf(chans[n].name, sizeof chans[n].name, "%s.%s.%c", layer,
+                     vsd_pass_name((vsd_pass)p), ids[c]);
+            chans[n].pass = (vsd_pass)p;
+            chans[n].comp = c;
+            chans[n].half = opt && opt->half && p != VSD_PASS_DEPTH;
+            if (strlen(chans[n].name) > EXR_SHORT_NAME_MAX)
+                *long_names = 1;
+        }
+    }
+    *count = n;
+    return VSD_OK;
+}
+
+/* Everything that goes before the pixels: size, compression, channels, attributes. The
+ * library sorts the channel list by name, as the EXR format requires; write_chunks therefore
+ * matches channels by name, never by position. */
+static exr_result_t define_header(exr_context_t ctxt, const vsd_framebuffer *fb,
+                                  const exr_chan *chans, int n, int long_names,
+                                  const vsd_exr_write_options *opt)
+{
+    int part = 0;
+    exr_result_t rv = exr_add_part(ctxt, NULL, EXR_STORAGE_SCANLINE, &part);
+    if (!rv && long_names)
+        rv = exr_set_longname_support(ctxt, 1);
+    if (!rv)
+        rv = exr_initialize_required_attr_simple(ctxt, part, fb->width, fb->height,
+                                                 EXR_COMPRESSION_ZIP);
+    for (int i = 0; !rv && i < n; i++)
+        rv = exr_add_channel(ctxt, part, chans[i].name,
+                             chans[i].half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
+                             EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (!rv)
+        rv = exr_attr_set_string(ctxt, part, "vsd/version", VSD_VERSION_STRING);
+    for (int i = 0; !rv && opt && i < opt->attr_count; i++)
+        rv = exr_attr_set_string(ctxt, part, opt->attrs[i].name, opt->attrs[i].value);
+    if (!rv)
+        rv = exr_write_header(ctxt);
+    return rv;
+}
+
+/* Copy rows [y0, y0+rows) of one channel out of its interleaved pass into a planar buffer
+ * of the stored type: the library's packer then only has to byte-swap and compress. */
+static void stage_channel(const vsd_framebuffer *fb, const exr_chan *c, int y0, int rows,
+                          void *dst)
+{
+    int nc = vsd_pass_channels(c->pass);
+    size_t w = (size_t)fb->width;
+    const float *src = fb->pass[c->pass] + (size_t)y0 * w * (size_t)nc + (size_t)c->comp;
+    size_t n = (size_t)rows * w;
+    if (c->half) {
+        uint16_t *h = dst;
+        for (size_t i = 0; i < n; i++)
+            h[i] = imath_float_to_half(src[i * (size_t)nc]);
+    } else {
+        float *f = dst;
+        for (size_t i = 0; i < n; i++)
+            f[i] = src[i * (size_t)nc];
+    }
+}
+
+/* Point each encoder channel at its staged rows. Returns EXR_ERR_INVALID_ARGUMENT if the
+ * library names a channel we did not define (cannot happen unless the API changes). */
+static exr_result_t bind_channels(exr_encode_pipeline_t *enc, const vsd_framebuffer *fb,
+                                  const exr_chan *chans, int n, unsigned char *staging,
+                                  size_t plane_bytes)
+{
+    for (int i = 0; i < enc->channel_count; i++) {
+        exr_coding_channel_info_t *ec = &enc->channels[i];
+        const exr_chan *c = NULL;
+        for (int k = 0; k < n && !c; k++)
+            if (strcmp(chans[k].name, ec->channel_name) == 0)
+                c = &chans[k];
+        if (!c)
+            return EXR_ERR_INVALID_ARGUMENT;
+        int bpe = c->half ? 2 : 4;
+        unsigned char *plane = staging + (size_t)i * plane_bytes;
+        stage_channel(fb, c, enc->chunk.start_y, enc->chunk.height, plane);
+        ec->encode_from_ptr = plane;
+        ec->user_bytes_per_element = (int16_t)bpe;
+        ec->user_data_type = (uint16_t)(c->half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT);
+        ec->user_pixel_stride = bpe;
+        ec->user_line_stride = bpe * fb->width;
+    }
+    return EXR_ERR_SUCCESS;
+}
+
+/* Encode and write every scanline chunk (16 rows for ZIP) in increasing y. */
+static exr_result_t write_chunks(exr_context_t ctxt, const vsd_framebuffer *fb,
+                                 const exr_chan *chans, int n)
+{
+    int32_t lines = 1;
+    exr_result_t rv = exr_get_scanlines_per_chunk(ctxt, 0, &lines);
+    if (rv)
+        return rv;
+    size_t plane_bytes = (size_t)lines * (size_t)fb->width * sizeof(float);
+    unsigned char *staging = malloc(plane_bytes * (size_t)n);
+    if (!staging)
+        return EXR_ERR_OUT_OF_MEMORY;
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    int started = 0;
+    for (int y = 0; !rv && y < fb->height; y += lines) {
+        exr_chunk_info_t cinfo;
+        rv = exr_write_scanline_chunk_info(ctxt, 0, y, &cinfo);
+        if (!rv)
+            rv = started ? exr_encoding_update(ctxt, 0, &cinfo, &enc)
+                         : exr_encoding_initialize(ctxt, 0, &cinfo, &enc);
+        if (!rv && !started) {
+            started = 1;
+            rv = bind_channels(&enc, fb, chans, n, staging, plane_bytes);
+            if (!rv)
+                rv = exr_encoding_choose_default_routines(ctxt, 0, &enc);
+        } else if (!rv) {
+            rv = bind_channels(&enc, fb, chans, n, staging, plane_bytes);
+        }
+        if (!rv)
+            rv = exr_encoding_run(ctxt, 0, &enc);
+    }
+    if (started)
+        exr_encoding_destroy(ctxt, &enc);
+    free(staging);
+    return rv;
+}
+
+/* Map an OpenEXR failure to a vsd status with a message naming the file. */
+static vsd_status exr_failure(exr_result_t rv, const exr_writer *w, const char *path,
+                              char *err, size_t errlen)
+{
+    const char *why = w->msg[0] ? w->msg : exr_get_default_error_message(rv);
+    vsd_status s = VSD_ERR_INTERNAL;
+    if (w->write_errno || rv == EXR_ERR_FILE_ACCESS || rv == EXR_ERR_WRITE_IO)
+        s = VSD_ERR_IO;
+    else if (rv == EXR_ERR_OUT_OF_MEMORY)
+        s = VSD_ERR_NOMEM;
+    else if (rv == EXR_ERR_NAME_TOO_LONG || rv == EXR_ERR_INVALID_ATTR ||
+             rv == EXR_ERR_INVALID_ARGUMENT || rv == EXR_ERR_ATTR_TYPE_MISMATCH)
+        s = VSD_ERR_INVALID;
+    return vsd_fail(s, err, errlen, "cannot write EXR '%s': %s", path, why);
+}
+
+static vsd_status check_inputs(const char *path, const vsd_framebuffer *fb,
+                               const vsd_exr_write_options *opt, char *err, size_t errlen)
+{
+    if (!path || !*path)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR write: no file name given");
+    if (!fb || fb->width <= 0 || fb->height <= 0)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR write '%s': empty framebuffer", path);
+    for (int i = 0; opt && i < opt->attr_count; i++)
+        if (!opt->attrs || !opt->attrs[i].name || !*opt->attrs[i].name || !opt->attrs[i].value)
+            return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                            "EXR write '%s': attribute %d has no name or no value", path, i);
+    return VSD_OK;
+}
+
+vsd_status vsd_exr_write(const char *path, const vsd_framebuffer *fb,
+                         const vsd_exr_write_options *opt, char *err, size_t errlen)
+{
+    vsd_status s = check_inputs(path, fb, opt, err, errlen);
+    exr_chan chans[4 * VSD_PASS_COUNT];
+    int n = 0, long_names = 0;
+    if (s == VSD_OK)
+        s = build_channels(opt, chans, &n, &long_names, err, errlen);
+    exr_writer w;
+    memset(&w, 0, sizeof w);
+    if (s == VSD_OK)
+        s = vsd_io_tmp_open(&w.file, path, err, errlen);
+    if (s != VSD_OK)
+        return s;
+
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = on_exr_error;
+    init.user_data = &w;
+    init.write_fn = write_fn;
+    exr_context_t ctxt = NULL;
+    exr_result_t rv = exr_start_write(&ctxt, w.file.tmp, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (!rv)
+        rv = define_header(ctxt, fb, chans, n, long_names, opt);
+    if (!rv)
+        rv = write_chunks(ctxt, fb, chans, n);
+    if (ctxt) {
+        exr_result_t fin = exr_finish(&ctxt); /* writes the chunk offset table */
+        if (!rv)
+            rv = fin;
+    }
+    if (rv) {
+        vsd_io_tmp_abort(&w.file);
+        return exr_failure(rv, &w, path, err, errlen);
+    }
+    return vsd_io_tmp_commit(&w.file, err, errlen);
+}

@@ -1,0 +1,25 @@
+/* accum.h — per-pixel sums of sample results (double precision, so thousands of samples
+ * add up without drift) and their resolution into the framebuffer's passes. Every method
+ * that produces vsd_sample_result values goes through this, so the pass definitions
+ * (Combined = Dir + Ind + Emit [+ background], alpha = 1 - T, Depth = mean first-collision
+ * distance) exist once. */
+#ifndef VSD_ACCUM_H
+#define VSD_ACCUM_H
+#include "vsd/image.h"
+#include "kernel/kernel_types.h"
+
+enum { VSD_ACC_DIR = 0, VSD_ACC_IND = 3, VSD_ACC_EMIT = 6, VSD_ACC_BG = 9, VSD_ACC_T = 12,
+       VSD_ACC_DEPTH = 13, VSD_ACC_DEPTH_N = 14, VSD_ACC_N = 15 };
+
+typedef struct vsd_accum {
+    int width, height;
+    double *v;        /* [width*height*VSD_ACC_N] */
+} vsd_accum;
+
+vsd_status vsd_accum_init(vsd_accum *a, int width, int height, char *err, size_t errlen);
+void vsd_accum_free(vsd_accum *a);
+void vsd_accum_add(vsd_accum *a, int x, int y, const vsd_sample_result *r);
+/* Write the mean over `samples` samples per pixel into fb. */
+void vsd_accum_resolve(const vsd_accum *a, int samples, int transparent, vsd_framebuffer *fb);
+
+#endif

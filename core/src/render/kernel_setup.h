@@ -1,0 +1,33 @@
+/* kernel_setup.h — host-side construction of the kernel data (kernel/kernel_types.h) from
+ * the scene model: volumes with their world transforms, the camera, and the environment's
+ * importance-sampling tables. The arrays pointed to stay owned by the volume, env or
+ * vsd_env_tables they came from. */
+#ifndef VSD_KERNEL_SETUP_H
+#define VSD_KERNEL_SETUP_H
+#include "vsd/scene.h"
+#include "vsd/volume.h"
+#include "vsd/env.h"
+#include "kernel/kernel_types.h"
+
+/* Marginal and conditional CDFs over texels weighted by luminance * sin(theta). */
+typedef struct vsd_env_tables {
+    float *cdf_rows;   /* [height + 1] */
+    float *cdf_cols;   /* [height * (width + 1)] */
+} vsd_env_tables;
+
+vsd_status vsd_env_tables_build(const vsd_env *env, vsd_env_tables *t, char *err, size_t errlen);
+void vsd_env_tables_free(vsd_env_tables *t);
+
+void vsd_kenv_setup(vsd_kenv *ke, const vsd_env *env, const vsd_env_tables *t, float strength, float rotation_z);
+/* vol may be NULL (an absent volume: dims 0). object_matrix row-major 4x4. */
+vsd_status vsd_kvolume_setup(vsd_kvolume *kv, const vsd_volume *vol, const double object_matrix[16],
+                             float scale, char *err, size_t errlen);
+void vsd_kcamera_setup(vsd_kcamera *kc, const vsd_scene *scene);
+/* Medium, film and camera from the scene (volumes and env set separately). */
+void vsd_kernel_data_from_scene(vsd_kernel_data *kd, const vsd_scene *scene);
+
+/* 4x4 row-major helpers (double): c = a * b; inverse returns 0 when singular. */
+void vsd_mat4_mul(const double a[16], const double b[16], double c[16]);
+int vsd_mat4_invert(const double m[16], double inv[16]);
+
+#endif

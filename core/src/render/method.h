@@ -1,0 +1,51 @@
+/* method.h — the interface every rendering method implements (DESIGN.md §5), and the frame
+ * context the renderer hands it. Methods live in core/methods/<name>/.
+ *
+ * Life cycle, driven by renderer.c:
+ *   create()             once per renderer, after options are validated against `options`
+ *   prepare_frame()      when the volume frame changes (new file or medium density)
+ *   prepare_lighting()   when the environment, its rotation/strength or the medium changes
+ *   render()             per view: fills the framebuffer
+ *   destroy()
+ * Any hook may be NULL when a method has nothing to do at that stage. */
+#ifndef VSD_METHOD_H
+#define VSD_METHOD_H
+#include "vsd/render.h"
+#include "vsd/volume.h"
+#include "vsd/env.h"
+#include "kernel/kernel_types.h"
+
+/* Everything a method may read while preparing or rendering one frame. */
+typedef struct vsd_frame_ctx {
+    const vsd_scene *scene;
+    const vsd_volume *density;          /* never NULL (empty volume when the grid is empty) */
+    const vsd_volume *emission;         /* NULL when no emission grid */
+    const vsd_env *env;
+    vsd_kernel_data kd;                 /* host pointers; method fills lights/march_step */
+    int threads;
+    vsd_progress_fn progress;
+    void *user;
+    volatile int *cancel;
+} vsd_frame_ctx;
+
+typedef struct vsd_method {
+    const char *name;
+    const char *const *options;        /* accepted render.options keys, NULL-terminated */
+    vsd_status (*create)(void **state, const vsd_scene *scene, char *err, size_t errlen);
+    vsd_status (*prepare_frame)(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen);
+    vsd_status (*prepare_lighting)(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen);
+    vsd_status (*render)(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
+                         char *err, size_t errlen);
+    void (*destroy)(void *state);
+} vsd_method;
+
+extern const vsd_method vsd_method_reference;
+extern const vsd_method vsd_method_raymarch;
+
+const vsd_method *vsd_method_find(const char *name);
+
+/* Validate scene->render.options_json against method->options: an unknown key is an
+ * error naming it and listing the accepted ones. */
+vsd_status vsd_method_check_options(const vsd_method *m, const vsd_scene *scene, char *err, size_t errlen);
+
+#endif

@@ -1,0 +1,275 @@
+/* The frame pipeline shared by the CLI, the daemon and the tests: load (or reuse) the
+ * volume frame and the environment, build the kernel data, let the method prepare what
+ * changed, then render the view. Cache keys are strings of everything a stage depends on,
+ * so "what changed" is one comparison per stage. */
+#include "vsd/render.h"
+#include "vsd/vdbio.h"
+#include "method.h"
+#include "kernel_setup.h"
+#include "device/cpu/cpu_tiles.h"
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define KEY_LEN 4096
+
+struct vsd_renderer {
+    vsd_scene scene;
+    vsd_render_options opt;
+    const vsd_method *method;
+    void *method_state;
+    char volume_key[KEY_LEN];
+    const vsd_volume *density, *emission;   /* in use: owned_* or borrowed */
+    vsd_volume *owned_density, *owned_emission;
+    const vsd_volume *ext_density, *ext_emission;
+    char env_key[KEY_LEN];
+    const vsd_env *env;
+    vsd_env *owned_env;
+    const vsd_env *ext_env;
+    vsd_env_tables tables;
+    char frame_key[KEY_LEN], lighting_key[KEY_LEN];
+};
+
+const char *vsd_version(void) { return VSD_VERSION_STRING; }
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void release_method(vsd_renderer *r)
+{
+    if (r->method && r->method->destroy) r->method->destroy(r->method_state);
+    r->method_state = NULL;
+    r->frame_key[0] = r->lighting_key[0] = '\0';
+}
+
+static vsd_status pick_method(vsd_renderer *r, char *err, size_t errlen)
+{
+    const vsd_scene *sc = &r->scene;
+    const vsd_method *m = vsd_method_find(sc->render.method);
+    vsd_status st;
+    if (!m) {
+        char known[512] = "";
+        const char *const *n;
+        for (n = vsd_method_names(); *n; n++) {
+            if (known[0]) strncat(known, ", ", sizeof known - strlen(known) - 1);
+            strncat(known, *n, sizeof known - strlen(known) - 1);
+        }
+        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                        "render.method: unknown method '%s' (available: %s)", sc->render.method, known);
+    }
+    if (strcmp(sc->render.device, "cuda") == 0)
+        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                        "render.device: 'cuda' requested, but the CUDA backend cannot run here "
+                        "(use 'auto' or 'cpu')");
+    st = vsd_method_check_options(m, sc, err, errlen);
+    if (st) return st;
+    release_method(r);
+    r->method = m;
+    if (m->create) return m->create(&r->method_state, sc, err, errlen);
+    return VSD_OK;
+}
+
+vsd_status vsd_renderer_create(const vsd_scene *scene, const vsd_render_options *opt,
+                               vsd_renderer **out, char *err, size_t errlen)
+{
+    vsd_renderer *r = calloc(1, sizeof *r);
+    vsd_status st;
+    *out = NULL;
+    if (!r) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a renderer");
+    r->scene = *scene;
+    if (opt) r->opt = *opt;
+    st = pick_method(r, err, errlen);
+    if (st) {
+        vsd_renderer_destroy(r);
+        return st;
+    }
+    *out = r;
+    return VSD_OK;
+}
+
+vsd_status vsd_renderer_set_scene(vsd_renderer *r, const vsd_scene *scene, char *err, size_t errlen)
+{
+    int same_method = strcmp(r->scene.render.method, scene->render.method) == 0 &&
+                      strcmp(r->scene.render.options_json, scene->render.options_json) == 0;
+    r->scene = *scene;
+    if (same_method) return VSD_OK;
+    return pick_method(r, err, errlen);
+}
+
+static void free_owned_volumes(vsd_renderer *r)
+{
+    vsd_volume_destroy(r->owned_density);
+    vsd_volume_destroy(r->owned_emission);
+    r->owned_density = r->owned_emission = NULL;
+    r->density = r->emission = NULL;
+    r->volume_key[0] = '\0';
+}
+
+static void free_owned_env(vsd_renderer *r)
+{
+    vsd_env_destroy(r->owned_env);
+    vsd_env_tables_free(&r->tables);
+    r->owned_env = NULL;
+    r->env = NULL;
+    r->env_key[0] = '\0';
+}
+
+void vsd_renderer_use_volumes(vsd_renderer *r, const vsd_volume *density, const vsd_volume *emission)
+{
+    free_owned_volumes(r);
+    r->ext_density = density;
+    r->ext_emission = density ? emission : NULL;
+}
+
+void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env)
+{
+    free_owned_env(r);
+    r->ext_env = env;
+}
+
+static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t errlen)
+{
+    const vsd_scene *sc = &r->scene;
+    char path[VSD_PATH_LEN], key[KEY_LEN];
+    vsd_grid_select sel;
+    vsd_status st;
+    if (r->ext_density) {
+        r->density = r->ext_density;
+        r->emission = r->ext_emission;
+        snprintf(r->volume_key, sizeof r->volume_key, "memory:%p:%p", (const void *)r->density,
+                 (const void *)r->emission);
+        return VSD_OK;
+    }
+    st = vsd_frame_path(sc->volume.file, frame, path, sizeof path, err, errlen);
+    if (st) return st;
+    snprintf(key, sizeof key, "%s|%s|%d|%s", path, sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid);
+    if (r->owned_density && strcmp(key, r->volume_key) == 0) return VSD_OK;
+    free_owned_volumes(r);
+    sel.name = sc->volume.grid;
+    sel.index = sc->volume.grid_index;
+    st = vsd_vdb_load(path, sel, &r->owned_density, err, errlen);
+    if (st) return st;
+    if (sc->volume.emission_grid[0]) {
+        sel.name = sc->volume.emission_grid;
+        sel.index = -1;
+        st = vsd_vdb_load(path, sel, &r->owned_emission, err, errlen);
+        if (st) return st;
+    }
+    r->density = r->owned_density;
+    r->emission = r->owned_emission;
+    snprintf(r->volume_key, sizeof r->volume_key, "%s", key);
+    return VSD_OK;
+}
+
+static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
+{
+    const vsd_scene *sc = &r->scene;
+    const float *c = sc->environment.color;
+    char key[KEY_LEN];
+    vsd_status st;
+    if (r->ext_env) snprintf(key, sizeof key, "memory:%p", (const void *)r->ext_env);
+    else snprintf(key, sizeof key, "%s|%s|%g,%g,%g", sc->environment.file, sc->environment.colorspace, c[0], c[1], c[2]);
+    if (r->env && strcmp(key, r->env_key) == 0) return VSD_OK;
+    free_owned_env(r);
+    if (r->ext_env) st = VSD_OK;
+    else if (sc->environment.file[0])
+        st = vsd_env_load(sc->environment.file, sc->environment.colorspace, &r->owned_env, err, errlen);
+    else
+        st = vsd_env_create_uniform(c, 64, 32, &r->owned_env, err, errlen);
+    if (st) return st;
+    r->env = r->ext_env ? r->ext_env : r->owned_env;
+    st = vsd_env_tables_build(r->env, &r->tables, err, errlen);
+    if (st) return st;
+    snprintf(r->env_key, sizeof r->env_key, "%s", key);
+    return VSD_OK;
+}
+
+static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key)
+{
+    const vsd_scene *sc = &r->scene;
+    const double *m = sc->volume.matrix;
+    const float *a = sc->medium.albedo, *e = sc->medium.emission_color;
+    int n = snprintf(frame_key, KEY_LEN, "%s|%g|", r->volume_key, sc->medium.density);
+    int i;
+    for (i = 0; i < 16 && n < KEY_LEN - 32; i++) n += snprintf(frame_key + n, KEY_LEN - n, "%.9g,", m[i]);
+    snprintf(lighting_key, KEY_LEN, "%.3000s|%.900s|%g|%g|%g,%g,%g|%g|%g,%g,%g,%g", frame_key, r->env_key,
+             sc->environment.strength, sc->environment.rotation_z, a[0], a[1], a[2], sc->medium.anisotropy,
+             e[0], e[1], e[2], sc->medium.emission_strength);
+}
+
+vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fbp,
+                               vsd_render_stats *stats, char *err, size_t errlen)
+{
+    const vsd_scene *sc = &r->scene;
+    vsd_frame_ctx ctx;
+    vsd_render_stats local;
+    char frame_key[KEY_LEN], lighting_key[KEY_LEN];
+    double t0 = now_seconds(), t1, t2;
+    vsd_status st;
+    if (!stats) stats = &local;
+    memset(stats, 0, sizeof *stats);
+    snprintf(stats->method, sizeof stats->method, "%s", r->method->name);
+    snprintf(stats->device, sizeof stats->device, "cpu");
+
+    if ((st = load_volumes(r, frame, err, errlen)) || (st = load_env(r, err, errlen))) return st;
+    t1 = now_seconds();
+    stats->load_seconds = t1 - t0;
+    stats->active_voxels = r->density->active_voxels;
+
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = sc;
+    ctx.density = r->density;
+    ctx.emission = r->emission;
+    ctx.env = r->env;
+    ctx.threads = vsd_cpu_thread_count(r->opt.threads > 0 ? r->opt.threads : sc->render.threads);
+    ctx.progress = r->opt.progress;
+    ctx.user = r->opt.user;
+    ctx.cancel = r->opt.cancel;
+    stats->threads = ctx.threads;
+    vsd_kernel_data_from_scene(&ctx.kd, sc);
+    st = vsd_kvolume_setup(&ctx.kd.density, r->density, sc->volume.matrix, sc->medium.density, err, errlen);
+    if (!st) st = vsd_kvolume_setup(&ctx.kd.emission, r->emission, sc->volume.matrix, 1.0f, err, errlen);
+    if (st) return st;
+    ctx.kd.medium.has_emission = r->emission && r->emission->brick_dims[0] > 0 &&
+                                 sc->medium.emission_strength > 0.0f;
+    vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.strength, sc->environment.rotation_z);
+
+    make_keys(r, frame_key, lighting_key);
+    if (strcmp(frame_key, r->frame_key) != 0) {
+        r->lighting_key[0] = '\0';
+        if (r->method->prepare_frame && (st = r->method->prepare_frame(r->method_state, &ctx, err, errlen)))
+            return st;
+        snprintf(r->frame_key, KEY_LEN, "%s", frame_key);
+    }
+    if (strcmp(lighting_key, r->lighting_key) != 0) {
+        if (r->method->prepare_lighting && (st = r->method->prepare_lighting(r->method_state, &ctx, err, errlen)))
+            return st;
+        snprintf(r->lighting_key, KEY_LEN, "%s", lighting_key);
+    }
+    t2 = now_seconds();
+    stats->prepare_seconds = t2 - t1;
+
+    if (!*fbp || (*fbp)->width != sc->film.width || (*fbp)->height != sc->film.height) {
+        vsd_framebuffer_destroy(*fbp);
+        *fbp = NULL;
+        if ((st = vsd_framebuffer_create(sc->film.width, sc->film.height, fbp, err, errlen))) return st;
+    }
+    vsd_framebuffer_clear(*fbp);
+    st = r->method->render(r->method_state, &ctx, *fbp, &stats->samples, err, errlen);
+    stats->render_seconds = now_seconds() - t2;
+    return st;
+}
+
+void vsd_renderer_destroy(vsd_renderer *r)
+{
+    if (!r) return;
+    release_method(r);
+    free_owned_volumes(r);
+    free_owned_env(r);
+    free(r);
+}

@@ -1,0 +1,32 @@
+/* Minimal test harness: CHECK macros that report file:line and keep going, a failure
+ * count that becomes the exit status, and helpers for data paths and temp files. */
+#ifndef VSD_TEST_COMMON_H
+#define VSD_TEST_COMMON_H
+#include <stdio.h>
+#include <string.h>
+#include <math.h>
+
+extern int vsd_test_failures;
+
+#define CHECK(cond) do { if (!(cond)) { vsd_test_failures++; \
+    fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); } } while (0)
+#define CHECK_MSG(cond, ...) do { if (!(cond)) { vsd_test_failures++; \
+    fprintf(stderr, "%s:%d: CHECK failed: %s: ", __FILE__, __LINE__, #cond); \
+    fprintf(stderr, __VA_ARGS__); fputc('\n', stderr); } } while (0)
+#define CHECK_NEAR(a, b, tol) do { double va_ = (a), vb_ = (b); \
+    if (!(fabs(va_ - vb_) <= (tol))) { vsd_test_failures++; \
+    fprintf(stderr, "%s:%d: CHECK_NEAR failed: %s = %.9g, %s = %.9g, tol %.3g\n", \
+            __FILE__, __LINE__, #a, va_, #b, vb_, (double)(tol)); } } while (0)
+/* err must contain needle (case-sensitive). */
+#define CHECK_CONTAINS(hay, needle) do { const char *h_ = (hay); \
+    if (!h_ || !strstr(h_, (needle))) { vsd_test_failures++; \
+    fprintf(stderr, "%s:%d: expected \"%s\" in \"%s\"\n", __FILE__, __LINE__, (needle), h_ ? h_ : "(null)"); } } while (0)
+
+/* Path under ../shared/data (static buffer, valid until the next call). */
+const char *test_data(const char *rel);
+/* Path under the build's test-tmp folder (static buffer, valid until the next call). */
+const char *test_tmp(const char *rel);
+/* Return the exit status: 0 when no CHECK failed. Prints a summary. */
+int test_finish(const char *name);
+
+#endif

@@ -1,0 +1,4 @@
+# Kernels, methods and the render pipeline.
+vsd_add_test(test_kernel SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_kernel.c LIBS vsd_render LABELS unit kernel)
+vsd_add_test(test_render SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_render.c LIBS vsd_lib LABELS integration render
+             TIMEOUT 1200)

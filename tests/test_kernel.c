@@ -1,0 +1,224 @@
+/* Analytic checks of the shared kernels: HG normalisation and sampling, the environment
+ * mapping (Cycles' equirectangular convention) and its sampling pdf, delta/ratio tracking
+ * against exp(-sigma d) in a homogeneous medium, and the brick DDA's field integral. */
+#include "test_common.h"
+#include "vsd/volume.h"
+#include "vsd/env.h"
+#include "kernel/kernel_volume.h"
+#include "kernel/kernel_env.h"
+#include "kernel/kernel_phase.h"
+#include "src/render/kernel_setup.h"
+#include <stdlib.h>
+
+static void test_hg_normalisation(void)
+{
+    const float gs[] = {-0.7f, 0.0f, 0.3f, 0.9f};
+    int gi;
+    for (gi = 0; gi < 4; gi++) {
+        /* integrate over cos theta with a fine midpoint rule: 2 pi * int p(mu) dmu = 1 */
+        double sum = 0;
+        int i, n = 200000;
+        for (i = 0; i < n; i++) {
+            float mu = -1.0f + 2.0f * ((float)i + 0.5f) / (float)n;
+            sum += vsd_hg_eval(mu, gs[gi]) * (2.0 / n);
+        }
+        CHECK_NEAR(sum * 2.0 * M_PI, 1.0, 2e-3);
+    }
+}
+
+static void test_hg_sampling(void)
+{
+    /* histogram of sampled cos theta against the analytic bin probabilities, and the
+     * returned pdf equals the phase value of the sampled direction */
+    const float g = 0.6f;
+    enum { BINS = 20, N = 400000 };
+    double hist[BINS] = {0};
+    vsd_rng rng = vsd_rng_init(7, 1, 2);
+    vsd_f3 dir = f3_normalize(f3(0.3f, -0.5f, 0.8f));
+    int i, bad_pdf = 0;
+    for (i = 0; i < N; i++) {
+        float pdf;
+        vsd_f3 w = vsd_hg_sample(dir, g, vsd_rng_float(&rng), vsd_rng_float(&rng), &pdf);
+        float mu = f3_dot(dir, w);
+        int b = (int)((mu + 1.0f) * 0.5f * BINS);
+        if (b >= BINS) b = BINS - 1;
+        if (b < 0) b = 0;
+        hist[b] += 1;
+        if (fabsf(pdf - vsd_hg_eval(mu, g)) > 1e-3f * pdf + 1e-5f) bad_pdf++;
+        if (fabsf(f3_dot(w, w) - 1.0f) > 1e-4f) bad_pdf++;
+    }
+    CHECK_MSG(bad_pdf == 0, "%d samples with a wrong pdf or non-unit direction", bad_pdf);
+    for (i = 0; i < BINS; i++) {
+        double p = 0;
+        int k;
+        for (k = 0; k < 1000; k++) {
+            float mu = -1.0f + (2.0f / BINS) * (i + (k + 0.5f) / 1000.0f);
+            p += vsd_hg_eval(mu, g) * 2.0 * M_PI * (2.0 / BINS) / 1000.0;
+        }
+        CHECK_NEAR(hist[i] / N, p, 4.0 * sqrt(p / N) + 1e-4);
+    }
+}
+
+/* A 64x32 black map with one bright texel at (col, row). */
+static vsd_env *bright_texel_env(int col, int row)
+{
+    vsd_env *env = NULL;
+    float black[3] = {0, 0, 0};
+    if (vsd_env_create_uniform(black, 64, 32, &env, NULL, 0) != VSD_OK) return NULL;
+    env->rgb[3 * (row * 64 + col) + 0] = 100.0f;
+    env->rgb[3 * (row * 64 + col) + 1] = 50.0f;
+    env->rgb[3 * (row * 64 + col) + 2] = 25.0f;
+    return env;
+}
+
+static void test_env_mapping(void)
+{
+    /* Cycles: u = 0.5 - atan2(y,x)/(2pi), v = 1 - acos(z)/pi (v=1 is row 0).
+     * +X -> u = 0.5, v = 0.5: column 32, row 16 of a 64x32 map; +Y -> u = 0.25; -Y -> 0.75. */
+    struct { float x, y, z; int col, row; float rot; } cases[] = {
+        {1, 0, 0.001f, 32, 15, 0.0f}, {0, 1, 0.001f, 16, 15, 0.0f}, {0, -1, 0.001f, 48, 15, 0.0f},
+        {0.0f, 0.0f, 1.0f, -1, 0, 0.0f}, /* straight up: top row */
+        {1, 0, 0.001f, 16, 15, (float)(M_PI / 2)}, /* Mapping Z rotation 90 deg: +X looks up +Y's texel */
+    };
+    size_t i;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        vsd_f3 d = f3_normalize(f3(cases[i].x, cases[i].y, cases[i].z));
+        int col = cases[i].col < 0 ? 10 : cases[i].col;
+        vsd_env *env = bright_texel_env(col, cases[i].row);
+        vsd_env_tables tabs;
+        vsd_kenv ke;
+        vsd_f3 l;
+        CHECK(env != NULL);
+        if (!env) return;
+        CHECK(vsd_env_tables_build(env, &tabs, NULL, 0) == VSD_OK);
+        vsd_kenv_setup(&ke, env, &tabs, 2.0f, cases[i].rot);
+        l = vsd_env_eval(&ke, d);
+        if (cases[i].col >= 0) {
+            CHECK_NEAR(l.x, 200.0, 1e-3);
+            CHECK_NEAR(l.z, 50.0, 1e-3);
+        } else {
+            /* the pole: any column of row 0 */
+            CHECK(vsd_env_texel(&ke, d, NULL) / 64 == 0);
+        }
+        vsd_env_tables_free(&tabs);
+        vsd_env_destroy(env);
+    }
+}
+
+static void test_env_sampling(void)
+{
+    /* E[L/pdf] over env samples equals the map's integral over the sphere; the pdf of a
+     * sampled direction equals vsd_env_pdf of it */
+    vsd_env *env = NULL;
+    float grey[3] = {0.2f, 0.2f, 0.2f};
+    vsd_env_tables tabs;
+    vsd_kenv ke;
+    double exact = 0, est = 0;
+    int x, y, i, n = 200000, mismatched = 0;
+    vsd_rng rng = vsd_rng_init(3, 4, 5);
+    CHECK(vsd_env_create_uniform(grey, 64, 32, &env, NULL, 0) == VSD_OK);
+    if (!env) return;
+    for (y = 0; y < 32; y++)
+        for (x = 0; x < 64; x++) {
+            float v = 0.2f + 3.0f * (float)((x * 7 + y * 13) % 11) / 11.0f;
+            env->rgb[3 * (y * 64 + x)] = env->rgb[3 * (y * 64 + x) + 1] = env->rgb[3 * (y * 64 + x) + 2] = v;
+            /* solid angle of the texel: (2pi/64) * (cos(theta0) - cos(theta1)) */
+            exact += v * (2 * M_PI / 64) * (cos(M_PI * y / 32) - cos(M_PI * (y + 1) / 32));
+        }
+    CHECK(vsd_env_tables_build(env, &tabs, NULL, 0) == VSD_OK);
+    vsd_kenv_setup(&ke, env, &tabs, 1.0f, 0.7f);
+    for (i = 0; i < n; i++) {
+        vsd_f3 l;
+        float pdf;
+        vsd_f3 d = vsd_env_sample(&ke, vsd_rng_float(&rng), vsd_rng_float(&rng), &l, &pdf);
+        if (pdf > 0) est += l.x / pdf;
+        if (fabsf(vsd_env_pdf(&ke, d) - pdf) > 1e-3f * pdf) mismatched++;
+        if (fabsf(vsd_env_eval(&ke, d).x - l.x) > 1e-5f) mismatched++;
+    }
+    est /= n;
+    CHECK_NEAR(est, exact, 0.01 * exact);
+    CHECK_MSG(mismatched < n / 1000, "%d of %d samples disagree with pdf/eval", mismatched, n);
+    vsd_env_tables_free(&tabs);
+    vsd_env_destroy(env);
+}
+
+/* A homogeneous cube: 64^3 voxels of 1, voxel size 1/16 (world cube of side 4). */
+static vsd_volume *homogeneous_cube(void)
+{
+    int32_t dims[3] = {64, 64, 64}, lo[3] = {0, 0, 0};
+    double m[16] = {1.0 / 16, 0, 0, 0, 0, 1.0 / 16, 0, 0, 0, 0, 1.0 / 16, 0, 0, 0, 0, 1};
+    float *v = malloc(sizeof(float) * 64 * 64 * 64);
+    vsd_volume *vol = NULL;
+    int i;
+    for (i = 0; i < 64 * 64 * 64; i++) v[i] = 1.0f;
+    CHECK(vsd_volume_create_dense(v, dims, lo, m, &vol, NULL, 0) == VSD_OK);
+    free(v);
+    return vol;
+}
+
+static void test_tracking_homogeneous(void)
+{
+    const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    vsd_volume *vol = homogeneous_cube();
+    vsd_kvolume kv;
+    vsd_rng rng = vsd_rng_init(11, 0, 0);
+    const float sigma = 1.7f, d = 1.3f;
+    vsd_f3 o = f3(0.8f, 1.1f, 0.9f), dir = f3_normalize(f3(1.0f, 0.7f, 0.4f));
+    double sum_ratio = 0;
+    int i, n = 50000, collided = 0;
+    double expect = exp(-sigma * d);
+    if (!vol) return;
+    CHECK(vsd_kvolume_setup(&kv, vol, ident, sigma, NULL, 0) == VSD_OK);
+    for (i = 0; i < n; i++) {
+        sum_ratio += vsd_ratio_track(&kv, o, dir, d, &rng);
+        if (vsd_delta_track(&kv, o, dir, d, &rng) < d) collided++;
+    }
+    /* ratio tracking in a homogeneous medium at its majorant is exact up to roulette */
+    CHECK_NEAR(sum_ratio / n, expect, 4 * sqrt(expect * (1 - expect) / n) + 1e-4);
+    CHECK_NEAR((double)collided / n, 1 - expect, 4 * sqrt(expect * (1 - expect) / n));
+    /* the quadrature of a constant field is exact: sigma * d */
+    CHECK_NEAR(vsd_field_integral(&kv, o, dir, 0.0f, d, 0.37f), sigma * d, 1e-2 * sigma * d);
+    vsd_volume_destroy(vol);
+}
+
+static void test_field_integral_random(void)
+{
+    /* DDA + jittered quadrature over a sparse random field agrees with brute-force sampling */
+    int32_t dims[3] = {40, 24, 33}, lo[3] = {-5, 3, 0};
+    float *v = calloc(40 * 24 * 33, sizeof(float));
+    const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    double m[16] = {0.05, 0.01, 0, 0.2, 0, 0.04, 0, -0.1, 0.005, 0, 0.06, 0.3, 0, 0, 0, 1};
+    vsd_volume *vol = NULL;
+    vsd_kvolume kv;
+    int i, r;
+    srand(5);
+    for (i = 0; i < 40 * 24 * 33; i++)
+        if (rand() % 5 == 0) v[i] = (float)(rand() % 1000) / 500.0f;
+    CHECK(vsd_volume_create_dense(v, dims, lo, m, &vol, NULL, 0) == VSD_OK);
+    free(v);
+    if (!vol) return;
+    CHECK(vsd_kvolume_setup(&kv, vol, ident, 3.0f, NULL, 0) == VSD_OK);
+    for (r = 0; r < 20; r++) {
+        vsd_f3 o = f3(-2.0f + 0.1f * r, -1.5f, -0.5f + 0.07f * r);
+        vsd_f3 dir = f3_normalize(f3(1.0f, 0.8f + 0.05f * r, 0.6f));
+        double brute = 0, fast = 0;
+        int k, nj = 16;
+        float h = 1e-4f;
+        for (k = 0; k < 60000; k++) brute += vsd_kvolume_at(&kv, f3_madd(o, dir, (k + 0.5f) * h)) * h;
+        for (k = 0; k < nj; k++) fast += vsd_field_integral(&kv, o, dir, 0.0f, 6.0f, (k + 0.5f) / nj);
+        fast /= nj;
+        CHECK_NEAR(fast, brute, 0.01 * brute + 1e-3);
+    }
+    vsd_volume_destroy(vol);
+}
+
+int main(void)
+{
+    test_hg_normalisation();
+    test_hg_sampling();
+    test_env_mapping();
+    test_env_sampling();
+    test_tracking_homogeneous();
+    test_field_integral_random();
+    return test_finish("test_kernel");
+}

@@ -1,0 +1,590 @@
+/* Scene file v1 contract (docs/scene-file.md): defaults, the three camera forms, every
+ * validation message, overrides, path resolution, frame paths, method options, and the
+ * shared example scenes in ../shared/data/scenes. */
+#define _POSIX_C_SOURCE 200809L /* access(), chdir() */
+#include "test_common.h"
+#include "vsd/image.h"
+#include "vsd/scene.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+/* The smallest valid scene, to which each case adds one section or key. */
+#define MIN "\"version\": 1, \"volume\": {\"file\": \"v.vdb\"}"
+#define BASE "/base"
+
+static char err[2048];
+
+static vsd_status parse_ov(const char *json, const char *const *ov, int n, vsd_scene *s)
+{
+    err[0] = '\0';
+    return vsd_scene_parse(json, BASE, ov, n, s, err, sizeof err);
+}
+
+static vsd_status parse(const char *json, vsd_scene *s)
+{
+    return parse_ov(json, NULL, 0, s);
+}
+
+/* Parse `json` (with overrides) and require status `want` and `needle` in the message. */
+static void expect_err_at(int line, const char *json, const char *const *ov, int n, vsd_status want,
+                          const char *needle)
+{
+    vsd_scene s;
+    vsd_status st = parse_ov(json, ov, n, &s);
+    if (st != want || !strstr(err, needle)) {
+        vsd_test_failures++;
+        fprintf(stderr, "%s:%d: want %s \"%s\", got %s \"%s\"\n  json: %s\n", __FILE__, line,
+                vsd_status_str(want), needle, vsd_status_str(st), err, json);
+    }
+}
+#define EXPECT_ERR(json, want, needle) expect_err_at(__LINE__, json, NULL, 0, want, needle)
+#define EXPECT_OV_ERR(json, ov, want, needle) \
+    expect_err_at(__LINE__, json, ov, (int)(sizeof ov / sizeof ov[0]), want, needle)
+
+/* `extra` is added to the minimal scene: EXTRA("\"film\": {...}"). */
+static const char *with(const char *extra)
+{
+    static char buf[16384];
+    snprintf(buf, sizeof buf, "{" MIN ", %s}", extra);
+    return buf;
+}
+
+static void check_matrix(const double *got, const double *want, double tol)
+{
+    for (int i = 0; i < 16; i++)
+        CHECK_NEAR(got[i], want[i], tol);
+}
+
+static void test_defaults(void)
+{
+    vsd_scene d;
+    vsd_scene_defaults(&d);
+    CHECK(d.version == 1);
+    CHECK(!strcmp(d.base_dir, ""));
+    CHECK(!strcmp(d.volume.file, ""));
+    CHECK(!strcmp(d.volume.grid, "density"));
+    CHECK(d.volume.grid_index == -1);
+    CHECK(!strcmp(d.volume.emission_grid, ""));
+    for (int i = 0; i < 16; i++)
+        CHECK(d.volume.matrix[i] == (i % 5 == 0 ? 1.0 : 0.0));
+    CHECK_NEAR(d.medium.density, 1, 0);
+    for (int i = 0; i < 3; i++) {
+        CHECK_NEAR(d.medium.albedo[i], 0.8, 1e-7);
+        CHECK_NEAR(d.medium.emission_color[i], 1, 0);
+        CHECK_NEAR(d.environment.color[i], 0.05, 1e-7);
+    }
+    CHECK_NEAR(d.medium.anisotropy, 0, 0);
+    CHECK_NEAR(d.medium.emission_strength, 0, 0);
+    CHECK_NEAR(d.medium.ior, 1, 0);
+    CHECK(!strcmp(d.environment.file, ""));
+    CHECK_NEAR(d.environment.strength, 1, 0);
+    CHECK_NEAR(d.environment.rotation_z, 0, 0);
+    CHECK(!strcmp(d.environment.colorspace, ""));
+    CHECK(d.light_count == 0);
+    CHECK(d.camera.type == VSD_CAMERA_PERSPECTIVE);
+    CHECK_NEAR(d.camera.fov, 2 * atan(18.0 / 50.0), 1e-15); /* 50 mm on 36 mm: 39.6 degrees */
+    CHECK_NEAR(d.camera.ortho_scale, 7.31429, 1e-5);
+    CHECK_NEAR(d.camera.clip_start, 0.1, 1e-12);
+    CHECK_NEAR(d.camera.clip_end, 1000, 0);
+    CHECK_NEAR(d.camera.matrix[3], 0, 0); /* default camera at (0,-6,1) */
+    CHECK_NEAR(d.camera.matrix[7], -6, 0);
+    CHECK_NEAR(d.camera.matrix[11], 1, 0);
+    CHECK(d.film.width == 640 && d.film.height == 360 && d.film.transparent == 1);
+    CHECK(!strcmp(d.render.method, "reference"));
+    CHECK(!strcmp(d.render.device, "auto"));
+    CHECK(d.render.samples == 64 && d.render.seed == 1 && d.render.threads == 0);
+    CHECK(!strcmp(d.render.options_json, "{}"));
+    CHECK(d.frames.start == 1 && d.frames.end == 1);
+    CHECK(!strcmp(d.output.exr, "out/frame_####.exr"));
+    CHECK(d.output.pass_mask == VSD_PASS_ALL);
+    CHECK(!strcmp(d.output.layer, "ViewLayer"));
+    CHECK(d.output.half == 0);
+    CHECK(!strcmp(d.output.preview_png, ""));
+    CHECK(!strcmp(d.output.view, ""));
+
+    /* A minimal file gives the same values, with paths resolved against the folder. */
+    vsd_scene s;
+    CHECK_MSG(parse("{" MIN "}", &s) == VSD_OK, "%s", err);
+    CHECK(!strcmp(s.base_dir, BASE));
+    CHECK(!strcmp(s.volume.file, BASE "/v.vdb"));
+    CHECK(!strcmp(s.output.exr, BASE "/out/frame_####.exr"));
+    memcpy(s.volume.file, d.volume.file, sizeof s.volume.file);
+    memcpy(s.output.exr, d.output.exr, sizeof s.output.exr);
+    memcpy(s.base_dir, d.base_dir, sizeof s.base_dir);
+    CHECK(!memcmp(&s, &d, sizeof s));
+}
+
+static void test_full_fixture(void)
+{
+    vsd_scene s;
+    char path[2048];
+    snprintf(path, sizeof path, "%s/tests/data/scenes/full.json", VSD_SOURCE_DIR);
+    vsd_status st = vsd_scene_load(path, NULL, 0, &s, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "%s", err);
+    char dir[1900];
+    snprintf(dir, sizeof dir, "%s/tests/data/scenes", VSD_SOURCE_DIR);
+    CHECK(!strcmp(s.base_dir, dir));
+    char want[2100];
+    snprintf(want, sizeof want, "%s/vdb/smoke_####.vdb", dir);
+    CHECK(!strcmp(s.volume.file, want));
+    CHECK(!strcmp(s.volume.grid, "density") && s.volume.grid_index == -1);
+    CHECK(!strcmp(s.volume.emission_grid, "flame"));
+    CHECK(s.volume.matrix[0] == 2 && s.volume.matrix[3] == 1 && s.volume.matrix[7] == 2 &&
+          s.volume.matrix[11] == 3 && s.volume.matrix[10] == 2);
+    CHECK_NEAR(s.medium.density, 10, 0);
+    CHECK_NEAR(s.medium.albedo[0], 0.9, 1e-6);
+    CHECK_NEAR(s.medium.albedo[2], 0.7, 1e-6);
+    CHECK_NEAR(s.medium.anisotropy, 0.3, 1e-6);
+    CHECK_NEAR(s.medium.emission_color[1], 0.5, 1e-6);
+    CHECK_NEAR(s.medium.emission_strength, 2.5, 0);
+    CHECK_NEAR(s.medium.ior, 1.33, 1e-6);
+    CHECK(!strcmp(s.environment.file, "/abs/sunset.exr"));
+    CHECK_NEAR(s.environment.strength, 1.5, 0);
+    CHECK_NEAR(s.environment.rotation_z, 0.25, 0);
+    CHECK(!strcmp(s.environment.colorspace, "Linear Rec.709"));
+    CHECK_NEAR(s.camera.fov, 0.5, 0);
+    CHECK_NEAR(s.camera.ortho_scale, 5, 0);
+    CHECK_NEAR(s.camera.clip_start, 0.01, 1e-12);
+    CHECK_NEAR(s.camera.clip_end, 500, 0);
+    CHECK(s.film.width == 320 && s.film.height == 240 && s.film.transparent == 0);
+    CHECK(!strcmp(s.render.method, "shgrid") && !strcmp(s.render.device, "cpu"));
+    CHECK(s.render.samples == 128 && s.render.seed == 7 && s.render.threads == 4);
+    CHECK(s.frames.start == 3 && s.frames.end == 9);
+    snprintf(want, sizeof want, "%s/renders/f_###.exr", dir);
+    CHECK(!strcmp(s.output.exr, want));
+    CHECK(s.output.pass_mask == (VSD_PASS_BIT(VSD_PASS_COMBINED) | VSD_PASS_BIT(VSD_PASS_DEPTH)));
+    CHECK(!strcmp(s.output.layer, "RenderLayer"));
+    CHECK(s.output.half == 1);
+    CHECK(!strcmp(s.output.preview_png, "blob:0123abcd"));
+    CHECK(!strcmp(s.output.view, "Filmic"));
+
+    /* Method options */
+    CHECK_NEAR(vsd_scene_option_number(&s, "lights", 0), 64, 0);
+    CHECK_NEAR(vsd_scene_option_number(&s, "cache", 0), 1, 0);
+    CHECK_NEAR(vsd_scene_option_number(&s, "absent", 2.5), 2.5, 0);
+    CHECK_NEAR(vsd_scene_option_number(&s, "mode", -1), -1, 0); /* a string is no number */
+    char mode[16] = "median_cut";
+    CHECK(vsd_scene_option_string(&s, "mode", mode, sizeof mode) == 1 && !strcmp(mode, "kmeans"));
+    char keep[8] = "dflt";
+    CHECK(vsd_scene_option_string(&s, "absent", keep, sizeof keep) == 0 && !strcmp(keep, "dflt"));
+    CHECK(vsd_scene_option_string(&s, "lights", keep, sizeof keep) == 0 && !strcmp(keep, "dflt"));
+    char tiny[4] = "abc";
+    CHECK(vsd_scene_option_string(&s, "mode", tiny, sizeof tiny) == -1 && !strcmp(tiny, "abc"));
+}
+
+/* Form (a): position (0,-6,1) looking at the origin with Z up. By hand: forward
+ * f = (0,6,-1)/sqrt(37); right = f x up = (1,0,0); up' = right x f = (0,1,6)/sqrt(37);
+ * the camera's +Z column is -f = (0,-6,1)/sqrt(37). */
+static void test_camera_look_at(void)
+{
+    vsd_scene s;
+    CHECK_MSG(parse(with("\"camera\": {\"position\": [0,-6,1], \"look_at\": [0,0,0], \"up\": [0,0,1]}"), &s) == VSD_OK,
+              "%s", err);
+    double r = sqrt(37.0);
+    double want[16] = {1, 0, 0, 0, 0, 1 / r, -6 / r, -6, 0, 6 / r, 1 / r, 1, 0, 0, 0, 1};
+    check_matrix(s.camera.matrix, want, 1e-12);
+    /* The camera's -Z axis points at the target. */
+    double dz[3] = {-s.camera.matrix[2], -s.camera.matrix[6], -s.camera.matrix[10]};
+    double to[3] = {0 - 0, 0 + 6, 0 - 1};
+    double tl = sqrt(37.0);
+    for (int i = 0; i < 3; i++)
+        CHECK_NEAR(dz[i], to[i] / tl, 1e-12);
+    CHECK_NEAR(s.camera.fov, 0.691111, 1e-6); /* default fov */
+
+    /* Default up is +Z; a non-unit up and a target off the axis still give an orthonormal frame. */
+    CHECK_MSG(parse(with("\"camera\": {\"position\": [3,-4,2], \"look_at\": [1,1,1], \"up\": [0,0,5], \"fov\": 0.7}"), &s) == VSD_OK,
+              "%s", err);
+    const double *m = s.camera.matrix;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) {
+            double d = m[a] * m[b] + m[4 + a] * m[4 + b] + m[8 + a] * m[8 + b];
+            CHECK_NEAR(d, a == b ? 1 : 0, 1e-12);
+        }
+    CHECK(m[9] > 0); /* camera +Y has a positive world-Z component: not upside down */
+    CHECK_NEAR(s.camera.fov, 0.7, 0);
+}
+
+/* Forms (b) and (c): a Blender matrix_world (camera at (0,-6,1), rotation_euler (90°,0,0),
+ * which looks along +Y). Scale is dropped like Cycles does. */
+static void test_camera_matrix(void)
+{
+    vsd_scene s;
+    double want[16] = {1, 0, 0, 0, 0, 0, -1, -6, 0, 1, 0, 1, 0, 0, 0, 1};
+    CHECK_MSG(parse(with("\"camera\": {\"matrix\": [1,0,0,0, 0,0,-1,-6, 0,1,0,1, 0,0,0,1], \"fov\": 0.9}"), &s) == VSD_OK,
+              "%s", err);
+    check_matrix(s.camera.matrix, want, 0);
+    CHECK_NEAR(s.camera.fov, 0.9, 0);
+
+    CHECK_MSG(parse(with("\"camera\": {\"matrix\": [2,0,0,0, 0,0,-2,-6, 0,2,0,1, 0,0,0,1], \"lens\": 50}"), &s) == VSD_OK,
+              "%s", err);
+    check_matrix(s.camera.matrix, want, 1e-15);
+    CHECK_NEAR(s.camera.fov, 0.691111, 1e-6);
+    CHECK_NEAR(s.camera.fov, 2 * atan(18.0 / 50.0), 1e-15);
+
+    CHECK_MSG(parse(with("\"camera\": {\"matrix\": [1,0,0,0, 0,0,-1,-6, 0,1,0,1, 0,0,0,1], \"lens\": 35, \"sensor_width\": 24}"), &s) == VSD_OK,
+              "%s", err);
+    CHECK_NEAR(s.camera.fov, 2 * atan(12.0 / 35.0), 1e-15);
+
+    /* lens also works with the look-at form */
+    CHECK_MSG(parse(with("\"camera\": {\"position\": [0,-6,1], \"lens\": 25}"), &s) == VSD_OK, "%s", err);
+    CHECK_NEAR(s.camera.fov, 2 * atan(18.0 / 25.0), 1e-15);
+
+    CHECK_MSG(parse(with("\"camera\": {\"type\": \"orthographic\"}"), &s) == VSD_OK, "%s", err);
+    CHECK(s.camera.type == VSD_CAMERA_ORTHOGRAPHIC);
+    CHECK_NEAR(s.camera.ortho_scale, 7.314285755157471, 1e-12);
+    CHECK_MSG(parse(with("\"camera\": {\"type\": \"orthographic\", \"ortho_scale\": 3}"), &s) == VSD_OK, "%s", err);
+    CHECK_NEAR(s.camera.ortho_scale, 3, 0);
+}
+
+static void test_camera_errors(void)
+{
+    EXPECT_ERR(with("\"camera\": {\"position\": [0,-6,1], \"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}"),
+               VSD_ERR_INVALID, "camera.matrix: cannot be combined with camera.position/look_at/up");
+    EXPECT_ERR(with("\"camera\": {\"up\": [0,1,0], \"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}"),
+               VSD_ERR_INVALID, "camera.matrix: cannot be combined");
+    EXPECT_ERR(with("\"camera\": {\"fov\": 0.5, \"lens\": 50}"), VSD_ERR_INVALID,
+               "camera.lens: cannot be combined with camera.fov");
+    EXPECT_ERR(with("\"camera\": {\"sensor_width\": 24}"), VSD_ERR_INVALID, "camera.sensor_width: needs camera.lens");
+    EXPECT_ERR(with("\"camera\": {\"position\": [1,2,3], \"look_at\": [1,2,3]}"), VSD_ERR_INVALID,
+               "camera.look_at: equals camera.position");
+    EXPECT_ERR(with("\"camera\": {\"position\": [0,0,5], \"look_at\": [0,0,0]}"), VSD_ERR_INVALID,
+               "camera.up: is parallel to the view direction");
+    EXPECT_ERR(with("\"camera\": {\"up\": [0,0,0]}"), VSD_ERR_INVALID, "camera.up: is the zero vector");
+    EXPECT_ERR(with("\"camera\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0]}"), VSD_ERR_TYPE,
+               "camera.matrix: expected 16 numbers");
+    EXPECT_ERR(with("\"camera\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,1,1]}"), VSD_ERR_INVALID,
+               "camera.matrix: last row must be 0, 0, 0, 1");
+    EXPECT_ERR(with("\"camera\": {\"matrix\": [1,0.5,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}"), VSD_ERR_INVALID,
+               "camera.matrix: rotation part is sheared");
+    EXPECT_ERR(with("\"camera\": {\"fov\": 0}"), VSD_ERR_INVALID, "camera.fov: 0 is out of range (0, 3.14159)");
+    EXPECT_ERR(with("\"camera\": {\"fov\": 3.2}"), VSD_ERR_INVALID, "camera.fov: 3.2 is out of range (0, 3.14159)");
+    EXPECT_ERR(with("\"camera\": {\"fov\": \"wide\"}"), VSD_ERR_TYPE, "camera.fov: expected number");
+    EXPECT_ERR(with("\"camera\": {\"lens\": 0}"), VSD_ERR_INVALID, "camera.lens: 0 is out of range (must be > 0)");
+    EXPECT_ERR(with("\"camera\": {\"clip_end\": 0.05}"), VSD_ERR_INVALID,
+               "camera.clip_end: 0.05 must be greater than camera.clip_start (0.1)");
+    EXPECT_ERR(with("\"camera\": {\"type\": \"fisheye\"}"), VSD_ERR_INVALID,
+               "camera.type: \"fisheye\" is not one of \"perspective\", \"orthographic\"");
+    EXPECT_ERR(with("\"camera\": {\"fvo\": 0.5}"), VSD_ERR_INVALID,
+               "camera.fvo: unknown key (known: type, position, look_at, up, matrix, fov, lens, "
+               "sensor_width, ortho_scale, clip_start, clip_end)");
+    EXPECT_ERR(with("\"camera\": [1]"), VSD_ERR_TYPE, "camera: expected object");
+}
+
+/* Every validation message of docs/scene-file.md, with its status. */
+static void test_errors(void)
+{
+    EXPECT_ERR("{\"version\": 2, \"volume\": {\"file\": \"v.vdb\"}}", VSD_ERR_UNSUPPORTED, "version: expected 1, got 2");
+    /* The version wins over everything else in a file of another version. */
+    EXPECT_ERR("{\"version\": 2, \"new_section\": {}}", VSD_ERR_UNSUPPORTED, "version: expected 1, got 2");
+    EXPECT_ERR("{\"volume\": {\"file\": \"v.vdb\"}}", VSD_ERR_INVALID, "version: required");
+    EXPECT_ERR("{\"version\": \"1\", \"volume\": {\"file\": \"v.vdb\"}}", VSD_ERR_TYPE, "version: expected integer");
+    EXPECT_ERR(with("\"colour\": 1"), VSD_ERR_INVALID,
+               "colour: unknown key (known: version, volume, medium, environment, lights, camera, film, render, frames, output)");
+    EXPECT_ERR("{\"version\": 1}", VSD_ERR_INVALID, "volume.file: required");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {}}", VSD_ERR_INVALID, "volume.file: required");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"\"}}", VSD_ERR_INVALID, "volume.file: required");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": 3}}", VSD_ERR_TYPE, "volume.file: expected string");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"fiel\": \"v.vdb\"}}", VSD_ERR_INVALID,
+               "volume.fiel: unknown key (known: file, grid, emission_grid, matrix)");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"a_#_#.vdb\"}}", VSD_ERR_INVALID,
+               "volume.file: \"/base/a_#_#.vdb\": more than one run of '#'");
+    EXPECT_ERR(with("\"medium\": {\"albedo\": [1, 1]}"), VSD_ERR_TYPE, "medium.albedo: expected 3 numbers");
+    EXPECT_ERR(with("\"medium\": {\"albedo\": 0.5}"), VSD_ERR_TYPE, "medium.albedo: expected 3 numbers");
+    EXPECT_ERR(with("\"medium\": {\"albedo\": [1, \"a\", 1]}"), VSD_ERR_TYPE, "medium.albedo: expected 3 numbers");
+    EXPECT_ERR(with("\"medium\": {\"albedo\": [0.5, 1.5, 0.5]}"), VSD_ERR_INVALID,
+               "medium.albedo[1]: 1.5 is out of range 0..1");
+    EXPECT_ERR(with("\"medium\": {\"density\": -1}"), VSD_ERR_INVALID,
+               "medium.density: -1 is out of range (must be >= 0)");
+    EXPECT_ERR(with("\"medium\": {\"density\": 1e999}"), VSD_ERR_INVALID, "medium.density: expected a finite number");
+    EXPECT_ERR(with("\"medium\": {\"anisotropy\": 1}"), VSD_ERR_INVALID, "medium.anisotropy: 1 is out of range (-1, 1)");
+    EXPECT_ERR(with("\"medium\": {\"anisotropy\": -1}"), VSD_ERR_INVALID, "medium.anisotropy: -1 is out of range (-1, 1)");
+    EXPECT_ERR(with("\"medium\": {\"emission_strength\": -2}"), VSD_ERR_INVALID,
+               "medium.emission_strength: -2 is out of range (must be >= 0)");
+    EXPECT_ERR(with("\"medium\": {\"emission_color\": [1, -0.1, 0]}"), VSD_ERR_INVALID,
+               "medium.emission_color[1]: -0.1 is out of range (must be >= 0)");
+    EXPECT_ERR(with("\"medium\": {\"ior\": 0}"), VSD_ERR_INVALID, "medium.ior: 0 is out of range (must be > 0)");
+    EXPECT_ERR(with("\"environment\": {\"strength\": -0.5}"), VSD_ERR_INVALID,
+               "environment.strength: -0.5 is out of range (must be >= 0)");
+    EXPECT_ERR(with("\"environment\": {\"file\": \"a.exr\", \"color\": [1,1,1]}"), VSD_ERR_INVALID,
+               "environment: give either file (an image) or color (uniform), not both");
+    EXPECT_ERR(with("\"film\": {\"width\": 100000}"), VSD_ERR_INVALID, "film.width: 100000 is out of range 1..16384");
+    EXPECT_ERR(with("\"film\": {\"height\": 0}"), VSD_ERR_INVALID, "film.height: 0 is out of range 1..16384");
+    EXPECT_ERR(with("\"film\": {\"width\": 16384, \"height\": 16384}"), VSD_ERR_INVALID,
+               "film: 16384x16384 = 268435456 pixels is too many (max 67108864)");
+    EXPECT_ERR(with("\"film\": {\"width\": 640.5}"), VSD_ERR_TYPE, "film.width: expected integer");
+    EXPECT_ERR(with("\"film\": {\"transparent\": 1}"), VSD_ERR_TYPE, "film.transparent: expected boolean");
+    EXPECT_ERR(with("\"render\": {\"samples\": 0}"), VSD_ERR_INVALID, "render.samples: 0 is out of range 1..1000000");
+    EXPECT_ERR(with("\"render\": {\"samples\": 1000001}"), VSD_ERR_INVALID,
+               "render.samples: 1000001 is out of range 1..1000000");
+    EXPECT_ERR(with("\"render\": {\"device\": \"gpu\"}"), VSD_ERR_INVALID,
+               "render.device: \"gpu\" is not one of \"auto\", \"cpu\", \"cuda\"");
+    EXPECT_ERR(with("\"render\": {\"method\": \"\"}"), VSD_ERR_INVALID, "render.method: must not be empty");
+    EXPECT_ERR(with("\"render\": {\"options\": [1]}"), VSD_ERR_TYPE, "render.options: expected object");
+    {
+        static char big[12000];
+        int n = snprintf(big, sizeof big, "\"render\": {\"options\": {\"x\": \"");
+        memset(big + n, 'a', 5000);
+        strcpy(big + n + 5000, "\"}}");
+        EXPECT_ERR(with(big), VSD_ERR_INVALID, "render.options: too long (5008 bytes serialised, max 4095)");
+    }
+    EXPECT_ERR(with("\"frames\": {\"start\": 5, \"end\": 1}"), VSD_ERR_INVALID, "frames.end: 1 is before frames.start (5)");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"sun\"}]"), VSD_ERR_UNSUPPORTED,
+               "lights: extra lights are not supported yet (the environment is the light)");
+    EXPECT_ERR(with("\"lights\": {}"), VSD_ERR_TYPE, "lights: expected array");
+    EXPECT_ERR(with("\"output\": {\"passes\": [\"Combined\", \"Foo\"]}"), VSD_ERR_INVALID,
+               "output.passes[1]: unknown pass \"Foo\" (known: Combined, VolumeDir, VolumeInd, Emit, Transmittance, Depth)");
+    EXPECT_ERR(with("\"output\": {\"passes\": \"Combined\"}"), VSD_ERR_TYPE, "output.passes: expected array of pass names");
+    EXPECT_ERR(with("\"output\": {\"passes\": [1]}"), VSD_ERR_TYPE, "output.passes[0]: expected string");
+    EXPECT_ERR(with("\"output\": {\"passes\": []}"), VSD_ERR_INVALID, "output.passes: empty");
+    EXPECT_ERR(with("\"output\": {\"exr\": \"\"}"), VSD_ERR_INVALID, "output.exr: must not be empty");
+    EXPECT_ERR(with("\"output\": {\"exr\": \"f_##_##.exr\"}"), VSD_ERR_INVALID, "output.exr: \"/base/f_##_##.exr\": more than one run");
+    EXPECT_ERR(with("\"output\": {\"half\": \"yes\"}"), VSD_ERR_TYPE, "output.half: expected boolean");
+    EXPECT_ERR(with("\"output\": {\"layer\": \"aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa\"}"),
+               VSD_ERR_INVALID, "output.layer: too long (140 characters, max 127)");
+    EXPECT_ERR(with("\"volume\": {}"), VSD_ERR_INVALID, "volume: duplicate key");
+    EXPECT_ERR(with("\"camera\": {\"fov\": 0.5, \"fov\": 0.6}"), VSD_ERR_INVALID, "camera.fov: duplicate key");
+    EXPECT_ERR(with("\"volume\": 1"), VSD_ERR_INVALID, "volume: duplicate key");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"emission_grid\": 5}}", VSD_ERR_TYPE,
+               "volume.emission_grid: expected string or null");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"grid\": -1}}", VSD_ERR_INVALID,
+               "volume.grid: -1 is out of range (must be >= 0)");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"grid\": 1.5}}", VSD_ERR_TYPE,
+               "volume.grid: expected string (grid name) or integer (grid index)");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"matrix\": [1,0,0,0, 0,0,0,0, 0,0,1,0, 0,0,0,1]}}",
+               VSD_ERR_INVALID, "volume.matrix: singular");
+    EXPECT_ERR("[1, 2]", VSD_ERR_TYPE, "expected a JSON object at the top level");
+    EXPECT_ERR("{\"version\": 1,\n \"volume\": }", VSD_ERR_FORMAT, "line 2, column 12: invalid JSON near ' \"volume\": }'");
+    EXPECT_ERR("", VSD_ERR_FORMAT, "line 1, column 1: invalid JSON (unexpected end of text)");
+    EXPECT_ERR("{\"version\": 1,\n  \"volume\": {\n", VSD_ERR_FORMAT, "invalid JSON (unexpected end of text)");
+    EXPECT_ERR("{\"version\": 1} x", VSD_ERR_FORMAT, "line 1, column 16: invalid JSON near");
+
+    /* A failed parse leaves the caller's struct untouched. */
+    vsd_scene s, before;
+    memset(&s, 0x5A, sizeof s);
+    before = s;
+    CHECK(parse(with("\"film\": {\"width\": 0}"), &s) == VSD_ERR_INVALID);
+    CHECK(!memcmp(&s, &before, sizeof s));
+    /* NULL err buffer is allowed. */
+    CHECK(vsd_scene_parse("{}", "", NULL, 0, &s, NULL, 0) == VSD_ERR_INVALID);
+}
+
+static void test_values(void)
+{
+    vsd_scene s;
+    CHECK_MSG(parse("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"grid\": 2}}", &s) == VSD_OK, "%s", err);
+    CHECK(s.volume.grid_index == 2 && !strcmp(s.volume.grid, ""));
+    CHECK_MSG(parse("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"grid\": \"\"}}", &s) == VSD_OK, "%s", err);
+    CHECK(s.volume.grid_index == -1 && !strcmp(s.volume.grid, ""));
+    CHECK_MSG(parse(with("\"environment\": {\"color\": [0.2, 0.3, 0.4]}"), &s) == VSD_OK, "%s", err);
+    CHECK(!strcmp(s.environment.file, ""));
+    CHECK_NEAR(s.environment.color[1], 0.3, 1e-7);
+    /* null where allowed means the default */
+    CHECK_MSG(parse(with("\"environment\": {\"file\": null, \"color\": [1,1,1]}, \"output\": {\"preview_png\": null, \"view\": null}"), &s) == VSD_OK,
+              "%s", err);
+    CHECK(!strcmp(s.environment.file, "") && !strcmp(s.output.preview_png, ""));
+    CHECK_MSG(parse(with("\"lights\": []"), &s) == VSD_OK, "%s", err);
+    CHECK(s.light_count == 0);
+    CHECK_MSG(parse(with("\"frames\": {\"start\": -3, \"end\": -3}"), &s) == VSD_OK, "%s", err);
+    CHECK(s.frames.start == -3);
+    /* Integers may be written with an exponent or a ".0" */
+    CHECK_MSG(parse(with("\"film\": {\"width\": 1.28e3, \"height\": 720.0}"), &s) == VSD_OK, "%s", err);
+    CHECK(s.film.width == 1280 && s.film.height == 720);
+    /* A byte-order mark is skipped. */
+    CHECK_MSG(parse("\xEF\xBB\xBF{" MIN "}", &s) == VSD_OK, "%s", err);
+}
+
+static void test_paths(void)
+{
+    vsd_scene s;
+    char e[512];
+    CHECK(vsd_scene_parse("{" MIN "}", "", NULL, 0, &s, e, sizeof e) == VSD_OK);
+    CHECK(!strcmp(s.volume.file, "v.vdb") && !strcmp(s.output.exr, "out/frame_####.exr"));
+    CHECK(vsd_scene_parse("{" MIN "}", NULL, NULL, 0, &s, e, sizeof e) == VSD_OK);
+    CHECK(!strcmp(s.volume.file, "v.vdb"));
+    CHECK(vsd_scene_parse("{" MIN "}", "/dir/", NULL, 0, &s, e, sizeof e) == VSD_OK);
+    CHECK(!strcmp(s.volume.file, "/dir/v.vdb"));
+    CHECK(vsd_scene_parse("{" MIN "}", "/", NULL, 0, &s, e, sizeof e) == VSD_OK);
+    CHECK(!strcmp(s.volume.file, "/v.vdb"));
+    const char *json = "{\"version\": 1, \"volume\": {\"file\": \"/abs/v_####.vdb\"},"
+                       "\"environment\": {\"file\": \"blob:9f86d081\"},"
+                       "\"output\": {\"exr\": \"../out/#.exr\", \"preview_png\": \"p/prev_####.png\"}}";
+    CHECK_MSG(parse(json, &s) == VSD_OK, "%s", err);
+    CHECK(!strcmp(s.volume.file, "/abs/v_####.vdb"));
+    CHECK(!strcmp(s.environment.file, "blob:9f86d081"));
+    CHECK(!strcmp(s.output.exr, BASE "/../out/#.exr"));
+    CHECK(!strcmp(s.output.preview_png, BASE "/p/prev_####.png"));
+
+    /* Too long once joined with the folder */
+    static char longjson[4096];
+    char name[1100];
+    memset(name, 'n', 1020);
+    name[1020] = '\0';
+    snprintf(longjson, sizeof longjson, "{\"version\": 1, \"volume\": {\"file\": \"%s\"}}", name);
+    EXPECT_ERR(longjson, VSD_ERR_INVALID, "volume.file: path too long (1026 characters, max 1023)");
+}
+
+static void test_overrides(void)
+{
+    vsd_scene s;
+    const char *ov1[] = {"render.samples=256", "render.method=shgrid", "medium.albedo=[0.1, 0.2, 0.3]",
+                         "film.transparent=false", "output.preview_png=null", "output.layer=\"Quoted\"",
+                         "render.options.lights=64", "render.options.mode=fast",
+                         "render.options.nested.deep=1", "film.width=100", "render.seed=3", "render.seed=4",
+                         "output.view="};
+    CHECK_MSG(parse_ov("{" MIN ", \"output\": {\"preview_png\": \"x.png\"}}", ov1, 13, &s) == VSD_OK, "%s", err);
+    CHECK(s.render.samples == 256);
+    CHECK(!strcmp(s.render.method, "shgrid"));
+    CHECK_NEAR(s.medium.albedo[0], 0.1, 1e-7);
+    CHECK_NEAR(s.medium.albedo[2], 0.3, 1e-7);
+    CHECK(s.film.transparent == 0);
+    CHECK(!strcmp(s.output.preview_png, ""));
+    CHECK(!strcmp(s.output.layer, "Quoted"));
+    CHECK(!strcmp(s.output.view, ""));
+    CHECK(s.film.width == 100 && s.film.height == 360); /* section created by the override */
+    CHECK(s.render.seed == 4);                          /* later overrides win */
+    CHECK_NEAR(vsd_scene_option_number(&s, "lights", 0), 64, 0);
+    char mode[16] = "";
+    CHECK(vsd_scene_option_string(&s, "mode", mode, sizeof mode) == 1 && !strcmp(mode, "fast"));
+    CHECK_CONTAINS(s.render.options_json, "\"nested\":{\"deep\":1}");
+
+    const char *typo[] = {"render.sampels=1"};
+    EXPECT_OV_ERR("{" MIN "}", typo, VSD_ERR_INVALID, "render.sampels: unknown key (known: method, device, samples");
+    const char *noeq[] = {"render.samples"};
+    EXPECT_OV_ERR("{" MIN "}", noeq, VSD_ERR_INVALID, "override \"render.samples\": expected key.path=value");
+    const char *empty1[] = {"=5"};
+    EXPECT_OV_ERR("{" MIN "}", empty1, VSD_ERR_INVALID, "override \"=5\": empty key name");
+    const char *empty2[] = {"render..samples=5"};
+    EXPECT_OV_ERR("{" MIN "}", empty2, VSD_ERR_INVALID, "override \"render..samples=5\": empty key name");
+    const char *notobj[] = {"camera.fov.x=1"};
+    EXPECT_OV_ERR("{" MIN ", \"camera\": {\"fov\": 0.5}}", notobj, VSD_ERR_INVALID,
+                  "override \"camera.fov.x=1\": camera.fov is not an object");
+    const char *range[] = {"film.width=100000"};
+    EXPECT_OV_ERR("{" MIN "}", range, VSD_ERR_INVALID, "film.width: 100000 is out of range 1..16384");
+    const char *type[] = {"render.samples=many"};
+    EXPECT_OV_ERR("{" MIN "}", type, VSD_ERR_TYPE, "render.samples: expected integer");
+    const char *ver[] = {"version=2"};
+    EXPECT_OV_ERR("{" MIN "}", ver, VSD_ERR_UNSUPPORTED, "version: expected 1, got 2");
+    const char *opts[] = {"render.options=5"};
+    EXPECT_OV_ERR("{" MIN "}", opts, VSD_ERR_TYPE, "render.options: expected object");
+}
+
+/* The shared example scenes load, and their files exist once the frame is put in. */
+static void test_shared_scenes(void)
+{
+    static const char *names[] = {"cloud128_interior.json", "cloud256_sunset.json", "fire96_studio.json",
+                                  "smoke128_forest.json", "smoke64_sunset.json"};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+        char rel[128], path[2048], file[VSD_PATH_LEN + 32];
+        snprintf(rel, sizeof rel, "scenes/%s", names[i]);
+        snprintf(path, sizeof path, "%s", test_data(rel));
+        vsd_scene s;
+        vsd_status st = vsd_scene_load(path, NULL, 0, &s, err, sizeof err);
+        CHECK_MSG(st == VSD_OK, "%s: %s", names[i], err);
+        if (st)
+            continue;
+        CHECK(!strncmp(path, s.base_dir, strlen(s.base_dir)) && strstr(s.base_dir, "scenes"));
+        CHECK(vsd_frame_path(s.volume.file, s.frames.start, file, sizeof file, err, sizeof err) == VSD_OK);
+        CHECK_MSG(access(file, R_OK) == 0, "%s: volume %s", names[i], file);
+        CHECK_MSG(access(s.environment.file, R_OK) == 0, "%s: environment %s", names[i], s.environment.file);
+        CHECK(!strncmp(s.output.exr, s.base_dir, strlen(s.base_dir)));
+        CHECK(s.frames.end >= s.frames.start);
+    }
+
+    /* --frames 3-5 on a loaded scene, the way the CLI passes it */
+    const char *frames[] = {"frames.start=3", "frames.end=5"};
+    vsd_scene s;
+    CHECK_MSG(vsd_scene_load(test_data("scenes/smoke64_sunset.json"), frames, 2, &s, err, sizeof err) == VSD_OK,
+              "%s", err);
+    CHECK(s.frames.start == 3 && s.frames.end == 5);
+    const char *late[] = {"frames.start=40"};
+    CHECK(vsd_scene_load(test_data("scenes/smoke64_sunset.json"), late, 1, &s, err, sizeof err) == VSD_ERR_INVALID);
+    CHECK_CONTAINS(err, "smoke64_sunset.json: frames.end: 30 is before frames.start (40)");
+}
+
+static void write_file(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    CHECK_MSG(f != NULL, "cannot write %s", path);
+    if (!f)
+        return;
+    fputs(text, f);
+    fclose(f);
+}
+
+/* Messages from a file start with its path. */
+static void test_file_errors(void)
+{
+    vsd_scene s;
+    char path[2048], want[2300];
+    snprintf(path, sizeof path, "%s", test_tmp("scene_badfov.json"));
+    write_file(path, "{\"version\": 1, \"volume\": {\"file\": \"v.vdb\"}, \"camera\": {\"fov\": \"wide\"}}");
+    CHECK(vsd_scene_load(path, NULL, 0, &s, err, sizeof err) == VSD_ERR_TYPE);
+    snprintf(want, sizeof want, "%s: camera.fov: expected number", path);
+    CHECK(!strcmp(err, want));
+
+    snprintf(path, sizeof path, "%s/tests/data/scenes/malformed.json", VSD_SOURCE_DIR);
+    CHECK(vsd_scene_load(path, NULL, 0, &s, err, sizeof err) == VSD_ERR_FORMAT);
+    snprintf(want, sizeof want, "%s: line 3, column 30: invalid JSON near 'e\": \"a.vdb\",}'", path);
+    CHECK_MSG(!strcmp(err, want), "%s", err);
+
+    snprintf(path, sizeof path, "%s", test_tmp("no_such_scene.json"));
+    CHECK(vsd_scene_load(path, NULL, 0, &s, err, sizeof err) == VSD_ERR_IO);
+    snprintf(want, sizeof want, "%s: cannot open: No such file or directory", path);
+    CHECK_MSG(!strcmp(err, want), "%s", err);
+
+    CHECK(vsd_scene_load(test_tmp(""), NULL, 0, &s, err, sizeof err) == VSD_ERR_IO); /* a folder */
+    CHECK_CONTAINS(err, "cannot read");
+
+    /* A relative scene path: base_dir is its folder, also relative. */
+    CHECK(chdir(VSD_SOURCE_DIR) == 0);
+    CHECK_MSG(vsd_scene_load("tests/data/scenes/full.json", NULL, 0, &s, err, sizeof err) == VSD_OK, "%s", err);
+    CHECK(!strcmp(s.base_dir, "tests/data/scenes"));
+    CHECK(!strcmp(s.volume.file, "tests/data/scenes/vdb/smoke_####.vdb"));
+
+    /* Overrides apply to loaded files too, and a bad one is named without the file prefix. */
+    const char *bad[] = {"nonsense"};
+    CHECK(vsd_scene_load("tests/data/scenes/full.json", bad, 1, &s, err, sizeof err) == VSD_ERR_INVALID);
+    CHECK_CONTAINS(err, "override \"nonsense\"");
+}
+
+static void test_frame_path(void)
+{
+    char out[64], e[256];
+    CHECK(vsd_frame_path("smoke_####.vdb", 1, out, sizeof out, e, sizeof e) == VSD_OK && !strcmp(out, "smoke_0001.vdb"));
+    CHECK(vsd_frame_path("smoke_####.vdb", 12345, out, sizeof out, e, sizeof e) == VSD_OK && !strcmp(out, "smoke_12345.vdb"));
+    CHECK(vsd_frame_path("smoke_####.vdb", -3, out, sizeof out, e, sizeof e) == VSD_OK && !strcmp(out, "smoke_-003.vdb"));
+    CHECK(vsd_frame_path("f#.exr", 7, out, sizeof out, e, sizeof e) == VSD_OK && !strcmp(out, "f7.exr"));
+    CHECK(vsd_frame_path("######", 42, out, sizeof out, e, sizeof e) == VSD_OK && !strcmp(out, "000042"));
+    CHECK(vsd_frame_path("plain.vdb", 5, out, sizeof out, e, sizeof e) == VSD_OK && !strcmp(out, "plain.vdb"));
+    /* '#' in a folder name is part of the name (as in Blender) */
+    CHECK(vsd_frame_path("take#2/f_###.exr", 4, out, sizeof out, e, sizeof e) == VSD_OK &&
+          !strcmp(out, "take#2/f_004.exr"));
+    CHECK(vsd_frame_path("a_##_##.exr", 1, out, sizeof out, e, sizeof e) == VSD_ERR_INVALID);
+    CHECK_CONTAINS(e, "\"a_##_##.exr\": more than one run of '#'");
+    /* exact fit, then one byte short */
+    CHECK(vsd_frame_path("ab_##", 5, out, 6, e, sizeof e) == VSD_OK && !strcmp(out, "ab_05"));
+    CHECK(vsd_frame_path("ab_##", 5, out, 5, e, sizeof e) == VSD_ERR_INVALID);
+    CHECK_CONTAINS(e, "path too long (6 bytes needed, buffer holds 5)");
+    CHECK(vsd_frame_path("ab_##", 123, out, 6, e, sizeof e) == VSD_ERR_INVALID);
+    CHECK(vsd_frame_path(NULL, 1, out, sizeof out, e, sizeof e) == VSD_ERR_INVALID);
+}
+
+int main(void)
+{
+    test_defaults();
+    test_full_fixture();
+    test_camera_look_at();
+    test_camera_matrix();
+    test_camera_errors();
+    test_errors();
+    test_values();
+    test_paths();
+    test_overrides();
+    test_shared_scenes();
+    test_file_errors();
+    test_frame_path();
+    return test_finish("test_scene");
+}
