@@ -267,14 +267,16 @@ static void test_attributes(void)
         return;
     vsd_exr_attr attrs[] = {{"vsd/method", "shgrid"},
                             {"vsd/parameters", "{\"samples\": 64, \"density\": 10.5}"},
-                            {"vsd/render_seconds", "1.25"}};
+                            {"vsd/render_seconds", "1.25"},
+                            {"vsd/an_attribute_name_longer_than_31_chars", "long"},
+                            {"vsd/empty", ""}};
     vsd_exr_write_options opt = {0};
     opt.attrs = attrs;
-    opt.attr_count = 3;
+    opt.attr_count = 5;
     const char *path = tmp_path("attrs.exr");
     CHECK_MSG(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
     char value[256];
-    for (int i = 0; i < 3; i++) {
+    for (int i = 0; i < 5; i++) {
         CHECK_MSG(vsd_exr_read_attr(path, attrs[i].name, value, sizeof value, g_err,
                                     sizeof g_err) == VSD_OK, "%s", g_err);
         CHECK(strcmp(value, attrs[i].value) == 0);

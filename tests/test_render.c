@@ -6,6 +6,7 @@
 #include "vsd/scene.h"
 #include "vsd/volume.h"
 #include "vsd/env.h"
+#include "vsd/compare.h"
 #include <stdlib.h>
 
 /* A density volume: voxels [a, b) on every axis of a 24^3 grid are `value`, voxel size h,
@@ -130,12 +131,15 @@ static void test_white_furnace(void)
     vsd_volume_destroy(vol);
 }
 
-/* Sum of VolumeDir's green channel over the image. */
+/* Sum of VolumeDir's green channel over the central 8x8 pixels of a 16x16 image: the
+ * face of the cube, away from its silhouette, where thin lit skins of the trilinear field
+ * make pixel-area averages (reference) and 2x2 point samples (raymarch) differ. */
 static double sum_direct(const vsd_framebuffer *fb)
 {
     double s = 0;
-    int i;
-    for (i = 0; i < fb->width * fb->height; i++) s += fb->pass[VSD_PASS_VOLUME_DIR][3 * i + 1];
+    int x, y;
+    for (y = 4; y < 12; y++)
+        for (x = 4; x < 12; x++) s += fb->pass[VSD_PASS_VOLUME_DIR][3 * (y * fb->width + x) + 1];
     return s;
 }
 
@@ -157,11 +161,11 @@ static void test_environment_direction(void)
         double sums[2] = {0, 0};
         for (side = 0; side < 2; side++) {
             vsd_scene sc;
-            const char *ov[5] = {methods[mi], "medium.density=30", "camera.ortho_scale=1.0",
+            const char *ov[7] = {methods[mi], "medium.density=30", "camera.ortho_scale=1.0",
                                  side == 0 ? "camera.position=[5,0,0]" : "camera.position=[-5,0,0]",
-                                 "film.transparent=true"};
+                                 "film.transparent=true", "film.width=16", "film.height=16"};
             vsd_framebuffer *fb;
-            if (!load_scene(ortho_scene, ov, 5, &sc)) continue;
+            if (!load_scene(ortho_scene, ov, 7, &sc)) continue;
             fb = render(&sc, vol, env, 0);
             if (!fb) continue;
             sums[side] = sum_direct(fb);
@@ -171,8 +175,7 @@ static void test_environment_direction(void)
                   methods[mi], sums[0], sums[1]);
         lit[mi] = sums[0];
     }
-    /* 8x8 pixels: the reference averages each pixel's area, raymarch takes its centre */
-    CHECK_MSG(fabs(lit[0] - lit[1]) < 0.15 * lit[0], "lit side: reference %g vs raymarch %g", lit[0], lit[1]);
+    CHECK_MSG(fabs(lit[0] - lit[1]) < 0.1 * lit[0], "lit side: reference %g vs raymarch %g", lit[0], lit[1]);
     vsd_env_destroy(env);
     vsd_volume_destroy(vol);
 }
@@ -201,11 +204,52 @@ static void test_determinism(void)
     vsd_volume_destroy(vol);
 }
 
+/* Single scattering two ways on real data: reference VolumeDir (1024 spp) against the
+ * raymarch baseline (64 fixed lights, 2x2 rays per pixel) on smoke64 frame 24 at 48x27.
+ * Measured (2026-11-22): two reference renders with different seeds differ by 2.7%
+ * (noise floor); raymarch differs by 5.1% (its K-light and fixed-step discretisation);
+ * 256 lights and 4x4 rays bring it to 4.2%. Bound: 8%. */
+static void test_reference_vs_raymarch_smoke(void)
+{
+    const char *common[] = {"frames.start=24", "frames.end=24", "film.width=48", "film.height=27"};
+    vsd_framebuffer *fb[2] = {NULL, NULL};
+    int m;
+    for (m = 0; m < 2; m++) {
+        vsd_scene sc;
+        const char *ov[7] = {common[0], common[1], common[2], common[3],
+                             m == 0 ? "render.method=reference" : "render.method=raymarch",
+                             m == 0 ? "render.samples=1024" : "render.options.lights=64",
+                             m == 0 ? "render.seed=3" : "render.options.pixel_samples=2"};
+        vsd_renderer *r = NULL;
+        char err[1024];
+        vsd_status st = vsd_scene_load(test_data("scenes/smoke64_sunset.json"), ov, 7, &sc, err, sizeof err);
+        CHECK_MSG(st == VSD_OK, "%s", err);
+        if (st) return;
+        st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
+        if (!st) st = vsd_renderer_render(r, 24, &fb[m], NULL, err, sizeof err);
+        CHECK_MSG(st == VSD_OK, "%s", err);
+        vsd_renderer_destroy(r);
+    }
+    if (fb[0] && fb[1]) {
+        double e_dir = 1, e_t = 1;
+        CHECK(vsd_block_rel_rmse(fb[1]->pass[VSD_PASS_VOLUME_DIR], fb[0]->pass[VSD_PASS_VOLUME_DIR], 48, 27, 3, 3, 4,
+                                 &e_dir, NULL, 0) == VSD_OK);
+        CHECK(vsd_block_rel_rmse(fb[1]->pass[VSD_PASS_TRANSMITTANCE], fb[0]->pass[VSD_PASS_TRANSMITTANCE], 48, 27, 3, 3,
+                                 4, &e_t, NULL, 0) == VSD_OK);
+        printf("reference vs raymarch: VolumeDir rel. RMSE %.4f, Transmittance %.4f\n", e_dir, e_t);
+        CHECK_MSG(e_dir < 0.08, "VolumeDir rel. RMSE %.4f >= 0.08", e_dir);
+        CHECK_MSG(e_t < 0.02, "Transmittance rel. RMSE %.4f >= 0.02", e_t);
+    }
+    vsd_framebuffer_destroy(fb[0]);
+    vsd_framebuffer_destroy(fb[1]);
+}
+
 int main(void)
 {
     test_slab_transmittance();
     test_white_furnace();
     test_environment_direction();
     test_determinism();
+    test_reference_vs_raymarch_smoke();
     return test_finish("test_render");
 }

@@ -28,5 +28,5 @@ __global__ void vsd_cuda_raymarch(const vsd_kernel_data *kd, vsd_sample_result *
     int x = blockIdx.x * blockDim.x + threadIdx.x;
     int y = blockIdx.y * blockDim.y + threadIdx.y;
     if (x >= kd->camera.width || y >= kd->camera.height) return;
-    out[y * kd->camera.width + x] = vsd_raymarch_pixel(kd, x, y);
+    out[y * kd->camera.width + x] = vsd_raymarch_pixel(kd, x, y, 0.5f, 0.5f);
 }

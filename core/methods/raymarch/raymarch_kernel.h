@@ -52,14 +52,15 @@ VSD_DEVICE int vsd_march_extent(const vsd_kernel_data *kd, vsd_f3 o, vsd_f3 d, f
     return hit;
 }
 
-VSD_DEVICE vsd_sample_result vsd_raymarch_pixel(const vsd_kernel_data *kd, int32_t px, int32_t py)
+/* One view ray through pixel (px, py) at sub-pixel position (jx, jy) in [0,1). */
+VSD_DEVICE vsd_sample_result vsd_raymarch_pixel(const vsd_kernel_data *kd, int32_t px, int32_t py, float jx, float jy)
 {
     vsd_sample_result res;
     vsd_f3 o, d;
     float t0, t1, t, h = kd->march_step, tr = 1.0f, depth_num = 0.0f;
     res.direct = res.indirect = res.emit = res.background = f3s(0.0f);
     res.depth = VSD_INF;
-    vsd_camera_ray(&kd->camera, px, py, 0.5f, 0.5f, &o, &d);
+    vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
     if (vsd_march_extent(kd, o, d, &t0, &t1)) {
         for (t = t0; t < t1; t += h) {
             float hs = fminf(h, t1 - t), tm = t + 0.5f * hs;

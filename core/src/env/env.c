@@ -6,6 +6,7 @@
 #include "src/env/env_internal.h"
 #include "src/image/imageio_internal.h"
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 

@@ -7,6 +7,7 @@
 #include <openexr.h>
 #include <Imath/half.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -62,7 +63,8 @@ static int64_t write_fn(exr_const_context_t ctxt, void *userdata, const void *bu
 
 /* The channel list for the selected passes. Depth stays float32 even when half is asked
  * for, as Blender does for its non-colour passes: the 1e10 "empty" marker and distances
- * beyond 2048 units do not survive half precision. */
+ * beyond 2048 units do not survive half precision. Channel or attribute names beyond 31
+ * characters set *long_names (the EXR 2.0 flag every current reader understands). */
 static vsd_status build_channels(const vsd_exr_write_options *opt, exr_chan *chans, int *count,
                                  int *long_names, char *err, size_t errlen)
 {
@@ -89,6 +91,9 @@ static vsd_status build_channels(const vsd_exr_write_options *opt, exr_chan *cha
                 *long_names = 1;
         }
     }
+    for (int i = 0; opt && i < opt->attr_count; i++)
+        if (strlen(opt->attrs[i].name) > EXR_SHORT_NAME_MAX)
+            *long_names = 1;
     *count = n;
     return VSD_OK;
 }

@@ -5,7 +5,6 @@
 #ifndef VSD_IMAGEIO_INTERNAL_H
 #define VSD_IMAGEIO_INTERNAL_H
 #include <stddef.h>
-#include <stdio.h>
 #include "vsd/image.h"
 #ifdef __cplusplus
 extern "C" {

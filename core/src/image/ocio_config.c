@@ -4,6 +4,7 @@
 #include "src/image/imageio_internal.h"
 #include <errno.h>
 #include <glob.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>

@@ -5,6 +5,7 @@
 #include "src/image/imageio_internal.h"
 #include <math.h>
 #include <png.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
