@@ -23,18 +23,40 @@ VSD_DEVICE float vsd_kvolume_voxel(const vsd_kvolume *v, int32_t i, int32_t j, i
     return v->voxels[(size_t)slot * 512 + (((lk & 7) * 8 + (lj & 7)) * 8 + (li & 7))];
 }
 
-/* Unscaled trilinear field at index-space point p. */
+/* Unscaled trilinear field at index-space point p. When the 2x2x2 neighbourhood lies in
+ * one brick (7 times in 8 per axis) the corners are read from one base pointer; otherwise
+ * each corner goes through the brick index. */
 VSD_DEVICE float vsd_kvolume_field(const vsd_kvolume *v, vsd_f3 p)
 {
     float fx = floorf(p.x), fy = floorf(p.y), fz = floorf(p.z);
     int32_t i = (int32_t)fx, j = (int32_t)fy, k = (int32_t)fz;
     float tx = p.x - fx, ty = p.y - fy, tz = p.z - fz;
-    float c00 = vsd_kvolume_voxel(v, i, j, k) * (1 - tx) + vsd_kvolume_voxel(v, i + 1, j, k) * tx;
-    float c10 = vsd_kvolume_voxel(v, i, j + 1, k) * (1 - tx) + vsd_kvolume_voxel(v, i + 1, j + 1, k) * tx;
-    float c01 = vsd_kvolume_voxel(v, i, j, k + 1) * (1 - tx) + vsd_kvolume_voxel(v, i + 1, j, k + 1) * tx;
-    float c11 = vsd_kvolume_voxel(v, i, j + 1, k + 1) * (1 - tx) + vsd_kvolume_voxel(v, i + 1, j + 1, k + 1) * tx;
-    float c0 = c00 * (1 - ty) + c10 * ty, c1 = c01 * (1 - ty) + c11 * ty;
-    return c0 * (1 - tz) + c1 * tz;
+    int32_t li = i - v->origin[0], lj = j - v->origin[1], lk = k - v->origin[2];
+    float c000, c100, c010, c110, c001, c101, c011, c111;
+    if (li >= 0 && lj >= 0 && lk >= 0 && (li & 7) != 7 && (lj & 7) != 7 && (lk & 7) != 7 &&
+        (li >> 3) < v->dims[0] && (lj >> 3) < v->dims[1] && (lk >> 3) < v->dims[2]) {
+        int32_t slot = v->brick_slots[((size_t)(lk >> 3) * v->dims[1] + (lj >> 3)) * v->dims[0] + (li >> 3)];
+        const float *b;
+        if (slot < 0) return 0.0f;
+        b = v->voxels + (size_t)slot * 512 + (((lk & 7) * 8 + (lj & 7)) * 8 + (li & 7));
+        c000 = b[0]; c100 = b[1]; c010 = b[8]; c110 = b[9];
+        c001 = b[64]; c101 = b[65]; c011 = b[72]; c111 = b[73];
+    } else {
+        c000 = vsd_kvolume_voxel(v, i, j, k);
+        c100 = vsd_kvolume_voxel(v, i + 1, j, k);
+        c010 = vsd_kvolume_voxel(v, i, j + 1, k);
+        c110 = vsd_kvolume_voxel(v, i + 1, j + 1, k);
+        c001 = vsd_kvolume_voxel(v, i, j, k + 1);
+        c101 = vsd_kvolume_voxel(v, i + 1, j, k + 1);
+        c011 = vsd_kvolume_voxel(v, i, j + 1, k + 1);
+        c111 = vsd_kvolume_voxel(v, i + 1, j + 1, k + 1);
+    }
+    {
+        float c00 = c000 + (c100 - c000) * tx, c10 = c010 + (c110 - c010) * tx;
+        float c01 = c001 + (c101 - c001) * tx, c11 = c011 + (c111 - c011) * tx;
+        float c0 = c00 + (c10 - c00) * ty, c1 = c01 + (c11 - c01) * ty;
+        return c0 + (c1 - c0) * tz;
+    }
 }
 
 /* Scaled field (sigma_t for the density grid) at a world point. */
