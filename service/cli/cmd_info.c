@@ -33,11 +33,11 @@ static void print_grid(int index, const vsd_grid_info *g)
         printf("    index bbox     [%d %d %d] .. [%d %d %d]\n", g->index_bbox_min[0],
                g->index_bbox_min[1], g->index_bbox_min[2], g->index_bbox_max[0],
                g->index_bbox_max[1], g->index_bbox_max[2]);
-        printf("    world bbox     [%g %g %g] .. [%g %g %g]\n", g->world_bbox_min[0],
+        printf("    world bbox     [%.7g %.7g %.7g] .. [%.7g %.7g %.7g]\n", g->world_bbox_min[0],
                g->world_bbox_min[1], g->world_bbox_min[2], g->world_bbox_max[0],
                g->world_bbox_max[1], g->world_bbox_max[2]);
     }
-    printf("    voxel size     %g %g %g\n", g->voxel_size[0], g->voxel_size[1], g->voxel_size[2]);
+    printf("    voxel size     %.7g %.7g %.7g\n", g->voxel_size[0], g->voxel_size[1], g->voxel_size[2]);
     printf("    half float     %s\n", g->half_float ? "yes" : "no");
     printf("    compression    %s\n", g->compression);
 }

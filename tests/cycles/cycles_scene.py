@@ -58,6 +58,10 @@ def parse_args():
     ap.add_argument("--frame", type=int, help="default: frames.start")
     ap.add_argument("--threads", type=int, default=0, help="0 = all cores")
     ap.add_argument("--step-rate", type=float, default=0.25, help="Cycles volume step rate")
+    ap.add_argument("--voxel-centres", choices=("openvdb", "cycles"), default="openvdb",
+                    help="openvdb (default): shift the object so that Cycles puts voxel i's "
+                         "centre at index i, as vsd and OpenVDB do; cycles: leave Cycles' "
+                         "own convention (centre at i + 0.5)")
     ap.add_argument("--time-json", help="write render time and settings here")
     ap.add_argument("--save-blend", help="also save the built scene as a .blend")
     return ap.parse_args(argv)
@@ -131,7 +135,7 @@ def clear_scene():
             coll.remove(item)
 
 
-def build_volume(sc, scene, base, frame):
+def build_volume(sc, scene, base, frame, voxel_centres):
     vol_desc = sc["volume"]
     path = frame_path(resolve(base, vol_desc["file"]), frame)
     if not os.path.isfile(path):
@@ -158,6 +162,13 @@ def build_volume(sc, scene, base, frame):
         grid = floats[0] if floats else "density"
     if grid not in names:
         raise SystemExit(f"volume.grid: {grid!r} not in {path} (grids: {names})")
+    if voxel_centres == "openvdb":
+        # Cycles samples voxel i at index coordinate i + 0.5 (the dense texture spans
+        # [min, min + dim) with texel centres at +0.5; the NanoVDB path samples at x - 0.5),
+        # while OpenVDB -- and vsd -- put voxel i's centre at index i. Moving the object by
+        # half a voxel in the grid's index space makes Cycles render the OpenVDB field.
+        g = vol.grids[grid].matrix_object
+        ob.matrix_world = ob.matrix_world @ g @ mathutils.Matrix.Translation((-0.5, -0.5, -0.5)) @ g.inverted()
     return ob, grid, path
 
 
@@ -340,7 +351,7 @@ def main():
     scene = bpy.context.scene
     clear_scene()
     scene.frame_set(frame)
-    ob, grid, vdb_path = build_volume(sc, scene, base, frame)
+    ob, grid, vdb_path = build_volume(sc, scene, base, frame, args.voxel_centres)
     build_material(sc, ob, grid)
     build_world(sc, scene, base)
     build_camera(sc, scene, width, height)
@@ -364,6 +375,7 @@ def main():
             json.dump({"render_seconds": seconds, "samples": samples, "width": width,
                        "height": height, "seed": seed, "frame": frame, "vdb": vdb_path,
                        "grid": grid, "step_rate": args.step_rate,
+                       "voxel_centres": args.voxel_centres,
                        "threads": scene.render.threads, "blender": bpy.app.version_string},
                       f, indent=1)
 

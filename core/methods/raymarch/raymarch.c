@@ -78,7 +78,7 @@ static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuff
     raymarch_state *s = state;
     vsd_accum acc;
     raymarch_pass pass;
-    vsd_tile_job job = {0};
+    vsd_tile_job job;
     vsd_status st;
     float step = (float)vsd_scene_option_number(ctx->scene, "step", 0.0);
     ctx->kd.lights = s->lights;
@@ -90,16 +90,7 @@ static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuff
     pass.kd = &ctx->kd;
     pass.acc = &acc;
     pass.n = s->pixel_samples;
-    job.width = fb->width;
-    job.height = fb->height;
-    job.threads = ctx->threads;
-    job.fn = raymarch_tile;
-    job.user = &pass;
-    job.stage = "ray marching";
-    job.progress = ctx->progress;
-    job.progress_user = ctx->user;
-    job.progress_span = 1.0f;
-    job.cancel = ctx->cancel;
+    vsd_method_tile_job(&job, ctx, fb, raymarch_tile, &pass, "ray marching");
     st = vsd_cpu_run_tiles(&job);
     if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
     vsd_accum_resolve(&acc, pass.n * pass.n, ctx->scene->film.transparent, fb);

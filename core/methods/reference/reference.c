@@ -33,7 +33,7 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
     const vsd_scene *sc = ctx->scene;
     vsd_accum acc;
     reference_round round;
-    vsd_tile_job job = {0};
+    vsd_tile_job job;
     vsd_status st;
     int total = sc->render.samples, done = 0, batch = 1;
     (void)state;
@@ -44,15 +44,7 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
     if (st) return st;
     round.kd = &ctx->kd;
     round.acc = &acc;
-    job.width = fb->width;
-    job.height = fb->height;
-    job.threads = ctx->threads;
-    job.fn = reference_tile;
-    job.user = &round;
-    job.stage = "path tracing";
-    job.progress = ctx->progress;
-    job.progress_user = ctx->user;
-    job.cancel = ctx->cancel;
+    vsd_method_tile_job(&job, ctx, fb, reference_tile, &round, "path tracing");
     while (done < total) {
         int n = batch < total - done ? batch : total - done;
         round.s0 = done;

@@ -44,6 +44,12 @@ extern const vsd_method vsd_method_raymarch;
 
 const vsd_method *vsd_method_find(const char *name);
 
+/* A CPU tile job over fb for this frame: threads, progress (whole stage, span 1) and cancel
+ * come from ctx. Methods adjust progress_base/span for multi-round passes. */
+struct vsd_tile_job;
+void vsd_method_tile_job(struct vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_framebuffer *fb,
+                         void (*fn)(void *, int, int, int, int), void *user, const char *stage);
+
 /* Validate scene->render.options_json against method->options: an unknown key is an
  * error naming it and listing the accepted ones. */
 vsd_status vsd_method_check_options(const vsd_method *m, const vsd_scene *scene, char *err, size_t errlen);

@@ -1,6 +1,7 @@
 /* The method registry: one table, so the CLI, the daemon's HELLO and the option checks
  * all list the same methods. */
 #include "method.h"
+#include "device/cpu/cpu_tiles.h"
 #include <string.h>
 #include <cjson/cJSON.h>
 
@@ -54,4 +55,20 @@ vsd_status vsd_method_check_options(const vsd_method *m, const vsd_scene *scene,
     }
     cJSON_Delete(root);
     return st;
+}
+
+void vsd_method_tile_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_framebuffer *fb,
+                         void (*fn)(void *, int, int, int, int), void *user, const char *stage)
+{
+    memset(job, 0, sizeof *job);
+    job->width = fb->width;
+    job->height = fb->height;
+    job->threads = ctx->threads;
+    job->fn = fn;
+    job->user = user;
+    job->stage = stage;
+    job->progress = ctx->progress;
+    job->progress_user = ctx->user;
+    job->progress_span = 1.0f;
+    job->cancel = ctx->cancel;
 }

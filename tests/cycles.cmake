@@ -1,0 +1,16 @@
+# `reference` against Blender Cycles on the same scene (tests/cycles/, docs/cycles-crosscheck.md).
+# Renders with real Blender headless, so it runs only where Blender is found (and
+# VSD_BLENDER_TESTS is not OFF); VSD_BLENDER_TESTS=ON without Blender is a configure error.
+# About 1.5 minutes on a 2-core machine; labelled slow.
+if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
+  find_program(BLENDER_EXE blender)
+  if(BLENDER_EXE)
+    vsd_add_test(test_cycles_crosscheck SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/cycles/test_cycles_crosscheck.c
+                 LIBS vsd_lib LABELS blender slow TIMEOUT 2400)
+    target_compile_definitions(test_cycles_crosscheck PRIVATE
+      VSD_BLENDER_EXE="${BLENDER_EXE}"
+      VSD_CYCLES_SCRIPT="${CMAKE_CURRENT_SOURCE_DIR}/cycles/cycles_scene.py")
+  elseif(VSD_BLENDER_TESTS STREQUAL "ON")
+    message(FATAL_ERROR "VSD_BLENDER_TESTS=ON but no blender executable was found (needed by tests/cycles.cmake)")
+  endif()
+endif()
