@@ -185,8 +185,10 @@ static void on_progress(void *user, const char *stage, float fraction)
     snprintf(p->last_stage, sizeof p->last_stage, "%s", stage);
 }
 
-static int exit_code_for(vsd_status st)
+/* Reading failures (a missing VDB or map) are bad input; writing failures are failed renders. */
+static int exit_code_for(vsd_status st, int writing)
 {
+    if (st == VSD_ERR_IO && !writing) return VSD_EXIT_INPUT;
     switch (st) {
     case VSD_OK: return VSD_EXIT_OK;
     case VSD_ERR_CANCELLED: return VSD_EXIT_CANCELLED;
@@ -204,7 +206,7 @@ static int render_frames(const vsd_scene *scene, const render_args *a)
     vsd_framebuffer *fb = NULL;
     char err[2048];
     vsd_status st;
-    int frame;
+    int frame, rc = VSD_EXIT_OK;
     prog.tty = isatty(STDERR_FILENO);
     prog.quiet = a->quiet;
     ro.progress = on_progress;
@@ -213,9 +215,10 @@ static int render_frames(const vsd_scene *scene, const render_args *a)
     st = vsd_renderer_create(scene, &ro, &r, err, sizeof err);
     if (st) {
         fprintf(stderr, "vsd render: %s\n", err);
-        return exit_code_for(st);
+        return exit_code_for(st, 0);
     }
     for (frame = scene->frames.start; frame <= scene->frames.end && !st; frame++) {
+        int writing = 0;
         vsd_render_stats stats;
         char path[VSD_PATH_LEN], note[512];
         prog.frame = frame;
@@ -223,9 +226,13 @@ static int render_frames(const vsd_scene *scene, const render_args *a)
         prog.last_stage[0] = '\0';
         st = vsd_renderer_render(r, frame, &fb, &stats, err, sizeof err);
         if (prog.tty && !a->quiet) fputc('\n', stderr);
-        if (!st) st = vsd_write_frame_outputs(scene, frame, fb, &stats, path, sizeof path, note, sizeof note, err, sizeof err);
+        if (!st) {
+            writing = 1;
+            st = vsd_write_frame_outputs(scene, frame, fb, &stats, path, sizeof path, note, sizeof note, err, sizeof err);
+        }
         if (st) {
             fprintf(stderr, "vsd render: frame %d: %s\n", frame, err);
+            rc = exit_code_for(st, writing);
             break;
         }
         if (!a->quiet) {
@@ -238,7 +245,7 @@ static int render_frames(const vsd_scene *scene, const render_args *a)
     }
     vsd_framebuffer_destroy(fb);
     vsd_renderer_destroy(r);
-    return exit_code_for(st);
+    return rc;
 }
 
 int vsd_cmd_render(int argc, char **argv)
@@ -252,7 +259,7 @@ int vsd_cmd_render(int argc, char **argv)
     st = vsd_scene_load(a.scene_path, a.overrides, a.override_count, &scene, err, sizeof err);
     if (st) {
         fprintf(stderr, "vsd render: %s\n", err);
-        return st == VSD_ERR_IO ? VSD_EXIT_INPUT : exit_code_for(st);
+        return exit_code_for(st, 0);
     }
     signal(SIGINT, on_sigint);
     return render_frames(&scene, &a);
