@@ -23,6 +23,7 @@ packages=(
   libpng-dev
   libcjson-dev
   libxxhash-dev
+  libchealpix-dev
   openimageio-tools
   xvfb xauth
 )
