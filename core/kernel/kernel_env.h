@@ -26,7 +26,7 @@ VSD_DEVICE int32_t vsd_env_texel(const vsd_kenv *e, vsd_f3 d, float *sin_theta)
     if (col >= e->width) col = e->width - 1;
     if (row >= e->height) row = e->height - 1;
     if (row < 0) row = 0;
-    if (sin_theta) *sin_theta = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+    if (sin_theta) *sin_theta = sqrtf(vsd_maxf(0.0f, 1.0f - z * z));
     return row * e->width + col;
 }
 

@@ -36,7 +36,7 @@ VSD_DEVICE vsd_f3 vsd_hg_sample(vsd_f3 dir, float g, float u1, float u2, float *
         cos_t = (1.0f + g * g - s * s) / (2.0f * g);
     }
     cos_t = vsd_clampf(cos_t, -1.0f, 1.0f);
-    sin_t = sqrtf(fmaxf(0.0f, 1.0f - cos_t * cos_t));
+    sin_t = sqrtf(vsd_maxf(0.0f, 1.0f - cos_t * cos_t));
     phi = 2.0f * VSD_PI * u2;
     vsd_basis(dir, &t, &b);
     *pdf = vsd_hg_eval(cos_t, g);

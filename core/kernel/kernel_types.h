@@ -30,6 +30,11 @@
 
 typedef struct vsd_f3 { float x, y, z; } vsd_f3;
 
+/* min/max without libm's NaN rules, so they compile to single instructions (fminf and
+ * fmaxf are library calls at -O2 without -ffinite-math-only) */
+VSD_DEVICE float vsd_minf(float a, float b) { return a < b ? a : b; }
+VSD_DEVICE float vsd_maxf(float a, float b) { return a > b ? a : b; }
+
 VSD_DEVICE vsd_f3 f3(float x, float y, float z) { vsd_f3 r; r.x = x; r.y = y; r.z = z; return r; }
 VSD_DEVICE vsd_f3 f3s(float s) { return f3(s, s, s); }
 VSD_DEVICE vsd_f3 f3_add(vsd_f3 a, vsd_f3 b) { return f3(a.x + b.x, a.y + b.y, a.z + b.z); }
@@ -47,10 +52,10 @@ VSD_DEVICE vsd_f3 f3_normalize(vsd_f3 a)
     float l = sqrtf(f3_dot(a, a));
     return l > 0.0f ? f3_scale(a, 1.0f / l) : a;
 }
-VSD_DEVICE float f3_max_comp(vsd_f3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
+VSD_DEVICE float f3_max_comp(vsd_f3 a) { return vsd_maxf(a.x, vsd_maxf(a.y, a.z)); }
 VSD_DEVICE float f3_mean(vsd_f3 a) { return (a.x + a.y + a.z) * (1.0f / 3.0f); }
 VSD_DEVICE float vsd_luminance(vsd_f3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
-VSD_DEVICE float vsd_clampf(float v, float lo, float hi) { return fminf(fmaxf(v, lo), hi); }
+VSD_DEVICE float vsd_clampf(float v, float lo, float hi) { return vsd_minf(vsd_maxf(v, lo), hi); }
 
 /* 3x4 affine matrix, row-major: p' = M[0..2] . (p,1) etc. */
 typedef struct vsd_affine { float m[12]; } vsd_affine;

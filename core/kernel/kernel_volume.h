@@ -91,8 +91,8 @@ VSD_DEVICE int vsd_dda_init(vsd_dda *w, const vsd_kvolume *v, vsd_f3 o, vsd_f3 d
             float inv = 1.0f / dv[a];
             float ta = (lo - ov[a]) * inv, tb = (hi - ov[a]) * inv;
             if (ta > tb) { float s = ta; ta = tb; tb = s; }
-            t0 = fmaxf(t0, ta);
-            t1 = fminf(t1, tb);
+            t0 = vsd_maxf(t0, ta);
+            t1 = vsd_minf(t1, tb);
         }
     }
     if (!(t0 < t1)) return 0;
@@ -132,7 +132,7 @@ VSD_DEVICE int vsd_dda_next(vsd_dda *w, const vsd_kvolume *v, float *s0, float *
         return 0;
     a = (w->t_next[0] < w->t_next[1]) ? (w->t_next[0] < w->t_next[2] ? 0 : 2)
                                       : (w->t_next[1] < w->t_next[2] ? 1 : 2);
-    tn = fminf(w->t_next[a], w->t_end);
+    tn = vsd_minf(w->t_next[a], w->t_end);
     *s0 = w->t;
     *s1 = tn;
     *cell = (w->cell[2] * v->dims[1] + w->cell[1]) * v->dims[0] + w->cell[0];

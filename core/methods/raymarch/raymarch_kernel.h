@@ -46,7 +46,7 @@ VSD_DEVICE int vsd_march_extent(const vsd_kernel_data *kd, vsd_f3 o, vsd_f3 d, f
     int hit = vsd_kvolume_clip(&kd->density, o, d, t0, t1);
     if (kd->medium.has_emission && vsd_kvolume_clip(&kd->emission, o, d, &a0, &a1)) {
         if (!hit) { *t0 = a0; *t1 = a1; }
-        else { *t0 = fminf(*t0, a0); *t1 = fmaxf(*t1, a1); }
+        else { *t0 = vsd_minf(*t0, a0); *t1 = vsd_maxf(*t1, a1); }
         hit = 1;
     }
     return hit;
@@ -63,7 +63,7 @@ VSD_DEVICE vsd_sample_result vsd_raymarch_pixel(const vsd_kernel_data *kd, int32
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
     if (vsd_march_extent(kd, o, d, &t0, &t1)) {
         for (t = t0; t < t1; t += h) {
-            float hs = fminf(h, t1 - t), tm = t + 0.5f * hs;
+            float hs = vsd_minf(h, t1 - t), tm = t + 0.5f * hs;
             vsd_f3 p = f3_madd(o, d, tm);
             float sigma = vsd_kvolume_at(&kd->density, p);
             float absorbed = 1.0f - expf(-sigma * hs); /* collision probability in the step */

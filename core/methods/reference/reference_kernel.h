@@ -92,7 +92,7 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample(const vsd_kernel_data *kd, int
         /* phase sampling: weight f/pdf = 1 for exact HG sampling */
         d = vsd_hg_sample(d, g, vsd_rng_float(&rng), vsd_rng_float(&rng), &last_phase_pdf);
         if (bounce >= 3) { /* Russian roulette on the path throughput */
-            float q = fminf(f3_max_comp(throughput), 0.95f);
+            float q = vsd_minf(f3_max_comp(throughput), 0.95f);
             if (vsd_rng_float(&rng) >= q) break;
             throughput = f3_scale(throughput, 1.0f / q);
         }
