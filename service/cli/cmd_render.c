@@ -3,6 +3,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include "commands.h"
 #include "vsd/render.h"
+#include "render_remote.h"
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,6 +19,9 @@ typedef struct render_args {
     int override_count;
     int quiet;
     int threads;
+    int remote;                  /* --remote[=SOCKET|HOST:PORT] */
+    const char *remote_address;  /* "" = default socket */
+    const char *token_file;
 } render_args;
 
 typedef struct progress_state {
@@ -53,6 +57,9 @@ static void render_usage(FILE *f)
             "  --output PATH        output.exr (#### = frame number), relative to the current folder\n"
             "  --preview PATH       also write a display PNG (#### = frame number)\n"
             "  --set KEY=VALUE      any scene field, e.g. --set medium.density=20\n"
+            "  --remote[=ADDR]      render through a running `vsd serve` (default socket, a socket path,\n"
+            "                       or HOST:PORT); uploads only the VDB frames and map it lacks\n"
+            "  --token-file FILE    token for --remote=HOST:PORT (else $VSD_TOKEN)\n"
             "  --quiet              print nothing but errors\n");
 }
 
@@ -128,6 +135,11 @@ static int parse_args(int argc, char **argv, render_args *a)
             return VSD_EXIT_OK;
         }
         if (strcmp(arg, "--quiet") == 0 || strcmp(arg, "-q") == 0) { a->quiet = 1; continue; }
+        if (strcmp(arg, "--remote") == 0 || strncmp(arg, "--remote=", 9) == 0) {
+            a->remote = 1;
+            a->remote_address = arg[8] == '=' ? arg + 9 : "";
+            continue;
+        }
         if (arg[0] != '-') {
             if (a->scene_path) {
                 fprintf(stderr, "vsd render: more than one scene file ('%s', '%s')\n", a->scene_path, arg);
@@ -151,6 +163,7 @@ static int parse_args(int argc, char **argv, render_args *a)
             else if (strcmp(arg, "--frames") == 0) ok = parse_frames(a, val);
             else if (strcmp(arg, "--output") == 0 || strcmp(arg, "-o") == 0) ok = add_path_override(a, "output.exr", val);
             else if (strcmp(arg, "--preview") == 0) ok = add_path_override(a, "output.preview_png", val);
+            else if (strcmp(arg, "--token-file") == 0) ok = (a->token_file = val) != NULL;
             else {
                 fprintf(stderr, "vsd render: unknown option '%s' (see vsd render --help)\n", arg);
                 return VSD_EXIT_USAGE;
@@ -196,6 +209,32 @@ static int exit_code_for(vsd_status st, int writing)
     case VSD_ERR_UNSUPPORTED: return VSD_EXIT_INPUT;
     default: return VSD_EXIT_RENDER_FAILED;
     }
+}
+
+static void begin_frame(void *user, int frame)
+{
+    progress_state *p = user;
+    p->frame = frame;
+    p->last_percent = -1;
+    p->last_stage[0] = '\0';
+}
+
+/* The same frames through a daemon (render_remote.c); files written where render_frames
+ * writes them. */
+static int render_frames_remote(const vsd_scene *scene, const render_args *a)
+{
+    progress_state prog = {0};
+    vsd_remote_options ro = {0};
+    prog.tty = isatty(STDERR_FILENO);
+    prog.quiet = a->quiet;
+    ro.address = a->remote_address;
+    ro.token_file = a->token_file;
+    ro.quiet = a->quiet;
+    ro.progress = on_progress;
+    ro.user = &prog;
+    ro.begin_frame = begin_frame;
+    ro.cancel = &g_cancel;
+    return vsd_render_remote(a->scene_path, scene, a->overrides, a->override_count, &ro);
 }
 
 static int render_frames(const vsd_scene *scene, const render_args *a)
@@ -262,5 +301,6 @@ int vsd_cmd_render(int argc, char **argv)
         return exit_code_for(st, 0);
     }
     signal(SIGINT, on_sigint);
+    if (a.remote) return render_frames_remote(&scene, &a);
     return render_frames(&scene, &a);
 }

@@ -1,5 +1,6 @@
 /* vsd — one executable, git-style subcommands. */
 #include "commands.h"
+#include "serve.h"
 #include "vsd/render.h"
 #include <stdio.h>
 #include <string.h>
@@ -13,6 +14,7 @@ static void usage(FILE *f)
             "  render SCENE.json   render frames of a scene file to multilayer EXR (and a PNG preview)\n"
             "  info FILE.vdb       list the grids of OpenVDB files\n"
             "  compare A.exr B.exr relative RMSE of every pass of A against B (block-averaged)\n"
+            "  serve               run the render daemon (Unix socket; see docs/protocol.md)\n"
             "  version             print the version\n"
             "\n"
             "`vsd <command> --help` describes a command. Exit codes: 0 ok, 1 render or write failed,\n"
@@ -28,6 +30,7 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "render") == 0) return vsd_cmd_render(argc - 1, argv + 1);
     if (strcmp(argv[1], "info") == 0) return vsd_cmd_info(argc - 1, argv + 1);
     if (strcmp(argv[1], "compare") == 0) return vsd_cmd_compare(argc - 1, argv + 1);
+    if (strcmp(argv[1], "serve") == 0) return vsd_cmd_serve(argc - 1, argv + 1);
     if (strcmp(argv[1], "version") == 0 || strcmp(argv[1], "--version") == 0) {
         printf("vsd %s\n", vsd_version());
         return VSD_EXIT_OK;

@@ -1,0 +1,457 @@
+/* One reader thread per connection: reads frames within the limits, answers HELLO, HAS,
+ * PUT, CANCEL, STATS and BYE itself and queues RENDER as a job. Anything malformed costs
+ * the sender an ERROR, and the connection when the byte stream can no longer be trusted. */
+#define _GNU_SOURCE
+#include "daemon.h"
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#define FRAME_TIMEOUT_MS 30000   /* the rest of a frame must follow its header within this */
+#define MAX_HAS 100000
+
+int vsdd_send2(vsdd_conn *c, unsigned type, cJSON *json, const void *a, size_t alen, const void *b, size_t blen)
+{
+    char *text = json ? cJSON_PrintUnformatted(json) : NULL;
+    int rc = -1;
+    if (json) cJSON_Delete(json);
+    if (!text) return -1;
+    pthread_mutex_lock(&c->wlock);
+    if (!c->dead) {
+        vsd_frame_header h;
+        unsigned char hdr[VSD_PROTO_HEADER_SIZE];
+        h.version = VSD_PROTO_VERSION;
+        h.type = (uint16_t)type;
+        h.json_len = (uint32_t)strlen(text);
+        h.bin_len = (uint64_t)alen + blen;
+        vsd_proto_pack_header(&h, hdr);
+        rc = vsd_proto_write_full(c->fd, hdr, sizeof hdr) || vsd_proto_write_full(c->fd, text, h.json_len) ||
+                     (alen && vsd_proto_write_full(c->fd, a, alen)) || (blen && vsd_proto_write_full(c->fd, b, blen))
+                 ? -1
+                 : 0;
+        if (rc) {
+            c->dead = 1;
+            shutdown(c->fd, SHUT_RDWR);
+            vsdd_log(VSDD_LOG_INFO, "conn %u: write failed (%s), dropping the connection", c->id, strerror(errno));
+        }
+    }
+    pthread_mutex_unlock(&c->wlock);
+    free(text);
+    return rc;
+}
+
+int vsdd_send(vsdd_conn *c, unsigned type, cJSON *json, const void *bin, size_t bin_len)
+{
+    return vsdd_send2(c, type, json, bin, bin_len, NULL, 0);
+}
+
+int vsdd_send_error_id(vsdd_conn *c, double id, int has_id, const char *code, const char *message, cJSON *extra)
+{
+    cJSON *o = extra ? extra : cJSON_CreateObject();
+    if (has_id) cJSON_AddNumberToObject(o, "id", id);
+    else cJSON_AddNullToObject(o, "id");
+    cJSON_AddStringToObject(o, "code", code);
+    cJSON_AddStringToObject(o, "message", message);
+    vsdd_log(VSDD_LOG_INFO, "conn %u: error %s: %s", c->id, code, message);
+    return vsdd_send(c, VSD_MSG_ERROR, o, NULL, 0);
+}
+
+int vsdd_send_error(vsdd_conn *c, const cJSON *id, const char *code, const char *message, cJSON *extra)
+{
+    int has = id && cJSON_IsNumber(id);
+    return vsdd_send_error_id(c, has ? id->valuedouble : 0, has, code, message, extra);
+}
+
+void vsdd_conn_release_locked(vsdd_conn *c)
+{
+    vsdd_conn **p;
+    if (--c->refs > 0) return;
+    for (p = &g_daemon.conns; *p; p = &(*p)->next)
+        if (*p == c) {
+            *p = c->next;
+            break;
+        }
+    g_daemon.conn_count--;
+    close(c->fd);
+    pthread_mutex_destroy(&c->wlock);
+    free(c);
+    pthread_cond_broadcast(&g_daemon.idle_cond);
+}
+
+void vsdd_conn_release(vsdd_conn *c)
+{
+    pthread_mutex_lock(&g_daemon.lock);
+    vsdd_conn_release_locked(c);
+    pthread_mutex_unlock(&g_daemon.lock);
+}
+
+static int constant_time_equal(const char *a, const char *b)
+{
+    size_t la = strlen(a), lb = strlen(b), i;
+    unsigned char d = la != lb;
+    for (i = 0; i < la && i < lb; i++) d |= (unsigned char)(a[i] ^ b[i]);
+    return d == 0;
+}
+
+static cJSON *limits_json(void)
+{
+    const vsdd_config *cfg = &g_daemon.cfg;
+    cJSON *l = cJSON_CreateObject();
+    cJSON_AddNumberToObject(l, "max_message_bytes", (double)cfg->max_message);
+    cJSON_AddNumberToObject(l, "max_json_bytes", (double)cfg->max_json);
+    cJSON_AddNumberToObject(l, "max_width", cfg->max_dim);
+    cJSON_AddNumberToObject(l, "max_height", cfg->max_dim);
+    cJSON_AddNumberToObject(l, "max_pixels", (double)cfg->max_pixels);
+    cJSON_AddNumberToObject(l, "max_voxels", (double)cfg->max_voxels);
+    cJSON_AddNumberToObject(l, "max_job_seconds", cfg->max_job_seconds);
+    cJSON_AddNumberToObject(l, "queue_length", cfg->queue_max);
+    cJSON_AddNumberToObject(l, "workers", cfg->workers);
+    cJSON_AddNumberToObject(l, "max_connections", cfg->max_connections);
+    cJSON_AddNumberToObject(l, "cache_bytes", (double)cfg->cache_bytes);
+    cJSON_AddNumberToObject(l, "max_has_hashes", MAX_HAS);
+    return l;
+}
+
+/* Returns 0 to keep the connection, -1 to close it. */
+static int on_hello(vsdd_conn *c, const cJSON *msg, const cJSON *id)
+{
+    const cJSON *versions = cJSON_GetObjectItemCaseSensitive(msg, "versions");
+    const cJSON *token = cJSON_GetObjectItemCaseSensitive(msg, "token");
+    const cJSON *client = cJSON_GetObjectItemCaseSensitive(msg, "client");
+    const char *const *m;
+    cJSON *o, *arr;
+    int ok = 0;
+    if (versions && !cJSON_IsArray(versions)) {
+        vsdd_send_error(c, id, VSD_E_BAD_REQUEST, "HELLO.versions: expected an array of integers", NULL);
+        return 0;
+    }
+    if (!versions) ok = 1;
+    else {
+        const cJSON *v;
+        cJSON_ArrayForEach(v, versions) if (cJSON_IsNumber(v) && v->valuedouble == VSD_PROTO_VERSION) ok = 1;
+    }
+    if (!ok) {
+        cJSON *x = cJSON_CreateObject();
+        cJSON_AddItemToObject(x, "versions", cJSON_CreateIntArray((int[]){VSD_PROTO_VERSION}, 1));
+        vsdd_send_error(c, id, VSD_E_VERSION, "this daemon speaks protocol version 1 only", x);
+        return 0;
+    }
+    if (token && !cJSON_IsString(token)) {
+        vsdd_send_error(c, id, VSD_E_BAD_REQUEST, "HELLO.token: expected string", NULL);
+        return 0;
+    }
+    if (c->is_tcp && (!token || !g_daemon.cfg.token[0] || !constant_time_equal(token->valuestring, g_daemon.cfg.token))) {
+        vsdd_send_error(c, id, VSD_E_AUTH, token ? "wrong token" : "TCP connections need a token in HELLO", NULL);
+        vsdd_log(VSDD_LOG_WARN, "conn %u (%s): refused: %s token", c->id, c->peer, token ? "wrong" : "no");
+        return -1;
+    }
+    c->hello_done = 1;
+    vsdd_log(VSDD_LOG_INFO, "conn %u: hello from %s", c->id,
+             cJSON_IsString(client) ? client->valuestring : "(unnamed client)");
+    o = cJSON_CreateObject();
+    if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
+    cJSON_AddNumberToObject(o, "version", VSD_PROTO_VERSION);
+    cJSON_AddStringToObject(o, "server", "vsd");
+    cJSON_AddStringToObject(o, "server_version", vsd_version());
+    arr = cJSON_AddArrayToObject(o, "methods");
+    for (m = vsd_method_names(); *m; m++) cJSON_AddItemToArray(arr, cJSON_CreateString(*m));
+    arr = cJSON_AddArrayToObject(o, "devices");
+    cJSON_AddItemToArray(arr, cJSON_CreateString("cpu"));
+    arr = cJSON_AddArrayToObject(o, "hashes");
+    cJSON_AddItemToArray(arr, cJSON_CreateString("xxh3-128"));
+    cJSON_AddItemToArray(arr, cJSON_CreateString("sha256"));
+    arr = cJSON_AddArrayToObject(o, "capabilities");
+    cJSON_AddItemToArray(arr, cJSON_CreateString("preview_png"));
+    cJSON_AddItemToArray(arr, cJSON_CreateString("cancel"));
+    if (g_daemon.cfg.allow_count) cJSON_AddItemToArray(arr, cJSON_CreateString("server_paths"));
+    cJSON_AddItemToObject(o, "limits", limits_json());
+    return vsdd_send(c, VSD_MSG_HELLO, o, NULL, 0) ? -1 : 0;
+}
+
+static void on_has(vsdd_conn *c, const cJSON *msg, const cJSON *id)
+{
+    const cJSON *hashes = cJSON_GetObjectItemCaseSensitive(msg, "hashes"), *h;
+    cJSON *o, *missing;
+    if (!cJSON_IsArray(hashes) || cJSON_GetArraySize(hashes) > MAX_HAS) {
+        vsdd_send_error(c, id, VSD_E_BAD_REQUEST, "HAS.hashes: expected an array of at most 100000 hash strings", NULL);
+        return;
+    }
+    cJSON_ArrayForEach(h, hashes) if (!cJSON_IsString(h) || vsd_hash_kind_of(h->valuestring) == VSD_HASH_NONE)
+    {
+        vsdd_send_error(c, id, VSD_E_BAD_HASH,
+                        "HAS.hashes: each must be 32 (xxh3-128) or 64 (sha256) lowercase hex digits", NULL);
+        return;
+    }
+    o = cJSON_CreateObject();
+    if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
+    missing = cJSON_AddArrayToObject(o, "missing");
+    cJSON_ArrayForEach(h, hashes) if (!vsdd_cache_has_blob(h->valuestring))
+        cJSON_AddItemToArray(missing, cJSON_CreateString(h->valuestring));
+    vsdd_send(c, VSD_MSG_HAS, o, NULL, 0);
+}
+
+static int on_put(vsdd_conn *c, const cJSON *msg, const cJSON *id, uint64_t bin_len)
+{
+    const cJSON *hash = cJSON_GetObjectItemCaseSensitive(msg, "hash");
+    const char *code = VSD_E_INTERNAL;
+    char text[512];
+    int fatal = 0;
+    cJSON *o;
+    if (!cJSON_IsString(hash) || vsd_hash_kind_of(hash->valuestring) == VSD_HASH_NONE) {
+        vsdd_send_error(c, id, cJSON_IsString(hash) ? VSD_E_BAD_HASH : VSD_E_BAD_REQUEST,
+                        "PUT.hash: expected 32 (xxh3-128) or 64 (sha256) lowercase hex digits", NULL);
+        return vsd_proto_skip(c->fd, bin_len, FRAME_TIMEOUT_MS) ? -1 : 0;
+    }
+    if (vsdd_cache_put_blob(c->fd, hash->valuestring, bin_len, &code, text, sizeof text, &fatal)) {
+        vsdd_send_error(c, id, code, text, NULL);
+        return fatal ? -1 : 0;
+    }
+    pthread_mutex_lock(&g_daemon.lock);
+    g_daemon.blobs_received++;
+    g_daemon.bytes_received += bin_len;
+    pthread_mutex_unlock(&g_daemon.lock);
+    vsdd_log(VSDD_LOG_DEBUG, "conn %u: blob %s stored (%llu bytes)", c->id, hash->valuestring,
+             (unsigned long long)bin_len);
+    o = cJSON_CreateObject();
+    if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
+    cJSON_AddStringToObject(o, "hash", hash->valuestring);
+    cJSON_AddNumberToObject(o, "bytes", (double)bin_len);
+    return vsdd_send(c, VSD_MSG_PUT, o, NULL, 0);
+}
+
+static void on_render(vsdd_conn *c, cJSON *msg, const cJSON *id)
+{
+    const cJSON *scene = cJSON_GetObjectItemCaseSensitive(msg, "scene");
+    int position = 0, rc;
+    double idv;
+    char text[256];
+    if (!cJSON_IsNumber(id)) {
+        vsdd_send_error(c, id, VSD_E_BAD_REQUEST, "RENDER.id: required (a number the client chooses)", NULL);
+        cJSON_Delete(msg);
+        return;
+    }
+    if (!cJSON_IsObject(scene) && !cJSON_IsString(scene)) {
+        vsdd_send_error(c, id, VSD_E_BAD_REQUEST, "RENDER.scene: expected a scene object (or its JSON text)", NULL);
+        cJSON_Delete(msg);
+        return;
+    }
+    idv = id->valuedouble; /* `id` lives in msg, which the submit consumes */
+    rc = vsdd_job_submit(c, idv, msg, &position);
+    if (rc == -1) {
+        snprintf(text, sizeof text, "the job queue is full (%d waiting); retry later", g_daemon.cfg.queue_max);
+        vsdd_send_error_id(c, idv, 1, VSD_E_BUSY, text, NULL);
+    } else if (rc == -2) {
+        vsdd_send_error_id(c, idv, 1, VSD_E_SHUTDOWN, "the daemon is shutting down", NULL);
+    } else if (rc == -3) {
+        vsdd_send_error_id(c, idv, 1, VSD_E_BAD_REQUEST,
+                           "RENDER.id: a job with this id is already queued or running on this connection", NULL);
+    }
+}
+
+static void on_cancel(vsdd_conn *c, const cJSON *msg, const cJSON *id)
+{
+    const cJSON *job = cJSON_GetObjectItemCaseSensitive(msg, "job");
+    cJSON *o;
+    int found;
+    if (!cJSON_IsNumber(job)) {
+        vsdd_send_error(c, id, VSD_E_BAD_REQUEST, "CANCEL.job: expected the id of a RENDER", NULL);
+        return;
+    }
+    found = vsdd_job_cancel(c, job->valuedouble);
+    o = cJSON_CreateObject();
+    if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
+    cJSON_AddNumberToObject(o, "job", job->valuedouble);
+    cJSON_AddBoolToObject(o, "found", found);
+    vsdd_send(c, VSD_MSG_CANCEL, o, NULL, 0);
+}
+
+static void on_stats(vsdd_conn *c, const cJSON *id)
+{
+    cJSON *o = cJSON_CreateObject(), *q, *j;
+    int queued, running;
+    if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
+    cJSON_AddStringToObject(o, "server_version", vsd_version());
+    cJSON_AddNumberToObject(o, "version", VSD_PROTO_VERSION);
+    cJSON_AddNumberToObject(o, "uptime_seconds", vsdd_now() - g_daemon.start_time);
+    vsdd_jobs_counts(&queued, &running);
+    q = cJSON_AddObjectToObject(o, "queue");
+    cJSON_AddNumberToObject(q, "queued", queued);
+    cJSON_AddNumberToObject(q, "running", running);
+    cJSON_AddNumberToObject(q, "max", g_daemon.cfg.queue_max);
+    cJSON_AddNumberToObject(q, "workers", g_daemon.cfg.workers);
+    j = cJSON_AddObjectToObject(o, "jobs");
+    pthread_mutex_lock(&g_daemon.lock);
+    cJSON_AddNumberToObject(j, "done", (double)g_daemon.jobs_done);
+    cJSON_AddNumberToObject(j, "failed", (double)g_daemon.jobs_failed);
+    cJSON_AddNumberToObject(j, "cancelled", (double)g_daemon.jobs_cancelled);
+    cJSON_AddNumberToObject(j, "busy", (double)g_daemon.jobs_busy);
+    cJSON_AddNumberToObject(o, "connections", g_daemon.conn_count);
+    cJSON_AddNumberToObject(o, "blobs_received", (double)g_daemon.blobs_received);
+    cJSON_AddNumberToObject(o, "blob_bytes_received", (double)g_daemon.bytes_received);
+    pthread_mutex_unlock(&g_daemon.lock);
+    cJSON_AddItemToObject(o, "cache", vsdd_cache_stats());
+    vsdd_send(c, VSD_MSG_STATS, o, NULL, 0);
+}
+
+/* One frame. Returns 0 to go on, -1 to close. */
+static int handle_frame(vsdd_conn *c)
+{
+    unsigned char hdr[VSD_PROTO_HEADER_SIZE];
+    vsd_frame_header h;
+    char *text = NULL, msgbuf[256];
+    cJSON *msg = NULL;
+    const cJSON *id;
+    int r = vsd_proto_read_full(c->fd, hdr, 1, -1);
+    if (r) return -1; /* EOF or error: the peer is gone */
+    r = vsd_proto_read_full(c->fd, hdr + 1, sizeof hdr - 1, FRAME_TIMEOUT_MS);
+    if (r) {
+        vsdd_send_error(c, NULL, VSD_E_BAD_FRAME, "truncated frame header", NULL);
+        return -1;
+    }
+    if (vsd_proto_unpack_header(hdr, &h)) {
+        vsdd_send_error(c, NULL, VSD_E_BAD_FRAME, "bad magic (expected \"VSDP\"): not a vsd protocol frame", NULL);
+        return -1;
+    }
+    if (h.version != VSD_PROTO_VERSION) {
+        cJSON *x = cJSON_CreateObject();
+        cJSON_AddItemToObject(x, "versions", cJSON_CreateIntArray((int[]){VSD_PROTO_VERSION}, 1));
+        snprintf(msgbuf, sizeof msgbuf, "frame version %u: this daemon speaks protocol version 1", h.version);
+        vsdd_send_error(c, NULL, VSD_E_VERSION, msgbuf, x);
+        return -1;
+    }
+    if (h.json_len > g_daemon.cfg.max_json || h.bin_len > g_daemon.cfg.max_message) {
+        snprintf(msgbuf, sizeof msgbuf, "frame too large (JSON %u bytes, binary %llu bytes; limits %u and %llu)",
+                 h.json_len, (unsigned long long)h.bin_len, g_daemon.cfg.max_json,
+                 (unsigned long long)g_daemon.cfg.max_message);
+        vsdd_send_error(c, NULL, VSD_E_TOO_LARGE, msgbuf, NULL);
+        return -1;
+    }
+    if (h.bin_len && h.type != VSD_MSG_PUT) {
+        vsdd_send_error(c, NULL, VSD_E_BAD_REQUEST, "only PUT carries a binary part", NULL);
+        return -1;
+    }
+    text = malloc((size_t)h.json_len + 1);
+    if (!text) {
+        vsdd_send_error(c, NULL, VSD_E_INTERNAL, "out of memory", NULL);
+        return -1;
+    }
+    if (h.json_len && vsd_proto_read_full(c->fd, text, h.json_len, FRAME_TIMEOUT_MS)) {
+        free(text);
+        vsdd_send_error(c, NULL, VSD_E_BAD_FRAME, "truncated frame (JSON part)", NULL);
+        return -1;
+    }
+    text[h.json_len] = '\0';
+    msg = cJSON_ParseWithLength(text, h.json_len);
+    free(text);
+    if (!msg || !cJSON_IsObject(msg)) {
+        cJSON_Delete(msg);
+        vsdd_send_error(c, NULL, VSD_E_BAD_JSON, "the JSON part is not a JSON object", NULL);
+        return vsd_proto_skip(c->fd, h.bin_len, FRAME_TIMEOUT_MS) ? -1 : 0;
+    }
+    id = cJSON_GetObjectItemCaseSensitive(msg, "id");
+    if (id && !cJSON_IsNumber(id) && !cJSON_IsNull(id)) {
+        cJSON_Delete(msg);
+        vsdd_send_error(c, NULL, VSD_E_BAD_REQUEST, "id: expected a number", NULL);
+        return vsd_proto_skip(c->fd, h.bin_len, FRAME_TIMEOUT_MS) ? -1 : 0;
+    }
+    vsdd_log(VSDD_LOG_DEBUG, "conn %u: %s (%u + %llu bytes)", c->id, vsd_msg_name(h.type) ? vsd_msg_name(h.type) : "?",
+             h.json_len, (unsigned long long)h.bin_len);
+    if (!vsd_msg_name(h.type) || h.type == VSD_MSG_PROGRESS || h.type == VSD_MSG_RESULT || h.type == VSD_MSG_ERROR) {
+        snprintf(msgbuf, sizeof msgbuf, "message type %u is not a request this daemon takes", h.type);
+        vsdd_send_error(c, id, VSD_E_UNKNOWN_TYPE, msgbuf, NULL);
+        cJSON_Delete(msg);
+        return 0;
+    }
+    if (!c->hello_done && h.type != VSD_MSG_HELLO) {
+        vsdd_send_error(c, id, VSD_E_HELLO_REQUIRED, "send HELLO first", NULL);
+        cJSON_Delete(msg);
+        return c->is_tcp ? -1 : vsd_proto_skip(c->fd, h.bin_len, FRAME_TIMEOUT_MS) ? -1 : 0;
+    }
+    r = 0;
+    switch (h.type) {
+    case VSD_MSG_HELLO: r = on_hello(c, msg, id); break;
+    case VSD_MSG_HAS: on_has(c, msg, id); break;
+    case VSD_MSG_PUT: r = on_put(c, msg, id, h.bin_len); break;
+    case VSD_MSG_RENDER: on_render(c, msg, id); msg = NULL; break;
+    case VSD_MSG_CANCEL: on_cancel(c, msg, id); break;
+    case VSD_MSG_STATS: on_stats(c, id); break;
+    case VSD_MSG_BYE: {
+        cJSON *o = cJSON_CreateObject();
+        if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
+        vsdd_send(c, VSD_MSG_BYE, o, NULL, 0);
+        r = -1;
+        break;
+    }
+    }
+    cJSON_Delete(msg);
+    return r;
+}
+
+static void *reader_main(void *arg)
+{
+    vsdd_conn *c = arg;
+    while (!c->dead && handle_frame(c) == 0) {}
+    vsdd_log(VSDD_LOG_INFO, "conn %u: closed", c->id);
+    pthread_mutex_lock(&c->wlock);
+    c->dead = 1;
+    shutdown(c->fd, SHUT_RDWR);
+    pthread_mutex_unlock(&c->wlock);
+    vsdd_jobs_cancel_conn(c);
+    pthread_mutex_lock(&g_daemon.lock);
+    g_daemon.readers--;
+    vsdd_conn_release_locked(c);
+    pthread_cond_broadcast(&g_daemon.idle_cond);
+    pthread_mutex_unlock(&g_daemon.lock);
+    return NULL;
+}
+
+void vsdd_conn_start(int fd, int is_tcp, const char *peer)
+{
+    vsdd_conn *c = calloc(1, sizeof *c);
+    pthread_t t;
+    pthread_attr_t attr;
+    struct timeval tv = {30, 0};
+    if (!c) {
+        close(fd);
+        return;
+    }
+    /* a client that stops reading cannot block a worker for longer than this */
+    setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    c->fd = fd;
+    c->is_tcp = is_tcp;
+    c->refs = 1;
+    pthread_mutex_init(&c->wlock, NULL);
+    snprintf(c->peer, sizeof c->peer, "%s", peer);
+    pthread_mutex_lock(&g_daemon.lock);
+    c->id = ++g_daemon.next_conn_id;
+    if (g_daemon.stopping || g_daemon.conn_count >= g_daemon.cfg.max_connections) {
+        int stopping = g_daemon.stopping;
+        pthread_mutex_unlock(&g_daemon.lock);
+        vsdd_send_error(c, NULL, stopping ? VSD_E_SHUTDOWN : VSD_E_BUSY,
+                        stopping ? "the daemon is shutting down" : "too many connections; retry later", NULL);
+        close(fd);
+        pthread_mutex_destroy(&c->wlock);
+        free(c);
+        return;
+    }
+    c->next = g_daemon.conns;
+    g_daemon.conns = c;
+    g_daemon.conn_count++;
+    g_daemon.readers++;
+    pthread_mutex_unlock(&g_daemon.lock);
+    vsdd_log(VSDD_LOG_INFO, "conn %u: accepted (%s)", c->id, peer);
+    pthread_attr_init(&attr);
+    pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
+    if (pthread_create(&t, &attr, reader_main, c) != 0) {
+        vsdd_log(VSDD_LOG_ERROR, "conn %u: cannot start a thread", c->id);
+        pthread_mutex_lock(&g_daemon.lock);
+        g_daemon.readers--;
+        vsdd_conn_release_locked(c);
+        pthread_mutex_unlock(&g_daemon.lock);
+    }
+    pthread_attr_destroy(&attr);
+}

@@ -1,0 +1,30 @@
+# The daemon, protocol v1 and its clients (issue 5): unit tests of the framing and hashes,
+# and end-to-end tests against real `vsd serve` processes (C client, raw frames, CLI,
+# Python client).
+vsd_add_test(test_protocol SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_protocol.c LIBS vsd_proto LABELS unit io service
+             TIMEOUT 60)
+
+add_executable(test_daemon ${CMAKE_CURRENT_SOURCE_DIR}/test_daemon.c)
+target_link_libraries(test_daemon PRIVATE vsd_testlib vsd_client vsd_lib Threads::Threads)
+set_target_properties(test_daemon PROPERTIES LINKER_LANGUAGE CXX)
+target_compile_options(test_daemon PRIVATE -Wno-format-truncation)
+target_include_directories(test_daemon PRIVATE ${CMAKE_SOURCE_DIR}/core)
+add_test(NAME test_daemon COMMAND test_daemon $<TARGET_FILE:vsd> WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+set_tests_properties(test_daemon PROPERTIES LABELS "integration;service" TIMEOUT 300 SKIP_RETURN_CODE 77)
+
+find_package(Python3 COMPONENTS Interpreter)
+if(Python3_Interpreter_FOUND)
+  add_test(NAME test_python_client
+           COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/test_python_client.py $<TARGET_FILE:vsd>
+                   ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/python_client)
+  set_tests_properties(test_python_client PROPERTIES LABELS "integration;service" TIMEOUT 300 SKIP_RETURN_CODE 77)
+endif()
+
+# libFuzzer target for frame and message parsing (clang only): cmake -DVSD_FUZZ=ON with CC=clang
+option(VSD_FUZZ "Build the libFuzzer target fuzz_protocol (needs clang)" OFF)
+if(VSD_FUZZ)
+  add_executable(fuzz_protocol ${CMAKE_CURRENT_SOURCE_DIR}/fuzz_protocol.c)
+  target_compile_options(fuzz_protocol PRIVATE -fsanitize=fuzzer,address,undefined)
+  target_link_options(fuzz_protocol PRIVATE -fsanitize=fuzzer,address,undefined)
+  target_link_libraries(fuzz_protocol PRIVATE vsd_proto PkgConfig::CJSON)
+endif()
