@@ -24,6 +24,7 @@ packages=(
   libcjson-dev
   libxxhash-dev
   libchealpix-dev
+  nettle-dev
   openimageio-tools
   xvfb xauth
 )

@@ -1,14 +1,12 @@
-/* sha256.h — SHA-256 (FIPS 180-4), for blob names from clients that only have hashlib. */
+/* sha256.h — SHA-256 for blob names from clients that only have hashlib (Blender's Python),
+ * a thin wrapper over GNU Nettle so the rest of the service does not depend on its API. */
 #ifndef VSD_SHA256_H
 #define VSD_SHA256_H
 #include <stddef.h>
-#include <stdint.h>
+#include <nettle/sha2.h>
 
 typedef struct vsd_sha256 {
-    uint32_t h[8];
-    uint64_t len;
-    unsigned char buf[64];
-    size_t fill;
+    struct sha256_ctx ctx;
 } vsd_sha256;
 
 void vsd_sha256_init(vsd_sha256 *s);
