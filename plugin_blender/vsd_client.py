@@ -188,6 +188,31 @@ class Client(object):
             self.put(data, digest)
         return "blob:" + digest
 
+    def upload_files(self, paths, hashes=None, progress=None):
+        """Send several files with one HAS, PUTting only what the daemon lacks. `hashes`
+        (optional) maps path -> known SHA-256 hex (e.g. a caller's cache); progress(i, n)
+        is called before each PUT. Returns {path: "blob:<hash>"}."""
+        hashes = dict(hashes or {})
+        for p in paths:
+            if p not in hashes:
+                hashes[p] = hash_file(p)
+        wanted = list(dict.fromkeys(hashes[p] for p in paths))
+        missing = set(self.has(wanted)) if wanted else set()
+        todo = [p for p in dict.fromkeys(paths) if hashes[p] in missing]
+        sent = set()
+        for i, p in enumerate(todo):
+            if hashes[p] in sent:
+                continue
+            if progress:
+                progress(i, len(todo))
+            with open(p, "rb") as f:
+                data = f.read()
+            if hash_bytes(data) != hashes[p]:
+                raise VsdError("local", "%s changed while it was being sent" % p)
+            self.put(data, hashes[p])
+            sent.add(hashes[p])
+        return {p: "blob:" + hashes[p] for p in paths}
+
     def render(self, scene, frame=None, overrides=None, preview=False, progress=None, cancel=None):
         """Render one frame. `scene` is a dict (or JSON text) of a scene file v1 whose files
         are "blob:<hash>" names. progress(stage, fraction) is called as PROGRESS arrives;

@@ -1,0 +1,551 @@
+# Blender scene -> vsd scene file v1 (DESIGN.md §3, §4; docs/blender-addon.md has the table).
+#
+# build_scene() reads the evaluated depsgraph: the one volume object (its current frame's
+# .vdb and matrix_world), its material's Principled Volume, the world's Environment Texture
+# or uniform Background colour, the camera and the film. It returns the scene as a dict
+# whose volume/environment "file" fields are LOCAL paths (the engine swaps them for blob
+# names, the exporter for paths relative to the scene file), plus the warnings for
+# everything it could not map: those go to Blender's report area, never silently away.
+import math
+import os
+import re
+import tempfile
+
+import bpy
+
+from . import passes
+
+DEFAULT_FOV = 2.0 * math.atan(18.0 / 50.0)
+LINEAR_SPACES = {"linear", "linear rec.709", "non-color", "raw", "scene_linear", "linear rec.2020",
+                 "linear srgb", "linear bt.709"}
+
+
+class MappingError(Exception):
+    """The scene cannot be rendered by vsd at all (no camera, no volume object, ...)."""
+
+
+class Mapping(object):
+    """What build_scene() found: the scene dict, the files it references, and notes."""
+
+    def __init__(self):
+        self.scene = {}
+        self.volume_object = None
+        self.volume_path = ""         # the current frame's .vdb (absolute)
+        self.volume_pattern = ""      # the sequence as a #### pattern (absolute), for export
+        self.env_path = None          # environment map file (absolute) or None
+        self.warnings = []
+
+    def warn(self, msg):
+        if msg not in self.warnings:
+            self.warnings.append(msg)
+
+
+# ---- volume ------------------------------------------------------------------------------
+
+def volume_objects(depsgraph):
+    """Visible Volume objects of the depsgraph's view layer, evaluated, sorted by name."""
+    obs = []
+    for ob in depsgraph.objects:
+        if ob.type != "VOLUME":
+            continue
+        orig = ob.original
+        if depsgraph.mode == "RENDER" and orig.hide_render:
+            continue
+        obs.append(ob)
+    return sorted(obs, key=lambda o: o.name)
+
+
+def pick_volume(depsgraph, m, context_active=None):
+    obs = volume_objects(depsgraph)
+    if not obs:
+        raise MappingError("no visible Volume object to render (Add > Volume > Import OpenVDB)")
+    chosen = obs[0]
+    if context_active is not None:
+        for ob in obs:
+            if ob.original == context_active:
+                chosen = ob
+    if len(obs) > 1:
+        others = ", ".join("'%s'" % o.name for o in obs if o != chosen)
+        m.warn("vsd renders one volume: using '%s' (not rendered: %s)" % (chosen.name, others))
+    return chosen
+
+
+_DIGITS = re.compile(r"(\d+)(?!.*\d)")
+
+
+def _split_frame(path):
+    """(head, digits, tail) of the last run of digits in the file name, or None (Blender's
+    BLI_path_frame_get looks at the file name's last number too)."""
+    d, name = os.path.split(path)
+    stem, ext = os.path.splitext(name)
+    mm = _DIGITS.search(stem)
+    if not mm:
+        return None
+    return os.path.join(d, stem[:mm.start()]), mm.group(1), stem[mm.end():] + ext
+
+
+def sequence_frame(vol, scene_frame):
+    """Blender's BKE_volume_sequence_frame: the file frame number shown at scene_frame, or
+    None when the sequence shows nothing (Clip mode outside the range)."""
+    dur = vol.frame_duration
+    if dur == 0:
+        return None
+    f = scene_frame - vol.frame_start + 1
+    mode = vol.sequence_mode
+    if mode == "CLIP":
+        if f < 1 or f > dur:
+            return None
+    elif mode == "EXTEND":
+        f = min(max(f, 1), dur)
+    elif mode == "REPEAT":
+        f = f % dur
+        if f < 0:
+            f += dur
+        if f == 0:
+            f = dur
+    elif mode == "PING_PONG":
+        pp = dur * 2 - 2
+        if pp <= 0:
+            f = 1
+        else:
+            f = f % pp
+            if f < 0:
+                f += pp
+            if f == 0:
+                f = pp
+            if f > dur:
+                f = dur * 2 - f
+    return f + vol.frame_offset
+
+
+def volume_file(vol, scene_frame):
+    """Absolute path of the .vdb that Volume data `vol` (original) shows at scene_frame."""
+    path = bpy.path.abspath(vol.filepath, library=vol.library)
+    if not vol.is_sequence:
+        return os.path.normpath(path)
+    parts = _split_frame(path)
+    if parts is None:
+        return os.path.normpath(path)
+    f = sequence_frame(vol, scene_frame)
+    if f is None:
+        return None
+    head, digits, tail = parts
+    return os.path.normpath("%s%0*d%s" % (head, len(digits), f, tail))
+
+
+def volume_pattern(vol):
+    """The sequence as a vsd #### pattern (absolute), or the plain path."""
+    path = os.path.normpath(bpy.path.abspath(vol.filepath, library=vol.library))
+    if not vol.is_sequence:
+        return path
+    parts = _split_frame(path)
+    if parts is None:
+        return path
+    head, digits, tail = parts
+    return "%s%s%s" % (head, "#" * len(digits), tail)
+
+
+def _write_packed_volume(vol):
+    data = vol.packed_file.data
+    fd, path = tempfile.mkstemp(prefix="vsd_packed_", suffix=".vdb")
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+    return path
+
+
+def map_volume(ob, scene_frame, m):
+    vol_eval = ob.data
+    vol = vol_eval.original if hasattr(vol_eval, "original") else vol_eval
+    path = ""
+    if vol.packed_file is not None:
+        path = _write_packed_volume(vol)
+        m.warn("volume '%s' is packed in the .blend: sending a temporary copy" % vol.name)
+    else:
+        try:
+            path = vol_eval.grids.frame_filepath  # Blender's own choice for this frame
+        except Exception:
+            path = ""
+        if path:
+            path = os.path.normpath(bpy.path.abspath(path, library=vol.library))
+        else:
+            path = volume_file(vol, scene_frame)
+    if not path:
+        raise MappingError("volume '%s' shows no file at frame %d (sequence mode %s)"
+                           % (vol.name, scene_frame, vol.sequence_mode))
+    if not os.path.isfile(path):
+        raise MappingError("volume '%s': file not found: %s" % (vol.name, path))
+    if len(ob.original.modifiers):
+        m.warn("volume '%s': modifiers are ignored (vsd renders the .vdb file as stored)" % ob.name)
+    m.volume_path = path
+    m.volume_pattern = volume_pattern(vol) if vol.packed_file is None else path
+    mw = ob.matrix_world
+    return {"file": path, "matrix": [float(mw[r][c]) for r in range(4) for c in range(4)]}
+
+
+# ---- material ----------------------------------------------------------------------------
+
+def _follow(socket):
+    """The node and output socket feeding `socket`, skipping reroutes; (None, None) if none."""
+    while socket.is_linked:
+        link = socket.links[0]
+        if not link.is_valid or link.is_muted:
+            return None, None
+        node = link.from_node
+        if node.type == "REROUTE":
+            socket = node.inputs[0]
+            continue
+        return node, link.from_socket
+    return None, None
+
+
+def _color(v):
+    return [float(v[0]), float(v[1]), float(v[2])]
+
+
+def _clamp01(c, what, m):
+    out = [min(max(x, 0.0), 1.0) for x in c]
+    if out != c:
+        m.warn("%s %s clamped to 0..1" % (what, [round(x, 4) for x in c]))
+    return out
+
+
+def _output_node(nt):
+    for target in ("CYCLES", "ALL"):
+        try:
+            n = nt.get_output_node(target)
+        except Exception:
+            n = None
+        if n is not None:
+            return n
+    outs = [n for n in nt.nodes if n.type in ("OUTPUT_MATERIAL", "OUTPUT_WORLD")]
+    return outs[0] if outs else None
+
+
+def _emission_strength(sock, m):
+    """(strength, grid) for an Emission Strength socket: a constant, an Attribute node, or an
+    Attribute node times a constant (Math Multiply)."""
+    if not sock.is_linked:
+        return float(sock.default_value), ""
+    node, out = _follow(sock)
+    scale = 1.0
+    if node is not None and node.type == "MATH" and node.operation == "MULTIPLY":
+        a, b = node.inputs[0], node.inputs[1]
+        src = None
+        if a.is_linked and not b.is_linked:
+            src, scale = a, float(b.default_value)
+        elif b.is_linked and not a.is_linked:
+            src, scale = b, float(a.default_value)
+        if src is not None:
+            node, out = _follow(src)
+        else:
+            node = None
+        if node is not None and getattr(node, "use_clamp", False):
+            m.warn("Emission Strength: the Math node's Clamp is ignored")
+    if node is not None and node.type == "ATTRIBUTE" and out.name in ("Fac", "Color"):
+        if node.attribute_type not in ("GEOMETRY",):
+            m.warn("Emission Strength: Attribute node type %s treated as Geometry" % node.attribute_type)
+        return scale, node.attribute_name
+    m.warn("Emission Strength: only an Attribute node (optionally times a constant) can be "
+           "mapped; emission ignored")
+    return 0.0, ""
+
+
+def map_material(ob, grids, m):
+    """Principled Volume -> (medium dict, density grid name, emission grid name)."""
+    medium = {"density": 1.0, "albedo": [0.5, 0.5, 0.5], "anisotropy": 0.0,
+              "emission_color": [1.0, 1.0, 1.0], "emission_strength": 0.0}
+    mat = ob.active_material
+    if mat is None:
+        m.warn("volume '%s' has no material: using Principled Volume defaults" % ob.name)
+        return medium, "density", ""
+    if not mat.use_nodes or mat.node_tree is None:
+        m.warn("material '%s' does not use nodes: using Principled Volume defaults" % mat.name)
+        return medium, "density", ""
+    out = _output_node(mat.node_tree)
+    node = None
+    if out is not None and "Volume" in out.inputs:
+        node, _ = _follow(out.inputs["Volume"])
+    if node is None or node.type != "PRINCIPLED_VOLUME":
+        m.warn("material '%s': the Volume output is not fed by a Principled Volume node "
+               "(%s): using Principled Volume defaults" % (mat.name, node.bl_idname if node else "nothing"))
+        return medium, "density", ""
+    inp = node.inputs
+
+    def const(name, what=None):
+        s = inp[name]
+        if s.is_linked:
+            m.warn("Principled Volume %s is linked to a node: vsd uses its own value" % (what or name))
+        return s.default_value
+
+    medium["density"] = max(0.0, float(const("Density")))
+    medium["albedo"] = _clamp01(_color(const("Color")), "Principled Volume Color", m)
+    g = float(const("Anisotropy"))
+    medium["anisotropy"] = min(max(g, -0.999), 0.999)
+    grid = inp["Density Attribute"].default_value if "Density Attribute" in inp else "density"
+    absorb = _color(const("Absorption Color"))
+    if max(absorb) > 0.0:
+        m.warn("Principled Volume Absorption Color %s is not black: vsd treats it as black "
+               "(extinction = Density, albedo = Color)" % [round(x, 3) for x in absorb])
+    color_attr = inp["Color Attribute"].default_value if "Color Attribute" in inp else ""
+    if color_attr and color_attr in grids:
+        m.warn("Principled Volume Color Attribute '%s' is ignored (vsd's albedo is constant)" % color_attr)
+    bb = float(const("Blackbody Intensity"))
+    temp_attr = inp["Temperature Attribute"].default_value if "Temperature Attribute" in inp else ""
+    if bb > 0.0 and temp_attr in grids:
+        m.warn("Principled Volume blackbody emission (Temperature Attribute '%s') is not "
+               "supported: ignored" % temp_attr)
+    strength, egrid = _emission_strength(inp["Emission Strength"], m)
+    ecol = _color(const("Emission Color"))
+    if strength > 0.0 and not egrid:
+        m.warn("Principled Volume Emission Strength %.3g without an Attribute node: vsd needs "
+               "an emission grid (e.g. flame); emission ignored" % strength)
+        strength = 0.0
+    if egrid and grids and egrid not in grids:
+        m.warn("emission grid '%s' is not in the volume file (grids: %s); emission ignored"
+               % (egrid, ", ".join(grids)))
+        egrid, strength = "", 0.0
+    medium["emission_color"] = [max(0.0, x) for x in ecol]
+    medium["emission_strength"] = max(0.0, strength)
+    return medium, grid, (egrid if strength > 0.0 else "")
+
+
+# ---- world -------------------------------------------------------------------------------
+
+_env_cache = {}
+
+
+def _export_image(img):
+    """A packed or generated image -> a temporary float EXR (kept for the session, keyed by
+    the image's name and content, so an animation sends one blob)."""
+    w, h = img.size
+    pix = [0.0] * (w * h * 4)
+    img.pixels.foreach_get(pix)
+    key = (img.name, w, h, hash(tuple(pix[::97])))
+    path = _env_cache.get(key)
+    if path and os.path.isfile(path):
+        return path
+    tmp = bpy.data.images.new("vsd_env_export", w, h, alpha=True, float_buffer=True)
+    try:
+        tmp.pixels.foreach_set(pix)
+        fd, path = tempfile.mkstemp(prefix="vsd_env_", suffix=".exr")
+        os.close(fd)
+        tmp.filepath_raw = path
+        tmp.file_format = "OPEN_EXR"
+        tmp.save()
+    finally:
+        bpy.data.images.remove(tmp)
+    _env_cache[key] = path
+    return path
+
+
+def map_world(scene, m):
+    world = scene.world
+    if world is None:
+        m.warn("the scene has no world: black environment")
+        return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
+    if not world.use_nodes or world.node_tree is None:
+        return {"color": [max(0.0, x) for x in _color(world.color)], "strength": 1.0}
+    out = _output_node(world.node_tree)
+    node = None
+    if out is not None and "Surface" in out.inputs:
+        node, _ = _follow(out.inputs["Surface"])
+    if node is None:
+        m.warn("world '%s': nothing connected to Surface: black environment" % world.name)
+        return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
+    if node.type != "BACKGROUND":
+        m.warn("world '%s': Surface is fed by %s, not a Background node: grey environment"
+               % (world.name, node.bl_idname))
+        return {"color": [0.05, 0.05, 0.05], "strength": 1.0}
+    env = {}
+    ss = node.inputs["Strength"]
+    if ss.is_linked:
+        m.warn("world Background Strength is linked to a node: vsd uses its own value")
+    env["strength"] = max(0.0, float(ss.default_value))
+    cs = node.inputs["Color"]
+    tex, _ = _follow(cs)
+    if tex is None:
+        if cs.is_linked:
+            m.warn("world Background Color is linked to a muted or invalid node")
+        env["color"] = [max(0.0, x) for x in _color(cs.default_value)]
+        return env
+    if tex.type != "TEX_ENVIRONMENT":
+        m.warn("world Background Color is fed by %s: only an Environment Texture can be "
+               "mapped; using the socket's colour" % tex.bl_idname)
+        env["color"] = [max(0.0, x) for x in _color(cs.default_value)]
+        return env
+    img = tex.image
+    if img is None:
+        m.warn("world Environment Texture has no image: black environment")
+        env["color"] = [0.0, 0.0, 0.0]
+        return env
+    if tex.projection != "EQUIRECTANGULAR":
+        m.warn("Environment Texture projection %s: vsd reads it as equirectangular" % tex.projection)
+    if img.packed_file is not None or img.source == "GENERATED":
+        path = _export_image(img)
+        m.warn("environment image '%s' is %s: sent as a temporary EXR"
+               % (img.name, "packed" if img.packed_file is not None else "generated"))
+    else:
+        if img.source != "FILE":
+            m.warn("environment image '%s' is a %s: its file is used as a still" % (img.name, img.source))
+        path = os.path.normpath(bpy.path.abspath(img.filepath, library=img.library))
+        if not os.path.isfile(path):
+            raise MappingError("environment image '%s': file not found: %s" % (img.name, path))
+    m.env_path = path
+    env["file"] = path
+    space = img.colorspace_settings.name
+    if space and space.lower() not in LINEAR_SPACES:
+        env["colorspace"] = space  # converted by the daemon's OpenColorIO config
+    # Mapping node between Texture Coordinate and the Environment Texture: its Z rotation
+    rot = 0.0
+    vec, _ = _follow(tex.inputs["Vector"])
+    if vec is not None:
+        if vec.type == "MAPPING":
+            if any(s.is_linked for s in vec.inputs[1:]):
+                m.warn("world Mapping node inputs are linked: their values are ignored")
+            r = vec.inputs["Rotation"].default_value
+            if abs(r[0]) > 1e-6 or abs(r[1]) > 1e-6:
+                m.warn("world Mapping rotation about X/Y is not supported: only Z is used")
+            if "Location" in vec.inputs and vec.vector_type in ("POINT", "TEXTURE"):
+                if any(abs(x) > 1e-6 for x in vec.inputs["Location"].default_value):
+                    m.warn("world Mapping Location is ignored (has no effect on directions)")
+            sc = vec.inputs["Scale"].default_value
+            if any(abs(x - 1.0) > 1e-6 for x in sc):
+                m.warn("world Mapping Scale %s is not supported: ignored" % list(sc))
+            rot = float(r[2])
+            if vec.vector_type == "TEXTURE":  # the inverse transform
+                rot = -rot
+            src, sock = _follow(vec.inputs["Vector"])
+            if src is not None and not (src.type == "TEX_COORD" and sock.name == "Generated"):
+                m.warn("world Mapping is fed by %s: vsd assumes Texture Coordinate > Generated"
+                       % (src.bl_idname + "." + sock.name))
+        elif vec.type != "TEX_COORD":
+            m.warn("world Environment Texture Vector is fed by %s: ignored" % vec.bl_idname)
+    env["rotation_z"] = rot
+    return env
+
+
+# ---- camera and film ---------------------------------------------------------------------
+
+def film_size(scene):
+    r = scene.render
+    return (max(1, int(r.resolution_x * r.resolution_percentage / 100)),
+            max(1, int(r.resolution_y * r.resolution_percentage / 100)))
+
+
+def _fit(cam, w, h):
+    """('H' or 'V', sensor size in mm) the way Blender fits the sensor."""
+    if cam.sensor_fit == "AUTO":
+        return ("H" if w >= h else "V"), cam.sensor_width
+    if cam.sensor_fit == "HORIZONTAL":
+        return "H", cam.sensor_width
+    return "V", cam.sensor_height
+
+
+def larger_dim_extent(fit, extent_fit, w, h):
+    """An extent given across the fitted dimension -> across the larger image dimension
+    (vsd's fov and ortho_scale span the larger one, Blender's sensor fit Auto)."""
+    if fit == "H":
+        return extent_fit if w >= h else extent_fit * h / w
+    return extent_fit if h >= w else extent_fit * w / h
+
+
+def map_camera(cam_ob, w, h, m):
+    if cam_ob is None:
+        raise MappingError("the scene has no camera")
+    cam = cam_ob.data
+    mw = cam_ob.matrix_world
+    out = {"matrix": [float(mw[r][c]) for r in range(4) for c in range(4)],
+           "clip_start": float(cam.clip_start), "clip_end": float(max(cam.clip_end, cam.clip_start * 1.001))}
+    fit, size = _fit(cam, w, h)
+    if cam.type == "ORTHO":
+        out["type"] = "orthographic"
+        out["ortho_scale"] = float(larger_dim_extent(fit, cam.ortho_scale, w, h))
+    else:
+        if cam.type == "PANO":
+            m.warn("panoramic cameras are not supported: rendered as perspective")
+        t = size / 2.0 / cam.lens
+        out["fov"] = float(2.0 * math.atan(larger_dim_extent(fit, t, w, h)))
+    if abs(cam.shift_x) > 1e-6 or abs(cam.shift_y) > 1e-6:
+        m.warn("camera shift is not supported: ignored")
+    if cam.dof.use_dof:
+        m.warn("camera depth of field is not supported: ignored")
+    return out
+
+
+# ---- the whole scene ---------------------------------------------------------------------
+
+def render_block(settings, viewport=False):
+    """The scene's render section from the add-on's settings (Scene.vsd)."""
+    import json
+    opts = {}
+    method = settings.viewport_method if viewport else settings.method
+    if method == "raymarch":
+        if settings.raymarch_lights > 0:
+            opts["lights"] = settings.raymarch_lights
+        if settings.raymarch_step > 0.0:
+            opts["step"] = settings.raymarch_step
+        if settings.raymarch_pixel_samples > 0:
+            opts["pixel_samples"] = settings.raymarch_pixel_samples
+    elif method == "reference":
+        if settings.max_bounces > 0:
+            opts["max_bounces"] = settings.max_bounces
+    text = settings.options_json.strip()
+    if text:
+        try:
+            extra = json.loads(text)
+        except ValueError as e:
+            raise MappingError("vsd render options: not JSON: %s" % e)
+        if not isinstance(extra, dict):
+            raise MappingError("vsd render options: expected a JSON object like {\"lights\": 64}")
+        opts.update(extra)
+    r = {"method": method, "device": settings.device,
+         "samples": int(settings.viewport_samples if viewport else settings.samples),
+         "seed": int(settings.seed), "options": opts}
+    if settings.threads > 0:
+        r["threads"] = int(settings.threads)
+    return r
+
+
+def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
+    """Map the evaluated scene to a vsd scene dict (local file paths). `camera` overrides
+    the scene camera, `size` the film size, `active` the object preferred among several
+    volumes. Raises MappingError when there is nothing renderable."""
+    m = Mapping()
+    scene = depsgraph.scene
+    frame = scene.frame_current
+    ob = pick_volume(depsgraph, m, active)
+    m.volume_object = ob
+    volume = map_volume(ob, frame, m)
+    try:
+        grids = [g.name for g in ob.data.grids]
+    except Exception:
+        grids = []
+    medium, grid, egrid = map_material(ob, grids, m)
+    volume["grid"] = grid
+    if egrid:
+        volume["emission_grid"] = egrid
+    w, h = size if size else film_size(scene)
+    r = scene.render
+    if not viewport:
+        if abs(r.pixel_aspect_x - r.pixel_aspect_y) > 1e-6:
+            m.warn("non-square pixel aspect is not supported: square pixels rendered")
+        if r.use_border:
+            m.warn("render region (border) is not supported: the whole frame is rendered")
+        if r.use_motion_blur:
+            m.warn("motion blur is not supported: ignored")
+    cam_ob = camera if camera is not None else scene.camera
+    if cam_ob is not None and not viewport:
+        cam_ob = cam_ob.evaluated_get(depsgraph)
+    sc = {
+        "version": 1,
+        "volume": volume,
+        "medium": medium,
+        "environment": map_world(scene, m),
+        "camera": map_camera(cam_ob, w, h, m) if not viewport else {},
+        "film": {"width": int(w), "height": int(h), "transparent": bool(r.film_transparent)},
+        "render": render_block(scene.vsd, viewport),
+        "frames": {"start": int(frame), "end": int(frame)},
+        "output": {"passes": list(passes.VSD_PASS_NAMES), "layer": depsgraph.view_layer.name},
+    }
+    m.scene = sc
+    return m

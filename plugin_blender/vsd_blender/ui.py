@@ -1,0 +1,228 @@
+# Settings (Scene.vsd), add-on preferences and the Render Properties panels.
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
+                       StringProperty)
+
+from . import connection
+
+METHODS = [
+    ("reference", "Reference", "Unbiased volumetric path tracing, all bounces (matches Cycles)"),
+    ("raymarch", "Ray March", "Single scattering from K environment directions, noise-free"),
+    ("constellation", "Constellation", "Navarro 2009: light constellation, distance map"),
+    ("shgrid", "SH Grid", "Delalandre 2013: spherical-harmonics record grid"),
+    ("crm", "CRM", "Zhou 2008: compensated ray marching of RBF densities"),
+    ("lbl", "LBL", "Bernabei 2012: lattice-Boltzmann lighting, refraction"),
+]
+DEVICES = [("auto", "Auto", "CUDA when a GPU is present, else CPU"),
+           ("cpu", "CPU", "CPU threads"), ("cuda", "CUDA", "NVIDIA GPU")]
+
+
+def _tag_redraw(self, context):
+    for area in getattr(context.screen, "areas", []) if context.screen else []:
+        if area.type == "VIEW_3D":
+            area.tag_redraw()
+
+
+class VSDSceneSettings(bpy.types.PropertyGroup):
+    method: EnumProperty(name="Method", items=METHODS, default="reference",
+                         description="vsd rendering method for F12 and animation renders")
+    samples: IntProperty(name="Samples", default=64, min=1, max=1000000,
+                         description="Samples per pixel (progressive methods)")
+    seed: IntProperty(name="Seed", default=1, min=0, max=2147483647)
+    device: EnumProperty(name="Device", items=DEVICES, default="auto")
+    threads: IntProperty(name="Threads", default=0, min=0, max=4096,
+                         description="CPU threads of the daemon for this job, 0 = all")
+    max_bounces: IntProperty(name="Max Bounces", default=0, min=0, max=100000,
+                             description="reference: path length limit, 0 = vsd's default (1024)")
+    raymarch_lights: IntProperty(name="Lights", default=0, min=0, max=65536,
+                                 description="raymarch: environment directions K, 0 = default (256)")
+    raymarch_step: FloatProperty(name="Step", default=0.0, min=0.0, precision=4, unit="LENGTH",
+                                 description="raymarch: step length, 0 = half the smallest voxel")
+    raymarch_pixel_samples: IntProperty(name="Pixel Samples", default=0, min=0, max=16,
+                                        description="raymarch: n x n rays per pixel, 0 = default (2)")
+    options_json: StringProperty(name="Options", default="",
+                                 description="More method options as a JSON object, e.g. "
+                                 "{\"lights\": 64}; overrides the fields above")
+    viewport_method: EnumProperty(name="Viewport Method", items=METHODS, default="raymarch",
+                                  description="Method of the rendered viewport preview",
+                                  update=_tag_redraw)
+    viewport_samples: IntProperty(name="Viewport Samples", default=4, min=1, max=100000)
+    viewport_resolution: IntProperty(name="Resolution", default=50, min=1, max=100,
+                                     subtype="PERCENTAGE",
+                                     description="Preview resolution, percent of the viewport's pixels "
+                                     "(scaled up for display)")
+    viewport_start_scale: IntProperty(name="Start Resolution", default=4, min=1, max=16,
+                                      description="The preview first renders at 1/N of the "
+                                      "viewport's resolution, then refines to full")
+
+
+class VSDPreferences(bpy.types.AddonPreferences):
+    bl_idname = __package__
+
+    vsd_path: StringProperty(name="vsd Binary", subtype="FILE_PATH", default="",
+                             description="Path of the `vsd` executable (empty: `vsd` on PATH)")
+    address: StringProperty(name="Daemon Address", default="",
+                            description="Unix socket path, or HOST:PORT for TCP (empty: the "
+                            "default socket $XDG_RUNTIME_DIR/vsd.sock)")
+    token: StringProperty(name="Token", default="", subtype="PASSWORD",
+                          description="TCP token (the daemon's --token-file contents)")
+    auto_start: BoolProperty(name="Auto-start Daemon", default=True,
+                             description="Start `vsd serve` when no daemon answers, and stop "
+                             "it when Blender exits")
+
+    def draw(self, context):
+        col = self.layout.column()
+        col.prop(self, "vsd_path")
+        col.prop(self, "address")
+        col.prop(self, "token")
+        col.prop(self, "auto_start")
+        row = col.row()
+        row.operator("vsd.daemon_status", icon="FILE_REFRESH")
+        row.label(text=connection.status["text"])
+
+
+class VSD_OT_daemon_status(bpy.types.Operator):
+    """Connect to the vsd daemon and show its version and cache use"""
+    bl_idname = "vsd.daemon_status"
+    bl_label = "Check Daemon"
+
+    def execute(self, context):
+        from .engine import conn_settings
+        st = connection.refresh_status(conn_settings(context))
+        self.report({"INFO"} if st["ok"] else {"WARNING"}, "vsd: " + st["text"])
+        return {"FINISHED"}
+
+
+class VSD_OT_stop_daemon(bpy.types.Operator):
+    """Stop the daemon that Blender started"""
+    bl_idname = "vsd.stop_daemon"
+    bl_label = "Stop Daemon"
+
+    @classmethod
+    def poll(cls, context):
+        return connection.daemon_started_here()
+
+    def execute(self, context):
+        connection.close_all()
+        connection.stop_daemon()
+        connection.status.update(text="stopped", ok=False)
+        return {"FINISHED"}
+
+
+class VSDPanel:
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {"VSD"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
+    bl_label = "vsd"
+
+    def draw(self, context):
+        s = context.scene.vsd
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.prop(s, "method")
+        col.prop(s, "device")
+        col.prop(s, "samples")
+        col.prop(s, "seed")
+        col.prop(s, "threads")
+
+
+class RENDER_PT_vsd_options(VSDPanel, bpy.types.Panel):
+    bl_label = "Method Options"
+    bl_parent_id = "RENDER_PT_vsd"
+
+    def draw(self, context):
+        s = context.scene.vsd
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        if s.method == "reference":
+            col.prop(s, "max_bounces")
+        elif s.method == "raymarch":
+            col.prop(s, "raymarch_lights")
+            col.prop(s, "raymarch_step")
+            col.prop(s, "raymarch_pixel_samples")
+        col.prop(s, "options_json")
+
+
+class RENDER_PT_vsd_viewport(VSDPanel, bpy.types.Panel):
+    bl_label = "Viewport"
+    bl_parent_id = "RENDER_PT_vsd"
+
+    def draw(self, context):
+        s = context.scene.vsd
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.prop(s, "viewport_method", text="Method")
+        col.prop(s, "viewport_samples", text="Samples")
+        col.prop(s, "viewport_resolution")
+        col.prop(s, "viewport_start_scale")
+        fps = connection.status.get("preview_fps")
+        if fps:
+            col.label(text="Preview: %.1f frames/s" % fps)
+
+
+class RENDER_PT_vsd_daemon(VSDPanel, bpy.types.Panel):
+    bl_label = "Daemon"
+    bl_parent_id = "RENDER_PT_vsd"
+
+    def draw(self, context):
+        layout = self.layout
+        st = connection.status
+        col = layout.column()
+        col.label(text=st["text"], icon="CHECKMARK" if st["ok"] else "ERROR")
+        row = col.row()
+        row.operator("vsd.daemon_status", icon="FILE_REFRESH")
+        row.operator("vsd.stop_daemon", icon="CANCEL")
+
+
+# Blender's own panels (film, output, camera, material, world) that apply to vsd too.
+_EXTRA_PANELS = ("RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_output",
+                 "RENDER_PT_film", "RENDER_PT_color_management",
+                 "EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_volume",
+                 "EEVEE_WORLD_PT_surface", "DATA_PT_lens", "DATA_PT_camera",
+                 "DATA_PT_volume_file", "DATA_PT_volume_grids", "DATA_PT_context_volume",
+                 "VIEWLAYER_PT_layer")
+
+
+def _compat_panels():
+    out = []
+    for p in bpy.types.Panel.__subclasses__():
+        ce = getattr(p, "COMPAT_ENGINES", None)
+        if ce is None or p.__name__.startswith(("RENDER_PT_vsd",)):
+            continue
+        if "BLENDER_RENDER" in ce or p.__name__ in _EXTRA_PANELS:
+            out.append(p)
+    return out
+
+
+CLASSES = (VSDSceneSettings, VSDPreferences, VSD_OT_daemon_status, VSD_OT_stop_daemon,
+           RENDER_PT_vsd, RENDER_PT_vsd_options, RENDER_PT_vsd_viewport, RENDER_PT_vsd_daemon)
+
+
+def register():
+    for c in CLASSES:
+        bpy.utils.register_class(c)
+    bpy.types.Scene.vsd = PointerProperty(type=VSDSceneSettings)
+    for p in _compat_panels():
+        p.COMPAT_ENGINES.add("VSD")
+
+
+def unregister():
+    for p in _compat_panels():
+        p.COMPAT_ENGINES.discard("VSD")
+    del bpy.types.Scene.vsd
+    for c in reversed(CLASSES):
+        bpy.utils.unregister_class(c)

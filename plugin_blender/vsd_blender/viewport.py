@@ -1,0 +1,291 @@
+# Rendered shading in the 3D viewport (view_update / view_draw).
+#
+# view_update() re-maps the scene (volume frame, material, world) whenever Blender reports
+# a change; view_draw() derives the vsd camera from the viewport's view and window matrices.
+# Any change of either starts a new request for a worker thread, which renders first at
+# 1/N of the region's resolution, then at full resolution, cancelling (CANCEL) whatever is
+# superseded. The daemon keeps the per-frame preparation of its renderer, so orbiting the
+# view only re-runs the view pass (RESULT cache.preparation is true).
+#
+# Results come back as multilayer EXR with only the Combined pass. Blender's image loader
+# gives no pixels for multilayer files, so the header's channel names are rewritten from
+# "<layer>.Combined.R" to "R" (same sorted order, so the pixel data is untouched; only the
+# line offset table moves by the header's change in size), and the file is loaded as a
+# plain float image whose GPU texture is drawn through Blender's display transform.
+import json
+import math
+import os
+import struct
+import tempfile
+import threading
+import time
+
+import weakref
+
+import blf
+import bpy
+import gpu
+from gpu_extras.presets import draw_texture_2d
+
+from . import connection, mapping, vsd_client
+
+LOG = bool(os.environ.get("VSD_PREVIEW_LOG"))
+
+
+def single_layer_exr(data):
+    """Rename '<layer>.<pass>.<chan>' channels to '<chan>' in a scanline EXR (bytes)."""
+    assert data[:4] == b"\x76\x2f\x31\x01"
+    pos = 8
+    attrs = []
+    while data[pos] != 0:
+        end = data.index(b"\0", pos)
+        name = data[pos:end]
+        end2 = data.index(b"\0", end + 1)
+        typ = data[end + 1:end2]
+        size = struct.unpack_from("<i", data, end2 + 1)[0]
+        val = data[end2 + 5:end2 + 5 + size]
+        attrs.append((name, typ, val))
+        pos = end2 + 5 + size
+    header_end = pos + 1
+    out_attrs = []
+    lines = 1
+    height = 0
+    for name, typ, val in attrs:
+        if name == b"channels":
+            p, chans = 0, b""
+            while val[p] != 0:
+                end = val.index(b"\0", p)
+                cname = val[p:end].rsplit(b".", 1)[-1]
+                chans += cname + b"\0" + val[end + 1:end + 17]
+                p = end + 17
+            val = chans + b"\0"
+        elif name == b"compression":
+            lines = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 16, 8: 32, 9: 256}.get(val[0], 1)
+        elif name == b"dataWindow":
+            _, ymin, _, ymax = struct.unpack("<4i", val)
+            height = ymax - ymin + 1
+        out_attrs.append((name, typ, val))
+    head = bytearray(data[:8])
+    for name, typ, val in out_attrs:
+        head += name + b"\0" + typ + b"\0" + struct.pack("<i", len(val)) + val
+    head += b"\0"
+    delta = len(head) - header_end
+    n = (height + lines - 1) // lines
+    offsets = struct.unpack_from("<%dQ" % n, data, header_end)
+    head += struct.pack("<%dQ" % n, *[o + delta for o in offsets])
+    return bytes(head) + data[header_end + 8 * n:]
+
+
+def view_camera(context):
+    """vsd camera dict of the viewport's view."""
+    rv3d = context.region_data
+    space = context.space_data
+    cam2world = rv3d.view_matrix.inverted()
+    wm = rv3d.window_matrix
+    cam = {"matrix": [float(cam2world[r][c]) for r in range(4) for c in range(4)]}
+    if rv3d.is_perspective:
+        t = max(1.0 / wm[0][0], 1.0 / wm[1][1])
+        cam["fov"] = float(min(2.0 * math.atan(t), 3.1))
+        cam["clip_start"] = float(space.clip_start)
+        cam["clip_end"] = float(max(space.clip_end, space.clip_start * 1.001))
+    else:
+        cam["type"] = "orthographic"
+        cam["ortho_scale"] = float(max(2.0 / wm[0][0], 2.0 / wm[1][1]))
+        cam["clip_start"] = 0.001
+        cam["clip_end"] = float(max(space.clip_end, 1.0))
+        # an orthographic view's eye sits in the middle of the scene: back it off
+        m = cam2world.copy()
+        back = m.col[2].xyz.normalized() * (space.clip_end * 0.5)
+        m.translation = m.translation + back
+        cam["matrix"] = [float(m[r][c]) for r in range(4) for c in range(4)]
+    return cam
+
+
+def _worker(wr):
+    """The preview's render thread; holds its Preview only weakly so the preview (and the
+    thread) end when the engine drops it."""
+    while True:
+        p = wr()
+        if p is None or not p.alive:
+            return
+        with p.lock:
+            if p.request is None:
+                p.lock.wait(0.5)
+            req, p.request = p.request, None
+        if req is not None:
+            p.process(req)
+        del p
+
+
+def _poll(wr):
+    """Main-thread timer: turn finished results into images (ID writes are not allowed in
+    view_draw) and redraw the viewports."""
+    p = wr()
+    if p is None or not p.alive:
+        return None
+    p.load_result()
+    return 0.05
+
+
+class Preview(object):
+    def __init__(self):
+        self.alive = True
+        self.lock = threading.Condition()
+        self.base = None          # Mapping of the scene (no camera)
+        self.error = None
+        self.gen = 0
+        self.key = None
+        self.request = None       # (key, scene dict, files, sizes, settings, time)
+        self.result = None        # (key, w, h, exr bytes, final)
+        self.images = []          # loaded results; the last one is drawn
+        self.drawn = None
+        self.texture = None
+        self.settings = None
+        wr = weakref.ref(self)
+        threading.Thread(target=_worker, args=(wr,), name="vsd-preview", daemon=True).start()
+        bpy.app.timers.register(lambda: _poll(wr), first_interval=0.05)
+
+    def stop(self):
+        with self.lock:
+            self.alive = False
+            self.lock.notify_all()
+        self.texture = None
+        for img in self.images:
+            try:
+                bpy.data.images.remove(img)
+            except Exception:
+                pass
+        self.images = []
+
+    # -- main thread ---------------------------------------------------------------------
+    def scene_changed(self, context, depsgraph):
+        try:
+            base = mapping.build_scene(depsgraph, viewport=True, size=(8, 8),
+                                       active=context.active_object)
+            err = None
+        except mapping.MappingError as e:
+            base, err = None, str(e)
+        # Blender calls view_update for any change (the preview's own images included):
+        # only a change of what vsd renders starts a new request.
+        sig = json.dumps(base.scene, sort_keys=True) if base else err
+        from .engine import conn_settings
+        self.settings = conn_settings(context)
+        if sig != getattr(self, "sig", None):
+            self.sig = sig
+            self.base, self.error = base, err
+            self.gen += 1
+
+    def draw(self, engine, context, depsgraph):
+        region = context.region
+        scene = depsgraph.scene
+        w, h = region.width, region.height
+        if self.base is not None:
+            cam = view_camera(context)
+            key = (json.dumps(cam, sort_keys=True), w, h, self.gen)
+            if key != self.key:
+                self.key = key
+                sc = json.loads(json.dumps(self.base.scene))
+                sc["camera"] = cam
+                sc["output"]["passes"] = ["Combined"]
+                files = [self.base.volume_path] + ([self.base.env_path] if self.base.env_path else [])
+                pct = scene.vsd.viewport_resolution / 100.0
+                fw, fh = max(1, int(w * pct)), max(1, int(h * pct))
+                start = max(1, scene.vsd.viewport_start_scale)
+                sizes = [(max(1, fw // start), max(1, fh // start))] if start > 1 else []
+                sizes.append((fw, fh))
+                with self.lock:
+                    self.request = (key, sc, files, sizes, self.settings, time.monotonic())
+                    self.lock.notify_all()
+        if self.images and self.drawn is not self.images[-1]:
+            try:
+                self.texture = gpu.texture.from_image(self.images[-1])
+                self.drawn = self.images[-1]
+            except Exception as e:
+                self.error = "vsd preview: %s" % e
+        if self.texture is not None:
+            gpu.state.blend_set("ALPHA_PREMULT")
+            engine.bind_display_space_shader(scene)
+            draw_texture_2d(self.texture, (0, 0), w, h)
+            engine.unbind_display_space_shader()
+            gpu.state.blend_set("NONE")
+        if self.error:
+            blf.position(0, 12, 12, 0)
+            blf.size(0, 14)
+            blf.color(0, 1.0, 0.4, 0.3, 1.0)
+            blf.draw(0, self.error)
+        connection.status["preview_error"] = self.error
+
+    def load_result(self):
+        with self.lock:
+            res, self.result = self.result, None
+        if res is None:
+            return
+        key, rw, rh, exr, final = res
+        fd, path = tempfile.mkstemp(prefix="vsd_preview_", suffix=".exr")
+        with os.fdopen(fd, "wb") as f:
+            f.write(single_layer_exr(exr))
+        try:
+            img = bpy.data.images.load(path, check_existing=False)
+            img.name = ".vsd_preview"
+            img.colorspace_settings.name = "Linear"
+            img.alpha_mode = "PREMUL"
+            img.pixels[0]  # read the file now; it is removed below
+        finally:
+            try:
+                os.remove(path)
+            except OSError:
+                pass
+        self.images.append(img)
+        # keep the one being drawn until the new one is on screen
+        while len(self.images) > 2:
+            bpy.data.images.remove(self.images.pop(0))
+        for win in bpy.context.window_manager.windows:
+            for area in win.screen.areas:
+                if area.type == "VIEW_3D":
+                    area.tag_redraw()
+
+    # -- worker thread -------------------------------------------------------------------
+    def _superseded(self):
+        with self.lock:
+            return (not self.alive) or self.request is not None
+
+    def process(self, req):
+        key, sc, files, sizes, settings, t_req = req
+        try:
+            self._render(key, sc, files, sizes, settings, t_req)
+            self.error = None
+        except vsd_client.VsdError as e:
+            if e.code != "cancelled":
+                self.error = "vsd: %s" % e.message
+                connection.drop()
+                time.sleep(0.5)
+        except Exception as e:  # keep the worker alive
+            self.error = "vsd preview: %s" % e
+            time.sleep(0.5)
+
+    def _render(self, key, sc, files, sizes, settings, t_req):
+        c = connection.client(settings)
+        names = connection.upload(c, files)
+        sc["volume"]["file"] = names[files[0]]
+        if len(files) > 1:
+            sc["environment"]["file"] = names[files[1]]
+        for i, (w, h) in enumerate(sizes):
+            if self._superseded():
+                return
+            sc["film"]["width"], sc["film"]["height"] = w, h
+            t0 = time.monotonic()
+            res = c.render(sc, frame=sc["frames"]["start"], cancel=self._superseded)
+            t1 = time.monotonic()
+            final = i == len(sizes) - 1
+            with self.lock:
+                if not self.alive:
+                    return
+                self.result = (key, w, h, res.exr, final)
+            if final:
+                connection.status["preview_fps"] = 1.0 / max(1e-6, t1 - t0)
+                connection.status["preview_prepared"] = bool(res.cache.get("preparation"))
+            if LOG:
+                print("vsd preview: %dx%d in %.3fs (%.1f fps, %s, preparation %s)%s" % (
+                    w, h, t1 - t0, 1.0 / max(1e-6, t1 - t0), sc["render"]["method"],
+                    "cached" if res.cache.get("preparation") else "new",
+                    " final, %.3fs after the change" % (t1 - t_req) if final else ""), flush=True)

@@ -1,0 +1,44 @@
+# The Blender add-on (issue 6): packaging target and tests in real Blender.
+#
+# `cmake --build build --target vsd_blender_zip` writes build/vsd_blender.zip, the installable
+# add-on (plugin_blender/vsd_blender + vsd_client.py), with plugin_blender/make_zip.py.
+# The tests run Blender headless against a `vsd serve` they start on a temp socket; each
+# takes well under a minute on 2 cores. They are registered only when blender is found and
+# VSD_BLENDER_TESTS is not OFF (ON without Blender is a configure error, as in cycles.cmake).
+find_package(Python3 COMPONENTS Interpreter)
+if(Python3_Interpreter_FOUND)
+  add_custom_target(vsd_blender_zip
+    COMMAND ${Python3_EXECUTABLE} ${CMAKE_SOURCE_DIR}/plugin_blender/make_zip.py ${CMAKE_BINARY_DIR}/vsd_blender.zip
+    BYPRODUCTS ${CMAKE_BINARY_DIR}/vsd_blender.zip
+    COMMENT "Packaging the Blender add-on: ${CMAKE_BINARY_DIR}/vsd_blender.zip"
+    VERBATIM)
+endif()
+
+if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
+  find_program(BLENDER_EXE blender)
+  find_program(XVFB_RUN xvfb-run)
+  if(BLENDER_EXE)
+    foreach(t render stream)
+      add_test(NAME blender_addon_${t}
+               COMMAND ${BLENDER_EXE} --background --factory-startup --python-exit-code 1
+                       --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_${t}.py --
+                       $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender_addon_${t})
+      # a Python traceback anywhere (add-on or test) fails the test: errors must be reports
+      set_tests_properties(blender_addon_${t} PROPERTIES LABELS "blender;integration" TIMEOUT 300
+                           FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)")
+    endforeach()
+    if(XVFB_RUN)
+      # the viewport preview in a real Blender window (software OpenGL under Xvfb)
+      add_test(NAME blender_addon_viewport
+               COMMAND ${XVFB_RUN} -a -s "-screen 0 1280x800x24"
+                       ${BLENDER_EXE} --factory-startup --python-exit-code 1
+                       --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_viewport.py --
+                       $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender_addon_viewport)
+      set_tests_properties(blender_addon_viewport PROPERTIES LABELS "blender;integration" TIMEOUT 300
+                           FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)"
+                           SKIP_RETURN_CODE 77)
+    endif()
+  elseif(VSD_BLENDER_TESTS STREQUAL "ON")
+    message(FATAL_ERROR "VSD_BLENDER_TESTS=ON but no blender executable was found (needed by tests/blender_addon.cmake)")
+  endif()
+endif()

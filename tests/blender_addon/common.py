@@ -1,0 +1,302 @@
+# Shared by the add-on tests (tests/blender_addon/test_*.py), which run inside real Blender:
+#
+#   blender --background --factory-startup --python-exit-code 1 \
+#       --python tests/blender_addon/test_X.py -- VSD SHARED_DATA TMP_DIR
+#
+# * install_addon(): builds the zip with plugin_blender/make_zip.py, unpacks it into a temp
+#   scripts folder and enables `vsd_blender` from there with addon_utils (so the packaging
+#   is tested too, and the user's Blender configuration is never touched);
+# * Daemon: `vsd serve` on a temp socket with --ready-file, stopped with SIGTERM;
+# * build_scene(): a smoke64 Volume sequence + studio.exr world + camera, from ../shared/data;
+# * read_exr(): a small stdlib-only OpenEXR reader (scanline, NONE/ZIPS/ZIP, HALF/FLOAT)
+#   for comparing pixels (Blender's Python has no numpy here).
+import math
+import os
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import time
+import zlib
+
+import bpy
+import mathutils
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(HERE))
+failures = []
+
+
+def args():
+    argv = sys.argv[sys.argv.index("--") + 1:]
+    vsd, data, tmp = os.path.abspath(argv[0]), os.path.abspath(argv[1]), os.path.abspath(argv[2])
+    return vsd, data, tmp, argv[3:]
+
+
+def check(cond, what):
+    print(("ok:   " if cond else "FAIL: ") + what, flush=True)
+    if not cond:
+        failures.append(what)
+
+
+def finish(name):
+    if failures:
+        print("%s: %d check(s) failed: %s" % (name, len(failures), "; ".join(failures)), flush=True)
+        sys.stdout.flush()
+        os._exit(1)
+    print("%s: all checks passed" % name, flush=True)
+
+
+def fresh_tmp(tmp):
+    shutil.rmtree(tmp, ignore_errors=True)
+    os.makedirs(tmp)
+
+
+def install_addon(tmp, vsd=None, auto_start=False, address=""):
+    """Package the add-on, unpack it into tmp/scripts/addons and enable it."""
+    import addon_utils
+    import zipfile
+    zpath = os.path.join(tmp, "vsd_blender.zip")
+    subprocess.run([sys.executable if os.path.basename(sys.executable).startswith("python") else "python3",
+                    os.path.join(REPO, "plugin_blender", "make_zip.py"), zpath], check=True)
+    addons = os.path.join(tmp, "scripts", "addons")
+    os.makedirs(addons, exist_ok=True)
+    with zipfile.ZipFile(zpath) as z:
+        z.extractall(addons)
+    if addons not in sys.path:
+        sys.path.insert(0, addons)
+    mod = addon_utils.enable("vsd_blender", default_set=True, handle_error=None)
+    assert mod is not None, "addon_utils.enable(vsd_blender) failed"
+    assert os.path.dirname(mod.__file__) == os.path.join(addons, "vsd_blender"), mod.__file__
+    prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+    prefs.vsd_path = vsd or ""
+    prefs.auto_start = auto_start
+    prefs.address = address
+    return mod
+
+
+class Daemon(object):
+    def __init__(self, vsd, tmp, name="d"):
+        self.sock = os.path.join(tmp, name + ".sock")
+        self.ready = os.path.join(tmp, name + ".ready.json")
+        self.logpath = os.path.join(tmp, name + ".log")
+        self.log = open(self.logpath, "w")
+        cache = os.path.join(tmp, name + ".cache")
+        os.makedirs(cache, exist_ok=True)
+        self.proc = subprocess.Popen([vsd, "serve", "--socket", self.sock, "--ready-file", self.ready,
+                                      "--cache-dir", cache, "--log-level", "info"],
+                                     stdout=self.log, stderr=self.log)
+        for _ in range(300):
+            if os.path.exists(self.ready):
+                break
+            time.sleep(0.05)
+        assert os.path.exists(self.ready), "the daemon did not start (see %s)" % self.logpath
+
+    def alive(self):
+        return self.proc.poll() is None
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+        self.log.close()
+        return self.proc.returncode
+
+
+# ---- the Blender scene -------------------------------------------------------------------
+
+def clear_scene():
+    for ob in list(bpy.data.objects):
+        bpy.data.objects.remove(ob, do_unlink=True)
+    for coll in (bpy.data.meshes, bpy.data.lights, bpy.data.cameras, bpy.data.materials,
+                 bpy.data.volumes, bpy.data.worlds):
+        for item in list(coll):
+            coll.remove(item)
+
+
+def look_at_matrix(pos, target):
+    pos = mathutils.Vector(pos)
+    d = mathutils.Vector(target) - pos
+    rot = d.to_track_quat("-Z", "Y").to_matrix().to_4x4()
+    return mathutils.Matrix.Translation(pos) @ rot
+
+
+def build_scene(data, width=64, height=36, percentage=100, grid="density", frame_start=1, frame_offset=0,
+                rotation_deg=30.0, strength=1.2, transparent=True):
+    """smoke64 as a Volume sequence (scene frame_start shows file 1 + frame_offset), its Principled
+    Volume, studio.exr through a Mapping Z rotation, and a camera looking at the plume."""
+    scene = bpy.context.scene
+    clear_scene()
+    vol = bpy.data.volumes.new("smoke")
+    vol.filepath = os.path.join(data, "smoke64", "fluid_data_0001.vdb")
+    vol.is_sequence = True
+    vol.frame_start = frame_start
+    vol.frame_duration = 30
+    vol.frame_offset = frame_offset
+    vol.sequence_mode = "CLIP"
+    ob = bpy.data.objects.new("smoke", vol)
+    scene.collection.objects.link(ob)
+    ob.matrix_world = mathutils.Matrix.Translation((0.1, 0.0, -0.05))
+
+    mat = bpy.data.materials.new("smoke_mat")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    pv = nt.nodes.new("ShaderNodeVolumePrincipled")
+    pv.inputs["Density"].default_value = 8.0
+    pv.inputs["Color"].default_value = (0.8, 0.75, 0.7, 1.0)
+    pv.inputs["Anisotropy"].default_value = 0.2
+    pv.inputs["Density Attribute"].default_value = grid
+    nt.links.new(pv.outputs["Volume"], out.inputs["Volume"])
+    ob.data.materials.append(mat)
+
+    world = bpy.data.worlds.new("studio")
+    scene.world = world
+    world.use_nodes = True
+    wn = world.node_tree
+    for n in list(wn.nodes):
+        wn.nodes.remove(n)
+    wo = wn.nodes.new("ShaderNodeOutputWorld")
+    bg = wn.nodes.new("ShaderNodeBackground")
+    bg.inputs["Strength"].default_value = strength
+    tc = wn.nodes.new("ShaderNodeTexCoord")
+    mp = wn.nodes.new("ShaderNodeMapping")
+    mp.vector_type = "POINT"
+    mp.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(rotation_deg))
+    tex = wn.nodes.new("ShaderNodeTexEnvironment")
+    tex.image = bpy.data.images.load(os.path.join(data, "env", "studio.exr"), check_existing=True)
+    wn.links.new(tc.outputs["Generated"], mp.inputs["Vector"])
+    wn.links.new(mp.outputs["Vector"], tex.inputs["Vector"])
+    wn.links.new(tex.outputs["Color"], bg.inputs["Color"])
+    wn.links.new(bg.outputs["Background"], wo.inputs["Surface"])
+
+    cam = bpy.data.cameras.new("cam")
+    cam.lens = 40.0
+    cam.sensor_fit = "AUTO"
+    cob = bpy.data.objects.new("cam", cam)
+    scene.collection.objects.link(cob)
+    cob.matrix_world = look_at_matrix((1.0, -3.9745, 1.8771), (1.0, 1.0, 1.0))
+    scene.camera = cob
+
+    r = scene.render
+    r.engine = "VSD"
+    r.resolution_x = width
+    r.resolution_y = height
+    r.resolution_percentage = percentage
+    r.film_transparent = transparent
+    r.use_compositing = False
+    r.use_sequencer = False
+    r.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    r.image_settings.color_depth = "32"
+    r.image_settings.exr_codec = "ZIP"
+    scene.view_settings.view_transform = "Standard"
+    scene.frame_start = frame_start
+    scene.frame_end = frame_start + 2
+    scene.frame_set(frame_start)
+    s = scene.vsd
+    s.method = "raymarch"
+    s.raymarch_lights = 8
+    s.samples = 1
+    s.device = "cpu"
+    return scene, ob
+
+
+# ---- EXR reading -------------------------------------------------------------------------
+
+def _half(h):
+    return struct.unpack("<e", struct.pack("<H", h))[0]
+
+
+def read_exr(path):
+    """{channel name: list of floats, row-major, top row first}, width, height.
+    Scanline files with NONE, ZIPS or ZIP compression (what vsd and Blender write here)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    assert data[:4] == b"\x76\x2f\x31\x01", path + ": not an EXR"
+    flags = struct.unpack_from("<I", data, 4)[0]
+    assert not (flags & 0x200), path + ": tiled EXR not supported by this reader"
+    pos = 8
+    header = {}
+    while data[pos] != 0:
+        end = data.index(b"\0", pos)
+        name = data[pos:end].decode()
+        pos = end + 1
+        end = data.index(b"\0", pos)
+        typ = data[pos:end].decode()
+        pos = end + 1
+        size = struct.unpack_from("<i", data, pos)[0]
+        pos += 4
+        header[name] = (typ, data[pos:pos + size])
+        pos += size
+    pos += 1
+    chans = []
+    raw = header["channels"][1]
+    p = 0
+    while raw[p] != 0:
+        end = raw.index(b"\0", p)
+        cname = raw[p:end].decode()
+        ptype = struct.unpack_from("<i", raw, end + 1)[0]
+        chans.append((cname, ptype))
+        p = end + 1 + 16
+    xmin, ymin, xmax, ymax = struct.unpack("<4i", header["dataWindow"][1])
+    w, h = xmax - xmin + 1, ymax - ymin + 1
+    comp = header["compression"][1][0]
+    lines = {0: 1, 2: 1, 3: 16}[comp]
+    nblocks = (h + lines - 1) // lines
+    offsets = struct.unpack_from("<%dQ" % nblocks, data, pos)
+    out = {c: [0.0] * (w * h) for c, _ in chans}
+    for off in offsets:
+        y, size = struct.unpack_from("<ii", data, off)
+        block = data[off + 8:off + 8 + size]
+        nl = min(lines, ymax - y + 1)
+        expected = sum(nl * w * (2 if t == 1 else 4) for _, t in chans)
+        if comp != 0 and size < expected:
+            t = bytearray(zlib.decompress(block))
+            for i in range(1, len(t)):
+                t[i] = (t[i - 1] + t[i] - 128) & 0xFF
+            half = (len(t) + 1) // 2
+            u = bytearray(len(t))
+            u[0::2] = t[:half]
+            u[1::2] = t[half:]
+            block = bytes(u)
+        q = 0
+        for li in range(nl):
+            row = y - ymin + li
+            for cname, ptype in chans:
+                if ptype == 1:
+                    vals = [_half(v) for v in struct.unpack_from("<%dH" % w, block, q)]
+                    q += 2 * w
+                else:
+                    vals = struct.unpack_from("<%df" % w, block, q)
+                    q += 4 * w
+                out[cname][row * w:(row + 1) * w] = vals
+    return out, w, h
+
+
+def run_blender_render(write_path=None, animation=False):
+    """bpy.ops.render.render; returns the error message Blender raised (None if none)."""
+    scene = bpy.context.scene
+    if write_path:
+        scene.render.filepath = write_path
+        scene.render.use_file_extension = False
+    try:
+        if animation:
+            bpy.ops.render.render(animation=True)
+        else:
+            bpy.ops.render.render(write_still=bool(write_path))
+    except RuntimeError as e:
+        return str(e)
+    return None
+
+
+def vsd_stats(sock):
+    sys.path.insert(0, os.path.join(REPO, "plugin_blender"))
+    import vsd_client
+    with vsd_client.Client(sock) as c:
+        return c.stats()

@@ -1,0 +1,138 @@
+# F12 with engine VSD against a daemon started here (issue 6, "Tests"):
+# * Combined and every registered pass come back, with the expected non-zero region
+#   (smoke64 + studio.exr with raymarch; fire96's flame grid with reference for VolumeInd/Emit);
+# * the render equals `vsd render` of the scene exported by File > Export > vsd scene;
+# * sequence offsets are honoured (scene frame 11 shows fluid_data_0021.vdb).
+# Usage: blender -b --factory-startup --python-exit-code 1 --python test_render.py -- VSD DATA TMP
+import json
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+from common import check  # noqa: E402
+
+import bpy  # noqa: E402
+
+PASS_CHANNELS = {"Combined": "RGBA", "VolumeDir": "RGB", "VolumeInd": "RGB", "Emit": "RGB",
+                 "Transmittance": "RGB", "Depth": "Z"}
+
+
+def pass_values(img, layer, name):
+    return [img["%s.%s.%s" % (layer, name, c)] for c in PASS_CHANNELS[name]]
+
+
+def main():
+    vsd, data, tmp, _ = common.args()
+    common.fresh_tmp(tmp)
+    common.install_addon(tmp, vsd=vsd)
+    d = common.Daemon(vsd, tmp)
+    try:
+        prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+        prefs.address = d.sock
+        scene, ob = common.build_scene(data, width=128, height=72, percentage=50, frame_start=11,
+                                        frame_offset=20)
+        layer = scene.view_layers[0].name
+        scene.view_layers[0].name = layer = "Smoke Layer"  # a non-default name travels too
+
+        # --- the render engine lists its passes for the compositor ---------------------------
+        tree_outputs = []
+        scene.use_nodes = True
+        rl = scene.node_tree.nodes.new("CompositorNodeRLayers")
+        tree_outputs = [s.name for s in rl.outputs if s.enabled]
+        for name in ("Image", "Alpha", "VolumeDir", "VolumeInd", "Emit", "Transmittance", "Depth"):
+            check(name in tree_outputs, "Render Layers node offers %s (%s)" % (name, tree_outputs))
+        scene.node_tree.nodes.remove(rl)
+        scene.use_nodes = False
+
+        # --- F12 -----------------------------------------------------------------------------
+        out = os.path.join(tmp, "blender_f12.exr")
+        err = common.run_blender_render(out)
+        check(err is None, "F12 render without error (%s)" % err)
+        img, w, h = common.read_exr(out)
+        check((w, h) == (64, 36), "resolution x percentage: %dx%d" % (w, h))
+        for name, chans in PASS_CHANNELS.items():
+            for c in chans:
+                check("%s.%s.%s" % (layer, name, c) in img, "channel %s.%s.%s in Blender's output" % (layer, name, c))
+        comb = pass_values(img, layer, "Combined")
+        alpha = comb[3]
+        dep = pass_values(img, layer, "Depth")[0]
+        inside = [i for i, a in enumerate(alpha) if a > 0.05]
+        outside = [i for i, z in enumerate(dep) if z >= 1e9]  # no view ray hit any density
+        check(len(inside) > 0.05 * w * h and len(outside) > 0.1 * w * h,
+              "smoke covers part of the frame (%d in, %d out of %d)" % (len(inside), len(outside), w * h))
+        vdir = pass_values(img, layer, "VolumeDir")
+        tr = pass_values(img, layer, "Transmittance")
+        check(all(vdir[0][i] > 0 for i in inside), "VolumeDir > 0 where the smoke is")
+        check(all(tr[0][i] < 0.95 for i in inside), "Transmittance < 1 where the smoke is")
+        check(all(2.0 < dep[i] < 8.0 for i in inside), "Depth: camera distance where the smoke is")
+        check(all(vdir[c][i] == 0 and tr[c][i] == 1.0 and alpha[i] == 0.0 for c in range(3) for i in outside),
+              "VolumeDir 0, Transmittance 1, alpha 0 where Depth is empty (1e10)")
+        check(all(abs(comb[0][i] - (vdir[0][i] + pass_values(img, layer, "VolumeInd")[0][i]
+                                    + pass_values(img, layer, "Emit")[0][i])) < 1e-4 for i in range(w * h)),
+              "Combined = VolumeDir + VolumeInd + Emit (transparent film)")
+
+        # --- export and `vsd render` of the exported file ------------------------------------
+        scene_json = os.path.join(tmp, "export", "scene.json")
+        os.makedirs(os.path.dirname(scene_json))
+        res = bpy.ops.export_scene.vsd(filepath=scene_json)
+        check(res == {"FINISHED"}, "export operator finished (%s)" % res)
+        sc = json.load(open(scene_json))
+        print("exported:", json.dumps(sc))
+        check(sc["volume"]["file"].endswith("fluid_data_####.vdb") and not os.path.isabs(sc["volume"]["file"]),
+              "export references the VDB sequence relative to the scene file")
+        check(sc["frames"] == {"start": 21, "end": 23}, "scene frames 11-13 -> file frames 21-23 (%s)" % sc["frames"])
+        check(sc["environment"]["file"].endswith("studio.exr"), "export references the environment map")
+        check(sc["output"]["layer"] == layer, "output.layer is the view layer's name")
+        cli_out = os.path.join(tmp, "cli_####.exr")
+        r = subprocess.run([vsd, "render", scene_json, "--frames", "21-21", "--output", cli_out, "--quiet"],
+                           capture_output=True, text=True)
+        check(r.returncode == 0, "vsd render of the exported scene (%s)" % r.stderr.strip())
+        ref, rw, rh = common.read_exr(cli_out.replace("####", "0021"))
+        check((rw, rh) == (w, h), "CLI size matches")
+        worst = 0.0
+        for name, chans in PASS_CHANNELS.items():
+            for c in chans:
+                key = "%s.%s.%s" % (layer, name, c)
+                a, b = img.get(key), ref.get(key)
+                if a is None or b is None:
+                    check(False, "channel %s in both files" % key)
+                    continue
+                worst = max(worst, max(abs(x - y) / max(1.0, abs(y)) for x, y in zip(a, b)))
+        check(worst < 1e-5, "Blender render equals `vsd render` of the export (max rel diff %.3g)" % worst)
+
+        # --- emission and multiple scattering: fire96 flame, reference -----------------------
+        vol = ob.data
+        vol.filepath = os.path.join(data, "fire96", "fluid_data_0024.vdb")
+        vol.is_sequence = False
+        nt = ob.active_material.node_tree
+        pv = nt.nodes["Principled Volume"]
+        attr = nt.nodes.new("ShaderNodeAttribute")
+        attr.attribute_name = "flame"
+        mul = nt.nodes.new("ShaderNodeMath")
+        mul.operation = "MULTIPLY"
+        mul.inputs[1].default_value = 5.0
+        nt.links.new(attr.outputs["Fac"], mul.inputs[0])
+        nt.links.new(mul.outputs["Value"], pv.inputs["Emission Strength"])
+        pv.inputs["Emission Color"].default_value = (1.0, 0.4, 0.1, 1.0)
+        scene.vsd.method = "reference"
+        scene.vsd.samples = 4
+        scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 48, 27, 100
+        out2 = os.path.join(tmp, "blender_fire.exr")
+        err = common.run_blender_render(out2)
+        check(err is None, "fire render without error (%s)" % err)
+        img2, w2, h2 = common.read_exr(out2)
+        for name in ("VolumeDir", "VolumeInd", "Emit"):
+            v = pass_values(img2, layer, name)
+            check(max(v[0]) > 0.0, "%s has a non-zero region in the fire render" % name)
+        emit = pass_values(img2, layer, "Emit")
+        check(max(emit[0]) > 2.0 * max(emit[2]), "Emit has the flame's orange colour")
+        check(d.alive(), "daemon still serving")
+    finally:
+        rc = d.stop()
+    check(rc == 0, "daemon exits 0 on SIGTERM")
+    common.finish("test_render")
+
+
+main()

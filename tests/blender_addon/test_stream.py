@@ -1,0 +1,117 @@
+# Streaming, errors and cancel of engine VSD (issue 6, "Tests"):
+# * a 3-frame animation rendered twice: the second run uploads no VDB bytes (daemon STATS);
+# * a grid name the file lacks, and a daemon that is not running with auto-start off, each
+#   give a Blender error report with the daemon's / a clear message (ctest fails the test on
+#   any "Traceback" in the output);
+# * Esc (test_break) in mid-render sends CANCEL: the render returns promptly and the daemon
+#   keeps serving;
+# * auto-start: with no daemon and auto-start on, the add-on spawns `vsd serve`, renders, and
+#   stops it again (as at Blender exit).
+# Usage: blender -b --factory-startup --python-exit-code 1 --python test_stream.py -- VSD DATA TMP
+import os
+import signal
+import sys
+import threading
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+from common import check  # noqa: E402
+
+import bpy  # noqa: E402
+
+
+def main():
+    vsd, data, tmp, _ = common.args()
+    common.fresh_tmp(tmp)
+    mod = common.install_addon(tmp, vsd=vsd)
+    connection = sys.modules["vsd_blender.connection"]
+    d = common.Daemon(vsd, tmp)
+    try:
+        prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+        prefs.address = d.sock
+        scene, ob = common.build_scene(data, width=64, height=36, frame_start=1, frame_offset=19)
+        vdbs = [os.path.join(data, "smoke64", "fluid_data_%04d.vdb" % f) for f in (20, 21, 22)]
+        env = os.path.join(data, "env", "studio.exr")
+
+        # --- animation twice ------------------------------------------------------------------
+        s0 = common.vsd_stats(d.sock)
+        err = common.run_blender_render(os.path.join(tmp, "anim1_####.exr"), animation=True)
+        check(err is None, "first animation render (%s)" % err)
+        s1 = common.vsd_stats(d.sock)
+        sent1 = s1["blob_bytes_received"] - s0["blob_bytes_received"]
+        expect = sum(os.path.getsize(p) for p in vdbs) + os.path.getsize(env)
+        check(sent1 == expect, "first run uploads the 3 frames + the map (%d bytes, expected %d)" % (sent1, expect))
+        check(s1["jobs"]["done"] - s0["jobs"]["done"] == 3, "3 frames rendered")
+        files1 = [os.path.join(tmp, "anim1_%04d.exr" % f) for f in (1, 2, 3)]
+        check(all(os.path.isfile(p) for p in files1), "3 frames written")
+        err = common.run_blender_render(os.path.join(tmp, "anim2_####.exr"), animation=True)
+        check(err is None, "second animation render (%s)" % err)
+        s2 = common.vsd_stats(d.sock)
+        check(s2["blob_bytes_received"] == s1["blob_bytes_received"],
+              "second run uploads no bytes (%d)" % (s2["blob_bytes_received"] - s1["blob_bytes_received"]))
+        check(s2["jobs"]["done"] - s1["jobs"]["done"] == 3, "3 more frames rendered")
+        a, _, _ = common.read_exr(files1[0])
+        b, _, _ = common.read_exr(files1[2])
+        a2, _, _ = common.read_exr(os.path.join(tmp, "anim2_0001.exr"))
+        check(a != b, "frames 1 and 3 show different VDB files")
+        check(a == a2, "the re-render is identical")
+
+        # --- a grid the file does not have ---------------------------------------------------
+        scene.frame_set(1)
+        pv = ob.active_material.node_tree.nodes["Principled Volume"]
+        pv.inputs["Density Attribute"].default_value = "no_such_grid"
+        err = common.run_blender_render()
+        print("bad grid ->", err)
+        check(err is not None and "no_such_grid" in err and "vsd" in err,
+              "a missing grid is a Blender error naming it (%s)" % err)
+        pv.inputs["Density Attribute"].default_value = "density"
+
+        # --- cancel in mid-render -------------------------------------------------------------
+        scene.vsd.method = "reference"
+        scene.vsd.samples = 1000000
+        # Esc in a window; in --background Blender turns SIGINT into the same break flag
+        timer = threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT))
+        timer.start()
+        t0 = time.monotonic()
+        err = common.run_blender_render()
+        dt = time.monotonic() - t0
+        print("cancel ->", err, "after %.2fs" % dt)
+        check(dt < 8.0, "cancelled render returns promptly (%.2fs)" % dt)
+        time.sleep(0.3)
+        st = common.vsd_stats(d.sock)
+        check(st["jobs"]["cancelled"] >= 1, "the daemon cancelled the job (STATS %s)" % st["jobs"])
+        check(st["queue"]["running"] == 0, "no job left running")
+        scene.vsd.method = "raymarch"
+        scene.vsd.samples = 1
+        err = common.run_blender_render(os.path.join(tmp, "after_cancel.exr"))
+        check(err is None and d.alive(), "the daemon keeps serving after the cancel (%s)" % err)
+    finally:
+        rc = d.stop()
+    check(rc == 0, "daemon exits 0 on SIGTERM")
+
+    # --- no daemon, auto-start off ------------------------------------------------------------
+    connection.close_all()
+    prefs.address = os.path.join(tmp, "nobody.sock")
+    prefs.auto_start = False
+    err = common.run_blender_render()
+    print("no daemon ->", err)
+    check(err is not None and "no vsd daemon answers" in err and "nobody.sock" in err,
+          "no daemon: a clear Blender error (%s)" % err)
+
+    # --- auto-start on --------------------------------------------------------------------------
+    prefs.auto_start = True
+    prefs.address = os.path.join(tmp, "auto.sock")
+    err = common.run_blender_render(os.path.join(tmp, "autostart.exr"))
+    check(err is None and os.path.isfile(os.path.join(tmp, "autostart.exr")),
+          "auto-start: the add-on starts `vsd serve` and renders (%s)" % err)
+    check(connection.daemon_started_here() and os.path.exists(prefs.address), "auto-started daemon is running")
+    proc = connection._daemon["proc"]
+    connection.close_all()
+    connection.stop_daemon()  # what atexit does when Blender exits
+    check(proc.poll() == 0 and not os.path.exists(prefs.address), "auto-started daemon stopped (rc %s)" % proc.poll())
+    del mod
+    common.finish("test_stream")
+
+
+main()
