@@ -128,7 +128,7 @@ void vsd_sh_triple(const vsd_sh_tensor *t, const double *f, const double *g, dou
  * interpolation, clamped beyond). Each entry is the least-squares fit (closed form: the
  * fit is linear in a and b) to the exact exp* of a training set of negative log-visibility
  * vectors of the kind the methods exponentiate (optical depths): order-n projections of
- * circular caps of half-angle 5..175 degrees, scaled to that magnitude. Errors are
+ * circular caps of half-angle 5..90 degrees (blockers: a cap, not a hole), scaled to that magnitude. Errors are
  * measured in tests/test_sh.c and documented in docs/methods/shgrid.md. */
 typedef struct vsd_sh_exp_table {
     int order;

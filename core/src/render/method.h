@@ -41,6 +41,8 @@ typedef struct vsd_method {
 
 extern const vsd_method vsd_method_reference;
 extern const vsd_method vsd_method_raymarch;
+extern const vsd_method vsd_method_shgrid;
+extern const vsd_method vsd_method_constellation;
 
 const vsd_method *vsd_method_find(const char *name);
 

@@ -1,0 +1,298 @@
+/* Method `constellation` (Navarro, Gutierrez & Serón 2009): the accelerated sibling of
+ * `raymarch`. Stages, as the paper does them:
+ *   prepare_frame     distance maps of the density (and emission) grid — per volume frame;
+ *   prepare_lighting  the light constellation (median cut or k-means), built once per map
+ *                     content and light count, then only rotated/scaled for a new
+ *                     rotation or strength;
+ *   render            validity-mask pass (iFirst per view ray), then the lighting pass on
+ *                     spherical shells with shadow rays to every light.
+ * The kernels are in constellation_kernel.h; options are documented in
+ * docs/methods/constellation.md. */
+#include "src/render/method.h"
+#include "src/render/accum.h"
+#include "src/render/distance_map.h"
+#include "device/cpu/cpu_tiles.h"
+#include "vsd/lighting.h"
+#include "constellation_kernel.h"
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *const constellation_options[] = {
+    "lights", "lights_method", "slice", "density_threshold", "shadow_step", "early_termination",
+    "distance_map", "validity_mask", "pixel_samples", NULL,
+};
+
+typedef struct cst_options {
+    int lights;
+    vsd_lights_method lights_method;
+    double slice;              /* 0 = half a voxel */
+    double threshold;
+    double shadow_step;        /* 0 = half a voxel */
+    double early_termination;
+    int distance_map, validity_mask, pixel_samples;
+} cst_options;
+
+typedef struct cst_state {
+    cst_options opt;
+    vsd_distance_map dm_density, dm_emission;
+    vsd_light_constellation cons;
+    uint64_t cons_key;          /* hash of the map content the constellation came from */
+    int cons_valid;
+    float *lights;              /* kernel layout, rotated and scaled */
+    int light_count;
+} cst_state;
+
+/* Read and validate the options: wrong types and out-of-range values are errors naming
+ * the option (vsd_method_check_options has already refused unknown keys). */
+static vsd_status parse_options(const vsd_scene *scene, cst_options *o, char *err, size_t errlen)
+{
+    static const struct { const char *key; double lo, hi, def; int is_bool, is_int; } spec[] = {
+        {"lights", 1, 65536, 64, 0, 1},
+        {"slice", 0, 1e30, 0, 0, 0},
+        {"density_threshold", 0, 1e30, 0, 0, 0},
+        {"shadow_step", 0, 1e30, 0, 0, 0},
+        {"early_termination", 0, 1, 1e-3, 0, 0},
+        {"distance_map", 0, 1, 1, 1, 0},
+        {"validity_mask", 0, 1, 1, 1, 0},
+        {"pixel_samples", 1, 16, 1, 0, 1},
+    };
+    double val[sizeof spec / sizeof spec[0]];
+    cJSON *root = cJSON_Parse(scene->render.options_json[0] ? scene->render.options_json : "{}");
+    const cJSON *it;
+    size_t i;
+    vsd_status st = VSD_OK;
+    if (!root) return vsd_fail(VSD_ERR_FORMAT, err, errlen, "render.options: not a JSON object");
+    for (i = 0; i < sizeof spec / sizeof spec[0] && !st; i++) {
+        it = cJSON_GetObjectItemCaseSensitive(root, spec[i].key);
+        val[i] = spec[i].def;
+        if (!it) continue;
+        if (spec[i].is_bool) {
+            if (cJSON_IsBool(it)) val[i] = cJSON_IsTrue(it) ? 1 : 0;
+            else st = vsd_fail(VSD_ERR_TYPE, err, errlen, "render.options.%s: expected boolean (true or false)", spec[i].key);
+            continue;
+        }
+        if (!cJSON_IsNumber(it) || !isfinite(it->valuedouble)) {
+            st = vsd_fail(VSD_ERR_TYPE, err, errlen, "render.options.%s: expected a finite number", spec[i].key);
+            continue;
+        }
+        val[i] = it->valuedouble;
+        if (spec[i].is_int && val[i] != floor(val[i]))
+            st = vsd_fail(VSD_ERR_TYPE, err, errlen, "render.options.%s: expected integer, got %g", spec[i].key, val[i]);
+        else if (val[i] < spec[i].lo || val[i] > spec[i].hi)
+            st = vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.%s: %g is out of range %g..%g", spec[i].key,
+                          val[i], spec[i].lo, spec[i].hi);
+        else if ((i == 1 || i == 3) && val[i] != 0 && !(val[i] > 0))
+            st = vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.%s: must be > 0", spec[i].key);
+    }
+    o->lights_method = VSD_LIGHTS_MEDIAN_CUT;
+    it = cJSON_GetObjectItemCaseSensitive(root, "lights_method");
+    if (!st && it) {
+        if (!cJSON_IsString(it))
+            st = vsd_fail(VSD_ERR_TYPE, err, errlen, "render.options.lights_method: expected string");
+        else if (strcmp(it->valuestring, "median_cut") == 0) o->lights_method = VSD_LIGHTS_MEDIAN_CUT;
+        else if (strcmp(it->valuestring, "kmeans") == 0) o->lights_method = VSD_LIGHTS_KMEANS;
+        else
+            st = vsd_fail(VSD_ERR_INVALID, err, errlen,
+                          "render.options.lights_method: \"%.64s\" is not one of \"median_cut\", \"kmeans\"",
+                          it->valuestring);
+    }
+    cJSON_Delete(root);
+    if (st) return st;
+    o->lights = (int)val[0];
+    o->slice = val[1];
+    o->threshold = val[2];
+    o->shadow_step = val[3];
+    o->early_termination = val[4];
+    o->distance_map = (int)val[5];
+    o->validity_mask = (int)val[6];
+    o->pixel_samples = (int)val[7];
+    return VSD_OK;
+}
+
+static vsd_status cst_create(void **state, const vsd_scene *scene, char *err, size_t errlen)
+{
+    cst_state *s = calloc(1, sizeof *s);
+    vsd_status st;
+    if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    st = parse_options(scene, &s->opt, err, errlen);
+    if (st) {
+        free(s);
+        return st;
+    }
+    *state = s;
+    return VSD_OK;
+}
+
+/* Per volume frame: the distance maps (the paper's only per-frame preprocessing). The
+ * emission map is built whenever an emission grid is loaded, because emission strength
+ * changes re-run only prepare_lighting. */
+static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    cst_state *s = state;
+    vsd_status st;
+    vsd_distance_map_free(&s->dm_density);
+    vsd_distance_map_free(&s->dm_emission);
+    if (!s->opt.distance_map) return VSD_OK;
+    st = vsd_distance_map_build(ctx->density, (float)s->opt.threshold, ctx->threads, &s->dm_density, err, errlen);
+    if (!st && ctx->emission)
+        st = vsd_distance_map_build(ctx->emission, (float)s->opt.threshold, ctx->threads, &s->dm_emission, err, errlen);
+    return st;
+}
+
+/* 64-bit FNV-1a-style mix over the map's size and texel bits: the constellation is reused
+ * only for identical content (an address alone could be reused by a new map). */
+static uint64_t env_hash(const vsd_env *env)
+{
+    uint64_t h = 1469598103934665603ull ^ ((uint64_t)env->width << 32 | (uint32_t)env->height);
+    const uint32_t *p = (const uint32_t *)(const void *)env->rgb;
+    size_t i, n = (size_t)env->width * env->height * 3;
+    for (i = 0; i < n; i++) h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+
+/* Per lighting change: rebuild the constellation only when the map itself changed; a new
+ * rotation or strength just re-derives the kernel lights (no recomputation, §3). */
+static vsd_status cst_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    cst_state *s = state;
+    const vsd_scene *sc = ctx->scene;
+    uint64_t key = env_hash(ctx->env);
+    if (!s->cons_valid || key != s->cons_key) {
+        vsd_status st;
+        vsd_constellation_free(&s->cons);
+        s->cons_valid = 0;
+        st = vsd_constellation_build(ctx->env, s->opt.lights, s->opt.lights_method, &s->cons, err, errlen);
+        if (st) return st;
+        s->cons_key = key;
+        s->cons_valid = 1;
+    }
+    free(s->lights);
+    s->lights = malloc(sizeof(float) * 8 * (size_t)(s->cons.count > 0 ? s->cons.count : 1));
+    if (!s->lights) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d lights", s->cons.count);
+    vsd_constellation_kernel_lights(&s->cons, sc->environment.strength, sc->environment.rotation_z, s->lights);
+    s->light_count = s->cons.count;
+    return VSD_OK;
+}
+
+typedef struct cst_pass {
+    const vsd_kconstellation *kc;
+    vsd_accum *acc;
+    int32_t *first;
+} cst_pass;
+
+static void mask_tile(void *user, int x0, int y0, int x1, int y1)
+{
+    cst_pass *p = user;
+    int x, y, s, n2 = p->kc->pixel_samples * p->kc->pixel_samples, w = p->kc->kd->camera.width;
+    for (y = y0; y < y1; y++)
+        for (x = x0; x < x1; x++)
+            for (s = 0; s < n2; s++) p->first[((size_t)y * w + x) * n2 + s] = vsd_cst_first_shell(p->kc, x, y, s);
+}
+
+static void light_tile(void *user, int x0, int y0, int x1, int y1)
+{
+    cst_pass *p = user;
+    int x, y, s, n2 = p->kc->pixel_samples * p->kc->pixel_samples;
+    for (y = y0; y < y1; y++)
+        for (x = x0; x < x1; x++)
+            for (s = 0; s < n2; s++) {
+                vsd_sample_result r = vsd_cst_sample(p->kc, x, y, s);
+                vsd_accum_add(p->acc, x, y, &r);
+            }
+}
+
+static void kdistmap_from(vsd_kdistmap *k, const vsd_distance_map *dm)
+{
+    memset(k, 0, sizeof *k);
+    if (!dm->skip) return;
+    k->skip = dm->skip;
+    memcpy(k->origin, dm->origin, sizeof k->origin);
+    memcpy(k->dims, dm->dims, sizeof k->dims);
+}
+
+/* The default step: half the smallest voxel of the density grid (or of the emission grid
+ * when there is no density). */
+static float half_voxel(const vsd_frame_ctx *ctx)
+{
+    float h = ctx->kd.density.step > 0 ? ctx->kd.density.step : ctx->kd.emission.step;
+    return h > 0 ? h : 0.01f;
+}
+
+static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
+                             size_t errlen)
+{
+    cst_state *s = state;
+    vsd_kconstellation kc;
+    vsd_accum acc;
+    cst_pass pass;
+    vsd_tile_job job;
+    vsd_status st;
+    int n2 = s->opt.pixel_samples * s->opt.pixel_samples;
+    ctx->kd.lights = s->lights;
+    ctx->kd.light_count = s->light_count;
+    memset(&kc, 0, sizeof kc);
+    kc.kd = &ctx->kd;
+    kc.slice = s->opt.slice > 0 ? (float)s->opt.slice : half_voxel(ctx);
+    kc.shadow_step = s->opt.shadow_step > 0 ? (float)s->opt.shadow_step : half_voxel(ctx);
+    ctx->kd.march_step = kc.shadow_step;
+    kc.threshold = (float)s->opt.threshold;
+    kc.early_termination = (float)s->opt.early_termination;
+    kc.pixel_samples = s->opt.pixel_samples;
+    kc.use_distance_map = s->opt.distance_map;
+    if (s->opt.distance_map) {
+        kdistmap_from(&kc.dm_density, &s->dm_density);
+        kdistmap_from(&kc.dm_emission, &s->dm_emission);
+    }
+    memset(&pass, 0, sizeof pass);
+    pass.kc = &kc;
+    if (s->opt.validity_mask) {
+        pass.first = malloc(sizeof(int32_t) * (size_t)fb->width * fb->height * n2);
+        if (!pass.first)
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %dx%d validity mask", fb->width, fb->height);
+        vsd_method_tile_job(&job, ctx, fb, mask_tile, &pass, "validity mask");
+        job.progress_span = 0.05f;
+        st = vsd_cpu_run_tiles(&job);
+        if (st) {
+            free(pass.first);
+            return vsd_fail(st, err, errlen, "render cancelled");
+        }
+        kc.first = pass.first;
+    }
+    st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
+    if (st) {
+        free(pass.first);
+        return st;
+    }
+    pass.acc = &acc;
+    vsd_method_tile_job(&job, ctx, fb, light_tile, &pass, "lighting");
+    if (s->opt.validity_mask) {
+        job.progress_base = 0.05f;
+        job.progress_span = 0.95f;
+    }
+    st = vsd_cpu_run_tiles(&job);
+    if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
+    vsd_accum_resolve(&acc, n2, ctx->scene->film.transparent, fb);
+    vsd_accum_free(&acc);
+    free(pass.first);
+    *samples = n2;
+    return st;
+}
+
+static void cst_destroy(void *state)
+{
+    cst_state *s = state;
+    if (!s) return;
+    vsd_distance_map_free(&s->dm_density);
+    vsd_distance_map_free(&s->dm_emission);
+    vsd_constellation_free(&s->cons);
+    free(s->lights);
+    free(s);
+}
+
+const vsd_method vsd_method_constellation = {
+    "constellation", constellation_options, cst_create, cst_prepare_frame, cst_prepare_lighting, cst_render,
+    cst_destroy,
+};

@@ -1,0 +1,502 @@
+/* Method `shgrid`: Delalandre, Gautron, Marvie 2013, "Real-Time Image-Based Volume
+ * Lighting" — single scattering from a coarse grid of SH reduced-intensity records
+ * (shgrid_kernel.h holds the per-record and per-pixel code shared with CUDA).
+ *
+ * Stages and caches (the paper's "static lighting", §4.3):
+ *   prepare_frame     record grid over the density's box: empty-cell elimination by k^3
+ *                     probes, record positions, and in the factored form the SH of the
+ *                     transmittance per record (the volume-dependent factor F_Dep).
+ *   prepare_lighting  SH of the environment (F_Ind). Factored form: nothing per record
+ *                     when g = 0 (environment rotations cost one SH rotation); for g != 0
+ *                     the per-record product T*L by the SH triple product. Product form
+ *                     (§4.4): T*L projected per record from the HEALPix samples, which
+ *                     re-marches the record grid.
+ *   render            the view march with one SH dot product per sample.
+ * Options: grid (cells per axis, default 32), order (SH order, default 3), directions
+ * (M HEALPix directions, 12 nside^2, default 192), probes (k, k^3 density probes per cell,
+ * default 3; 0 = keep every cell whose bricks are not empty), interpolation ("nearest" |
+ * "trilinear", default "trilinear"), form ("auto" | "factored" | "product", default auto =
+ * factored for g = 0, product otherwise), step (view march, world units, default half the
+ * smallest voxel), record_step (record marches, default one voxel), pixel_samples (n x n
+ * rays per pixel, default 2). */
+#include "src/render/method.h"
+#include "src/render/accum.h"
+#include "src/render/kernel_setup.h"
+#include "device/cpu/cpu_tiles.h"
+#include "vsd/sh.h"
+#include "shgrid_kernel.h"
+#include <chealpix.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *const shgrid_options[] = {
+    "grid", "order", "directions", "probes", "interpolation", "form", "step", "record_step",
+    "pixel_samples", NULL,
+};
+
+enum { FORM_AUTO, FORM_FACTORED, FORM_PRODUCT };
+
+typedef struct shgrid_state {
+    /* options */
+    int grid, order, probes, interp, form, pixel_samples;
+    long dirs_count, nside;
+    double step, record_step;
+    /* HEALPix directions and their basis rows (fixed per renderer) */
+    float *dirs, *basis, *dir_radiance;
+    /* frame: the record grid */
+    int res[3];
+    vsd_affine world_to_grid;
+    int32_t *cell_record;
+    float *record_pos;
+    int record_count;
+    float *trans;            /* [records * n2] SH of transmittance, when have_trans */
+    int have_trans;
+    float *rgb;              /* [records * 3 n2] SH of T*L (RGB kind) */
+    int kind;                /* what render uses */
+    /* lighting */
+    float light[3 * VSD_SH_MAX_COEFFS];
+    double env_tex[3 * VSD_SH_MAX_COEFFS];   /* env SH in texture frame, unit strength */
+    double env_sum;          /* content checksum of the projected map (pointers get reused) */
+    int env_w, env_h, have_env;
+    vsd_sh_tensor *tensor;
+    double frame_seconds, lighting_seconds;
+} shgrid_state;
+
+static double opt_num(const vsd_scene *sc, const char *key, double def) { return vsd_scene_option_number(sc, key, def); }
+
+static vsd_status shgrid_create(void **state, const vsd_scene *scene, char *err, size_t errlen)
+{
+    shgrid_state *s;
+    double grid = opt_num(scene, "grid", 32), order = opt_num(scene, "order", 3);
+    double dirs = opt_num(scene, "directions", 192), probes = opt_num(scene, "probes", 3);
+    double ps = opt_num(scene, "pixel_samples", 2);
+    char buf[32];
+    int r;
+    if (grid < 2 || grid > 256 || grid != floor(grid))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.grid: %g is not an integer in 2..256", grid);
+    if (order < 1 || order > VSD_SH_MAX_ORDER || order != floor(order))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.order: %g is not an integer in 1..%d", order, VSD_SH_MAX_ORDER);
+    if (dirs < 12 || dirs > 196608 || dirs != floor(dirs) || !vsd_sh_healpix_nside((long)dirs))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                        "render.options.directions: %g is not a HEALPix pixel count 12 nside^2 "
+                        "(12, 48, 108, 192, 300, 432, 588, 768, ...) up to 196608", dirs);
+    if (probes < 0 || probes > 16 || probes != floor(probes))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.probes: %g is not an integer in 0..16", probes);
+    if (ps < 1 || ps > 16 || ps != floor(ps))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.pixel_samples: %g is not an integer in 1..16", ps);
+    if (opt_num(scene, "step", 1.0) <= 0)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.step: must be > 0");
+    if (opt_num(scene, "record_step", 1.0) <= 0)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.record_step: must be > 0");
+    s = calloc(1, sizeof *s);
+    if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    s->grid = (int)grid;
+    s->order = (int)order;
+    s->dirs_count = (long)dirs;
+    s->nside = vsd_sh_healpix_nside(s->dirs_count);
+    s->probes = (int)probes;
+    s->pixel_samples = (int)ps;
+    s->step = opt_num(scene, "step", 0.0);
+    s->record_step = opt_num(scene, "record_step", 0.0);
+    s->interp = VSD_SHGRID_TRILINEAR;
+    r = vsd_scene_option_string(scene, "interpolation", buf, sizeof buf);
+    if (r) {
+        if (r > 0 && strcmp(buf, "nearest") == 0) s->interp = VSD_SHGRID_NEAREST;
+        else if (r > 0 && strcmp(buf, "trilinear") == 0) s->interp = VSD_SHGRID_TRILINEAR;
+        else {
+            free(s);
+            return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.interpolation: expected \"nearest\" or \"trilinear\"");
+        }
+    } else if (strstr(scene->render.options_json, "\"interpolation\"")) {
+        free(s);
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.interpolation: expected \"nearest\" or \"trilinear\"");
+    }
+    s->form = FORM_AUTO;
+    r = vsd_scene_option_string(scene, "form", buf, sizeof buf);
+    if (r) {
+        if (r > 0 && strcmp(buf, "auto") == 0) s->form = FORM_AUTO;
+        else if (r > 0 && strcmp(buf, "factored") == 0) s->form = FORM_FACTORED;
+        else if (r > 0 && strcmp(buf, "product") == 0) s->form = FORM_PRODUCT;
+        else {
+            free(s);
+            return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.form: expected \"auto\", \"factored\" or \"product\"");
+        }
+    } else if (strstr(scene->render.options_json, "\"form\"")) {
+        free(s);
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.form: expected \"auto\", \"factored\" or \"product\"");
+    }
+    /* the HEALPix directions and the basis at them, weighted 4pi/M, once */
+    {
+        int n2 = s->order * s->order;
+        long j;
+        double *d = malloc(sizeof(double) * 3 * (size_t)s->dirs_count);
+        s->dirs = malloc(sizeof(float) * 4 * (size_t)s->dirs_count);
+        s->basis = malloc(sizeof(float) * (size_t)n2 * (size_t)s->dirs_count);
+        s->dir_radiance = calloc(4 * (size_t)s->dirs_count, sizeof(float));
+        if (!d || !s->dirs || !s->basis || !s->dir_radiance) {
+            free(d);
+            free(s->dirs); free(s->basis); free(s->dir_radiance); free(s);
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %ld directions", (long)dirs);
+        }
+        vsd_sh_healpix_dirs(s->nside, d, NULL, 0);
+        for (j = 0; j < s->dirs_count; j++) {
+            double y[VSD_SH_MAX_COEFFS];
+            int i;
+            vsd_sh_eval(s->order, d + 3 * j, y);
+            for (i = 0; i < 3; i++) s->dirs[4 * j + i] = (float)d[3 * j + i];
+            s->dirs[4 * j + 3] = 0.0f;
+            for (i = 0; i < n2; i++) s->basis[j * n2 + i] = (float)(y[i] * 4.0 * VSD_PI / (double)s->dirs_count);
+        }
+        free(d);
+    }
+    *state = s;
+    return VSD_OK;
+}
+
+static void free_frame(shgrid_state *s)
+{
+    free(s->cell_record); free(s->record_pos); free(s->trans); free(s->rgb);
+    s->cell_record = NULL; s->record_pos = NULL; s->trans = NULL; s->rgb = NULL;
+    s->record_count = 0;
+    s->have_trans = 0;
+}
+
+/* The kernel view of the state for the current stage. */
+static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int kind, vsd_kshgrid *g)
+{
+    memset(g, 0, sizeof *g);
+    g->kd = kd;
+    g->cell_record = s->cell_record;
+    g->records = kind == VSD_SHGRID_SCALAR ? s->trans : s->rgb;
+    g->record_pos = s->record_pos;
+    g->dirs = s->dirs;
+    g->basis = s->basis;
+    g->dir_radiance = s->dir_radiance;
+    g->light = s->light;
+    g->world_to_grid = s->world_to_grid;
+    memcpy(g->res, s->res, sizeof g->res);
+    g->order = s->order;
+    g->n2 = s->order * s->order;
+    g->kind = kind;
+    g->stride = kind == VSD_SHGRID_SCALAR ? g->n2 : 3 * g->n2;
+    g->interp = s->interp;
+    g->dir_count = (int32_t)s->dirs_count;
+    g->record_count = s->record_count;
+    g->record_step = (float)(s->record_step > 0 ? s->record_step : 2.0 * kd->density.step);
+}
+
+typedef struct record_job { const vsd_kshgrid *g; float *out; } record_job;
+
+static void record_tile(void *user, int x0, int y0, int x1, int y1)
+{
+    record_job *j = user;
+    int r;
+    (void)y0; (void)y1;
+    for (r = x0; r < x1; r++) vsd_shgrid_record(j->g, r, j->out + (size_t)r * j->g->stride);
+}
+
+/* The record pass over every record on the CPU threads (records are the tile job's x). */
+static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kind, char *err, size_t errlen)
+{
+    vsd_kshgrid g;
+    record_job job;
+    vsd_tile_job tj;
+    vsd_status st;
+    if (s->record_count == 0) return VSD_OK;
+    kernel_grid(s, &ctx->kd, kind, &g);
+    job.g = &g;
+    job.out = kind == VSD_SHGRID_SCALAR ? s->trans : s->rgb;
+    memset(&tj, 0, sizeof tj);
+    tj.width = s->record_count;
+    tj.height = 1;
+    tj.threads = ctx->threads;
+    tj.fn = record_tile;
+    tj.user = &job;
+    tj.stage = "record grid";
+    tj.progress = ctx->progress;
+    tj.progress_user = ctx->user;
+    tj.progress_span = 1.0f;
+    tj.cancel = ctx->cancel;
+    st = vsd_cpu_run_tiles(&tj);
+    if (st == VSD_ERR_CANCELLED) return vsd_fail(st, err, errlen, "render cancelled");
+    return st;
+}
+
+static int want_product(const shgrid_state *s, const vsd_scene *sc)
+{
+    if (s->form == FORM_PRODUCT) return 1;
+    if (s->form == FORM_FACTORED) return 0;
+    return sc->medium.anisotropy != 0.0f;
+}
+
+/* Is the cell with index-space box [lo, hi) non-empty? First the brick majorants (exact:
+ * a cell over empty bricks is empty), then the paper's k^3 probes of the density. */
+static int cell_nonempty(const vsd_kvolume *v, const double lo[3], const double hi[3], int k)
+{
+    int b0[3], b1[3], a, x, y, z, any = 0;
+    for (a = 0; a < 3; a++) {
+        b0[a] = (int)floor((lo[a] - v->origin[a]) / 8.0);
+        b1[a] = (int)floor((hi[a] - v->origin[a]) / 8.0);
+        if (b0[a] < 0) b0[a] = 0;
+        if (b1[a] > v->dims[a] - 1) b1[a] = v->dims[a] - 1;
+    }
+    for (z = b0[2]; z <= b1[2] && !any; z++)
+        for (y = b0[1]; y <= b1[1] && !any; y++)
+            for (x = b0[0]; x <= b1[0] && !any; x++)
+                if (v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f) any = 1;
+    if (!any || k == 0) return any;
+    for (z = 0; z < k; z++)
+        for (y = 0; y < k; y++)
+            for (x = 0; x < k; x++) {
+                vsd_f3 p = f3((float)(lo[0] + (hi[0] - lo[0]) * (x + 0.5) / k),
+                              (float)(lo[1] + (hi[1] - lo[1]) * (y + 0.5) / k),
+                              (float)(lo[2] + (hi[2] - lo[2]) * (z + 0.5) / k));
+                if (vsd_kvolume_field(v, p) > 0.0f) return 1;
+            }
+    return 0;
+}
+
+static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    shgrid_state *s = state;
+    const vsd_kvolume *v = &ctx->kd.density;
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3], w2i[16], i2w[16];
+    int a, x, y, z, n2 = s->order * s->order, any = 0;
+    size_t ncell;
+    free_frame(s);
+    s->res[0] = s->res[1] = s->res[2] = 0;
+    if (v->dims[0] == 0) return VSD_OK;
+    /* the medium's box: the union of non-empty brick cells (index space) */
+    for (z = 0; z < v->dims[2]; z++)
+        for (y = 0; y < v->dims[1]; y++)
+            for (x = 0; x < v->dims[0]; x++) {
+                int b[3] = {x, y, z};
+                if (!(v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f)) continue;
+                for (a = 0; a < 3; a++) {
+                    double l = v->origin[a] + 8.0 * b[a], h = l + 8.0;
+                    if (!any || l < lo[a]) lo[a] = l;
+                    if (!any || h > hi[a]) hi[a] = h;
+                }
+                any = 1;
+            }
+    if (!any) return VSD_OK;
+    for (a = 0; a < 3; a++) {
+        s->res[a] = s->grid;
+        cell[a] = (hi[a] - lo[a]) / s->grid;
+    }
+    /* world -> grid = scale(1/cell) . translate(-lo) . world_to_index */
+    for (a = 0; a < 3; a++) {
+        int c;
+        for (c = 0; c < 4; c++) s->world_to_grid.m[4 * a + c] = (float)(v->world_to_index.m[4 * a + c] / cell[a]);
+        s->world_to_grid.m[4 * a + 3] -= (float)(lo[a] / cell[a]);
+    }
+    for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
+    w2i[12] = w2i[13] = w2i[14] = 0; w2i[15] = 1;
+    if (!vsd_mat4_invert(w2i, i2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
+    ncell = (size_t)s->res[0] * s->res[1] * s->res[2];
+    s->cell_record = malloc(sizeof(int32_t) * ncell);
+    if (!s->cell_record) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %d^3 record grid", s->grid);
+    s->record_count = 0;
+    for (z = 0; z < s->res[2]; z++)
+        for (y = 0; y < s->res[1]; y++)
+            for (x = 0; x < s->res[0]; x++) {
+                double cl[3], ch[3];
+                int c[3] = {x, y, z};
+                for (a = 0; a < 3; a++) { cl[a] = lo[a] + cell[a] * c[a]; ch[a] = cl[a] + cell[a]; }
+                s->cell_record[((size_t)z * s->res[1] + y) * s->res[0] + x] =
+                    cell_nonempty(v, cl, ch, s->probes) ? s->record_count++ : -1;
+            }
+    s->record_pos = malloc(sizeof(float) * 4 * (size_t)(s->record_count ? s->record_count : 1));
+    s->trans = malloc(sizeof(float) * (size_t)n2 * (size_t)(s->record_count ? s->record_count : 1));
+    s->rgb = malloc(sizeof(float) * 3 * (size_t)n2 * (size_t)(s->record_count ? s->record_count : 1));
+    if (!s->record_pos || !s->trans || !s->rgb) {
+        free_frame(s);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d SH records", s->record_count);
+    }
+    /* record positions: the cell centres in world space */
+    for (z = 0; z < s->res[2]; z++)
+        for (y = 0; y < s->res[1]; y++)
+            for (x = 0; x < s->res[0]; x++) {
+                int r = s->cell_record[((size_t)z * s->res[1] + y) * s->res[0] + x], c[3] = {x, y, z};
+                double p[3];
+                if (r < 0) continue;
+                for (a = 0; a < 3; a++) p[a] = lo[a] + cell[a] * (c[a] + 0.5);
+                for (a = 0; a < 3; a++)
+                    s->record_pos[4 * r + a] = (float)(i2w[4 * a] * p[0] + i2w[4 * a + 1] * p[1] + i2w[4 * a + 2] * p[2] + i2w[4 * a + 3]);
+                s->record_pos[4 * r + 3] = 1.0f;
+            }
+    /* the volume-dependent factor, when the lighting will not be baked into the records */
+    if (!want_product(s, ctx->scene)) {
+        vsd_status st = run_records(s, ctx, VSD_SHGRID_SCALAR, err, errlen);
+        if (st) return st;
+        s->have_trans = 1;
+    }
+    return VSD_OK;
+}
+
+/* Environment radiance averaged over each HEALPix pixel (solid-angle weighted over the
+ * texels whose centres fall in it); pixels no texel centre reaches (maps coarser than the
+ * HEALPix grid) take the nearest texel at their centre. */
+static void healpix_radiance(shgrid_state *s, const vsd_env *env, const vsd_kenv *ke)
+{
+    double *acc = calloc(4 * (size_t)s->dirs_count, sizeof(double));
+    long j;
+    int row, col;
+    if (!acc) return;
+    for (row = 0; row < env->height; row++) {
+        double th0 = VSD_PI * (double)row / env->height, th1 = VSD_PI * (row + 1.0) / env->height;
+        double dom = 2.0 * VSD_PI / env->width * (cos(th0) - cos(th1)), thc = 0.5 * (th0 + th1);
+        for (col = 0; col < env->width; col++) {
+            const float *p = env->rgb + 3 * ((size_t)row * env->width + col);
+            double u = (col + 0.5) / env->width, phit = (0.5 - u) * 2.0 * VSD_PI;
+            double tx = sin(thc) * cos(phit), ty = sin(thc) * sin(phit);
+            /* world = Rz(-rotation) texture (kernel_env.h) */
+            double wx = ke->cos_rot * tx + ke->sin_rot * ty, wy = -ke->sin_rot * tx + ke->cos_rot * ty;
+            long pix;
+            ang2pix_ring(s->nside, thc, atan2(wy, wx) < 0 ? atan2(wy, wx) + 2.0 * VSD_PI : atan2(wy, wx), &pix);
+            acc[4 * pix + 0] += dom * p[0];
+            acc[4 * pix + 1] += dom * p[1];
+            acc[4 * pix + 2] += dom * p[2];
+            acc[4 * pix + 3] += dom;
+        }
+    }
+    for (j = 0; j < s->dirs_count; j++) {
+        int c;
+        if (acc[4 * j + 3] > 0.0) {
+            for (c = 0; c < 3; c++) s->dir_radiance[4 * j + c] = (float)(acc[4 * j + c] / acc[4 * j + 3] * ke->strength);
+        } else {
+            vsd_f3 l = vsd_env_eval(ke, f3(s->dirs[4 * j], s->dirs[4 * j + 1], s->dirs[4 * j + 2]));
+            s->dir_radiance[4 * j] = l.x; s->dir_radiance[4 * j + 1] = l.y; s->dir_radiance[4 * j + 2] = l.z;
+        }
+        s->dir_radiance[4 * j + 3] = 0.0f;
+    }
+    free(acc);
+}
+
+static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    shgrid_state *s = state;
+    const vsd_scene *sc = ctx->scene;
+    int n2 = s->order * s->order, i, c;
+    vsd_status st;
+    /* F_Ind: the environment's SH, projected once per map (texture frame) and rotated about
+     * Z for Blender's Mapping rotation, so turning the map costs one SH rotation */
+    {
+        double sum = 0.0;
+        size_t k, n = (size_t)ctx->env->width * ctx->env->height * 3;
+        for (k = 0; k < n; k++) sum += (double)ctx->env->rgb[k] * (double)(1 + (k % 7));
+        if (!s->have_env || sum != s->env_sum || s->env_w != ctx->env->width || s->env_h != ctx->env->height) {
+            st = vsd_sh_project_env(s->order, ctx->env, 1.0, 0.0, s->env_tex, err, errlen);
+            if (st) return st;
+            s->env_sum = sum;
+            s->env_w = ctx->env->width;
+            s->env_h = ctx->env->height;
+            s->have_env = 1;
+        }
+    }
+    {
+        double rz = sc->environment.rotation_z, R[9] = {cos(rz), sin(rz), 0, -sin(rz), cos(rz), 0, 0, 0, 1};
+        double out[VSD_SH_MAX_COEFFS];
+        vsd_sh_rotation rot;
+        vsd_sh_rotation_init(&rot, s->order, R);   /* world = Rz(-rotation) texture */
+        for (c = 0; c < 3; c++) {
+            vsd_sh_rotate(&rot, s->env_tex + c * n2, out);
+            for (i = 0; i < n2; i++) s->light[c * n2 + i] = (float)(out[i] * sc->environment.strength);
+        }
+    }
+    if (s->record_count == 0) {
+        s->kind = VSD_SHGRID_SCALAR;
+        return VSD_OK;
+    }
+    if (want_product(s, sc)) {
+        /* §4.4 static-media form: T*L per HEALPix direction, projected per record */
+        healpix_radiance(s, ctx->env, &ctx->kd.env);
+        s->kind = VSD_SHGRID_RGB;
+        return run_records(s, ctx, VSD_SHGRID_RGB, err, errlen);
+    }
+    if (!s->have_trans) {
+        if ((st = run_records(s, ctx, VSD_SHGRID_SCALAR, err, errlen))) return st;
+        s->have_trans = 1;
+    }
+    if (sc->medium.anisotropy == 0.0f) {
+        s->kind = VSD_SHGRID_SCALAR;
+        return VSD_OK;
+    }
+    /* factored form with an anisotropic phase: (T * L) per record by the triple product,
+     * then the view pass convolves with HG */
+    if (!s->tensor && (st = vsd_sh_tensor_create(s->order, &s->tensor, err, errlen))) return st;
+    {
+        int r;
+        double t[VSD_SH_MAX_COEFFS], l[VSD_SH_MAX_COEFFS], o[VSD_SH_MAX_COEFFS];
+        for (r = 0; r < s->record_count; r++) {
+            for (i = 0; i < n2; i++) t[i] = s->trans[(size_t)r * n2 + i];
+            for (c = 0; c < 3; c++) {
+                for (i = 0; i < n2; i++) l[i] = s->light[c * n2 + i];
+                vsd_sh_triple(s->tensor, t, l, o);
+                for (i = 0; i < n2; i++) s->rgb[(size_t)r * 3 * n2 + c * n2 + i] = (float)o[i];
+            }
+        }
+    }
+    s->kind = VSD_SHGRID_RGB;
+    return VSD_OK;
+}
+
+typedef struct shgrid_pass { const vsd_kshgrid *g; vsd_accum *acc; int n; } shgrid_pass;
+
+static void shgrid_tile(void *user, int x0, int y0, int x1, int y1)
+{
+    shgrid_pass *p = user;
+    int x, y, i, j;
+    float inv = 1.0f / (float)p->n;
+    for (y = y0; y < y1; y++)
+        for (x = x0; x < x1; x++)
+            for (j = 0; j < p->n; j++)
+                for (i = 0; i < p->n; i++) {
+                    vsd_sample_result res = vsd_shgrid_pixel(p->g, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
+                    vsd_accum_add(p->acc, x, y, &res);
+                }
+}
+
+static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
+                                char *err, size_t errlen)
+{
+    shgrid_state *s = state;
+    vsd_accum acc;
+    shgrid_pass pass;
+    vsd_kshgrid g;
+    vsd_tile_job job;
+    vsd_status st;
+    ctx->kd.march_step = s->step > 0 ? (float)s->step
+                       : (ctx->kd.density.step > 0 ? ctx->kd.density.step : ctx->kd.emission.step);
+    if (!(ctx->kd.march_step > 0)) ctx->kd.march_step = 0.01f;
+    kernel_grid(s, &ctx->kd, s->kind, &g);
+    if ((st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen))) return st;
+    pass.g = &g;
+    pass.acc = &acc;
+    pass.n = s->pixel_samples;
+    vsd_method_tile_job(&job, ctx, fb, shgrid_tile, &pass, "ray marching");
+    st = vsd_cpu_run_tiles(&job);
+    if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
+    vsd_accum_resolve(&acc, pass.n * pass.n, ctx->scene->film.transparent, fb);
+    vsd_accum_free(&acc);
+    *samples = pass.n * pass.n;
+    return st;
+}
+
+static void shgrid_destroy(void *state)
+{
+    shgrid_state *s = state;
+    if (!s) return;
+    free_frame(s);
+    free(s->dirs);
+    free(s->basis);
+    free(s->dir_radiance);
+    vsd_sh_tensor_destroy(s->tensor);
+    free(s);
+}
+
+const vsd_method vsd_method_shgrid = {
+    "shgrid", shgrid_options, shgrid_create, shgrid_prepare_frame, shgrid_prepare_lighting, shgrid_render,
+    shgrid_destroy,
+};

@@ -1,0 +1,229 @@
+/* The light constellation (vsd/lighting.h): power conservation, equal energy of the
+ * median cut, one bright texel giving a light in its direction, k-means, and rotation
+ * without recomputation agreeing with the environment lookup's own rotation. */
+#include "test_common.h"
+#include "vsd/lighting.h"
+#include "vsd/env.h"
+#include "kernel/kernel_env.h"
+#include <stdlib.h>
+
+static vsd_env *make_env(int w, int h, const float rgb[3])
+{
+    vsd_env *e = NULL;
+    CHECK(vsd_env_create_uniform(rgb, w, h, &e, NULL, 0) == VSD_OK);
+    return e;
+}
+
+/* A smooth, strongly varying map: a bright lobe plus a coloured gradient. */
+static vsd_env *smooth_env(int w, int h)
+{
+    float zero[3] = {0, 0, 0};
+    vsd_env *e = make_env(w, h, zero);
+    int x, y;
+    if (!e) return NULL;
+    for (y = 0; y < h; y++)
+        for (x = 0; x < w; x++) {
+            float *p = e->rgb + 3 * ((size_t)y * w + x);
+            float u = (x + 0.5f) / w, v = (y + 0.5f) / h;
+            float lobe = 20.0f * expf(-((u - 0.3f) * (u - 0.3f) + (v - 0.35f) * (v - 0.35f)) / 0.004f);
+            p[0] = 0.2f + u + lobe;
+            p[1] = 0.1f + v + 0.8f * lobe;
+            p[2] = 0.5f * (1 - v) + 0.5f * lobe;
+        }
+    return e;
+}
+
+static double angle_between(const float a[3], const float b[3])
+{
+    double d = (double)a[0] * b[0] + (double)a[1] * b[1] + (double)a[2] * b[2];
+    return acos(d > 1 ? 1 : (d < -1 ? -1 : d));
+}
+
+/* Total power == the map's integral, for both methods and several N (a uniform map's
+ * integral is 4 pi c exactly, and its lights' solid angles cover the sphere). */
+static void test_power_conservation(void)
+{
+    float c[3] = {0.5f, 1.0f, 2.0f};
+    vsd_env *u = make_env(64, 32, c), *s = smooth_env(256, 128);
+    const int ns[] = {1, 7, 64, 300};
+    int m, i, k;
+    double integ[3];
+    if (!u || !s) return;
+    vsd_env_integral(u, integ);
+    for (k = 0; k < 3; k++) CHECK_NEAR(integ[k], 4 * M_PI * c[k], 1e-6 * 4 * M_PI * c[k]);
+    for (m = 0; m < 2; m++)
+        for (i = 0; i < 4; i++) {
+            vsd_light_constellation lc;
+            double sum[3] = {0, 0, 0}, omega = 0;
+            int l;
+            CHECK(vsd_constellation_build(u, ns[i], (vsd_lights_method)m, &lc, NULL, 0) == VSD_OK);
+            CHECK(lc.count >= 1 && lc.count <= ns[i]);
+            for (l = 0; l < lc.count; l++) {
+                for (k = 0; k < 3; k++) sum[k] += lc.lights[l].power[k];
+                omega += lc.lights[l].solid_angle;
+            }
+            for (k = 0; k < 3; k++) CHECK_NEAR(sum[k], 4 * M_PI * c[k], 1e-5 * 4 * M_PI * c[k]);
+            CHECK_NEAR(omega, 4 * M_PI, 1e-5 * 4 * M_PI);
+            vsd_constellation_free(&lc);
+
+            vsd_env_integral(s, integ);
+            CHECK(vsd_constellation_build(s, ns[i], (vsd_lights_method)m, &lc, NULL, 0) == VSD_OK);
+            sum[0] = sum[1] = sum[2] = 0;
+            for (l = 0; l < lc.count; l++)
+                for (k = 0; k < 3; k++) sum[k] += lc.lights[l].power[k];
+            for (k = 0; k < 3; k++) {
+                CHECK_NEAR(sum[k], integ[k], 1e-5 * integ[k]);
+                CHECK_NEAR(lc.total_power[k], integ[k], 1e-5 * integ[k]);
+            }
+            vsd_constellation_free(&lc);
+        }
+    vsd_env_destroy(u);
+    vsd_env_destroy(s);
+}
+
+/* Median cut gives equal energy up to the granularity of one texel column/row: on a
+ * 512x256 smooth map with N = 16 every light holds 1/16 of the luminance energy within
+ * 15%. */
+static void test_equal_energy(void)
+{
+    vsd_env *s = smooth_env(512, 256);
+    vsd_light_constellation lc;
+    double total = 0;
+    int l;
+    if (!s) return;
+    CHECK(vsd_constellation_build(s, 16, VSD_LIGHTS_MEDIAN_CUT, &lc, NULL, 0) == VSD_OK);
+    CHECK(lc.count == 16);
+    for (l = 0; l < lc.count; l++)
+        total += 0.2126 * lc.lights[l].power[0] + 0.7152 * lc.lights[l].power[1] + 0.0722 * lc.lights[l].power[2];
+    for (l = 0; l < lc.count; l++) {
+        double e = 0.2126 * lc.lights[l].power[0] + 0.7152 * lc.lights[l].power[1] + 0.0722 * lc.lights[l].power[2];
+        CHECK_MSG(fabs(e - total / 16) < 0.15 * total / 16, "light %d: energy %g, expected %g", l, e, total / 16);
+    }
+    vsd_constellation_free(&lc);
+    vsd_env_destroy(s);
+}
+
+/* One bright texel in a black map: one light, in the texel's direction, holding all the
+ * power (both methods, several texels including one near a pole). */
+static void test_bright_texel(void)
+{
+    const int texels[][2] = {{17, 9}, {40, 20}, {5, 1}, {63, 16}};
+    int t, m;
+    for (t = 0; t < 4; t++)
+        for (m = 0; m < 2; m++) {
+            float zero[3] = {0, 0, 0}, dir[3];
+            vsd_env *e = make_env(64, 32, zero);
+            vsd_light_constellation lc;
+            double integ[3];
+            float *p;
+            if (!e) return;
+            p = e->rgb + 3 * (texels[t][1] * 64 + texels[t][0]);
+            p[0] = 500.0f; p[1] = 400.0f; p[2] = 300.0f;
+            vsd_env_integral(e, integ);
+            vsd_env_texel_direction(e, texels[t][0], texels[t][1], dir);
+            CHECK(vsd_constellation_build(e, 64, (vsd_lights_method)m, &lc, NULL, 0) == VSD_OK);
+            CHECK_MSG(lc.count == 1, "texel %d method %d: %d lights", t, m, lc.count);
+            if (lc.count >= 1) {
+                /* texels are 0.1 rad wide; 1e-3 rad is float rounding of acos near 1 */
+                CHECK_MSG(angle_between(lc.lights[0].dir, dir) < 1e-3, "texel %d method %d: light off by %g rad", t, m,
+                          angle_between(lc.lights[0].dir, dir));
+                CHECK_NEAR(lc.lights[0].power[0], integ[0], 1e-5 * integ[0]);
+                CHECK_NEAR(lc.lights[0].power[2], integ[2], 1e-5 * integ[2]);
+                /* the kernel's own lookup finds the bright texel in that direction */
+                {
+                    vsd_kenv ke;
+                    memset(&ke, 0, sizeof ke);
+                    ke.width = 64; ke.height = 32; ke.cos_rot = 1; ke.sin_rot = 0;
+                    CHECK(vsd_env_texel(&ke, f3(dir[0], dir[1], dir[2]), NULL) == texels[t][1] * 64 + texels[t][0]);
+                }
+            }
+            vsd_constellation_free(&lc);
+            vsd_env_destroy(e);
+        }
+}
+
+/* Rotation without recomputation: for rotation r the kernel lights point to world
+ * directions that kernel_env.h, rotated by r, maps back onto the light's own texel; the
+ * weights scale with strength; nothing else changes. */
+static void test_rotation(void)
+{
+    vsd_env *s = smooth_env(128, 64);
+    vsd_light_constellation lc;
+    const float rots[] = {0.0f, 0.7f, -2.5f, 3.1f};
+    int r, l;
+    if (!s) return;
+    CHECK(vsd_constellation_build(s, 32, VSD_LIGHTS_MEDIAN_CUT, &lc, NULL, 0) == VSD_OK);
+    for (r = 0; r < 4; r++) {
+        float *kl = malloc(sizeof(float) * 8 * (size_t)lc.count);
+        vsd_kenv k0, kr;
+        memset(&k0, 0, sizeof k0);
+        k0.width = 128; k0.height = 64; k0.cos_rot = 1; k0.sin_rot = 0;
+        kr = k0;
+        kr.cos_rot = cosf(rots[r]);
+        kr.sin_rot = sinf(rots[r]);
+        vsd_constellation_kernel_lights(&lc, 2.5f, rots[r], kl);
+        for (l = 0; l < lc.count; l++) {
+            const float *o = kl + 8 * l;
+            vsd_f3 tex = f3(lc.lights[l].dir[0], lc.lights[l].dir[1], lc.lights[l].dir[2]);
+            CHECK(vsd_env_texel(&kr, f3(o[0], o[1], o[2]), NULL) == vsd_env_texel(&k0, tex, NULL));
+            CHECK_NEAR(o[0] * o[0] + o[1] * o[1] + o[2] * o[2], 1.0, 1e-5);
+            CHECK_NEAR(o[2], lc.lights[l].dir[2], 0);
+            CHECK_NEAR(o[4], 2.5 * lc.lights[l].power[0], 1e-6 * o[4]);
+            CHECK_NEAR(o[6], 2.5 * lc.lights[l].power[2], 1e-6 * o[6]);
+        }
+        free(kl);
+    }
+    vsd_constellation_free(&lc);
+    vsd_env_destroy(s);
+}
+
+/* k-means moves lights toward their clusters' centroids: unequal energies, and the sum
+ * of energy-weighted angular spread does not grow compared with the median cut. */
+static void test_kmeans_clusters(void)
+{
+    vsd_env *s = smooth_env(256, 128);
+    vsd_light_constellation mc, km;
+    double emin = 1e30, emax = 0;
+    int l;
+    if (!s) return;
+    CHECK(vsd_constellation_build(s, 16, VSD_LIGHTS_MEDIAN_CUT, &mc, NULL, 0) == VSD_OK);
+    CHECK(vsd_constellation_build(s, 16, VSD_LIGHTS_KMEANS, &km, NULL, 0) == VSD_OK);
+    CHECK(km.count >= 1 && km.count <= 16);
+    for (l = 0; l < km.count; l++) {
+        double e = 0.2126 * km.lights[l].power[0] + 0.7152 * km.lights[l].power[1] + 0.0722 * km.lights[l].power[2];
+        emin = fmin(emin, e);
+        emax = fmax(emax, e);
+    }
+    CHECK_MSG(emax > 1.3 * emin, "k-means energies %g..%g look equal", emin, emax);
+    vsd_constellation_free(&mc);
+    vsd_constellation_free(&km);
+    vsd_env_destroy(s);
+}
+
+static void test_errors(void)
+{
+    float c[3] = {1, 1, 1};
+    vsd_env *u = make_env(8, 4, c);
+    vsd_light_constellation lc;
+    char err[256] = "";
+    if (!u) return;
+    CHECK(vsd_constellation_build(u, 0, VSD_LIGHTS_MEDIAN_CUT, &lc, err, sizeof err) == VSD_ERR_INVALID);
+    CHECK_CONTAINS(err, "out of range");
+    CHECK(vsd_constellation_build(u, 70000, VSD_LIGHTS_MEDIAN_CUT, &lc, err, sizeof err) == VSD_ERR_INVALID);
+    /* more lights than texels: every texel its own light at most */
+    CHECK(vsd_constellation_build(u, 100, VSD_LIGHTS_MEDIAN_CUT, &lc, err, sizeof err) == VSD_OK);
+    CHECK(lc.count == 32);
+    vsd_constellation_free(&lc);
+    vsd_env_destroy(u);
+}
+
+int main(void)
+{
+    test_power_conservation();
+    test_equal_energy();
+    test_bright_texel();
+    test_rotation();
+    test_kmeans_clusters();
+    test_errors();
+    return test_finish("test_lighting");
+}
