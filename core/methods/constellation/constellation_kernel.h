@@ -6,7 +6,7 @@
  * orthographic camera t is measured from the ray's origin on the image plane, so shells
  * become planes). iNear = ceil(t0 / slice), iFar = floor(t1 / slice) over the union of the
  * density and emission boxes. Each sample stands for a segment of length `slice` of
- * constant medium (eq. 4-5 in the stable form of raymarch_kernel.h):
+ * constant medium (eq. 4-5 in the stable form of kernel/kernel_march.h):
  * direct += T * albedo * (1 - exp(-sigma slice)) * sum_n phase * L_n * T_shadow,n.
  * Shadow rays sample t = ta + (k + 1/2) * shadow_step to the density box's exit.
  *
@@ -26,7 +26,7 @@
 #include "kernel/kernel_env.h"
 #include "kernel/kernel_phase.h"
 #include "kernel/kernel_camera.h"
-#include "methods/raymarch/raymarch_kernel.h"
+#include "kernel/kernel_march.h"
 
 /* A distance map as kernels see it (see src/render/distance_map.h). */
 typedef struct VSD_ALIGN16 vsd_kdistmap {
@@ -210,11 +210,10 @@ VSD_DEVICE int32_t vsd_cst_first_shell(const vsd_kconstellation *kc, int32_t px,
 VSD_DEVICE vsd_sample_result vsd_cst_shade(const vsd_kconstellation *kc, vsd_f3 o, vsd_f3 d, int32_t start, int32_t i1)
 {
     const vsd_kernel_data *kd = kc->kd;
-    vsd_sample_result res;
-    float tr = 1.0f, depth_num = 0.0f, h = kc->slice, wpv_d = 0.0f, wpv_e = 0.0f;
+    vsd_march_acc acc;
+    float h = kc->slice, wpv_d = 0.0f, wpv_e = 0.0f;
     int32_t i;
-    res.direct = res.indirect = res.emit = res.background = f3s(0.0f);
-    res.depth = VSD_INF;
+    vsd_march_begin(&acc);
     if (kc->use_distance_map) {
         wpv_d = vsd_dm_world_per_voxel(&kd->density, d);
         wpv_e = kd->medium.has_emission ? vsd_dm_world_per_voxel(&kd->emission, d) : 0.0f;
@@ -223,31 +222,19 @@ VSD_DEVICE vsd_sample_result vsd_cst_shade(const vsd_kconstellation *kc, vsd_f3 
         float t = (float)i * h;
         vsd_f3 p = f3_madd(o, d, t);
         float r = kc->use_distance_map ? vsd_cst_view_leap(kc, p, wpv_d, wpv_e) : 0.0f;
-        float sigma, absorbed;
+        float absorbed;
         if (r > 0.0f) {
             i += vsd_dm_steps(r, h);
             continue;
         }
-        sigma = vsd_kvolume_at(&kd->density, p);
-        absorbed = 1.0f - expf(-sigma * h);
-        if (kd->medium.has_emission) {
-            float le = vsd_kvolume_at(&kd->emission, p);
-            float path = sigma > 1e-6f ? absorbed / sigma : h;
-            res.emit = f3_add(res.emit, f3_scale(kd->medium.emission, le * tr * path));
-        }
+        absorbed = vsd_march_medium(kd, &acc, p, h);
         if (absorbed > 0.0f) {
-            vsd_f3 s = vsd_cst_inscatter(kc, p, d);
-            res.direct = f3_add(res.direct, f3_scale(f3_mul(kd->medium.albedo, s), tr * absorbed));
-            depth_num += t * tr * absorbed;
-            tr *= 1.0f - absorbed;
-            if (tr < kc->early_termination) break;
+            vsd_march_scatter(kd, &acc, vsd_cst_inscatter(kc, p, d), t, absorbed);
+            if (acc.tr < kc->early_termination) break;
         }
         i++;
     }
-    res.transmittance = tr;
-    if (tr < 1.0f) res.depth = depth_num / (1.0f - tr);
-    if (!kd->transparent) res.background = f3_scale(vsd_env_eval(&kd->env, d), tr);
-    return res;
+    return vsd_march_finish(kd, &acc, d);
 }
 
 /* One view ray: sub-sample s of pixel (px, py), using the mask when there is one. */

@@ -4,9 +4,8 @@
  * lights (kd->lights: fixed per frame, importance-sampled from the environment, weights
  * already divided by K * pdf) and add T_view * sigma_s * phase * L * T_shadow.
  *
- * Within a step the medium is taken as constant (the sample at the step's midpoint), so the
- * in-scattered fraction of a step is albedo * (1 - exp(-sigma_t h)) — exact for piecewise
- * constant media and stable for thick ones. Emission is integrated the same way. */
+ * Each step's contribution (emission, in-scattering, transmittance) is the shared step of
+ * kernel/kernel_march.h. */
 #ifndef VSD_RAYMARCH_KERNEL_H
 #define VSD_RAYMARCH_KERNEL_H
 #include "kernel/kernel_types.h"
@@ -14,6 +13,7 @@
 #include "kernel/kernel_env.h"
 #include "kernel/kernel_phase.h"
 #include "kernel/kernel_camera.h"
+#include "kernel/kernel_march.h"
 
 /* Transmittance from p along d to the volume's exit by fixed-step midpoint marching. */
 VSD_DEVICE float vsd_march_transmittance(const vsd_kernel_data *kd, vsd_f3 p, vsd_f3 d)
@@ -38,52 +38,23 @@ VSD_DEVICE vsd_f3 vsd_march_inscatter(const vsd_kernel_data *kd, vsd_f3 p, vsd_f
     return s;
 }
 
-/* The view ray's extent: the union of the density and emission boxes, so flames where
- * there is no smoke are still marched. */
-VSD_DEVICE int vsd_march_extent(const vsd_kernel_data *kd, vsd_f3 o, vsd_f3 d, float *t0, float *t1)
-{
-    float a0, a1;
-    int hit = vsd_kvolume_clip(&kd->density, o, d, t0, t1);
-    if (kd->medium.has_emission && vsd_kvolume_clip(&kd->emission, o, d, &a0, &a1)) {
-        if (!hit) { *t0 = a0; *t1 = a1; }
-        else { *t0 = vsd_minf(*t0, a0); *t1 = vsd_maxf(*t1, a1); }
-        hit = 1;
-    }
-    return hit;
-}
-
 /* One view ray through pixel (px, py) at sub-pixel position (jx, jy) in [0,1). */
 VSD_DEVICE vsd_sample_result vsd_raymarch_pixel(const vsd_kernel_data *kd, int32_t px, int32_t py, float jx, float jy)
 {
-    vsd_sample_result res;
+    vsd_march_acc acc;
     vsd_f3 o, d;
-    float t0, t1, t, h = kd->march_step, tr = 1.0f, depth_num = 0.0f;
-    res.direct = res.indirect = res.emit = res.background = f3s(0.0f);
-    res.depth = VSD_INF;
+    float t0, t1, t, h = kd->march_step;
+    vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
     if (vsd_march_extent(kd, o, d, &t0, &t1)) {
         for (t = t0; t < t1; t += h) {
             float hs = vsd_minf(h, t1 - t), tm = t + 0.5f * hs;
             vsd_f3 p = f3_madd(o, d, tm);
-            float sigma = vsd_kvolume_at(&kd->density, p);
-            float absorbed = 1.0f - expf(-sigma * hs); /* collision probability in the step */
-            if (kd->medium.has_emission) {
-                float le = vsd_kvolume_at(&kd->emission, p);
-                float path = sigma > 1e-6f ? absorbed / sigma : hs;
-                res.emit = f3_add(res.emit, f3_scale(kd->medium.emission, le * tr * path));
-            }
-            if (absorbed > 0.0f) {
-                vsd_f3 s = vsd_march_inscatter(kd, p, d);
-                res.direct = f3_add(res.direct, f3_scale(f3_mul(kd->medium.albedo, s), tr * absorbed));
-                depth_num += tm * tr * absorbed;
-                tr *= 1.0f - absorbed;
-            }
+            float absorbed = vsd_march_medium(kd, &acc, p, hs);
+            if (absorbed > 0.0f) vsd_march_scatter(kd, &acc, vsd_march_inscatter(kd, p, d), tm, absorbed);
         }
     }
-    res.transmittance = tr;
-    if (tr < 1.0f) res.depth = depth_num / (1.0f - tr);
-    if (!kd->transparent) res.background = f3_scale(vsd_env_eval(&kd->env, d), tr);
-    return res;
+    return vsd_march_finish(kd, &acc, d);
 }
 
 #endif

@@ -25,6 +25,7 @@
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_env.h"
 #include "kernel/kernel_camera.h"
+#include "kernel/kernel_march.h"
 #include "src/sh/sh_kernel.h"
 
 enum { VSD_SHGRID_SCALAR = 0, VSD_SHGRID_RGB = 1 };
@@ -129,13 +130,11 @@ VSD_DEVICE vsd_f3 vsd_shgrid_inscatter(const vsd_kshgrid *g, vsd_f3 p, const flo
 VSD_DEVICE vsd_sample_result vsd_shgrid_pixel(const vsd_kshgrid *g, int32_t px, int32_t py, float jx, float jy)
 {
     const vsd_kernel_data *kd = g->kd;
-    vsd_sample_result res;
+    vsd_march_acc acc;
     vsd_f3 o, d;
-    float t0, t1, t, h = kd->march_step, tr = 1.0f, depth_num = 0.0f;
+    float t0 = 0.0f, t1 = 0.0f, t, h = kd->march_step;
     float w[VSD_SH_MAX_COEFFS];
-    int32_t has_density = kd->density.dims[0] > 0;
-    res.direct = res.indirect = res.emit = res.background = f3s(0.0f);
-    res.depth = VSD_INF;
+    vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
     if (g->kind == VSD_SHGRID_RGB) {
         /* convolution with HG toward the viewer: out(d) = sum_lm g^l f_lm y_lm(d) */
@@ -147,38 +146,16 @@ VSD_DEVICE vsd_sample_result vsd_shgrid_pixel(const vsd_kshgrid *g, int32_t px, 
             gl *= kd->medium.anisotropy;
         }
     }
-    {
-        float a0, a1;
-        int hit = has_density && vsd_kvolume_clip(&kd->density, o, d, &t0, &t1);
-        if (kd->medium.has_emission && vsd_kvolume_clip(&kd->emission, o, d, &a0, &a1)) {
-            if (!hit) { t0 = a0; t1 = a1; }
-            else { t0 = fminf(t0, a0); t1 = fmaxf(t1, a1); }
-            hit = 1;
-        }
-        if (!hit) t1 = t0 = 0.0f;
-    }
-    for (t = t0; t < t1; t += h) {
-        float hs = fminf(h, t1 - t), tm = t + 0.5f * hs;
-        vsd_f3 p = f3_madd(o, d, tm);
-        float sigma = vsd_kvolume_at(&kd->density, p);
-        float absorbed = 1.0f - expf(-sigma * hs);
-        if (kd->medium.has_emission) {
+    if (vsd_march_extent(kd, o, d, &t0, &t1)) {
+        for (t = t0; t < t1; t += h) {
+            float hs = vsd_minf(h, t1 - t), tm = t + 0.5f * hs;
+            vsd_f3 p = f3_madd(o, d, tm);
             /* §4.5: emission accumulates along the same march */
-            float le = vsd_kvolume_at(&kd->emission, p);
-            float path = sigma > 1e-6f ? absorbed / sigma : hs;
-            res.emit = f3_add(res.emit, f3_scale(kd->medium.emission, le * tr * path));
-        }
-        if (absorbed > 0.0f) {
-            vsd_f3 s = vsd_shgrid_inscatter(g, p, w);
-            res.direct = f3_add(res.direct, f3_scale(f3_mul(kd->medium.albedo, s), tr * absorbed));
-            depth_num += tm * tr * absorbed;
-            tr *= 1.0f - absorbed;
+            float absorbed = vsd_march_medium(kd, &acc, p, hs);
+            if (absorbed > 0.0f) vsd_march_scatter(kd, &acc, vsd_shgrid_inscatter(g, p, w), tm, absorbed);
         }
     }
-    res.transmittance = tr;
-    if (tr < 1.0f) res.depth = depth_num / (1.0f - tr);
-    if (!kd->transparent) res.background = f3_scale(vsd_env_eval(&kd->env, d), tr);
-    return res;
+    return vsd_march_finish(kd, &acc, d);
 }
 
 #endif
