@@ -178,7 +178,7 @@ static int parse_args(int argc, char **argv, char *ready_file, size_t ready_len)
                         VSDD_MAX_ALLOW);
                 return 2;
             }
-            snprintf(c->allow[c->allow_count++], VSD_PATH_LEN, "%s", real);
+            memcpy(c->allow[c->allow_count++], real, strlen(real) + 1); /* length checked above */
         } else if (!strcmp(a, "--cache-mb")) {
             if (parse_u64(a, val, 1, 1ull << 24, &v)) return 2;
             c->cache_bytes = v << 20;
@@ -355,7 +355,7 @@ int vsd_cmd_serve(int argc, char **argv)
             struct sockaddr_storage ss;
             socklen_t sl = sizeof ss;
             int fd, is_tcp = p[i].fd == tfd;
-            char peer[64] = "unix";
+            char peer[96] = "unix";
             if (!(p[i].revents & POLLIN)) continue;
             fd = accept4(p[i].fd, (struct sockaddr *)&ss, &sl, SOCK_CLOEXEC);
             if (fd < 0) {
