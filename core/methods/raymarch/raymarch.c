@@ -4,9 +4,7 @@
  * Options: lights (K, default 256), step (world units, default half the smallest voxel),
  * pixel_samples (n, default 2). */
 #include "src/render/method.h"
-#include "src/render/accum.h"
 #include "src/render/env_lights.h"
-#include "device/cpu/cpu_tiles.h"
 #include "raymarch_kernel.h"
 #include <stdlib.h>
 
@@ -18,11 +16,6 @@ typedef struct raymarch_state {
     int pixel_samples;
 } raymarch_state;
 
-typedef struct raymarch_pass {
-    const vsd_kernel_data *kd;
-    vsd_accum *acc;
-    int n;
-} raymarch_pass;
 
 static vsd_status raymarch_create(void **state, const vsd_scene *scene, char *err, size_t errlen)
 {
@@ -58,45 +51,20 @@ static vsd_status raymarch_prepare_lighting(void *state, vsd_frame_ctx *ctx, cha
     return VSD_OK;
 }
 
-static void raymarch_tile(void *user, int x0, int y0, int x1, int y1)
+static vsd_sample_result raymarch_sample(const void *kernel, int x, int y, float jx, float jy)
 {
-    raymarch_pass *p = user;
-    int x, y, i, j;
-    float inv = 1.0f / (float)p->n;
-    for (y = y0; y < y1; y++)
-        for (x = x0; x < x1; x++)
-            for (j = 0; j < p->n; j++)
-                for (i = 0; i < p->n; i++) {
-                    vsd_sample_result res = vsd_raymarch_pixel(p->kd, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
-                    vsd_accum_add(p->acc, x, y, &res);
-                }
+    return vsd_raymarch_pixel((const vsd_kernel_data *)kernel, x, y, jx, jy);
 }
 
 static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                                   char *err, size_t errlen)
 {
     raymarch_state *s = state;
-    vsd_accum acc;
-    raymarch_pass pass;
-    vsd_tile_job job;
-    vsd_status st;
-    float step = (float)vsd_scene_option_number(ctx->scene, "step", 0.0);
     ctx->kd.lights = s->lights;
     ctx->kd.light_count = s->count;
-    ctx->kd.march_step = step > 0 ? step : (ctx->kd.density.step > 0 ? ctx->kd.density.step : ctx->kd.emission.step);
-    if (!(ctx->kd.march_step > 0)) ctx->kd.march_step = 0.01f;
-    st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
-    if (st) return st;
-    pass.kd = &ctx->kd;
-    pass.acc = &acc;
-    pass.n = s->pixel_samples;
-    vsd_method_tile_job(&job, ctx, fb, raymarch_tile, &pass, "ray marching");
-    st = vsd_cpu_run_tiles(&job);
-    if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
-    vsd_accum_resolve(&acc, pass.n * pass.n, ctx->scene->film.transparent, fb);
-    vsd_accum_free(&acc);
-    *samples = pass.n * pass.n;
-    return st;
+    ctx->kd.march_step = vsd_method_march_step(ctx, vsd_scene_option_number(ctx->scene, "step", 0.0));
+    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, raymarch_sample, &ctx->kd, "ray marching",
+                                        samples, err, errlen);
 }
 
 static void raymarch_destroy(void *state)

@@ -442,46 +442,20 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     return VSD_OK;
 }
 
-typedef struct shgrid_pass { const vsd_kshgrid *g; vsd_accum *acc; int n; } shgrid_pass;
-
-static void shgrid_tile(void *user, int x0, int y0, int x1, int y1)
+static vsd_sample_result shgrid_sample(const void *kernel, int x, int y, float jx, float jy)
 {
-    shgrid_pass *p = user;
-    int x, y, i, j;
-    float inv = 1.0f / (float)p->n;
-    for (y = y0; y < y1; y++)
-        for (x = x0; x < x1; x++)
-            for (j = 0; j < p->n; j++)
-                for (i = 0; i < p->n; i++) {
-                    vsd_sample_result res = vsd_shgrid_pixel(p->g, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
-                    vsd_accum_add(p->acc, x, y, &res);
-                }
+    return vsd_shgrid_pixel((const vsd_kshgrid *)kernel, x, y, jx, jy);
 }
 
 static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                                 char *err, size_t errlen)
 {
     shgrid_state *s = state;
-    vsd_accum acc;
-    shgrid_pass pass;
     vsd_kshgrid g;
-    vsd_tile_job job;
-    vsd_status st;
-    ctx->kd.march_step = s->step > 0 ? (float)s->step
-                       : (ctx->kd.density.step > 0 ? ctx->kd.density.step : ctx->kd.emission.step);
-    if (!(ctx->kd.march_step > 0)) ctx->kd.march_step = 0.01f;
+    ctx->kd.march_step = vsd_method_march_step(ctx, s->step);
     kernel_grid(s, &ctx->kd, s->kind, &g);
-    if ((st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen))) return st;
-    pass.g = &g;
-    pass.acc = &acc;
-    pass.n = s->pixel_samples;
-    vsd_method_tile_job(&job, ctx, fb, shgrid_tile, &pass, "ray marching");
-    st = vsd_cpu_run_tiles(&job);
-    if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
-    vsd_accum_resolve(&acc, pass.n * pass.n, ctx->scene->film.transparent, fb);
-    vsd_accum_free(&acc);
-    *samples = pass.n * pass.n;
-    return st;
+    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, &g, "ray marching", samples,
+                                        err, errlen);
 }
 
 static void shgrid_destroy(void *state)

@@ -56,4 +56,18 @@ void vsd_method_tile_job(struct vsd_tile_job *job, const vsd_frame_ctx *ctx, con
  * error naming it and listing the accepted ones. */
 vsd_status vsd_method_check_options(const vsd_method *m, const vsd_scene *scene, char *err, size_t errlen);
 
+/* One ray through pixel (x, y) at sub-pixel position (jx, jy) of a deterministic method;
+ * `kernel` is the method's own kernel data. */
+typedef vsd_sample_result (*vsd_pixel_fn)(const void *kernel, int x, int y, float jx, float jy);
+
+/* The whole view pass for such a method: n x n stratified rays per pixel on CPU tiles,
+ * resolved into fb; *samples = n * n. */
+vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, vsd_pixel_fn fn,
+                                        const void *kernel, const char *stage, int *samples,
+                                        char *err, size_t errlen);
+
+/* World-space march step: `option` when > 0, else half the smallest voxel of the density
+ * grid (of the emission grid when there is no density). */
+float vsd_method_march_step(const vsd_frame_ctx *ctx, double option);
+
 #endif
