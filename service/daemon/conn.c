@@ -161,6 +161,8 @@ static int on_hello(vsdd_conn *c, const cJSON *msg, const cJSON *id)
     for (m = vsd_method_names(); *m; m++) cJSON_AddItemToArray(arr, cJSON_CreateString(*m));
     arr = cJSON_AddArrayToObject(o, "devices");
     cJSON_AddItemToArray(arr, cJSON_CreateString("cpu"));
+    if (g_daemon.cuda_device[0]) cJSON_AddItemToArray(arr, cJSON_CreateString("cuda"));
+    if (g_daemon.cuda_device[0]) cJSON_AddStringToObject(o, "cuda_device", g_daemon.cuda_device);
     arr = cJSON_AddArrayToObject(o, "hashes");
     cJSON_AddItemToArray(arr, cJSON_CreateString("xxh3-128"));
     cJSON_AddItemToArray(arr, cJSON_CreateString("sha256"));

@@ -86,6 +86,7 @@ typedef struct vsdd_daemon {
     unsigned long next_job_seq;
     unsigned next_conn_id;
     double start_time;
+    char cuda_device[128];         /* the GPU HELLO offers, "" when none answered at start */
     /* counters for STATS */
     uint64_t jobs_done, jobs_failed, jobs_cancelled, jobs_busy, bytes_received, blobs_received;
 } vsdd_daemon;

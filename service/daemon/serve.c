@@ -278,6 +278,11 @@ int vsd_cmd_serve(int argc, char **argv)
     if (rc >= 0) return rc;
     g_daemon.start_time = vsdd_now();
     signal(SIGPIPE, SIG_IGN);
+    /* probe the GPU once, so HELLO can offer "cuda" and the log says which device */
+    if (vsd_render_cuda_probe(g_daemon.cuda_device, sizeof g_daemon.cuda_device, err, sizeof err) == VSD_OK)
+        vsdd_log(VSDD_LOG_INFO, "CUDA device: %s", g_daemon.cuda_device);
+    else
+        vsdd_log(VSDD_LOG_INFO, "no CUDA: %s; rendering on the CPU", err);
     lock_fd = vsdd_lock_acquire(g_daemon.cfg.lock_path, err, sizeof err);
     if (lock_fd < 0) {
         vsdd_log(VSDD_LOG_ERROR, "%s", err);

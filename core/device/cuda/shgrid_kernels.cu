@@ -1,29 +1,67 @@
 // CUDA entry points of method `shgrid` over the kernels it shares with the CPU backend
-// (core/methods/shgrid/shgrid_kernel.h): the record pass (one thread per record) and the
-// view pass (one thread per pixel sample). Host-side launching and device copies of the
-// record grid arrive with the CUDA backend (issue 7); this file keeps the kernels
-// CUDA-clean.
+// (core/methods/shgrid/shgrid_kernel.h): the record pass, one thread per record (the
+// paper's per-frame GPU pass), and the view pass, one thread per pixel.
+#include "cuda_internal.cuh"
 #include "methods/shgrid/shgrid_kernel.h"
 
-// Reduced-intensity records [0, g->record_count): out[rec * g->stride ...].
-__global__ void vsd_cuda_shgrid_records(const vsd_kshgrid *g, float *out)
+__global__ void vsd_cuda_shgrid_records_kernel(const vsd_kshgrid *g, int r0, int r1, float *out)
 {
-    int rec = blockIdx.x * blockDim.x + threadIdx.x;
-    if (rec >= g->record_count) return;
+    int rec = r0 + blockIdx.x * blockDim.x + threadIdx.x;
+    if (rec >= r1) return;
     vsd_shgrid_record(g, rec, out + (size_t)rec * g->stride);
 }
 
-// One sub-pixel sample (jx, jy) per pixel, added into out (the host divides by the count).
-__global__ void vsd_cuda_shgrid_render(const vsd_kshgrid *g, float jx, float jy, vsd_sample_result *out)
+// n x n stratified rays per pixel, in the order of src/render/stratified.c.
+__global__ void vsd_cuda_shgrid_view_kernel(const vsd_kshgrid *g, int y0, int y1, int n, double *accum)
 {
     int x = blockIdx.x * blockDim.x + threadIdx.x;
-    int y = blockIdx.y * blockDim.y + threadIdx.y;
-    if (x >= g->kd->camera.width || y >= g->kd->camera.height) return;
-    vsd_sample_result r = vsd_shgrid_pixel(g, x, y, jx, jy);
-    vsd_sample_result acc = out[y * g->kd->camera.width + x];
-    acc.direct = f3_add(acc.direct, r.direct);
-    acc.emit = f3_add(acc.emit, r.emit);
-    acc.background = f3_add(acc.background, r.background);
-    acc.transmittance += r.transmittance;
-    out[y * g->kd->camera.width + x] = acc;
+    int y = y0 + blockIdx.y * blockDim.y + threadIdx.y;
+    if (x >= g->kd->camera.width || y >= y1) return;
+    double *px = accum + ((size_t)y * g->kd->camera.width + x) * VSD_ACC_N;
+    float inv = 1.0f / (float)n;
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++) {
+            vsd_sample_result r = vsd_shgrid_pixel(g, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
+            vsd_accum_sample(px, &r);
+        }
+}
+
+// The kernel data and the grid on the device, the grid's kd pointing at the device kd.
+static vsd_status put_grid(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_data *kd, const vsd_kshgrid **dg,
+                           char *err, size_t errlen)
+{
+    const vsd_kernel_data *dkd;
+    const void *dev;
+    vsd_status st = vsd_cuda_put_kd(c, kd, &dkd, err, errlen);
+    if (st) return st;
+    vsd_kshgrid h = *g;
+    h.kd = dkd;
+    st = vsd_cuda_put_method(c, &h, sizeof h, &dev, err, errlen);
+    *dg = (const vsd_kshgrid *)dev;
+    return st;
+}
+
+extern "C" vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_data *kd,
+                                              float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
+{
+    const vsd_kshgrid *dg;
+    vsd_status st = put_grid(c, g, kd, &dg, err, errlen);
+    if (st) return st;
+    // records as "rows" of a one-wide image, in bands of 4096 records
+    int count = g->record_count;
+    return vsd_cuda_bands(c, count, 4096, p, "shgrid record pass", [&](int r0, int r1) {
+        vsd_cuda_shgrid_records_kernel<<<(unsigned)((r1 - r0 + 127) / 128), 128, 0, c->stream>>>(dg, r0, r1, out);
+    }, err, errlen);
+}
+
+extern "C" vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_data *kd, int n,
+                                           double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
+{
+    const vsd_kshgrid *dg;
+    vsd_status st = put_grid(c, g, kd, &dg, err, errlen);
+    if (st) return st;
+    int w = kd->camera.width;
+    return vsd_cuda_bands(c, kd->camera.height, 256, p, "ray marching", [&](int y0, int y1) {
+        vsd_cuda_shgrid_view_kernel<<<vsd_cuda_grid(w, y1 - y0), vsd_cuda_block(), 0, c->stream>>>(dg, y0, y1, n, accum);
+    }, err, errlen);
 }

@@ -37,9 +37,16 @@ typedef struct vsd_render_stats {
     unsigned long long active_voxels;
     char method[64];
     char device[16];             /* "cpu" or "cuda" */
+    char device_name[128];       /* the GPU's name on "cuda" */
+    char device_note[512];       /* why render.device "auto" uses the CPU, when it tried CUDA */
+    unsigned long long device_uploaded_bytes; /* host-to-device copies during this render */
 } vsd_render_stats;
 
 typedef struct vsd_renderer vsd_renderer;
+
+/* Does a CUDA device answer? VSD_OK with its name (what render.device "auto" would use),
+ * else the reason in err. Opens and closes a device context: call it once, not per frame. */
+vsd_status vsd_render_cuda_probe(char *name, size_t namelen, char *err, size_t errlen);
 
 vsd_status vsd_renderer_create(const vsd_scene *scene, const vsd_render_options *opt,
                                vsd_renderer **out, char *err, size_t errlen);

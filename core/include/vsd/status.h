@@ -18,7 +18,8 @@ typedef enum vsd_status {
     VSD_ERR_UNSUPPORTED, /* valid request this build cannot serve (no CUDA, unknown method) */
     VSD_ERR_NOMEM,       /* allocation failed or a request exceeds a memory limit */
     VSD_ERR_CANCELLED,   /* the caller asked to stop */
-    VSD_ERR_INTERNAL     /* a bug: please report */
+    VSD_ERR_INTERNAL,    /* a bug: please report */
+    VSD_ERR_DEVICE       /* the GPU failed (launch error, lost device); message has CUDA's words */
 } vsd_status;
 
 /* Stable short name of a status ("ok", "io", "format", ...). Never NULL. */

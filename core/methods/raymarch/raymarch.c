@@ -5,6 +5,7 @@
  * pixel_samples (n, default 2). */
 #include "src/render/method.h"
 #include "src/render/env_lights.h"
+#include "src/render/device_frame.h"
 #include "raymarch_kernel.h"
 #include <stdlib.h>
 
@@ -56,6 +57,15 @@ static vsd_sample_result raymarch_sample(const void *kernel, int x, int y, float
     return vsd_raymarch_pixel((const vsd_kernel_data *)kernel, x, y, jx, jy);
 }
 
+/* The view pass on the GPU: the scene's arrays (with the lights) resident on the device. */
+static vsd_status raymarch_device(const vsd_frame_ctx *ctx, const void *kernel, int n, double *accum,
+                                  const vsd_cuda_progress *progress, char *err, size_t errlen)
+{
+    vsd_kernel_data dkd;
+    vsd_status st = vsd_device_kernel_data(ctx, (const vsd_kernel_data *)kernel, &dkd, err, errlen);
+    return st ? st : vsd_cuda_raymarch(ctx->cuda, &dkd, n, accum, progress, err, errlen);
+}
+
 static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                                   char *err, size_t errlen)
 {
@@ -63,8 +73,8 @@ static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuff
     ctx->kd.lights = s->lights;
     ctx->kd.light_count = s->count;
     ctx->kd.march_step = vsd_method_march_step(ctx, vsd_scene_option_number(ctx->scene, "step", 0.0));
-    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, raymarch_sample, &ctx->kd, "ray marching",
-                                        samples, err, errlen);
+    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, raymarch_sample, raymarch_device, &ctx->kd,
+                                        "ray marching", samples, err, errlen);
 }
 
 static void raymarch_destroy(void *state)

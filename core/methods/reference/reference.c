@@ -3,6 +3,7 @@
  * progress and intermediate images reflect the whole frame. */
 #include "src/render/method.h"
 #include "src/render/accum.h"
+#include "src/render/device_frame.h"
 #include "device/cpu/cpu_tiles.h"
 #include "reference_kernel.h"
 #include <stdlib.h>
@@ -27,6 +28,33 @@ static void reference_tile(void *user, int x0, int y0, int x1, int y1)
             }
 }
 
+/* The same rounds on the GPU: the device sums each pixel's samples in the CPU's order. */
+static vsd_status reference_device(vsd_frame_ctx *ctx, vsd_accum *acc, int total, int *done, char *err,
+                                   size_t errlen)
+{
+    vsd_kernel_data dkd;
+    vsd_cuda_progress progress;
+    double *dev = NULL;
+    int batch = 1;
+    vsd_status st = vsd_device_kernel_data(ctx, &ctx->kd, &dkd, err, errlen);
+    if (!st) st = vsd_device_accum(ctx, acc->width, acc->height, &dev, err, errlen);
+    while (!st && *done < total) {
+        int n = batch < total - *done ? batch : total - *done;
+        vsd_device_progress(ctx, "path tracing", (float)*done / (float)total, (float)n / (float)total, &progress);
+        st = vsd_cuda_reference_round(ctx->cuda, &dkd, *done, *done + n, dev, &progress, err, errlen);
+        if (st) break;
+        *done += n;
+        if (*done >= 2) batch *= 2;
+    }
+    /* a cancelled render still resolves the rounds it finished */
+    if (!st || st == VSD_ERR_CANCELLED) {
+        char ferr[256];
+        vsd_status fst = vsd_device_accum_fetch(ctx, dev, acc, ferr, sizeof ferr);
+        if (fst) return vsd_fail(fst, err, errlen, "%s", ferr);
+    }
+    return st;
+}
+
 static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                                    char *err, size_t errlen)
 {
@@ -42,6 +70,16 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.max_bounces: must be >= 1");
     st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
     if (st) return st;
+    if (ctx->cuda) {
+        st = reference_device(ctx, &acc, total, &done, err, errlen);
+        if (!st || st == VSD_ERR_CANCELLED) {
+            if (st) vsd_fail(st, err, errlen, "render cancelled after %d samples", done);
+            vsd_accum_resolve(&acc, done, sc->film.transparent, fb);
+        }
+        vsd_accum_free(&acc);
+        *samples = done;
+        return st;
+    }
     round.kd = &ctx->kd;
     round.acc = &acc;
     vsd_method_tile_job(&job, ctx, fb, reference_tile, &round, "path tracing");

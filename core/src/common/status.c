@@ -15,6 +15,7 @@ const char *vsd_status_str(vsd_status s)
     case VSD_ERR_NOMEM: return "no-memory";
     case VSD_ERR_CANCELLED: return "cancelled";
     case VSD_ERR_INTERNAL: return "internal";
+    case VSD_ERR_DEVICE: return "device";
     }
     return "unknown";
 }

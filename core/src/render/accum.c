@@ -17,25 +17,9 @@ void vsd_accum_free(vsd_accum *a)
     a->v = NULL;
 }
 
-static void add3(double *d, vsd_f3 v)
-{
-    d[0] += v.x;
-    d[1] += v.y;
-    d[2] += v.z;
-}
-
 void vsd_accum_add(vsd_accum *a, int x, int y, const vsd_sample_result *r)
 {
-    double *p = a->v + ((size_t)y * a->width + x) * VSD_ACC_N;
-    add3(p + VSD_ACC_DIR, r->direct);
-    add3(p + VSD_ACC_IND, r->indirect);
-    add3(p + VSD_ACC_EMIT, r->emit);
-    add3(p + VSD_ACC_BG, r->background);
-    p[VSD_ACC_T] += r->transmittance;
-    if (r->depth < VSD_INF) {
-        p[VSD_ACC_DEPTH] += r->depth;
-        p[VSD_ACC_DEPTH_N] += 1.0;
-    }
+    vsd_accum_sample(a->v + ((size_t)y * a->width + x) * VSD_ACC_N, r);
 }
 
 void vsd_accum_resolve(const vsd_accum *a, int samples, int transparent, vsd_framebuffer *fb)

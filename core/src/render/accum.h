@@ -6,10 +6,7 @@
 #ifndef VSD_ACCUM_H
 #define VSD_ACCUM_H
 #include "vsd/image.h"
-#include "kernel/kernel_types.h"
-
-enum { VSD_ACC_DIR = 0, VSD_ACC_IND = 3, VSD_ACC_EMIT = 6, VSD_ACC_BG = 9, VSD_ACC_T = 12,
-       VSD_ACC_DEPTH = 13, VSD_ACC_DEPTH_N = 14, VSD_ACC_N = 15 };
+#include "kernel/kernel_accum.h"
 
 typedef struct vsd_accum {
     int width, height;

@@ -26,6 +26,11 @@ typedef struct vsd_frame_ctx {
     vsd_progress_fn progress;
     void *user;
     volatile int *cancel;
+    /* The CUDA backend when this frame runs on the GPU, else NULL. Arrays a method keeps
+     * on the device are keyed by the generation of the stage that made them: frame_gen
+     * changes whenever prepare_frame runs, lighting_gen whenever prepare_lighting runs. */
+    struct vsd_cuda *cuda;
+    uint64_t frame_gen, lighting_gen;
 } vsd_frame_ctx;
 
 typedef struct vsd_method {
@@ -60,11 +65,17 @@ vsd_status vsd_method_check_options(const vsd_method *m, const vsd_scene *scene,
  * `kernel` is the method's own kernel data. */
 typedef vsd_sample_result (*vsd_pixel_fn)(const void *kernel, int x, int y, float jx, float jy);
 
+/* The same view pass on the CUDA device: adds the n x n rays of every pixel into the
+ * device sums `accum` (device_frame.h) with the same kernel functions as `fn`. */
+struct vsd_cuda_progress;
+typedef vsd_status (*vsd_device_pass_fn)(const vsd_frame_ctx *ctx, const void *kernel, int n, double *accum,
+                                         const struct vsd_cuda_progress *progress, char *err, size_t errlen);
+
 /* The whole view pass for such a method: n x n stratified rays per pixel on CPU tiles,
- * resolved into fb; *samples = n * n. */
+ * or through `device_fn` when ctx->cuda is set, resolved into fb; *samples = n * n. */
 vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, vsd_pixel_fn fn,
-                                        const void *kernel, const char *stage, int *samples,
-                                        char *err, size_t errlen);
+                                        vsd_device_pass_fn device_fn, const void *kernel, const char *stage,
+                                        int *samples, char *err, size_t errlen);
 
 /* World-space march step: `option` when > 0, else half the smallest voxel of the density
  * grid (of the emission grid when there is no density). */

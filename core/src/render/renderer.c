@@ -7,6 +7,7 @@
 #include "method.h"
 #include "kernel_setup.h"
 #include "device/cpu/cpu_tiles.h"
+#include "device/cuda/cuda_backend.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -29,6 +30,11 @@ struct vsd_renderer {
     const vsd_env *ext_env;
     vsd_env_tables tables;
     char frame_key[KEY_LEN], lighting_key[KEY_LEN];
+    /* CUDA: opened on the first render that asks for it and kept (with its resident data)
+     * for the renderer's life; cuda_error remembers why `auto` fell back to the CPU. */
+    vsd_cuda *cuda;
+    char cuda_error[512];
+    uint64_t generation, frame_gen, lighting_gen;
 };
 
 const char *vsd_version(void) { return VSD_VERSION_STRING; }
@@ -62,10 +68,6 @@ static vsd_status pick_method(vsd_renderer *r, char *err, size_t errlen)
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "render.method: unknown method '%s' (available: %s)", sc->render.method, known);
     }
-    if (strcmp(sc->render.device, "cuda") == 0)
-        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
-                        "render.device: 'cuda' requested, but the CUDA backend cannot run here "
-                        "(use 'auto' or 'cpu')");
     st = vsd_method_check_options(m, sc, err, errlen);
     if (st) return st;
     release_method(r);
@@ -202,19 +204,77 @@ static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key
              e[0], e[1], e[2], sc->medium.emission_strength);
 }
 
+vsd_status vsd_render_cuda_probe(char *name, size_t namelen, char *err, size_t errlen)
+{
+    vsd_cuda *c;
+    vsd_status st = vsd_cuda_open(&c, err, errlen);
+    if (st) return st;
+    if (name && namelen) snprintf(name, namelen, "%s", vsd_cuda_device_name(c));
+    vsd_cuda_close(c);
+    return VSD_OK;
+}
+
+/* The backend for this render: render.device "cpu", "cuda" (an error when no GPU answers)
+ * or "auto" (CUDA when a device opens, else the CPU). */
+static vsd_status pick_device(vsd_renderer *r, vsd_cuda **cuda, char *err, size_t errlen)
+{
+    const char *want = r->scene.render.device;
+    vsd_status st;
+    *cuda = NULL;
+    if (strcmp(want, "cpu") == 0) return VSD_OK;
+    if (!r->cuda && !r->cuda_error[0]) {
+        st = vsd_cuda_open(&r->cuda, r->cuda_error, sizeof r->cuda_error);
+        if (st && !r->cuda_error[0]) snprintf(r->cuda_error, sizeof r->cuda_error, "CUDA unavailable");
+    }
+    if (r->cuda) {
+        *cuda = r->cuda;
+        return VSD_OK;
+    }
+    if (strcmp(want, "cuda") == 0)
+        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen, "render.device: 'cuda' requested, but %s", r->cuda_error);
+    return VSD_OK;
+}
+
+/* One attempt at the frame on the chosen backend. */
+static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_framebuffer **fbp,
+                            vsd_render_stats *stats, char *err, size_t errlen);
+
 vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fbp,
                                vsd_render_stats *stats, char *err, size_t errlen)
 {
-    const vsd_scene *sc = &r->scene;
-    vsd_frame_ctx ctx;
     vsd_render_stats local;
-    char frame_key[KEY_LEN], lighting_key[KEY_LEN];
-    double t0 = now_seconds(), t1, t2;
+    vsd_cuda *cuda;
     vsd_status st;
     if (!stats) stats = &local;
+    if ((st = pick_device(r, &cuda, err, errlen))) return st;
+    st = render_on(r, cuda, frame, fbp, stats, err, errlen);
+    if (cuda && strcmp(r->scene.render.device, "auto") == 0 &&
+        (st == VSD_ERR_NOMEM || st == VSD_ERR_DEVICE)) {
+        /* `auto` promised a picture, not a GPU: drop the device (and what the methods
+         * prepared for it) and render this and later frames on the CPU */
+        snprintf(r->cuda_error, sizeof r->cuda_error, "%.500s", err ? err : "CUDA failed");
+        vsd_cuda_close(r->cuda);
+        r->cuda = NULL;
+        r->frame_key[0] = r->lighting_key[0] = '\0';
+        st = render_on(r, NULL, frame, fbp, stats, err, errlen);
+    }
+    return st;
+}
+
+static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_framebuffer **fbp,
+                            vsd_render_stats *stats, char *err, size_t errlen)
+{
+    const vsd_scene *sc = &r->scene;
+    vsd_frame_ctx ctx;
+    char frame_key[KEY_LEN], lighting_key[KEY_LEN];
+    double t0 = now_seconds(), t1, t2;
+    uint64_t uploaded0 = cuda ? vsd_cuda_uploaded_bytes(cuda) : 0;
+    vsd_status st;
     memset(stats, 0, sizeof *stats);
     snprintf(stats->method, sizeof stats->method, "%s", r->method->name);
-    snprintf(stats->device, sizeof stats->device, "cpu");
+    snprintf(stats->device, sizeof stats->device, "%s", cuda ? "cuda" : "cpu");
+    if (cuda) snprintf(stats->device_name, sizeof stats->device_name, "%s", vsd_cuda_device_name(cuda));
+    else if (strcmp(sc->render.device, "auto") == 0) snprintf(stats->device_note, sizeof stats->device_note, "%s", r->cuda_error);
 
     if ((st = load_volumes(r, frame, err, errlen)) || (st = load_env(r, err, errlen))) return st;
     t1 = now_seconds();
@@ -230,6 +290,7 @@ vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fbp
     ctx.progress = r->opt.progress;
     ctx.user = r->opt.user;
     ctx.cancel = r->opt.cancel;
+    ctx.cuda = cuda;
     stats->threads = ctx.threads;
     vsd_kernel_data_from_scene(&ctx.kd, sc);
     st = vsd_kvolume_setup(&ctx.kd.density, r->density, sc->volume.matrix, sc->medium.density, err, errlen);
@@ -240,13 +301,19 @@ vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fbp
     vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.strength, sc->environment.rotation_z);
 
     make_keys(r, frame_key, lighting_key);
+    ctx.frame_gen = r->frame_gen;
+    ctx.lighting_gen = r->lighting_gen;
     if (strcmp(frame_key, r->frame_key) != 0) {
         r->lighting_key[0] = '\0';
+        r->frame_gen = ++r->generation;
+        ctx.frame_gen = r->frame_gen;
         if (r->method->prepare_frame && (st = r->method->prepare_frame(r->method_state, &ctx, err, errlen)))
             return st;
         snprintf(r->frame_key, KEY_LEN, "%s", frame_key);
     }
     if (strcmp(lighting_key, r->lighting_key) != 0) {
+        r->lighting_gen = ++r->generation;
+        ctx.lighting_gen = r->lighting_gen;
         if (r->method->prepare_lighting && (st = r->method->prepare_lighting(r->method_state, &ctx, err, errlen)))
             return st;
         snprintf(r->lighting_key, KEY_LEN, "%s", lighting_key);
@@ -262,6 +329,7 @@ vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fbp
     vsd_framebuffer_clear(*fbp);
     st = r->method->render(r->method_state, &ctx, *fbp, &stats->samples, err, errlen);
     stats->render_seconds = now_seconds() - t2;
+    if (cuda) stats->device_uploaded_bytes = vsd_cuda_uploaded_bytes(cuda) - uploaded0;
     return st;
 }
 
@@ -271,5 +339,6 @@ void vsd_renderer_destroy(vsd_renderer *r)
     release_method(r);
     free_owned_volumes(r);
     free_owned_env(r);
+    vsd_cuda_close(r->cuda);
     free(r);
 }

@@ -3,6 +3,7 @@
  * pixel filter (a box, like the reference's) is the same for every such method. */
 #include "method.h"
 #include "accum.h"
+#include "device_frame.h"
 #include "device/cpu/cpu_tiles.h"
 
 typedef struct stratified_pass {
@@ -26,15 +27,38 @@ static void stratified_tile(void *user, int x0, int y0, int x1, int y1)
                 }
 }
 
+/* The GPU path: the device sums the same samples in the same order, then the host
+ * resolves them exactly as after the CPU tiles. */
+static vsd_status stratified_device(vsd_frame_ctx *ctx, vsd_accum *acc, int n, vsd_device_pass_fn device_fn,
+                                    const void *kernel, const char *stage, char *err, size_t errlen)
+{
+    vsd_cuda_progress progress;
+    double *dev;
+    vsd_status st;
+    if (!device_fn) return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen, "%s: no CUDA view pass", stage);
+    st = vsd_device_accum(ctx, acc->width, acc->height, &dev, err, errlen);
+    if (st) return st;
+    vsd_device_progress(ctx, stage, 0.0f, 1.0f, &progress);
+    if ((st = device_fn(ctx, kernel, n, dev, &progress, err, errlen))) return st;
+    return vsd_device_accum_fetch(ctx, dev, acc, err, errlen);
+}
+
 vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, vsd_pixel_fn fn,
-                                        const void *kernel, const char *stage, int *samples,
-                                        char *err, size_t errlen)
+                                        vsd_device_pass_fn device_fn, const void *kernel, const char *stage,
+                                        int *samples, char *err, size_t errlen)
 {
     vsd_accum acc;
     stratified_pass pass;
     vsd_tile_job job;
     vsd_status st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
     if (st) return st;
+    if (ctx->cuda) {
+        st = stratified_device(ctx, &acc, n, device_fn, kernel, stage, err, errlen);
+        if (!st) vsd_accum_resolve(&acc, n * n, ctx->scene->film.transparent, fb);
+        vsd_accum_free(&acc);
+        *samples = n * n;
+        return st;
+    }
     pass.fn = fn;
     pass.kernel = kernel;
     pass.acc = &acc;

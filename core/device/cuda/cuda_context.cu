@@ -1,0 +1,189 @@
+// The CUDA device layer: device discovery, the per-renderer stream, resident slots that
+// upload only when their key changes, and CUDA errors as vsd_status (cuda_backend.h).
+#include "cuda_internal.cuh"
+#include <stdlib.h>
+#include <string.h>
+
+extern "C" int vsd_cuda_built(void) { return 1; }
+
+vsd_status vsd_cuda_fail(cudaError_t e, const char *what, char *err, size_t errlen)
+{
+    vsd_status st = e == cudaErrorMemoryAllocation ? VSD_ERR_NOMEM
+                  : (e == cudaErrorNoDevice || e == cudaErrorInsufficientDriver) ? VSD_ERR_UNSUPPORTED
+                  : VSD_ERR_DEVICE;
+    cudaGetLastError();   // clear a non-sticky error so the context stays usable
+    return vsd_fail(st, err, errlen, "CUDA: %s: %s (%s)", what, cudaGetErrorString(e), cudaGetErrorName(e));
+}
+
+extern "C" vsd_status vsd_cuda_open(vsd_cuda **out, char *err, size_t errlen)
+{
+    int count = 0, dev = 0;
+    const char *env = getenv("VSD_CUDA_DEVICE");
+    cudaError_t e = cudaGetDeviceCount(&count);
+    cudaDeviceProp prop;
+    *out = NULL;
+    if (e != cudaSuccess) return vsd_cuda_fail(e, "no usable CUDA device", err, errlen);
+    if (count == 0) return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen, "CUDA: no CUDA device found");
+    if (env && *env) dev = atoi(env);
+    if (dev < 0 || dev >= count)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "VSD_CUDA_DEVICE=%s: only %d CUDA device(s)", env, count);
+    if ((e = cudaSetDevice(dev)) != cudaSuccess) return vsd_cuda_fail(e, "selecting the device", err, errlen);
+    if ((e = cudaGetDeviceProperties(&prop, dev)) != cudaSuccess)
+        return vsd_cuda_fail(e, "reading the device properties", err, errlen);
+    vsd_cuda *c = (vsd_cuda *)calloc(1, sizeof *c);
+    if (!c) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    c->device = dev;
+    const char *max_mb = getenv("VSD_CUDA_MAX_MB");
+    if (max_mb && *max_mb) c->budget = (size_t)strtoull(max_mb, NULL, 10) << 20;
+    snprintf(c->name, sizeof c->name, "%.200s (sm_%d%d, %.0f GiB)", prop.name, prop.major, prop.minor,
+             (double)prop.totalGlobalMem / (1024.0 * 1024.0 * 1024.0));
+    if ((e = cudaStreamCreateWithFlags(&c->stream, cudaStreamNonBlocking)) != cudaSuccess) {
+        free(c);
+        return vsd_cuda_fail(e, "creating a stream", err, errlen);
+    }
+    if ((e = cudaMalloc((void **)&c->d_kd, sizeof(vsd_kernel_data))) != cudaSuccess) {
+        vsd_cuda_close(c);
+        return vsd_cuda_fail(e, "allocating the kernel data", err, errlen);
+    }
+    *out = c;
+    return VSD_OK;
+}
+
+extern "C" void vsd_cuda_close(vsd_cuda *c)
+{
+    if (!c) return;
+    cudaSetDevice(c->device);
+    if (c->stream) cudaStreamSynchronize(c->stream);
+    for (int i = 0; i < VSD_SLOT_COUNT; i++) cudaFree(c->slot[i].ptr);
+    cudaFree(c->d_kd);
+    cudaFree(c->d_method);
+    if (c->stream) cudaStreamDestroy(c->stream);
+    free(c);
+}
+
+extern "C" const char *vsd_cuda_device_name(const vsd_cuda *c) { return c->name; }
+
+extern "C" size_t vsd_cuda_resident_bytes(const vsd_cuda *c)
+{
+    size_t n = 0;
+    for (int i = 0; i < VSD_SLOT_COUNT; i++) n += c->slot[i].bytes;
+    return n;
+}
+
+extern "C" uint64_t vsd_cuda_uploaded_bytes(const vsd_cuda *c) { return c->uploaded; }
+
+// Grows the slot to hold `bytes` (allocations only grow, so a view of a new size or the
+// next frame's bricks reuse the buffer when they fit).
+static vsd_status slot_reserve(vsd_cuda *c, vsd_cuda_slot slot, size_t bytes, char *err, size_t errlen)
+{
+    vsd_cuda_buffer *b = &c->slot[slot];
+    if (b->bytes >= bytes) return VSD_OK;
+    if (c->budget && vsd_cuda_resident_bytes(c) - b->bytes + bytes > c->budget)
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen,
+                        "CUDA: %.1f MiB more device memory would exceed VSD_CUDA_MAX_MB=%zu (%.1f MiB held)",
+                        (double)bytes / (1024.0 * 1024.0), c->budget >> 20,
+                        (double)vsd_cuda_resident_bytes(c) / (1024.0 * 1024.0));
+    cudaError_t e = cudaStreamSynchronize(c->stream);   // the old buffer may still be read
+    if (e != cudaSuccess) return vsd_cuda_fail(e, "waiting for the stream", err, errlen);
+    cudaFree(b->ptr);
+    b->ptr = NULL;
+    b->bytes = 0;
+    b->valid = 0;
+    if ((e = cudaMalloc(&b->ptr, bytes)) != cudaSuccess) {
+        char what[96];
+        snprintf(what, sizeof what, "allocating %.1f MiB of device memory", (double)bytes / (1024.0 * 1024.0));
+        b->ptr = NULL;
+        return vsd_cuda_fail(e, what, err, errlen);
+    }
+    b->bytes = bytes;
+    return VSD_OK;
+}
+
+extern "C" vsd_status vsd_cuda_upload(vsd_cuda *c, vsd_cuda_slot slot, uint64_t key, const void *host, size_t bytes,
+                                      void **dev, char *err, size_t errlen)
+{
+    vsd_cuda_buffer *b = &c->slot[slot];
+    *dev = NULL;
+    if (bytes == 0) return VSD_OK;
+    if (b->valid && b->key == key && b->used == bytes) {
+        *dev = b->ptr;
+        return VSD_OK;
+    }
+    vsd_status st = slot_reserve(c, slot, bytes, err, errlen);
+    if (st) return st;
+    b->valid = 0;
+    cudaError_t e = cudaMemcpyAsync(b->ptr, host, bytes, cudaMemcpyHostToDevice, c->stream);
+    if (e != cudaSuccess) return vsd_cuda_fail(e, "copying to the device", err, errlen);
+    c->uploaded += bytes;
+    b->used = bytes;
+    b->key = key;
+    b->valid = 1;
+    *dev = b->ptr;
+    return VSD_OK;
+}
+
+extern "C" vsd_status vsd_cuda_scratch(vsd_cuda *c, vsd_cuda_slot slot, uint64_t key, size_t bytes, int zero,
+                                       void **dev, char *err, size_t errlen)
+{
+    vsd_cuda_buffer *b = &c->slot[slot];
+    *dev = NULL;
+    if (bytes == 0) return VSD_OK;
+    vsd_status st = slot_reserve(c, slot, bytes, err, errlen);
+    if (st) return st;
+    if (zero) {
+        cudaError_t e = cudaMemsetAsync(b->ptr, 0, bytes, c->stream);
+        if (e != cudaSuccess) return vsd_cuda_fail(e, "clearing device memory", err, errlen);
+    }
+    b->used = bytes;
+    b->key = key;
+    b->valid = 1;
+    *dev = b->ptr;
+    return VSD_OK;
+}
+
+extern "C" vsd_status vsd_cuda_download(vsd_cuda *c, void *host, const void *dev, size_t bytes, char *err,
+                                        size_t errlen)
+{
+    if (bytes == 0) return VSD_OK;
+    cudaError_t e = cudaMemcpyAsync(host, dev, bytes, cudaMemcpyDeviceToHost, c->stream);
+    if (e != cudaSuccess) return vsd_cuda_fail(e, "copying from the device", err, errlen);
+    return vsd_cuda_finish(c, "copying from the device", err, errlen);
+}
+
+vsd_status vsd_cuda_put_kd(vsd_cuda *c, const vsd_kernel_data *kd, const vsd_kernel_data **dkd, char *err,
+                           size_t errlen)
+{
+    cudaError_t e = cudaMemcpyAsync(c->d_kd, kd, sizeof *kd, cudaMemcpyHostToDevice, c->stream);
+    if (e != cudaSuccess) return vsd_cuda_fail(e, "copying the kernel data", err, errlen);
+    c->uploaded += sizeof *kd;
+    *dkd = c->d_kd;
+    return VSD_OK;
+}
+
+vsd_status vsd_cuda_put_method(vsd_cuda *c, const void *host, size_t bytes, const void **dev, char *err,
+                               size_t errlen)
+{
+    cudaError_t e;
+    if (c->method_bytes < bytes) {
+        if ((e = cudaStreamSynchronize(c->stream)) != cudaSuccess)
+            return vsd_cuda_fail(e, "waiting for the stream", err, errlen);
+        cudaFree(c->d_method);
+        c->d_method = NULL;
+        c->method_bytes = 0;
+        if ((e = cudaMalloc(&c->d_method, bytes)) != cudaSuccess)
+            return vsd_cuda_fail(e, "allocating the method data", err, errlen);
+        c->method_bytes = bytes;
+    }
+    e = cudaMemcpyAsync(c->d_method, host, bytes, cudaMemcpyHostToDevice, c->stream);
+    if (e != cudaSuccess) return vsd_cuda_fail(e, "copying the method data", err, errlen);
+    c->uploaded += bytes;
+    *dev = c->d_method;
+    return VSD_OK;
+}
+
+vsd_status vsd_cuda_finish(vsd_cuda *c, const char *what, char *err, size_t errlen)
+{
+    cudaError_t e = cudaGetLastError();
+    if (e == cudaSuccess) e = cudaStreamSynchronize(c->stream);
+    return e == cudaSuccess ? VSD_OK : vsd_cuda_fail(e, what, err, errlen);
+}

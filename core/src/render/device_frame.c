@@ -1,0 +1,103 @@
+#include "device_frame.h"
+#include <string.h>
+
+uint64_t vsd_device_key(uint64_t gen, const void *host)
+{
+    return gen * 0x9E3779B97F4A7C15ull ^ (uint64_t)(uintptr_t)host;
+}
+
+vsd_status vsd_device_array(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, uint64_t gen, const void *host,
+                            size_t bytes, const void **dev, char *err, size_t errlen)
+{
+    void *d = NULL;
+    vsd_status st = VSD_OK;
+    if (host && bytes) st = vsd_cuda_upload(ctx->cuda, slot, vsd_device_key(gen, host), host, bytes, &d, err, errlen);
+    *dev = d;
+    return st;
+}
+
+static vsd_status device_volume(const vsd_frame_ctx *ctx, const vsd_volume *vol, vsd_kvolume *kv, int first_slot,
+                                char *err, size_t errlen)
+{
+    size_t cells = (size_t)kv->dims[0] * kv->dims[1] * kv->dims[2];
+    const void *d;
+    vsd_status st;
+    if (!vol || cells == 0) {
+        kv->brick_slots = NULL;
+        kv->voxels = NULL;
+        kv->brick_max = NULL;
+        return VSD_OK;
+    }
+    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 0), ctx->frame_gen, kv->brick_slots,
+                               cells * sizeof(int32_t), &d, err, errlen)))
+        return st;
+    kv->brick_slots = d;
+    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 1), ctx->frame_gen, kv->voxels,
+                               (size_t)vol->brick_count * VSD_BRICK_VOXELS * sizeof(float), &d, err, errlen)))
+        return st;
+    kv->voxels = d;
+    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 2), ctx->frame_gen, kv->brick_max,
+                               cells * sizeof(float), &d, err, errlen)))
+        return st;
+    kv->brick_max = d;
+    return VSD_OK;
+}
+
+vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_data *kd, vsd_kernel_data *dev,
+                                  char *err, size_t errlen)
+{
+    const vsd_kenv *e = &kd->env;
+    const void *d;
+    vsd_status st;
+    *dev = *kd;
+    if ((st = device_volume(ctx, ctx->density, &dev->density, VSD_SLOT_DENSITY_BRICKS, err, errlen)) ||
+        (st = device_volume(ctx, ctx->emission, &dev->emission, VSD_SLOT_EMISSION_BRICKS, err, errlen)))
+        return st;
+    /* the environment belongs to the lighting: a new map or table means a new generation */
+    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_RGB, ctx->lighting_gen, e->rgb,
+                               (size_t)e->width * e->height * 3 * sizeof(float), &d, err, errlen)))
+        return st;
+    dev->env.rgb = d;
+    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_ROWS, ctx->lighting_gen, e->cdf_rows,
+                               (size_t)(e->height + 1) * sizeof(float), &d, err, errlen)))
+        return st;
+    dev->env.cdf_rows = d;
+    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_COLS, ctx->lighting_gen, e->cdf_cols,
+                               (size_t)e->height * (e->width + 1) * sizeof(float), &d, err, errlen)))
+        return st;
+    dev->env.cdf_cols = d;
+    if ((st = vsd_device_array(ctx, VSD_SLOT_LIGHTS, ctx->lighting_gen, kd->lights,
+                               (size_t)kd->light_count * 8 * sizeof(float), &d, err, errlen)))
+        return st;
+    dev->lights = d;
+    return VSD_OK;
+}
+
+vsd_status vsd_device_accum(const vsd_frame_ctx *ctx, int width, int height, double **dev, char *err,
+                            size_t errlen)
+{
+    void *d;
+    vsd_status st = vsd_cuda_scratch(ctx->cuda, VSD_SLOT_ACCUM, 0, (size_t)width * height * VSD_ACC_N * sizeof(double),
+                                     1, &d, err, errlen);
+    *dev = d;
+    return st;
+}
+
+vsd_status vsd_device_accum_fetch(const vsd_frame_ctx *ctx, const double *dev, vsd_accum *acc, char *err,
+                                  size_t errlen)
+{
+    return vsd_cuda_download(ctx->cuda, acc->v, dev, (size_t)acc->width * acc->height * VSD_ACC_N * sizeof(double),
+                             err, errlen);
+}
+
+void vsd_device_progress(const vsd_frame_ctx *ctx, const char *stage, float base, float span,
+                         vsd_cuda_progress *p)
+{
+    memset(p, 0, sizeof *p);
+    p->fn = ctx->progress;
+    p->user = ctx->user;
+    p->stage = stage;
+    p->base = base;
+    p->span = span;
+    p->cancel = ctx->cancel;
+}

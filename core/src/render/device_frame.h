@@ -1,0 +1,35 @@
+/* device_frame.h — the frame's data on the CUDA device, for methods whose ctx->cuda is set:
+ * the scene's kernel data with its arrays resident on the device (uploaded only when the
+ * frame or lighting generation they belong to changed), the per-pixel sums of the view
+ * pass, and progress between kernel launches. Methods use these so each one only mirrors
+ * its own extra arrays. */
+#ifndef VSD_DEVICE_FRAME_H
+#define VSD_DEVICE_FRAME_H
+#include "method.h"
+#include "accum.h"
+#include "device/cuda/cuda_backend.h"
+
+/* The resident-slot key of host array `host` of generation `gen`. */
+uint64_t vsd_device_key(uint64_t gen, const void *host);
+
+/* Device copy of host[bytes] in slot, re-uploaded only when gen or host changed. */
+vsd_status vsd_device_array(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, uint64_t gen, const void *host,
+                            size_t bytes, const void **dev, char *err, size_t errlen);
+
+/* dev = kd with every array (volume bricks, environment and its tables, lights) replaced
+ * by its resident device copy. */
+vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_data *kd, vsd_kernel_data *dev,
+                                  char *err, size_t errlen);
+
+/* Zeroed per-pixel sums on the device for a width x height view. */
+vsd_status vsd_device_accum(const vsd_frame_ctx *ctx, int width, int height, double **dev, char *err,
+                            size_t errlen);
+/* Copies the device sums into acc (already initialised to the same size). */
+vsd_status vsd_device_accum_fetch(const vsd_frame_ctx *ctx, const double *dev, vsd_accum *acc, char *err,
+                                  size_t errlen);
+
+/* Progress of a device stage: ctx's callback and cancel flag, [base, base + span). */
+void vsd_device_progress(const vsd_frame_ctx *ctx, const char *stage, float base, float span,
+                         vsd_cuda_progress *p);
+
+#endif

@@ -1,0 +1,233 @@
+/* CUDA backend (issue 7): CPU/GPU parity for every method on two data sets, residency (a
+ * camera change uploads only the kernel structs), out-of-memory errors and the `auto`
+ * fallback. Exits 77 (ctest SKIP) when no CUDA device answers, saying why.
+ *
+ * Tolerances. The deterministic methods (raymarch, constellation, shgrid) run the same
+ * kernel functions on both backends, without fused multiply-adds on the GPU (--fmad=false)
+ * and summed in the same order (kernel_accum.h); what remains is CUDA's expf/logf/powf
+ * against glibc's (both within 2 ulp of the exact value), so a pass may differ by float
+ * rounding: relative RMSE per pixel <= 1e-4. `reference` takes the same random streams, but
+ * a last-bit difference can flip one Russian-roulette or collision decision and send a path
+ * elsewhere, so it is compared against its own noise: rel. RMSE (4x4 blocks) of GPU vs CPU
+ * <= 1.5 x that of two CPU seeds + 0.005. */
+#include "test_common.h"
+#include "vsd/render.h"
+#include "vsd/scene.h"
+#include "vsd/image.h"
+#include "vsd/compare.h"
+#include "device/cuda/cuda_backend.h"
+#include <stdlib.h>
+
+#define W 96
+#define H 54
+
+typedef struct scene_case {
+    const char *file;
+    int frame;
+} scene_case;
+
+static const scene_case scenes[] = {
+    {"scenes/smoke64_sunset.json", 24},
+    {"scenes/fire96_studio.json", 48},
+};
+
+/* Renders file at frame with the given method/device and extra overrides into *fb. */
+static vsd_status render(const scene_case *c, const char *method, const char *device, const char *extra1,
+                         const char *extra2, vsd_framebuffer **fb, vsd_render_stats *stats, char *err,
+                         size_t errlen)
+{
+    char m[64], d[64];
+    const char *ov[6];
+    int n = 0;
+    vsd_scene sc;
+    vsd_renderer *r = NULL;
+    vsd_status st;
+    snprintf(m, sizeof m, "render.method=%s", method);
+    snprintf(d, sizeof d, "render.device=%s", device);
+    ov[n++] = m;
+    ov[n++] = d;
+    ov[n++] = "film.width=96";
+    ov[n++] = "film.height=54";
+    if (extra1) ov[n++] = extra1;
+    if (extra2) ov[n++] = extra2;
+    st = vsd_scene_load(test_data(c->file), ov, n, &sc, err, errlen);
+    if (!st) st = vsd_renderer_create(&sc, NULL, &r, err, errlen);
+    if (!st) st = vsd_renderer_render(r, c->frame, fb, stats, err, errlen);
+    vsd_renderer_destroy(r);
+    return st;
+}
+
+static double pass_rel(const vsd_framebuffer *a, const vsd_framebuffer *b, int pass, int channels, int block)
+{
+    double e = -1.0;
+    if (vsd_block_rel_rmse(a->pass[pass], b->pass[pass], W, H, channels, channels, block, &e, NULL, 0)) return 0.0;
+    return e;
+}
+
+static void test_deterministic_parity(void)
+{
+    static const char *const methods[][2] = {
+        {"raymarch", "render.options.lights=64"},
+        {"constellation", "render.options.lights=64"},
+        {"shgrid", NULL},
+    };
+    size_t si, mi;
+    for (si = 0; si < sizeof scenes / sizeof scenes[0]; si++)
+        for (mi = 0; mi < sizeof methods / sizeof methods[0]; mi++) {
+            vsd_framebuffer *cpu = NULL, *gpu = NULL;
+            vsd_render_stats s;
+            char err[1024];
+            vsd_status st = render(&scenes[si], methods[mi][0], "cpu", methods[mi][1], NULL, &cpu, &s, err, sizeof err);
+            CHECK_MSG(st == VSD_OK, "%s cpu: %s", methods[mi][0], err);
+            if (!st) st = render(&scenes[si], methods[mi][0], "cuda", methods[mi][1], NULL, &gpu, &s, err, sizeof err);
+            CHECK_MSG(st == VSD_OK, "%s cuda: %s", methods[mi][0], err);
+            if (!st) {
+                double dir = pass_rel(gpu, cpu, VSD_PASS_VOLUME_DIR, 3, 1);
+                double tr = pass_rel(gpu, cpu, VSD_PASS_TRANSMITTANCE, 3, 1);
+                double comb = pass_rel(gpu, cpu, VSD_PASS_COMBINED, 4, 1);
+                CHECK(strcmp(s.device, "cuda") == 0);
+                printf("%s %s: GPU vs CPU rel. RMSE VolumeDir %.3g, Transmittance %.3g, Combined %.3g\n",
+                       scenes[si].file, methods[mi][0], dir, tr, comb);
+                CHECK_MSG(dir >= 0 && dir <= 1e-4, "VolumeDir %.3g", dir);
+                CHECK_MSG(tr >= 0 && tr <= 1e-4, "Transmittance %.3g", tr);
+                CHECK_MSG(comb >= 0 && comb <= 1e-4, "Combined %.3g", comb);
+                if (scenes[si].frame == 48) {
+                    double emit = pass_rel(gpu, cpu, VSD_PASS_EMIT, 3, 1);
+                    printf("  Emit %.3g\n", emit);
+                    CHECK_MSG(emit >= 0 && emit <= 1e-4, "Emit %.3g", emit);
+                }
+            }
+            vsd_framebuffer_destroy(cpu);
+            vsd_framebuffer_destroy(gpu);
+        }
+}
+
+static void test_reference_within_noise(void)
+{
+    size_t si;
+    for (si = 0; si < sizeof scenes / sizeof scenes[0]; si++) {
+        vsd_framebuffer *cpu1 = NULL, *cpu2 = NULL, *gpu = NULL;
+        char err[1024];
+        vsd_status st = render(&scenes[si], "reference", "cpu", "render.samples=64", "render.seed=1", &cpu1, NULL, err,
+                               sizeof err);
+        if (!st) st = render(&scenes[si], "reference", "cpu", "render.samples=64", "render.seed=2", &cpu2, NULL, err,
+                             sizeof err);
+        if (!st) st = render(&scenes[si], "reference", "cuda", "render.samples=64", "render.seed=1", &gpu, NULL, err,
+                             sizeof err);
+        CHECK_MSG(st == VSD_OK, "reference: %s", err);
+        if (!st) {
+            double noise = pass_rel(cpu2, cpu1, VSD_PASS_COMBINED, 4, 4);
+            double e = pass_rel(gpu, cpu1, VSD_PASS_COMBINED, 4, 4);
+            printf("%s reference: GPU vs CPU %.4f, CPU seed 2 vs seed 1 (noise) %.4f\n", scenes[si].file, e, noise);
+            CHECK_MSG(e <= 1.5 * noise + 0.005, "GPU vs CPU %.4f against noise %.4f", e, noise);
+        }
+        vsd_framebuffer_destroy(cpu1);
+        vsd_framebuffer_destroy(cpu2);
+        vsd_framebuffer_destroy(gpu);
+    }
+}
+
+/* A second view from the same renderer: the volume, environment and prepared data stay
+ * on the device, only the kernel structs (camera inside) are copied; the image equals
+ * a fresh renderer's. */
+static void test_camera_change_uploads_only_camera(void)
+{
+    static const char *const methods[] = {"raymarch", "constellation", "shgrid", "reference"};
+    size_t mi;
+    for (mi = 0; mi < sizeof methods / sizeof methods[0]; mi++) {
+        vsd_scene sc;
+        vsd_renderer *r = NULL;
+        vsd_framebuffer *fb = NULL, *fresh = NULL;
+        vsd_render_stats s1, s2;
+        char m[64], err[1024];
+        const char *ov[6] = {m, "render.device=cuda", "film.width=96", "film.height=54", "render.samples=4",
+                             "render.options.pixel_samples=1"};
+        vsd_status st;
+        snprintf(m, sizeof m, "render.method=%s", methods[mi]);
+        st = vsd_scene_load(test_data("scenes/smoke64_sunset.json"), ov, mi == 3 ? 5 : 6, &sc, err, sizeof err);
+        if (!st) st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
+        if (!st) st = vsd_renderer_render(r, 24, &fb, &s1, err, sizeof err);
+        if (!st) {
+            sc.camera.matrix[3] += 0.7;   /* move the camera 0.7 along world X */
+            st = vsd_renderer_set_scene(r, &sc, err, sizeof err);
+        }
+        if (!st) st = vsd_renderer_render(r, 24, &fb, &s2, err, sizeof err);
+        CHECK_MSG(st == VSD_OK, "%s: %s", methods[mi], err);
+        if (!st) {
+            printf("%s: first view uploaded %llu bytes, new camera %llu bytes\n", methods[mi], s1.device_uploaded_bytes,
+                   s2.device_uploaded_bytes);
+            CHECK_MSG(s1.device_uploaded_bytes > 100000, "%s: first view uploaded only %llu bytes", methods[mi],
+                      s1.device_uploaded_bytes);
+            CHECK_MSG(s2.device_uploaded_bytes <= 4096, "%s: a camera change uploaded %llu bytes", methods[mi],
+                      s2.device_uploaded_bytes);
+            /* the cached second view equals a fresh render of the moved camera */
+            vsd_renderer_destroy(r);
+            r = NULL;
+            st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
+            if (!st) st = vsd_renderer_render(r, 24, &fresh, NULL, err, sizeof err);
+            CHECK_MSG(st == VSD_OK, "%s: %s", methods[mi], err);
+            if (!st)
+                CHECK_MSG(memcmp(fresh->pass[VSD_PASS_COMBINED], fb->pass[VSD_PASS_COMBINED],
+                                 sizeof(float) * 4 * W * H) == 0,
+                          "%s: cached view differs from a fresh render", methods[mi]);
+        }
+        vsd_renderer_destroy(r);
+        vsd_framebuffer_destroy(fb);
+        vsd_framebuffer_destroy(fresh);
+    }
+}
+
+/* Out of memory: a real cudaMalloc failure through the device layer, which leaves the
+ * context usable; then an image too large for a device-memory budget: an error naming the
+ * budget with render.device = cuda, a CPU render with `auto`. */
+static void test_out_of_memory(void)
+{
+    vsd_cuda *c = NULL;
+    char err[1024];
+    void *dev = NULL;
+    float host[4] = {1, 2, 3, 4}, back[4] = {0, 0, 0, 0};
+    vsd_status st = vsd_cuda_open(&c, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "%s", err);
+    if (st) return;
+    st = vsd_cuda_scratch(c, VSD_SLOT_ACCUM, 1, (size_t)1 << 50, 0, &dev, err, sizeof err);
+    CHECK(st == VSD_ERR_NOMEM);
+    CHECK_CONTAINS(err, "allocating 1073741824.0 MiB");
+    CHECK_CONTAINS(err, "cudaErrorMemoryAllocation");
+    st = vsd_cuda_upload(c, VSD_SLOT_LIGHTS, 7, host, sizeof host, &dev, err, sizeof err);
+    if (!st) st = vsd_cuda_download(c, back, dev, sizeof back, err, sizeof err);
+    CHECK_MSG(st == VSD_OK && memcmp(host, back, sizeof host) == 0, "context unusable after OOM: %s", err);
+    vsd_cuda_close(c);
+
+    setenv("VSD_CUDA_MAX_MB", "1", 1);
+    {
+        vsd_framebuffer *fb = NULL;
+        vsd_render_stats s;
+        const scene_case big = {"scenes/smoke64_sunset.json", 24};
+        st = render(&big, "raymarch", "cuda", "render.options.lights=8", "render.options.pixel_samples=1", &fb, &s, err,
+                    sizeof err);
+        CHECK(st == VSD_ERR_NOMEM);
+        CHECK_CONTAINS(err, "VSD_CUDA_MAX_MB");
+        st = render(&big, "raymarch", "auto", "render.options.lights=8", "render.options.pixel_samples=1", &fb, &s, err,
+                    sizeof err);
+        CHECK_MSG(st == VSD_OK, "auto fallback: %s", err);
+        CHECK(strcmp(s.device, "cpu") == 0);
+        CHECK_CONTAINS(s.device_note, "VSD_CUDA_MAX_MB");
+        vsd_framebuffer_destroy(fb);
+    }
+    unsetenv("VSD_CUDA_MAX_MB");
+}
+
+int main(void)
+{
+    char name[512], err[512];
+    if (vsd_render_cuda_probe(name, sizeof name, err, sizeof err) != VSD_OK) {
+        printf("SKIP: no CUDA device: %s\n", err);
+        return 77;
+    }
+    printf("CUDA device: %s\n", name);
+    test_deterministic_parity();
+    test_reference_within_noise();
+    test_camera_change_uploads_only_camera();
+    test_out_of_memory();
+    return test_finish("test_cuda");
+}
