@@ -163,8 +163,8 @@ static const char *const all_channels[] = {
 
 /* Every channel of every pass read back equals what was written: exactly for float, to
  * half's rounding (relative 2^-11) for half; Depth is always float. */
-static void check_passes(const vsd_exr_image *img, const vsd_framebuffer *fb, const char *layer,
-                         int half)
+static void check_passes_named(const vsd_exr_image *img, const vsd_framebuffer *fb, const char *layer,
+                               int half, const char *const *names)
 {
     const char *ids;
     for (int p = 0; p < VSD_PASS_COUNT; p++) {
@@ -172,7 +172,7 @@ static void check_passes(const vsd_exr_image *img, const vsd_framebuffer *fb, co
         int nc = vsd_pass_channels((vsd_pass)p);
         for (int c = 0; c < nc; c++) {
             char name[256];
-            snprintf(name, sizeof name, "%s.%s.%c", layer, vsd_pass_name((vsd_pass)p), ids[c]);
+            snprintf(name, sizeof name, "%s.%s.%c", layer, names ? names[p] : vsd_pass_name((vsd_pass)p), ids[c]);
             const float *plane = vsd_exr_channel(img, name);
             CHECK_MSG(plane != NULL, "channel %s missing", name);
             int bad = 0;
@@ -186,6 +186,12 @@ static void check_passes(const vsd_exr_image *img, const vsd_framebuffer *fb, co
             }
         }
     }
+}
+
+static void check_passes(const vsd_exr_image *img, const vsd_framebuffer *fb, const char *layer,
+                         int half)
+{
+    check_passes_named(img, fb, layer, half, NULL);
 }
 
 static void test_roundtrip(int half)
@@ -257,6 +263,47 @@ static void test_mask_and_layer(void)
     opt.layer = NULL;
     opt.pass_mask = 1u << VSD_PASS_COUNT;
     CHECK(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_ERR_INVALID);
+    vsd_framebuffer_destroy(fb);
+}
+
+/* Passes under another Blender version's names (5.0: "Volume Direct", "Volume Indirect",
+ * "Emission"): every pixel reads back under the new name, none under the old, and a name
+ * that would break "<layer>.<pass>.<channel>" or repeat another pass's is refused. */
+static void test_renamed_passes(void)
+{
+    vsd_framebuffer *fb = make_fb(9, 7, pattern);
+    if (!fb)
+        return;
+    const char *names[VSD_PASS_COUNT] = {NULL, "Volume Direct", "Volume Indirect", "Emission", "", NULL};
+    const char *want[VSD_PASS_COUNT] = {"Combined", "Volume Direct", "Volume Indirect", "Emission",
+                                        "Transmittance", "Depth"};
+    vsd_exr_write_options opt = {0};
+    opt.pass_names = names;
+    const char *path = tmp_path("renamed.exr");
+    CHECK_MSG(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+    vsd_exr_image *img = NULL;
+    CHECK_MSG(vsd_exr_read(path, &img, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+    if (img) {
+        CHECK(img->channel_count == 17);
+        check_passes_named(img, fb, "ViewLayer", 0, want);
+        CHECK(vsd_exr_channel(img, "ViewLayer.VolumeDir.R") == NULL);
+        CHECK(vsd_exr_channel(img, "ViewLayer.Emit.G") == NULL);
+    }
+    vsd_exr_image_destroy(img);
+
+    names[VSD_PASS_EMIT] = "Emit.v2";
+    CHECK(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_ERR_INVALID);
+    CHECK_MSG(strstr(g_err, "EXR pass name \"Emit.v2\" for Emit contains '.'") != NULL, "%s", g_err);
+    names[VSD_PASS_EMIT] = "Volume Direct";
+    CHECK(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_ERR_INVALID);
+    CHECK_MSG(strstr(g_err, "EXR passes VolumeDir and Emit both named \"Volume Direct\"") != NULL, "%s", g_err);
+    /* ... unless one of the two is not written */
+    opt.pass_mask = VSD_PASS_BIT(VSD_PASS_COMBINED) | VSD_PASS_BIT(VSD_PASS_EMIT);
+    CHECK_MSG(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+    opt.pass_mask = 0;
+    names[VSD_PASS_EMIT] = "0123456789012345678901234567890123456789012345678901234567890123"; /* 64 */
+    CHECK(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_ERR_INVALID);
+    CHECK_MSG(strstr(g_err, "EXR pass name for Emit longer than 63 characters") != NULL, "%s", g_err);
     vsd_framebuffer_destroy(fb);
 }
 
@@ -548,6 +595,7 @@ int main(int argc, char **argv)
     test_roundtrip(0);
     test_roundtrip(1);
     test_mask_and_layer();
+    test_renamed_passes();
     test_attributes();
     test_temp_and_write_errors();
     test_read_errors();

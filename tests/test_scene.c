@@ -101,6 +101,9 @@ static void test_defaults(void)
     CHECK(!strcmp(d.output.exr, "out/frame_####.exr"));
     CHECK(d.output.pass_mask == VSD_PASS_ALL);
     CHECK(!strcmp(d.output.layer, "ViewLayer"));
+    for (int i = 0; i < VSD_PASS_COUNT; i++)
+        CHECK_MSG(!strcmp(d.output.pass_names[i], vsd_pass_name((vsd_pass)i)), "pass %d: %s", i,
+                  d.output.pass_names[i]);
     CHECK(d.output.half == 0);
     CHECK(!strcmp(d.output.preview_png, ""));
     CHECK(!strcmp(d.output.view, ""));
@@ -339,6 +342,21 @@ static void test_errors(void)
     EXPECT_ERR(with("\"output\": {\"passes\": \"Combined\"}"), VSD_ERR_TYPE, "output.passes: expected array of pass names");
     EXPECT_ERR(with("\"output\": {\"passes\": [1]}"), VSD_ERR_TYPE, "output.passes[0]: expected string");
     EXPECT_ERR(with("\"output\": {\"passes\": []}"), VSD_ERR_INVALID, "output.passes: empty");
+    EXPECT_ERR(with("\"output\": {\"pass_names\": {\"Foo\": \"Bar\"}}"), VSD_ERR_INVALID,
+               "output.pass_names.Foo: unknown pass \"Foo\" (known: Combined, VolumeDir, VolumeInd, Emit, Transmittance, Depth)");
+    EXPECT_ERR(with("\"output\": {\"pass_names\": [\"Volume Direct\"]}"), VSD_ERR_TYPE,
+               "output.pass_names: expected object");
+    EXPECT_ERR(with("\"output\": {\"pass_names\": {\"VolumeDir\": 1}}"), VSD_ERR_TYPE,
+               "output.pass_names.VolumeDir: expected string");
+    EXPECT_ERR(with("\"output\": {\"pass_names\": {\"VolumeDir\": \"\"}}"), VSD_ERR_INVALID,
+               "output.pass_names.VolumeDir: empty name");
+    EXPECT_ERR(with("\"output\": {\"pass_names\": {\"Emit\": \"Emission.001\"}}"), VSD_ERR_INVALID,
+               "output.pass_names.Emit: \"Emission.001\" contains '.'");
+    EXPECT_ERR(with("\"output\": {\"pass_names\": {\"Emit\": \"VolumeDir\"}}"), VSD_ERR_INVALID,
+               "output.pass_names: VolumeDir and Emit are both named \"VolumeDir\"");
+    EXPECT_ERR(with("\"output\": {\"pass_names\": {\"Depth\": "
+                    "\"0123456789012345678901234567890123456789012345678901234567890123\"}}"),
+               VSD_ERR_INVALID, "output.pass_names.Depth: longer than 63 characters");
     EXPECT_ERR(with("\"output\": {\"exr\": \"\"}"), VSD_ERR_INVALID, "output.exr: must not be empty");
     EXPECT_ERR(with("\"output\": {\"exr\": \"f_##_##.exr\"}"), VSD_ERR_INVALID, "output.exr: \"/base/f_##_##.exr\": more than one run");
     EXPECT_ERR(with("\"output\": {\"half\": \"yes\"}"), VSD_ERR_TYPE, "output.half: expected boolean");
@@ -424,6 +442,30 @@ static void test_paths(void)
     name[1020] = '\0';
     snprintf(longjson, sizeof longjson, "{\"version\": 1, \"volume\": {\"file\": \"%s\"}}", name);
     EXPECT_ERR(longjson, VSD_ERR_INVALID, "volume.file: path too long (1026 characters, max 1023)");
+}
+
+/* output.pass_names: the EXR layer names for a Blender that renamed its passes (5.0), from
+ * the file and from an override (`vsd render --set`); unnamed passes keep vsd's names. */
+static void test_pass_names(void)
+{
+    vsd_scene s;
+    const char *json = "{" MIN ", \"output\": {\"pass_names\": {\"VolumeDir\": \"Volume Direct\","
+                       " \"VolumeInd\": \"Volume Indirect\", \"Emit\": \"Emission\"}}}";
+    CHECK_MSG(parse(json, &s) == VSD_OK, "%s", err);
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_COMBINED], "Combined"));
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_VOLUME_DIR], "Volume Direct"));
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_VOLUME_IND], "Volume Indirect"));
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_EMIT], "Emission"));
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_TRANSMITTANCE], "Transmittance"));
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_DEPTH], "Depth"));
+    CHECK(s.output.pass_mask == VSD_PASS_ALL);
+    const char *ov[] = {"output.pass_names.Transmittance=Opacity"};
+    CHECK_MSG(parse_ov(json, ov, 1, &s) == VSD_OK, "%s", err);
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_TRANSMITTANCE], "Opacity"));
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_EMIT], "Emission"));
+    const char *ov_null[] = {"output.pass_names=null"};
+    CHECK_MSG(parse_ov(json, ov_null, 1, &s) == VSD_OK, "%s", err);
+    CHECK(!strcmp(s.output.pass_names[VSD_PASS_VOLUME_DIR], "VolumeDir"));
 }
 
 static void test_overrides(void)
@@ -582,6 +624,7 @@ int main(void)
     test_errors();
     test_values();
     test_paths();
+    test_pass_names();
     test_overrides();
     test_shared_scenes();
     test_file_errors();

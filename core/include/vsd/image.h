@@ -51,13 +51,17 @@ typedef struct vsd_exr_attr {
 
 typedef struct vsd_exr_write_options {
     const char *layer;        /* 0 = "ViewLayer" */
+    /* [VSD_PASS_COUNT] EXR pass names, e.g. Blender 5.0's "Volume Direct" for VolumeDir;
+     * 0, or a 0 / "" entry = vsd_pass_name(). */
+    const char *const *pass_names;
     unsigned pass_mask;       /* 0 = all passes */
     int half;                 /* 0 = float32 channels, 1 = half */
     const vsd_exr_attr *attrs;/* extra header attributes */
     int attr_count;
 } vsd_exr_write_options;
 
-/* Write a multilayer EXR with channels "<layer>.<Pass>.<R|G|B|A|Z>" (Blender's names), ZIP
+/* Write a multilayer EXR with channels "<layer>.<Pass>.<R|G|B|A|Z>" (Blender's names, or
+ * opt->pass_names: each at most 63 bytes, no '.', all distinct, else VSD_ERR_INVALID), ZIP
  * compressed, to `path` via a temporary file in the same folder that is renamed on success
  * (a crash never leaves a half-written frame). Creates no folders. */
 vsd_status vsd_exr_write(const char *path, const vsd_framebuffer *fb,

@@ -13,10 +13,11 @@
 #include <unistd.h>
 
 #define LAYER_MAX 200                 /* keeps every channel name within a fixed buffer */
+#define PASS_NAME_MAX 63              /* Blender's RenderPass.name holds 63 bytes */
 #define EXR_SHORT_NAME_MAX 31         /* longer names need the EXR "long names" flag */
 
 typedef struct exr_chan {
-    char name[LAYER_MAX + 32];
+    char name[LAYER_MAX + PASS_NAME_MAX + 8];
     vsd_pass pass;
     int comp;                         /* index into the pass's interleaved channels */
     int half;                         /* stored as half (else float32) */
@@ -61,6 +62,33 @@ static int64_t write_fn(exr_const_context_t ctxt, void *userdata, const void *bu
     return (int64_t)sz;
 }
 
+/* The pass part of each channel name: opt->pass_names where given (a Blender version that
+ * renames its passes, e.g. 5.0's "Volume Direct"), else vsd's own. Blender splits a channel
+ * name at its last two dots, so a pass name holds none; two written passes with one name
+ * would be one layer to every reader. */
+static vsd_status pass_names(const vsd_exr_write_options *opt, unsigned mask,
+                             const char *names[VSD_PASS_COUNT], char *err, size_t errlen)
+{
+    for (int p = 0; p < VSD_PASS_COUNT; p++) {
+        const char *given = opt && opt->pass_names ? opt->pass_names[p] : NULL;
+        names[p] = given && *given ? given : vsd_pass_name((vsd_pass)p);
+        if (strlen(names[p]) > PASS_NAME_MAX)
+            return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                            "EXR pass name for %s longer than %d characters", vsd_pass_name((vsd_pass)p),
+                            PASS_NAME_MAX);
+        if (strchr(names[p], '.'))
+            return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                            "EXR pass name \"%s\" for %s contains '.' (the layer.pass.channel separator)",
+                            names[p], vsd_pass_name((vsd_pass)p));
+    }
+    for (int p = 0; p < VSD_PASS_COUNT; p++)
+        for (int q = p + 1; q < VSD_PASS_COUNT; q++)
+            if ((mask & VSD_PASS_BIT(p)) && (mask & VSD_PASS_BIT(q)) && strcmp(names[p], names[q]) == 0)
+                return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR passes %s and %s both named \"%s\"",
+                                vsd_pass_name((vsd_pass)p), vsd_pass_name((vsd_pass)q), names[p]);
+    return VSD_OK;
+}
+
 /* The channel list for the selected passes. Depth stays float32 even when half is asked
  * for, as Blender does for its non-colour passes: the 1e10 "empty" marker and distances
  * beyond 2048 units do not survive half precision. Channel or attribute names beyond 31
@@ -75,6 +103,10 @@ static vsd_status build_channels(const vsd_exr_write_options *opt, exr_chan *cha
                         LAYER_MAX);
     if (mask & ~VSD_PASS_ALL)
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR pass mask 0x%x has unknown bits", mask);
+    const char *names[VSD_PASS_COUNT];
+    vsd_status st = pass_names(opt, mask, names, err, errlen);
+    if (st)
+        return st;
     int n = 0;
     *long_names = 0;
     for (int p = 0; p < VSD_PASS_COUNT; p++) {
@@ -82,8 +114,7 @@ static vsd_status build_channels(const vsd_exr_write_options *opt, exr_chan *cha
             continue;
         const char *ids = vsd_pass_chan_ids((vsd_pass)p);
         for (int c = 0; ids[c]; c++, n++) {
-            snprintf(chans[n].name, sizeof chans[n].name, "%s.%s.%c", layer,
-                     vsd_pass_name((vsd_pass)p), ids[c]);
+            snprintf(chans[n].name, sizeof chans[n].name, "%s.%s.%c", layer, names[p], ids[c]);
             chans[n].pass = (vsd_pass)p;
             chans[n].comp = c;
             chans[n].half = opt && opt->half && p != VSD_PASS_DEPTH;

@@ -59,6 +59,9 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
     attrs[n].name = "vsd/render_seconds"; attrs[n++].value = t_render;
     memset(&wo, 0, sizeof wo);
     wo.layer = scene->output.layer;
+    const char *pass_names[VSD_PASS_COUNT];
+    for (int i = 0; i < VSD_PASS_COUNT; i++) pass_names[i] = scene->output.pass_names[i];
+    wo.pass_names = pass_names;
     wo.pass_mask = scene->output.pass_mask;
     wo.half = scene->output.half;
     wo.attrs = attrs;

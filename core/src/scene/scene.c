@@ -133,6 +133,7 @@ static vsd_status apply_grid(parser *p, const field *f, const cJSON *item, const
 static vsd_status apply_lights(parser *p, const field *f, const cJSON *item, const char *path);
 static vsd_status apply_options(parser *p, const field *f, const cJSON *item, const char *path);
 static vsd_status apply_passes(parser *p, const field *f, const cJSON *item, const char *path);
+static vsd_status apply_pass_names(parser *p, const field *f, const cJSON *item, const char *path);
 static vsd_status environment_finish(parser *p, const cJSON *obj, const char *path);
 static vsd_status camera_finish(parser *p, const cJSON *obj, const char *path);
 static vsd_status film_finish(parser *p, const cJSON *obj, const char *path);
@@ -212,6 +213,7 @@ TABLE(frames, frames_finish);
 static const field output_fields[] = {
     F_PATH("exr", s.output.exr, "out/frame_####.exr", F_NONEMPTY | F_FRAMES),
     F_CUSTOM("passes", apply_passes),
+    F_CUSTOM("pass_names", apply_pass_names),
     F_STR("layer", s.output.layer, "ViewLayer", F_NONEMPTY),
     F_BOOL("half", s.output.half, 0),
     F_PATH("preview_png", s.output.preview_png, "", F_NULLABLE | F_FRAMES),
@@ -696,6 +698,49 @@ static vsd_status unknown_pass(parser *p, const char *path, const char *name)
         snprintf(known + used, sizeof known - used, "%s%s", i ? ", " : "", vsd_pass_name((vsd_pass)i));
     }
     return fail(p, VSD_ERR_INVALID, path, "unknown pass \"%s\" (known: %s)", name, known);
+}
+
+_Static_assert(VSD_SCENE_PASSES == VSD_PASS_COUNT, "vsd/scene.h VSD_SCENE_PASSES must equal VSD_PASS_COUNT");
+
+/* output.pass_names: {vsd pass: EXR layer name}, for a Blender whose pass names differ from
+ * vsd's (5.0 calls VolumeDir "Volume Direct"); RenderResult.load_from_file matches names
+ * exactly. Every pass not listed keeps its own name. A name holds no '.' (Blender splits
+ * "<layer>.<pass>.<channel>" at the dots) and no two passes share one, so the file always
+ * reads back pass by pass; the EXR writer checks the same rules for its other callers. */
+static vsd_status apply_pass_names(parser *p, const field *f, const cJSON *item, const char *path)
+{
+    (void)f;
+    char (*names)[VSD_PASS_NAME_MAX + 1] = p->out->s.output.pass_names;
+    for (int i = 0; i < VSD_PASS_COUNT; i++)
+        snprintf(names[i], sizeof names[i], "%s", vsd_pass_name((vsd_pass)i));
+    if (!item || cJSON_IsNull(item))
+        return VSD_OK;
+    if (!cJSON_IsObject(item))
+        return fail(p, VSD_ERR_TYPE, path, "expected object {\"VolumeDir\": \"Volume Direct\", ...}");
+    const cJSON *e;
+    cJSON_ArrayForEach(e, item) {
+        char sub[KEYPATH_LEN];
+        snprintf(sub, sizeof sub, "%s.%s", path, e->string);
+        vsd_pass pass = vsd_pass_from_name(e->string);
+        if ((int)pass < 0 || pass >= VSD_PASS_COUNT)
+            return unknown_pass(p, sub, e->string);
+        if (!cJSON_IsString(e))
+            return fail(p, VSD_ERR_TYPE, sub, "expected string");
+        const char *v = e->valuestring;
+        if (!v[0])
+            return fail(p, VSD_ERR_INVALID, sub, "empty name");
+        if (strlen(v) > VSD_PASS_NAME_MAX)
+            return fail(p, VSD_ERR_INVALID, sub, "longer than %d characters (Blender's limit)", VSD_PASS_NAME_MAX);
+        if (strchr(v, '.'))
+            return fail(p, VSD_ERR_INVALID, sub, "\"%s\" contains '.' (the EXR layer.pass.channel separator)", v);
+        snprintf(names[pass], sizeof names[pass], "%s", v);
+    }
+    for (int i = 0; i < VSD_PASS_COUNT; i++)
+        for (int j = i + 1; j < VSD_PASS_COUNT; j++)
+            if (strcmp(names[i], names[j]) == 0)
+                return fail(p, VSD_ERR_INVALID, path, "%s and %s are both named \"%s\"",
+                            vsd_pass_name((vsd_pass)i), vsd_pass_name((vsd_pass)j), names[i]);
+    return VSD_OK;
 }
 
 /* Pass names are Blender's ("Combined", "VolumeDir", ...), parsed by the image module so
