@@ -9,7 +9,11 @@
 #include "vsd/env.h"
 #include "vsd/compare.h"
 #include "src/render/distance_map.h"
+#include "src/render/kernel_setup.h"
+#include "methods/constellation/dense_grid.h"
+#include "methods/constellation/constellation_kernel.h"
 #include <stdlib.h>
+#include <string.h>
 
 /* Exact squared EDT on random sparse occupancy (odd sizes, empty lines, one empty case)
  * equals the brute-force minimum over all sites. */
@@ -98,6 +102,91 @@ static void test_leap_is_safe(void)
                           vsd_volume_sample_index(vol, q), rad, r, i, j, k);
             }
         }
+        vsd_distance_map_free(&dm);
+    }
+    vsd_volume_destroy(vol);
+}
+
+/* The dense grid the shadow rays read (dense_grid.h) returns the same float as the brick
+ * lookup at random points (both fast and cross-brick paths, negative index coordinates),
+ * and its shadow codes say exactly what they promise: 0 only for cells with a non-zero
+ * corner and no leap, 1 for all-zero cells without a leap, skip + 1 (capped) otherwise. */
+static void test_dense_grid(void)
+{
+    int32_t dims[3] = {40, 40, 40}, lo[3] = {-13, 5, 2};
+    float *v = calloc(40 * 40 * 40, sizeof(float));
+    vsd_volume *vol = NULL;
+    int x, y, z, t, trial, bad = 0;
+    double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    srand(5);
+    for (z = 0; z < 40; z++)
+        for (y = 0; y < 40; y++)
+            for (x = 0; x < 40; x++) {
+                double a = ((x - 12) * (x - 12) + (y - 11) * (y - 11) + (z - 13) * (z - 13)) / 30.0;
+                v[(z * 40 + y) * 40 + x] = a < 1 ? (float)(1 - a) * (float)rand() / (float)RAND_MAX : 0.0f;
+            }
+    CHECK(vsd_volume_create_dense(v, dims, lo, ident, &vol, NULL, 0) == VSD_OK);
+    free(v);
+    if (!vol) return;
+    for (t = 0; t < 2; t++) {
+        vsd_distance_map dm, other;
+        vsd_dense_grid g;
+        vsd_kvolume kv;
+        char err[256];
+        size_t sy, sz, c = 0;
+        int zero_cells = 0, leap_cells = 0, sampled_cells = 0;
+        CHECK(vsd_distance_map_build(vol, t ? 0.3f : 0.0f, 2, &dm, NULL, 0) == VSD_OK);
+        CHECK(vsd_dense_grid_build(vol, t ? &dm : NULL, &g, err, sizeof err) == VSD_OK);
+        CHECK(vsd_kvolume_setup(&kv, vol, ident, 1.0f, NULL, 0) == VSD_OK);
+        CHECK(g.v && g.code);
+        if (!g.v || !g.code) break;
+        sy = (size_t)g.dims[0] + 1;
+        sz = sy * ((size_t)g.dims[1] + 1);
+        for (trial = 0; trial < 200000 && bad < 5; trial++) {
+            vsd_f3 q;
+            int32_t i, j, l;
+            float a, b;
+            q.x = (float)g.origin[0] + (float)g.dims[0] * (float)rand() / ((float)RAND_MAX + 1.0f);
+            q.y = (float)g.origin[1] + (float)g.dims[1] * (float)rand() / ((float)RAND_MAX + 1.0f);
+            q.z = (float)g.origin[2] + (float)g.dims[2] * (float)rand() / ((float)RAND_MAX + 1.0f);
+            i = (int32_t)floorf(q.x) - g.origin[0];
+            j = (int32_t)floorf(q.y) - g.origin[1];
+            l = (int32_t)floorf(q.z) - g.origin[2];
+            if (i >= g.dims[0] || j >= g.dims[1] || l >= g.dims[2]) continue;
+            a = vsd_cst_trilinear(g.v + (size_t)l * sz + (size_t)j * sy + i, sy, sz, q.x - floorf(q.x),
+                                  q.y - floorf(q.y), q.z - floorf(q.z));
+            b = vsd_kvolume_field(&kv, q);
+            if (memcmp(&a, &b, sizeof a) != 0) {
+                bad++;
+                CHECK_MSG(0, "dense grid %.9g != brick lookup %.9g at %g %g %g", a, b, q.x, q.y, q.z);
+            }
+        }
+        for (z = 0; z < g.dims[2]; z++)
+            for (y = 0; y < g.dims[1]; y++)
+                for (x = 0; x < g.dims[0]; x++, c++) {
+                    int gx = g.origin[0] + x, gy = g.origin[1] + y, gz = g.origin[2] + z, dx, dy, dz, zero = 1;
+                    int skip = t ? dm.skip[c] : 0, want;
+                    for (dz = 0; dz < 2; dz++)
+                        for (dy = 0; dy < 2; dy++)
+                            for (dx = 0; dx < 2; dx++)
+                                if (vsd_volume_voxel(vol, gx + dx, gy + dy, gz + dz) != 0.0f) zero = 0;
+                    want = skip > 0 ? (skip >= 254 ? 255 : skip + 1) : zero;
+                    zero_cells += want == 1;
+                    leap_cells += want > 1;
+                    sampled_cells += want == 0;
+                    if (g.code[c] != want && bad < 10) {
+                        bad++;
+                        CHECK_MSG(0, "threshold %d: cell %d,%d,%d code %d, expected %d", t, x, y, z, g.code[c], want);
+                    }
+                }
+        CHECK_MSG(zero_cells > 0 && sampled_cells > 0 && (t == 0 || leap_cells > 0),
+                  "cell classes: %d zero, %d leap, %d sampled", zero_cells, leap_cells, sampled_cells);
+        vsd_dense_grid_free(&g);
+        /* a map over other cells is refused, naming the problem */
+        other = dm;
+        other.dims[0] += 8;
+        CHECK(vsd_dense_grid_build(vol, &other, &g, err, sizeof err) == VSD_ERR_INVALID);
+        CHECK_CONTAINS(err, "distance map covers other cells");
         vsd_distance_map_free(&dm);
     }
     vsd_volume_destroy(vol);
@@ -395,6 +484,7 @@ int main(void)
 {
     test_edt_exact();
     test_leap_is_safe();
+    test_dense_grid();
     test_options();
     test_acceleration_exact();
     test_acceleration_exact_smoke();

@@ -14,6 +14,7 @@
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/lighting.h"
 #include "constellation_kernel.h"
+#include "dense_grid.h"
 #include <cjson/cJSON.h>
 #include <math.h>
 #include <stdint.h>
@@ -38,6 +39,7 @@ typedef struct cst_options {
 typedef struct cst_state {
     cst_options opt;
     vsd_distance_map dm_density, dm_emission;
+    vsd_dense_grid field;       /* dense copy of the density grid for the shadow rays */
     vsd_light_constellation cons;
     uint64_t cons_key;          /* hash of the map content the constellation came from */
     int cons_valid;
@@ -126,20 +128,26 @@ static vsd_status cst_create(void **state, const vsd_scene *scene, char *err, si
     return VSD_OK;
 }
 
-/* Per volume frame: the distance maps (the paper's only per-frame preprocessing). The
- * emission map is built whenever an emission grid is loaded, because emission strength
- * changes re-run only prepare_lighting. */
+/* Per volume frame: the distance maps (the paper's only per-frame preprocessing) and the
+ * dense copy of the density grid the shadow rays sample (the paper's 3D texture upload;
+ * made in every mode, so the accelerations are compared on the same lookup). The emission
+ * map is built whenever an emission grid is loaded, because emission strength changes
+ * re-run only prepare_lighting. */
 static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     cst_state *s = state;
     vsd_status st;
     vsd_distance_map_free(&s->dm_density);
     vsd_distance_map_free(&s->dm_emission);
-    if (!s->opt.distance_map) return VSD_OK;
-    st = vsd_distance_map_build(ctx->density, (float)s->opt.threshold, ctx->threads, &s->dm_density, err, errlen);
-    if (!st && ctx->emission)
-        st = vsd_distance_map_build(ctx->emission, (float)s->opt.threshold, ctx->threads, &s->dm_emission, err, errlen);
-    return st;
+    vsd_dense_grid_free(&s->field);
+    if (s->opt.distance_map) {
+        st = vsd_distance_map_build(ctx->density, (float)s->opt.threshold, ctx->threads, &s->dm_density, err, errlen);
+        if (!st && ctx->emission)
+            st = vsd_distance_map_build(ctx->emission, (float)s->opt.threshold, ctx->threads, &s->dm_emission, err,
+                                        errlen);
+        if (st) return st;
+    }
+    return vsd_dense_grid_build(ctx->density, s->opt.distance_map ? &s->dm_density : NULL, &s->field, err, errlen);
 }
 
 /* 64-bit FNV-1a-style mix over the map's size and texel bits: the constellation is reused
@@ -204,13 +212,24 @@ static void light_tile(void *user, int x0, int y0, int x1, int y1)
             }
 }
 
-static void kdistmap_from(vsd_kdistmap *k, const vsd_distance_map *dm)
+/* The kernel view of a distance map and/or a dense grid over the same cells; either may
+ * be absent (NULL arrays). Both come from the same volume, so when both exist their origin
+ * and dims agree by construction (vol->origin, 8 * brick_dims). */
+static void kdistmap_from(vsd_kdistmap *k, const vsd_distance_map *dm, const vsd_dense_grid *g)
 {
     memset(k, 0, sizeof *k);
-    if (!dm->skip) return;
-    k->skip = dm->skip;
-    memcpy(k->origin, dm->origin, sizeof k->origin);
-    memcpy(k->dims, dm->dims, sizeof k->dims);
+    if (dm && dm->skip) {
+        k->skip = dm->skip;
+        memcpy(k->origin, dm->origin, sizeof k->origin);
+        memcpy(k->dims, dm->dims, sizeof k->dims);
+    }
+    if (g && g->v && (!k->skip || (memcmp(g->origin, k->origin, sizeof k->origin) == 0 &&
+                                   memcmp(g->dims, k->dims, sizeof k->dims) == 0))) {
+        k->field = g->v;
+        k->shadow_code = g->code;
+        memcpy(k->origin, g->origin, sizeof k->origin);
+        memcpy(k->dims, g->dims, sizeof k->dims);
+    }
 }
 
 /* The default step: half the smallest voxel of the density grid (or of the emission grid
@@ -242,10 +261,8 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     kc.early_termination = (float)s->opt.early_termination;
     kc.pixel_samples = s->opt.pixel_samples;
     kc.use_distance_map = s->opt.distance_map;
-    if (s->opt.distance_map) {
-        kdistmap_from(&kc.dm_density, &s->dm_density);
-        kdistmap_from(&kc.dm_emission, &s->dm_emission);
-    }
+    kdistmap_from(&kc.dm_density, s->opt.distance_map ? &s->dm_density : NULL, &s->field);
+    if (s->opt.distance_map) kdistmap_from(&kc.dm_emission, &s->dm_emission, NULL);
     memset(&pass, 0, sizeof pass);
     pass.kc = &kc;
     if (s->opt.validity_mask) {
@@ -287,6 +304,7 @@ static void cst_destroy(void *state)
     if (!s) return;
     vsd_distance_map_free(&s->dm_density);
     vsd_distance_map_free(&s->dm_emission);
+    vsd_dense_grid_free(&s->field);
     vsd_constellation_free(&s->cons);
     free(s->lights);
     free(s);

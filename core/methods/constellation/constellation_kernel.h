@@ -31,9 +31,10 @@
 /* A distance map as kernels see it (see src/render/distance_map.h). */
 typedef struct VSD_ALIGN16 vsd_kdistmap {
     const uint8_t *skip;      /* NULL = no map: never leap */
+    const float *field;       /* dense copy of the grid over the same cells (dense_grid.h); NULL = read bricks */
+    const uint8_t *shadow_code; /* with field: per cell 0 = sample, c >= 1 = no lookup, leap c - 1 voxels */
     int32_t origin[3];
     int32_t dims[3];
-    int32_t pad_[2];
 } vsd_kdistmap;
 
 /* The method's kernel data: the shared scene data plus what only this method needs. */
@@ -86,64 +87,130 @@ VSD_DEVICE int32_t vsd_dm_steps(float r, float h)
     return (int32_t)s;
 }
 
-/* Leap radius in voxels at index-space point q (0 outside the map: no promise there). */
-VSD_DEVICE float vsd_dm_skip_index(const vsd_kdistmap *m, vsd_f3 q)
+/* The ray q + t dq (index space, t in world units as everywhere) clipped to the density
+ * volume's brick box for t >= 0: the same slab test as vsd_dda_init, done once per shadow
+ * ray on the index-space origin the caller already has. Returns 0 when it misses. */
+VSD_DEVICE int vsd_cst_clip_index(const vsd_kvolume *v, vsd_f3 q, vsd_f3 dq, float *t0, float *t1)
 {
-    int32_t i = (int32_t)floorf(q.x) - m->origin[0];
-    int32_t j = (int32_t)floorf(q.y) - m->origin[1];
-    int32_t k = (int32_t)floorf(q.z) - m->origin[2];
-    if (i < 0 || j < 0 || k < 0 || i >= m->dims[0] || j >= m->dims[1] || k >= m->dims[2]) return 0.0f;
-    return (float)m->skip[((size_t)k * m->dims[1] + j) * m->dims[0] + i];
+    float ov[3], dv[3], a0 = 0.0f, a1 = VSD_INF;
+    int a;
+    if (v->dims[0] == 0) return 0;
+    ov[0] = q.x; ov[1] = q.y; ov[2] = q.z;
+    dv[0] = dq.x; dv[1] = dq.y; dv[2] = dq.z;
+    for (a = 0; a < 3; a++) {
+        float lo = (float)v->origin[a], hi = (float)(v->origin[a] + 8 * v->dims[a]);
+        if (fabsf(dv[a]) < 1e-12f) {
+            if (ov[a] < lo || ov[a] >= hi) return 0;
+        } else {
+            float inv = 1.0f / dv[a];
+            float ta = (lo - ov[a]) * inv, tb = (hi - ov[a]) * inv;
+            if (ta > tb) { float s = ta; ta = tb; tb = s; }
+            a0 = vsd_maxf(a0, ta);
+            a1 = vsd_minf(a1, tb);
+        }
+    }
+    *t0 = a0;
+    *t1 = a1;
+    return a0 < a1;
 }
 
-/* Transmittance from p toward the light direction wl to the density box's exit, by
- * midpoint samples on the lattice ta + (k + 1/2) h, leaping with the distance map. The
- * hot loop of the method: it works in index space (q = A p + (A wl) t, one madd per
- * sample) and reads the map and the field at the same q. Stops early once
- * exp(-tau) < early_termination (and returns that tiny value). */
-VSD_DEVICE float vsd_cst_shadow(const vsd_kconstellation *kc, vsd_f3 p, vsd_f3 wl, float wpv)
+/* Trilinear interpolation of the dense grid's cell whose corner (0,0,0) is b (x stride 1,
+ * y stride sy, z stride sz), at fractions (tx, ty, tz). The arithmetic is exactly that of
+ * vsd_kvolume_field, so both give the same float for the same point (tested): the
+ * accelerations stay bit-exact whichever lookup a sample takes. */
+VSD_DEVICE float vsd_cst_trilinear(const float *b, size_t sy, size_t sz, float tx, float ty, float tz)
+{
+    float c000 = b[0], c100 = b[1], c010 = b[sy], c110 = b[sy + 1];
+    float c001 = b[sz], c101 = b[sz + 1], c011 = b[sz + sy], c111 = b[sz + sy + 1];
+    float c00 = c000 + (c100 - c000) * tx, c10 = c010 + (c110 - c010) * tx;
+    float c01 = c001 + (c101 - c001) * tx, c11 = c011 + (c111 - c011) * tx;
+    float c0 = c00 + (c10 - c00) * ty, c1 = c01 + (c11 - c01) * ty;
+    return c0 + (c1 - c0) * tz;
+}
+
+/* Sum of unscaled density samples beyond which a ray's transmittance exp(-scale * sum * h)
+ * is below the early-termination threshold (infinite when termination is off). */
+VSD_DEVICE float vsd_cst_sum_stop(const vsd_kconstellation *kc)
+{
+    float s = kc->kd->density.scale * kc->shadow_step;
+    return (kc->early_termination > 0.0f && s > 0.0f) ? -logf(kc->early_termination) / s : VSD_INF;
+}
+
+/* Transmittance from index-space point qa along the index-space light direction da (A wl)
+ * to the density box's exit, by midpoint samples on the lattice ta + (k + 1/2) h, leaping
+ * with the distance map (wpv = world units per voxel of leap along wl). The hot loop of the
+ * method: one madd and one floor per axis per sample; the cell index found there reads
+ * the shadow code (all-zero cell or distance-map leap, dense_grid.h) and then the dense
+ * grid's corners. Without a dense grid (huge volumes) it reads the distance map and the
+ * bricks. Outside the cells (rounding at the box faces) it reads the bricks, which hold
+ * the same values. Stops
+ * once the sum passes sum_stop (vsd_cst_sum_stop) and returns that tiny transmittance. */
+VSD_DEVICE float vsd_cst_shadow(const vsd_kconstellation *kc, vsd_f3 qa, vsd_f3 da, float wpv, float sum_stop)
 {
     const vsd_kvolume *v = &kc->kd->density;
     const vsd_kdistmap *m = &kc->dm_density;
-    float ta, tb, h = kc->shadow_step, sum = 0.0f, sum_stop;
-    int32_t k = 0, use_dm = kc->use_distance_map && m->skip != 0;
-    vsd_f3 qa, da;
-    if (!vsd_kvolume_clip(v, p, wl, &ta, &tb)) return 1.0f;
-    qa = vsd_affine_point(&v->world_to_index, p);
-    da = vsd_affine_vector(&v->world_to_index, wl);
-    /* sum of unscaled field values beyond which exp(-scale * sum * h) < early_termination */
-    sum_stop = (kc->early_termination > 0.0f && v->scale > 0.0f) ? -logf(kc->early_termination) / (v->scale * h)
-                                                                  : VSD_INF;
+    const uint8_t *skip = kc->use_distance_map ? m->skip : 0;
+    const float *g = m->field;
+    const int32_t nx = m->dims[0], ny = m->dims[1], nz = m->dims[2];
+    const size_t sy = (size_t)nx + 1, sz = sy * (size_t)(ny + 1);
+    float ta, tb, h = kc->shadow_step, sum = 0.0f;
+    int32_t k = 0;
+    if (!vsd_cst_clip_index(v, qa, da, &ta, &tb)) return 1.0f;
     for (;;) {
-        float t = ta + ((float)k + 0.5f) * h;
+        float t = ta + ((float)k + 0.5f) * h, f, fx, fy, fz;
+        int32_t i, j, l;
         vsd_f3 q;
         if (!(t < tb)) break;
         q = f3_madd(qa, da, t);
-        if (use_dm) {
-            float r = vsd_dm_skip_index(m, q) * wpv;
-            if (r > 0.0f) {
-                k += vsd_dm_steps(r, h);
-                continue;
+        fx = floorf(q.x);
+        fy = floorf(q.y);
+        fz = floorf(q.z);
+        i = (int32_t)fx - m->origin[0];
+        j = (int32_t)fy - m->origin[1];
+        l = (int32_t)fz - m->origin[2];
+        if (i >= 0 && j >= 0 && l >= 0 && i < nx && j < ny && l < nz) {
+            size_t cell = ((size_t)l * ny + j) * nx + i;
+            if (g) {
+                uint8_t c = m->shadow_code[cell];
+                if (c) {
+                    k += c > 1 ? vsd_dm_steps((float)(c - 1) * wpv, h) : 1;
+                    continue;
+                }
+                f = vsd_cst_trilinear(g + (size_t)l * sz + (size_t)j * sy + i, sy, sz, q.x - fx, q.y - fy, q.z - fz);
+            } else {
+                if (skip && skip[cell]) {
+                    k += vsd_dm_steps((float)skip[cell] * wpv, h);
+                    continue;
+                }
+                f = vsd_kvolume_field(v, q);
             }
+        } else {
+            f = vsd_kvolume_field(v, q);
         }
-        sum += vsd_kvolume_field(v, q);
+        sum += f;
         if (sum > sum_stop) break;
         k++;
     }
     return expf(-v->scale * sum * h);
 }
 
-/* In-scattered radiance per unit sigma_s at p toward -d: phase * L * T over the lights. */
-VSD_DEVICE vsd_f3 vsd_cst_inscatter(const vsd_kconstellation *kc, vsd_f3 p, vsd_f3 d)
+/* In-scattered radiance per unit sigma_s at p toward -d: phase * L * T over the lights.
+ * The index-space point is computed once for all N shadow rays. */
+VSD_DEVICE vsd_f3 vsd_cst_inscatter(const vsd_kconstellation *kc, vsd_f3 p, vsd_f3 d, float sum_stop)
 {
     const vsd_kernel_data *kd = kc->kd;
-    vsd_f3 s = f3s(0.0f);
+    const vsd_affine *a = &kd->density.world_to_index;
+    vsd_f3 s = f3s(0.0f), qa = vsd_affine_point(a, p);
     int32_t n;
     for (n = 0; n < kd->light_count; n++) {
         const float *l = kd->lights + 8 * n;
-        vsd_f3 wl = f3(l[0], l[1], l[2]);
-        float wpv = kc->use_distance_map ? vsd_dm_world_per_voxel(&kd->density, wl) : 0.0f;
-        float w = vsd_hg_eval(f3_dot(d, wl), kd->medium.anisotropy) * vsd_cst_shadow(kc, p, wl, wpv);
+        vsd_f3 wl = f3(l[0], l[1], l[2]), da = vsd_affine_vector(a, wl);
+        float wpv = 0.0f, w;
+        if (kc->use_distance_map) {
+            float len = sqrtf(f3_dot(da, da));
+            wpv = len > 0.0f ? 1.0f / len : 0.0f;
+        }
+        w = vsd_hg_eval(f3_dot(d, wl), kd->medium.anisotropy) * vsd_cst_shadow(kc, qa, da, wpv, sum_stop);
         s = f3_add(s, f3_scale(f3(l[4], l[5], l[6]), w));
     }
     return s;
@@ -211,7 +278,7 @@ VSD_DEVICE vsd_sample_result vsd_cst_shade(const vsd_kconstellation *kc, vsd_f3 
 {
     const vsd_kernel_data *kd = kc->kd;
     vsd_march_acc acc;
-    float h = kc->slice, wpv_d = 0.0f, wpv_e = 0.0f;
+    float h = kc->slice, wpv_d = 0.0f, wpv_e = 0.0f, sum_stop = vsd_cst_sum_stop(kc);
     int32_t i;
     vsd_march_begin(&acc);
     if (kc->use_distance_map) {
@@ -229,7 +296,7 @@ VSD_DEVICE vsd_sample_result vsd_cst_shade(const vsd_kconstellation *kc, vsd_f3 
         }
         absorbed = vsd_march_medium(kd, &acc, p, h);
         if (absorbed > 0.0f) {
-            vsd_march_scatter(kd, &acc, vsd_cst_inscatter(kc, p, d), t, absorbed);
+            vsd_march_scatter(kd, &acc, vsd_cst_inscatter(kc, p, d, sum_stop), t, absorbed);
             if (acc.tr < kc->early_termination) break;
         }
         i++;
