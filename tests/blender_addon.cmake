@@ -14,6 +14,13 @@ if(Python3_Interpreter_FOUND)
     VERBATIM)
 endif()
 
+# The pass-name table of the add-on, in plain Python (no Blender needed).
+if(Python3_Interpreter_FOUND)
+  add_test(NAME blender_addon_passes
+           COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_passes.py)
+  set_tests_properties(blender_addon_passes PROPERTIES LABELS "blender;unit" TIMEOUT 60)
+endif()
+
 if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
   find_program(BLENDER_EXE blender)
   find_program(XVFB_RUN xvfb-run)
@@ -27,6 +34,20 @@ if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
       set_tests_properties(blender_addon_${t} PROPERTIES LABELS "blender;integration" TIMEOUT 300
                            FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)")
     endforeach()
+    # The add-on's export rendered by `reference` against Cycles rendering the same Blender
+    # scene, with the cross-check's comparison (test_cycles_crosscheck --compare, from
+    # tests/cycles.cmake, registered under the same condition; this file is included first,
+    # so the target is named, not tested with if(TARGET)). About 4 minutes on the
+    # 2-core machine under load; exit 77 (SKIP) if the configured Blender has gone.
+    add_test(NAME blender_addon_cycles
+             COMMAND sh -c "if [ ! -x \"$0\" ]; then echo \"SKIP: no Blender at $0\"; exit 77; fi; exec \"$0\" \"$@\""
+                     ${BLENDER_EXE} --background --factory-startup --python-exit-code 1
+                     --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_cycles.py --
+                     $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender_addon_cycles
+                     $<TARGET_FILE:test_cycles_crosscheck>)
+    set_tests_properties(blender_addon_cycles PROPERTIES LABELS "blender;integration;slow" TIMEOUT 1800
+                         FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)"
+                         SKIP_RETURN_CODE 77)
     if(XVFB_RUN)
       # the viewport preview in a real Blender window (software OpenGL under Xvfb)
       add_test(NAME blender_addon_viewport

@@ -61,8 +61,9 @@ def pick_volume(depsgraph, m, context_active=None):
         raise MappingError("no visible Volume object to render (Add > Volume > Import OpenVDB)")
     chosen = obs[0]
     if context_active is not None:
+        want = getattr(context_active, "original", context_active)
         for ob in obs:
-            if ob.original == context_active:
+            if ob.original == want:
                 chosen = ob
     if len(obs) > 1:
         others = ", ".join("'%s'" % o.name for o in obs if o != chosen)
@@ -178,8 +179,46 @@ def map_volume(ob, scene_frame, m):
         m.warn("volume '%s': modifiers are ignored (vsd renders the .vdb file as stored)" % ob.name)
     m.volume_path = path
     m.volume_pattern = volume_pattern(vol) if vol.packed_file is None else path
-    mw = ob.matrix_world
-    return {"file": path, "matrix": [float(mw[r][c]) for r in range(4) for c in range(4)]}
+    return {"file": path}
+
+
+def voxel_centre_matrix(ob, grid, m):
+    """The object matrix to send for grid `grid`: matrix_world . G . T(1/2) . G^-1.
+
+    Blender's Cycles (and the viewport) put the centre of voxel i at index coordinate
+    i + 1/2; vsd, like OpenVDB, at i (docs/design-notes.md; measured in
+    docs/cycles-crosscheck.md, finding 1). Moving the volume by half a voxel in the grid's
+    index space (G = the grid's index-to-object matrix) makes vsd render the field where
+    Cycles renders it, so a vsd pass composites exactly over a Cycles render of the scene;
+    tests/blender_addon/test_cycles.py checks it against Cycles itself. Only the density
+    grid's transform is used (an emission grid with another transform keeps a residual)."""
+    import mathutils
+    mw = ob.matrix_world.copy()
+    grids = ob.data.grids
+    try:
+        grids.load()
+    except Exception:
+        pass
+    g = None
+    if grid and grid in grids:
+        g = grids[grid]
+    else:
+        floats = [x for x in grids if x.data_type == "FLOAT"]
+        g = floats[0] if floats else None
+    if g is None:
+        m.warn("volume '%s': no float grid to take the voxel size from: sent without the "
+               "half-voxel shift to Blender's voxel centres" % ob.name)
+    else:
+        gm = g.matrix_object
+        try:
+            gi = gm.inverted()
+        except ValueError:
+            gi = None
+        if gi is None:
+            m.warn("grid '%s' has a singular transform: sent without the half-voxel shift" % g.name)
+        else:
+            mw = mw @ gm @ mathutils.Matrix.Translation((0.5, 0.5, 0.5)) @ gi
+    return [float(mw[r][c]) for r in range(4) for c in range(4)]
 
 
 # ---- material ----------------------------------------------------------------------------
@@ -513,6 +552,13 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
     m = Mapping()
     scene = depsgraph.scene
     frame = scene.frame_current
+    if active is None:
+        # the view layer's active object, so F12, the viewport and the export pick the same
+        # volume when several are visible
+        try:
+            active = depsgraph.view_layer.objects.active
+        except Exception:
+            active = None
     ob = pick_volume(depsgraph, m, active)
     m.volume_object = ob
     volume = map_volume(ob, frame, m)
@@ -522,6 +568,7 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
         grids = []
     medium, grid, egrid = map_material(ob, grids, m)
     volume["grid"] = grid
+    volume["matrix"] = voxel_centre_matrix(ob, grid, m)
     if egrid:
         volume["emission_grid"] = egrid
     w, h = size if size else film_size(scene)
@@ -545,7 +592,8 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
         "film": {"width": int(w), "height": int(h), "transparent": bool(r.film_transparent)},
         "render": render_block(scene.vsd, viewport),
         "frames": {"start": int(frame), "end": int(frame)},
-        "output": {"passes": list(passes.VSD_PASS_NAMES), "layer": depsgraph.view_layer.name},
+        "output": {"passes": list(passes.VSD_PASS_NAMES), "layer": depsgraph.view_layer.name,
+                   "pass_names": passes.pass_names(bpy.app.version)},
     }
     m.scene = sc
     return m

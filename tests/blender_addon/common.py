@@ -126,7 +126,8 @@ def look_at_matrix(pos, target):
 
 
 def build_scene(data, width=64, height=36, percentage=100, grid="density", frame_start=1, frame_offset=0,
-                rotation_deg=30.0, strength=1.2, transparent=True):
+                rotation_deg=30.0, strength=1.2, transparent=True, density=8.0, color=(0.8, 0.75, 0.7),
+                anisotropy=0.2, cam_pos=(1.0, -3.9745, 1.8771), cam_target=(1.0, 1.0, 1.0), lens=40.0):
     """smoke64 as a Volume sequence (scene frame_start shows file 1 + frame_offset), its Principled
     Volume, studio.exr through a Mapping Z rotation, and a camera looking at the plume."""
     scene = bpy.context.scene
@@ -149,9 +150,9 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
         nt.nodes.remove(n)
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     pv = nt.nodes.new("ShaderNodeVolumePrincipled")
-    pv.inputs["Density"].default_value = 8.0
-    pv.inputs["Color"].default_value = (0.8, 0.75, 0.7, 1.0)
-    pv.inputs["Anisotropy"].default_value = 0.2
+    pv.inputs["Density"].default_value = density
+    pv.inputs["Color"].default_value = tuple(color) + (1.0,)
+    pv.inputs["Anisotropy"].default_value = anisotropy
     pv.inputs["Density Attribute"].default_value = grid
     nt.links.new(pv.outputs["Volume"], out.inputs["Volume"])
     ob.data.materials.append(mat)
@@ -177,11 +178,11 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
     wn.links.new(bg.outputs["Background"], wo.inputs["Surface"])
 
     cam = bpy.data.cameras.new("cam")
-    cam.lens = 40.0
+    cam.lens = lens
     cam.sensor_fit = "AUTO"
     cob = bpy.data.objects.new("cam", cam)
     scene.collection.objects.link(cob)
-    cob.matrix_world = look_at_matrix((1.0, -3.9745, 1.8771), (1.0, 1.0, 1.0))
+    cob.matrix_world = look_at_matrix(cam_pos, cam_target)
     scene.camera = cob
 
     r = scene.render

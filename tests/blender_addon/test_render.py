@@ -2,7 +2,12 @@
 # * Combined and every registered pass come back, with the expected non-zero region
 #   (smoke64 + studio.exr with raymarch; fire96's flame grid with reference for VolumeInd/Emit);
 # * the render equals `vsd render` of the scene exported by File > Export > vsd scene;
-# * sequence offsets are honoured (scene frame 11 shows fluid_data_0021.vdb).
+# * sequence offsets are honoured (scene frame 11 shows fluid_data_0021.vdb);
+# * output.pass_names: `vsd render --set` writes the same pixels under renamed passes, and the
+#   engine with Blender 5.0's pass-name table (forced) registers, requests and loads
+#   "Volume Direct", "Volume Indirect", "Emission";
+# * two view layers render one after another, each with every pass;
+# * with two visible volumes the active one is rendered and a warning names both.
 # Usage: blender -b --factory-startup --python-exit-code 1 --python test_render.py -- VSD DATA TMP
 import json
 import os
@@ -101,6 +106,75 @@ def main():
                     continue
                 worst = max(worst, max(abs(x - y) / max(1.0, abs(y)) for x, y in zip(a, b)))
         check(worst < 1e-5, "Blender render equals `vsd render` of the export (max rel diff %.3g)" % worst)
+
+        # --- `vsd render --set output.pass_names=...`: the same file under renamed passes -----
+        renamed = {"VolumeDir": "Volume Direct", "VolumeInd": "Volume Indirect", "Emit": "Emission"}
+        cli_ren = os.path.join(tmp, "cli_renamed_####.exr")
+        r = subprocess.run([vsd, "render", scene_json, "--frames", "21-21", "--output", cli_ren, "--quiet",
+                            "--set", "output.pass_names=" + json.dumps(renamed)], capture_output=True, text=True)
+        check(r.returncode == 0, "vsd render with output.pass_names (%s)" % r.stderr.strip())
+        ren, _, _ = common.read_exr(cli_ren.replace("####", "0021"))
+
+        def rename(key):
+            for o, n in renamed.items():
+                if ".%s." % o in key:
+                    return key.replace(".%s." % o, ".%s." % n)
+            return key
+        check(sorted(ren) == sorted(rename(k) for k in ref) and all(ren[rename(k)] == v for k, v in ref.items()),
+              "renamed passes: the same channels and pixels, under %s" % sorted(k for k in ren if k.endswith(".R")))
+
+        # --- the engine with another Blender version's pass names (5.0's table, forced) ------
+        # update_render_passes registers the names of passes.pass_names(), the request sends
+        # them as output.pass_names, the daemon writes them, load_from_file fills them: the
+        # whole path a Blender 5.0 takes, exercised here in 3.4 (which accepts any name).
+        pmod = sys.modules["vsd_blender.passes"]
+        saved = pmod.BLENDER_NAMES
+        pmod.BLENDER_NAMES = ((tuple(bpy.app.version[:2]), dict(renamed)),)
+        try:
+            out_r = os.path.join(tmp, "blender_f12_renamed.exr")
+            err = common.run_blender_render(out_r)
+        finally:
+            pmod.BLENDER_NAMES = saved
+        check(err is None, "F12 with the 5.0 pass names (%s)" % err)
+        img_r, _, _ = common.read_exr(out_r)
+        for o, n in renamed.items():
+            for c in PASS_CHANNELS[o]:
+                a = img_r.get("%s.%s.%s" % (layer, n, c))
+                check(a is not None and a == img["%s.%s.%s" % (layer, o, c)],
+                      "pass '%s' filled by load_from_file, equal to %s" % (n, o))
+        check(not any(".%s." % o in k for k in img_r for o in renamed),
+              "no pass under the old names (%s)" % sorted(k for k in img_r if k.endswith(".R")))
+
+        # --- several view layers render one after another --------------------------------------
+        second = scene.view_layers.new("Second Layer")
+        out_l = os.path.join(tmp, "blender_two_layers.exr")
+        err = common.run_blender_render(out_l)
+        check(err is None, "F12 with two view layers (%s)" % err)
+        img_l, _, _ = common.read_exr(out_l)
+        for lname in (layer, "Second Layer"):
+            for name, chans in PASS_CHANNELS.items():
+                for c in chans:
+                    key = "%s.%s.%s" % (lname, name, c)
+                    check(img_l.get(key) == img["%s.%s.%s" % (layer, name, c)],
+                          "view layer '%s': %s rendered, equal to the one-layer render" % (lname, key))
+        scene.view_layers.remove(second)
+
+        # --- two visible volumes: the active one is rendered, and a warning names both --------
+        vol2 = bpy.data.volumes.new("other")
+        vol2.filepath = os.path.join(data, "fire96", "fluid_data_0024.vdb")
+        ob2 = bpy.data.objects.new("another smoke", vol2)  # first by name
+        scene.collection.objects.link(ob2)
+        bpy.context.view_layer.objects.active = ob
+        mapping = sys.modules["vsd_blender.mapping"]
+        mm = mapping.build_scene(bpy.context.evaluated_depsgraph_get())
+        check(mm.volume_object.original == ob and
+              any("using 'smoke'" in w and "not rendered: 'another smoke'" in w for w in mm.warnings),
+              "two volumes: the active one is used and a warning says which (%s)" % mm.warnings)
+        out_v = os.path.join(tmp, "blender_two_volumes.exr")
+        err = common.run_blender_render(out_v)
+        img_v, _, _ = common.read_exr(out_v)
+        check(err is None and img_v == img, "two volumes: F12 renders the active one only (%s)" % err)
+        bpy.data.objects.remove(ob2, do_unlink=True)
 
         # --- emission and multiple scattering: fire96 flame, reference -----------------------
         vol = ob.data

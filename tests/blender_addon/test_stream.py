@@ -6,7 +6,9 @@
 # * Esc (test_break) in mid-render sends CANCEL: the render returns promptly and the daemon
 #   keeps serving;
 # * auto-start: with no daemon and auto-start on, the add-on spawns `vsd serve`, renders, and
-#   stops it again (as at Blender exit).
+#   stops it again (as at Blender exit);
+# * TCP: the preferences' HOST:PORT and token reach an auto-started `vsd serve --tcp`, and a
+#   wrong token is an error report with the daemon's "wrong token".
 # Usage: blender -b --factory-startup --python-exit-code 1 --python test_stream.py -- VSD DATA TMP
 import os
 import signal
@@ -110,6 +112,32 @@ def main():
     connection.close_all()
     connection.stop_daemon()  # what atexit does when Blender exits
     check(proc.poll() == 0 and not os.path.exists(prefs.address), "auto-started daemon stopped (rc %s)" % proc.poll())
+
+    # --- TCP with the preferences' token (auto-started on 127.0.0.1), and a wrong token -----
+    import socket
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    prefs.address = "127.0.0.1:%d" % port
+    prefs.token = "s3cret-blender-token"
+    prefs.auto_start = True
+    err = common.run_blender_render(os.path.join(tmp, "tcp.exr"))
+    check(err is None and os.path.isfile(os.path.join(tmp, "tcp.exr")),
+          "TCP with a token: auto-started `vsd serve --tcp` renders (%s)" % err)
+    check(connection.daemon_started_here(), "the TCP daemon runs")
+    connection.close_all()
+    prefs.token = "not-the-token"
+    prefs.auto_start = False
+    err = common.run_blender_render()
+    print("wrong token ->", err)
+    check(err is not None and "wrong token" in err, "a wrong token is a Blender error with the daemon's message (%s)" % err)
+    # the right token again: the same daemon serves (and the run does not end on a failed
+    # render, which Blender turns into exit status 1)
+    prefs.token = "s3cret-blender-token"
+    err = common.run_blender_render(os.path.join(tmp, "tcp2.exr"))
+    check(err is None and os.path.isfile(os.path.join(tmp, "tcp2.exr")), "the right token renders again (%s)" % err)
+    connection.close_all()
+    connection.stop_daemon()
     del mod
     common.finish("test_stream")
 

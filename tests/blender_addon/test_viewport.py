@@ -5,7 +5,9 @@
 #
 # A bpy.app.timers callback drives the UI: it switches the 3D viewport to Rendered shading,
 # waits for the preview's low-resolution and full-resolution images, orbits the view and
-# checks that the daemon re-used its cached preparation (only the view pass ran), takes a
+# checks that the daemon re-used its cached preparation (only the view pass ran), runs the
+# preview benchmark (BENCH_STEPS further orbit steps: the full-resolution preview's frames
+# per second, printed as "preview benchmark: ..."), takes a
 # screenshot of the window (viewport + the vsd render panel) and checks the viewport shows
 # the smoke. With --docs it also writes docs/blender-panel.png and docs/blender-render.png.
 import math
@@ -62,6 +64,21 @@ def region_stats(png, area):
     mean = sum(vals) / max(1, len(vals))
     spread = max(vals) - min(vals) if vals else 0.0
     return mean, spread
+
+
+BENCH_STEPS = 6
+
+
+def orbit(view3d, degrees):
+    """Turn the (non-camera) view about Z by `degrees`, as dragging the middle mouse does,
+    and forget the last preview so the next one is the new view's."""
+    rv3d = view3d.spaces.active.region_3d
+    state["yaw"] = state.get("yaw", 20.0) + degrees
+    rv3d.view_rotation = mathutils.Euler((math.radians(75), 0, math.radians(state["yaw"])), "XYZ").to_quaternion()
+    view3d.tag_redraw()
+    conn = state["connection"]
+    conn.status["preview_fps"] = None
+    conn.status["preview_prepared"] = None
 
 
 def setup():
@@ -154,10 +171,33 @@ def _step():
             check(st.get("preview_prepared") is True,
                   "orbiting re-uses the daemon's preparation (cache.preparation %s)" % st.get("preview_prepared"))
             check(True, "orbit preview: %.2f frames/s" % st["preview_fps"])
+            state.update(step=6, t0=time.monotonic(), bench=[], yaw=20.0)
+            orbit(view3d, 10.0)
+            return 0.25
+        if el > 60:
+            check(False, "the orbited view was re-rendered")
+            return finish()
+        return 0.25
+    if s == 6:  # the preview benchmark: BENCH_STEPS orbit steps of 10 degrees, one preview each
+        if st.get("preview_fps"):
+            state["bench"].append((st["preview_fps"], st.get("preview_prepared")))
+            if len(state["bench"]) < BENCH_STEPS:
+                orbit(view3d, 10.0)
+                state["t0"] = time.monotonic()
+                return 0.25
+            fps = sorted(f for f, _ in state["bench"])
+            w = max(1, region.width * bpy.context.scene.vsd.viewport_resolution // 100)
+            h = max(1, region.height * bpy.context.scene.vsd.viewport_resolution // 100)
+            print("preview benchmark: %d orbit steps, %dx%d preview (%s, %d lights): full-resolution "
+                  "preview %.2f frames/s median, %.2f min, %.2f max" % (
+                      len(fps), w, h, bpy.context.scene.vsd.viewport_method,
+                      bpy.context.scene.vsd.raymarch_lights, fps[len(fps) // 2], fps[0], fps[-1]), flush=True)
+            check(all(p is True for _, p in state["bench"]),
+                  "every orbit step re-used the daemon's preparation (%s)" % [p for _, p in state["bench"]])
             state.update(step=4, t0=time.monotonic())
             return 0.5
         if el > 60:
-            check(False, "the orbited view was re-rendered")
+            check(False, "orbit step %d of the preview benchmark was re-rendered" % (len(state["bench"]) + 1))
             return finish()
         return 0.25
     if s == 4:
