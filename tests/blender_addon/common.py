@@ -77,7 +77,7 @@ def install_addon(tmp, vsd=None, auto_start=False, address=""):
 
 
 class Daemon(object):
-    def __init__(self, vsd, tmp, name="d"):
+    def __init__(self, vsd, tmp, name="d", extra=()):
         self.sock = os.path.join(tmp, name + ".sock")
         self.ready = os.path.join(tmp, name + ".ready.json")
         self.logpath = os.path.join(tmp, name + ".log")
@@ -85,7 +85,7 @@ class Daemon(object):
         cache = os.path.join(tmp, name + ".cache")
         os.makedirs(cache, exist_ok=True)
         self.proc = subprocess.Popen([vsd, "serve", "--socket", self.sock, "--ready-file", self.ready,
-                                      "--cache-dir", cache, "--log-level", "info"],
+                                      "--cache-dir", cache, "--log-level", "info"] + list(extra),
                                      stdout=self.log, stderr=self.log)
         for _ in range(300):
             if os.path.exists(self.ready):

@@ -7,7 +7,9 @@
 #   engine with Blender 5.0's pass-name table (forced) registers, requests and loads
 #   "Volume Direct", "Volume Indirect", "Emission";
 # * two view layers render one after another, each with every pass;
-# * with two visible volumes the active one is rendered and a warning names both.
+# * with two visible volumes the active one is rendered and a warning names both;
+# * a Houdini VDB imported by Blender (external/gaffer_smoke.vdb, rotated 90 degrees about X
+#   by the importer) is sent with that rotation.
 # Usage: blender -b --factory-startup --python-exit-code 1 --python test_render.py -- VSD DATA TMP
 import json
 import os
@@ -175,6 +177,23 @@ def main():
         img_v, _, _ = common.read_exr(out_v)
         check(err is None and img_v == img, "two volumes: F12 renders the active one only (%s)" % err)
         bpy.data.objects.remove(ob2, do_unlink=True)
+
+        # --- a Houdini VDB through Blender's importer: its 90-degree X rotation is sent ---------
+        bpy.ops.object.volume_import(filepath=os.path.join(data, "external", "gaffer_smoke.vdb"))
+        hob = bpy.context.view_layer.objects.active
+        mw = hob.matrix_world
+        check(abs(mw[1][2] + 1.0) < 1e-6 and abs(mw[2][1] - 1.0) < 1e-6,
+              "Blender's importer rotates gaffer_smoke.vdb by 90 degrees about X (%s)" % [list(r) for r in mw])
+        mh = mapping.build_scene(bpy.context.evaluated_depsgraph_get())
+        vm = mh.scene["volume"]["matrix"]
+        h = 0.4761904776  # the file's voxel size; the half-voxel shift is R (h/2, h/2, h/2)
+        want_t = [mw[r][3] + sum(mw[r][c] * h / 2 for c in range(3)) for r in range(3)]
+        check(mh.volume_object.original == hob and
+              all(abs(vm[4 * r + c] - mw[r][c]) < 1e-6 for r in range(3) for c in range(3)) and
+              all(abs(vm[4 * r + 3] - want_t[r]) < 1e-5 for r in range(3)),
+              "the imported object's matrix_world (rotation included) is sent, moved by half a voxel (%s)" % vm)
+        bpy.data.objects.remove(hob, do_unlink=True)
+        bpy.context.view_layer.objects.active = ob
 
         # --- emission and multiple scattering: fire96 flame, reference -----------------------
         vol = ob.data

@@ -3,6 +3,7 @@
 # * a grid name the file lacks, and a daemon that is not running with auto-start off, each
 #   give a Blender error report with the daemon's / a clear message (ctest fails the test on
 #   any "Traceback" in the output);
+# * a full queue (BUSY) is an error report with the daemon's message;
 # * Esc (test_break) in mid-render sends CANCEL: the render returns promptly and the daemon
 #   keeps serving;
 # * auto-start: with no daemon and auto-start on, the add-on spawns `vsd serve`, renders, and
@@ -91,6 +92,34 @@ def main():
     finally:
         rc = d.stop()
     check(rc == 0, "daemon exits 0 on SIGTERM")
+
+    # --- a full queue: BUSY is a Blender error with the daemon's message ------------------------
+    # One worker and room for one waiting job: two long jobs from another client fill it.
+    busy = common.Daemon(vsd, tmp, name="busy", extra=["--workers", "1", "--queue", "1"])
+    try:
+        connection.close_all()
+        prefs.address = busy.sock
+        vc = sys.modules["vsd_blender.vsd_client"]
+        side = vc.Client(busy.sock)
+        names = side.upload_files([vdbs[0]])
+        long_job = {"version": 1, "volume": {"file": names[vdbs[0]]}, "environment": {"color": [1, 1, 1]},
+                    "film": {"width": 64, "height": 36}, "render": {"method": "reference", "samples": 1000000}}
+        jobs = [side.submit(long_job), side.submit(long_job)]
+        time.sleep(0.5)
+        err = common.run_blender_render()
+        print("full queue ->", err)
+        check(err is not None and "(busy)" in err and "queue" in err,
+              "a full queue is a Blender error with the daemon's BUSY message (%s)" % err)
+        for j in jobs:
+            side.cancel(j, wait=False)
+        side.close()
+        connection.close_all()
+        time.sleep(0.5)
+        err = common.run_blender_render(os.path.join(tmp, "after_busy.exr"))
+        check(err is None, "once the queue drains, F12 renders (%s)" % err)
+    finally:
+        rc = busy.stop()
+    check(rc == 0, "busy daemon exits 0 on SIGTERM")
 
     # --- no daemon, auto-start off ------------------------------------------------------------
     connection.close_all()
