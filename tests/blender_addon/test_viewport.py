@@ -7,7 +7,8 @@
 # waits for the preview's low-resolution and full-resolution images, orbits the view and
 # checks that the daemon re-used its cached preparation (only the view pass ran), runs the
 # preview benchmark (BENCH_STEPS further orbit steps: the full-resolution preview's frames
-# per second, printed as "preview benchmark: ..."), takes a
+# per second, printed as "preview benchmark: ..."), checks that a material, a frame and a
+# world change each start a new preview (the frame change uploads the next .vdb), takes a
 # screenshot of the window (viewport + the vsd render panel) and checks the viewport shows
 # the smoke. With --docs it also writes docs/blender-panel.png and docs/blender-render.png.
 import math
@@ -67,6 +68,33 @@ def region_stats(png, area):
 
 
 BENCH_STEPS = 6
+
+
+def _set_density(v):
+    bpy.data.materials["smoke_mat"].node_tree.nodes["Principled Volume"].inputs["Density"].default_value = v
+
+
+def _set_strength(v):
+    bpy.context.scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = v
+
+
+# (what changes, how, the file the new preview must upload, or None). Scene frame 1 shows
+# fluid_data_0020.vdb (frame offset 19), so frame 2 needs fluid_data_0021.vdb, which the
+# daemon has not seen yet.
+CHANGES = [
+    ("material: Principled Volume Density 8 -> 4", lambda: _set_density(4.0), None),
+    ("frame +1", lambda: bpy.context.scene.frame_set(bpy.context.scene.frame_current + 1),
+     os.path.join("smoke64", "fluid_data_0021.vdb")),
+    ("world: Background Strength -> 0.6", lambda: _set_strength(0.6), None),
+]
+
+
+def apply_change(i):
+    conn = state["connection"]
+    conn.status["preview_fps"] = None
+    conn.status["preview_prepared"] = None
+    state["bytes0"] = common.vsd_stats(state["daemon"].sock)["blob_bytes_received"]
+    CHANGES[i][1]()
 
 
 def orbit(view3d, degrees):
@@ -194,10 +222,30 @@ def _step():
                       bpy.context.scene.vsd.raymarch_lights, fps[len(fps) // 2], fps[0], fps[-1]), flush=True)
             check(all(p is True for _, p in state["bench"]),
                   "every orbit step re-used the daemon's preparation (%s)" % [p for _, p in state["bench"]])
+            state.update(step=7, t0=time.monotonic(), change=0)
+            apply_change(0)
+            return 0.25
+        if el > 60:
+            check(False, "orbit step %d of the preview benchmark was re-rendered" % (len(state["bench"]) + 1))
+            return finish()
+        return 0.25
+    if s == 7:  # material, frame and world changes each start a new preview
+        label, _, new_file = CHANGES[state["change"]]
+        if st.get("preview_fps"):
+            check(True, "%s: a new preview" % label)
+            if new_file:
+                sent = common.vsd_stats(state["daemon"].sock)["blob_bytes_received"] - state["bytes0"]
+                want = os.path.getsize(os.path.join(data, new_file))
+                check(sent == want, "%s: the preview sent %s (%d bytes, expected %d)" % (label, new_file, sent, want))
+            state["change"] += 1
+            if state["change"] < len(CHANGES):
+                apply_change(state["change"])
+                state["t0"] = time.monotonic()
+                return 0.25
             state.update(step=4, t0=time.monotonic())
             return 0.5
         if el > 60:
-            check(False, "orbit step %d of the preview benchmark was re-rendered" % (len(state["bench"]) + 1))
+            check(False, "%s: the viewport preview was re-rendered" % label)
             return finish()
         return 0.25
     if s == 4:
