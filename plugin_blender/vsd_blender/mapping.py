@@ -55,10 +55,43 @@ def volume_objects(depsgraph):
     return sorted(obs, key=lambda o: o.name)
 
 
+def fluid_domains(depsgraph):
+    """Visible objects with a Mantaflow Fluid modifier of type Domain: (name, the cache's
+    VDB pattern or None when the cache is not OpenVDB), sorted by name."""
+    out = []
+    for ob in depsgraph.objects:
+        orig = ob.original
+        if depsgraph.mode == "RENDER" and orig.hide_render:
+            continue
+        for mod in getattr(orig, "modifiers", []):
+            if mod.type == "FLUID" and mod.fluid_type == "DOMAIN":
+                ds = mod.domain_settings
+                pattern = None
+                if ds.cache_data_format == "OPENVDB":
+                    pattern = os.path.join(bpy.path.abspath(ds.cache_directory, library=orig.library),
+                                           "data", "fluid_data_####.vdb")
+                out.append((ob.name, pattern))
+    return sorted(out)
+
+
+def _domain_note(name, pattern):
+    if pattern:
+        return ("'%s' is a Mantaflow fluid domain, which vsd does not read: import its baked "
+                "cache %s with Add > Volume > Import OpenVDB" % (name, pattern))
+    return ("'%s' is a Mantaflow fluid domain, which vsd does not read: bake it with Cache > "
+            "Format Volumes OpenVDB, then import data/fluid_data_####.vdb with Add > Volume > "
+            "Import OpenVDB" % name)
+
+
 def pick_volume(depsgraph, m, context_active=None):
     obs = volume_objects(depsgraph)
+    domains = fluid_domains(depsgraph)
     if not obs:
+        if domains:
+            raise MappingError("no visible Volume object to render: " + _domain_note(*domains[0]))
         raise MappingError("no visible Volume object to render (Add > Volume > Import OpenVDB)")
+    for name, pattern in domains:
+        m.warn(_domain_note(name, pattern) + " (not rendered)")
     chosen = obs[0]
     if context_active is not None:
         want = getattr(context_active, "original", context_active)

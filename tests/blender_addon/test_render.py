@@ -9,7 +9,8 @@
 # * two view layers render one after another, each with every pass;
 # * with two visible volumes the active one is rendered and a warning names both;
 # * a Houdini VDB imported by Blender (external/gaffer_smoke.vdb, rotated 90 degrees about X
-#   by the importer) is sent with that rotation.
+#   by the importer) is sent with that rotation;
+# * a Mantaflow domain is a warning (beside a volume) or an error (alone) naming its cache.
 # Usage: blender -b --factory-startup --python-exit-code 1 --python test_render.py -- VSD DATA TMP
 import json
 import os
@@ -193,6 +194,28 @@ def main():
               all(abs(vm[4 * r + 3] - want_t[r]) < 1e-5 for r in range(3)),
               "the imported object's matrix_world (rotation included) is sent, moved by half a voxel (%s)" % vm)
         bpy.data.objects.remove(hob, do_unlink=True)
+        bpy.context.view_layer.objects.active = ob
+
+        # --- a Mantaflow domain is named with the cache to import, never silently dropped -----
+        bpy.ops.mesh.primitive_cube_add(size=2.0, location=(5.0, 0.0, 0.0))
+        dom = bpy.context.view_layer.objects.active
+        dom.name = "Smoke Domain"
+        fm = dom.modifiers.new("Fluid", "FLUID")
+        fm.fluid_type = "DOMAIN"
+        fm.domain_settings.cache_directory = os.path.join(tmp, "cache_fluid")
+        fm.domain_settings.cache_data_format = "OPENVDB"
+        bpy.context.view_layer.objects.active = ob
+        mm = mapping.build_scene(bpy.context.evaluated_depsgraph_get())
+        want = os.path.join(tmp, "cache_fluid", "data", "fluid_data_####.vdb")
+        check(any("'Smoke Domain' is a Mantaflow fluid domain" in w and want in w and "(not rendered)" in w
+                  for w in mm.warnings), "a visible Mantaflow domain is a warning naming its cache (%s)" % mm.warnings)
+        ob.hide_render = True
+        err = common.run_blender_render()
+        print("domain only ->", err)
+        check(err is not None and "Mantaflow fluid domain" in err and want in err,
+              "only a Mantaflow domain: a Blender error naming the cache to import (%s)" % err)
+        ob.hide_render = False
+        bpy.data.objects.remove(dom, do_unlink=True)
         bpy.context.view_layer.objects.active = ob
 
         # --- emission and multiple scattering: fire96 flame, reference -----------------------
