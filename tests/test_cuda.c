@@ -15,7 +15,10 @@
 #include "vsd/scene.h"
 #include "vsd/image.h"
 #include "vsd/compare.h"
+#include "vsd/vdbio.h"
 #include "device/cuda/cuda_backend.h"
+#include "src/render/distance_map_device.h"
+#include "src/render/kernel_setup.h"
 #include <stdlib.h>
 
 #define W 96
@@ -217,6 +220,47 @@ static void test_out_of_memory(void)
     unsetenv("VSD_CUDA_MAX_MB");
 }
 
+/* The GPU distance map equals the CPU's byte for byte (the leaps are exact at threshold
+ * 0, so an image comparison alone would not notice a too-cautious map). */
+static void test_distance_map(void)
+{
+    static const double identity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    static const float thresholds[] = {0.0f, 0.01f, 0.2f};
+    vsd_volume *vol = NULL;
+    vsd_grid_select sel = {"density", -1};
+    vsd_frame_ctx ctx;
+    char err[1024];
+    size_t t;
+    vsd_status st = vsd_vdb_load(test_data("smoke64/fluid_data_0024.vdb"), sel, &vol, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "%s", err);
+    if (st) return;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.density = vol;
+    ctx.frame_gen = 1;
+    st = vsd_kvolume_setup(&ctx.kd.density, vol, identity, 1.0f, err, sizeof err);
+    if (!st) st = vsd_cuda_open(&ctx.cuda, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "%s", err);
+    for (t = 0; !st && t < sizeof thresholds / sizeof thresholds[0]; t++) {
+        vsd_distance_map cpu, gpu;
+        st = vsd_distance_map_build(vol, thresholds[t], 0, &cpu, err, sizeof err);
+        if (!st) st = vsd_distance_map_build_device(&ctx, vol, 0, thresholds[t], &gpu, err, sizeof err);
+        CHECK_MSG(st == VSD_OK, "%s", err);
+        if (!st) {
+            size_t n = (size_t)cpu.dims[0] * cpu.dims[1] * cpu.dims[2];
+            printf("distance map, threshold %g: %lld occupied cells (CPU %lld), CPU %.1f ms, GPU %.1f ms\n",
+                   thresholds[t], (long long)gpu.occupied, (long long)cpu.occupied, 1e3 * cpu.seconds,
+                   1e3 * gpu.seconds);
+            CHECK(memcmp(cpu.dims, gpu.dims, sizeof cpu.dims) == 0);
+            CHECK(cpu.occupied == gpu.occupied);
+            CHECK_MSG(memcmp(cpu.skip, gpu.skip, n) == 0, "threshold %g: GPU map differs", thresholds[t]);
+            vsd_distance_map_free(&gpu);
+        }
+        vsd_distance_map_free(&cpu);
+    }
+    vsd_cuda_close(ctx.cuda);
+    vsd_volume_destroy(vol);
+}
+
 int main(void)
 {
     char name[512], err[512];
@@ -225,6 +269,7 @@ int main(void)
         return 77;
     }
     printf("CUDA device: %s\n", name);
+    test_distance_map();
     test_deterministic_parity();
     test_reference_within_noise();
     test_camera_change_uploads_only_camera();

@@ -58,9 +58,9 @@ vsd_status vsd_cuda_raymarch(vsd_cuda *c, const vsd_kernel_data *kd, int n, doub
 }
 
 vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd,
-                                   float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
+                                   int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
 {
-    (void)c; (void)g; (void)kd; (void)out; (void)p;
+    (void)c; (void)g; (void)kd; (void)lights; (void)out; (void)p;
     return absent(err, errlen);
 }
 
@@ -84,5 +84,12 @@ vsd_status vsd_cuda_constellation_light(vsd_cuda *c, const struct vsd_kconstella
                                         char *err, size_t errlen)
 {
     (void)c; (void)kc; (void)kd; (void)accum; (void)p;
+    return absent(err, errlen);
+}
+
+vsd_status vsd_cuda_distance_map(vsd_cuda *c, const vsd_kvolume *kv, float threshold, uint8_t *skip_host,
+                                 long long *occupied, char *err, size_t errlen)
+{
+    (void)c; (void)kv; (void)threshold; (void)skip_host; (void)occupied;
     return absent(err, errlen);
 }

@@ -38,9 +38,10 @@ typedef enum vsd_cuda_slot {
     VSD_SLOT_ENV_RGB, VSD_SLOT_ENV_ROWS, VSD_SLOT_ENV_COLS,
     VSD_SLOT_LIGHTS,
     VSD_SLOT_ACCUM,                                   /* view: per-pixel sums (doubles) */
-    VSD_SLOT_CST_DM_DENSITY, VSD_SLOT_CST_DM_EMISSION, VSD_SLOT_CST_FIRST,
+    VSD_SLOT_CST_DM_DENSITY, VSD_SLOT_CST_DM_EMISSION, VSD_SLOT_CST_FIELD_DENSITY, VSD_SLOT_CST_CODE_DENSITY,
+    VSD_SLOT_CST_FIELD_EMISSION, VSD_SLOT_CST_CODE_EMISSION, VSD_SLOT_CST_FIRST,
     VSD_SLOT_SH_CELLS, VSD_SLOT_SH_RECORDS, VSD_SLOT_SH_POS, VSD_SLOT_SH_DIRS, VSD_SLOT_SH_BASIS,
-    VSD_SLOT_SH_RADIANCE, VSD_SLOT_SH_LIGHT,
+    VSD_SLOT_SH_RADIANCE, VSD_SLOT_SH_LIGHT, VSD_SLOT_SH_LIGHTS, VSD_SLOT_SH_LIGHT_TRANS,
     VSD_SLOT_COUNT
 } vsd_cuda_slot;
 
@@ -86,12 +87,18 @@ vsd_status vsd_cuda_raymarch(vsd_cuda *c, const vsd_kernel_data *kd, int n, doub
 
 struct vsd_kshgrid;
 struct vsd_kconstellation;
-/* shgrid: the record pass (one thread per record, into the device array out) and the view
- * pass (n x n stratified rays per pixel). */
+/* shgrid: the record pass (one thread per record, into the device array out: the SH
+ * records, or with lights != 0 the transmittance toward each extracted light) and the
+ * view pass (n x n stratified rays per pixel). */
 vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd,
-                                   float *out, const vsd_cuda_progress *p, char *err, size_t errlen);
+                                   int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen);
 vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd, int n,
                                 double *accum, const vsd_cuda_progress *p, char *err, size_t errlen);
+/* The distance map of src/render/distance_map.h for the volume kv (device arrays), built
+ * on the GPU: skip_host receives the 8*brick_dims cells' leap radii, *occupied the count of
+ * occupied cells. */
+vsd_status vsd_cuda_distance_map(vsd_cuda *c, const vsd_kvolume *kv, float threshold, uint8_t *skip_host,
+                                 long long *occupied, char *err, size_t errlen);
 /* constellation: the validity mask (into first[width*height*n^2]) and the lighting pass. */
 vsd_status vsd_cuda_constellation_mask(vsd_cuda *c, const struct vsd_kconstellation *kc,
                                        const vsd_kernel_data *kd, int32_t *first, const vsd_cuda_progress *p,

@@ -4,11 +4,14 @@
 #include "cuda_internal.cuh"
 #include "methods/shgrid/shgrid_kernel.h"
 
-__global__ void vsd_cuda_shgrid_records_kernel(const vsd_kshgrid *g, int r0, int r1, float *out)
+// lights == 0: the SH records (stride floats each); else the transmittance toward each
+// extracted light (light_count floats each).
+__global__ void vsd_cuda_shgrid_records_kernel(const vsd_kshgrid *g, int r0, int r1, int lights, float *out)
 {
     int rec = r0 + blockIdx.x * blockDim.x + threadIdx.x;
     if (rec >= r1) return;
-    vsd_shgrid_record(g, rec, out + (size_t)rec * g->stride);
+    if (lights) vsd_shgrid_light_record(g, rec, out + (size_t)rec * g->light_count);
+    else vsd_shgrid_record(g, rec, out + (size_t)rec * g->stride);
 }
 
 // n x n stratified rays per pixel, in the order of src/render/stratified.c.
@@ -42,7 +45,8 @@ static vsd_status put_grid(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_d
 }
 
 extern "C" vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_data *kd,
-                                              float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
+                                              int lights, float *out, const vsd_cuda_progress *p, char *err,
+                                              size_t errlen)
 {
     const vsd_kshgrid *dg;
     vsd_status st = put_grid(c, g, kd, &dg, err, errlen);
@@ -50,7 +54,8 @@ extern "C" vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const vsd_kshgrid *g,
     // records as "rows" of a one-wide image, in bands of 4096 records
     int count = g->record_count;
     return vsd_cuda_bands(c, count, 4096, p, "shgrid record pass", [&](int r0, int r1) {
-        vsd_cuda_shgrid_records_kernel<<<(unsigned)((r1 - r0 + 127) / 128), 128, 0, c->stream>>>(dg, r0, r1, out);
+        vsd_cuda_shgrid_records_kernel<<<(unsigned)((r1 - r0 + 127) / 128), 128, 0, c->stream>>>(dg, r0, r1, lights,
+                                                                                                out);
     }, err, errlen);
 }
 

@@ -16,9 +16,10 @@ vsd_status vsd_device_array(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, uint64
     return st;
 }
 
-static vsd_status device_volume(const vsd_frame_ctx *ctx, const vsd_volume *vol, vsd_kvolume *kv, int first_slot,
-                                char *err, size_t errlen)
+vsd_status vsd_device_volume(const vsd_frame_ctx *ctx, const vsd_volume *vol, vsd_kvolume *kv, int emission,
+                             char *err, size_t errlen)
 {
+    int first_slot = emission ? VSD_SLOT_EMISSION_BRICKS : VSD_SLOT_DENSITY_BRICKS;
     size_t cells = (size_t)kv->dims[0] * kv->dims[1] * kv->dims[2];
     const void *d;
     vsd_status st;
@@ -50,8 +51,8 @@ vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_dat
     const void *d;
     vsd_status st;
     *dev = *kd;
-    if ((st = device_volume(ctx, ctx->density, &dev->density, VSD_SLOT_DENSITY_BRICKS, err, errlen)) ||
-        (st = device_volume(ctx, ctx->emission, &dev->emission, VSD_SLOT_EMISSION_BRICKS, err, errlen)))
+    if ((st = vsd_device_volume(ctx, ctx->density, &dev->density, 0, err, errlen)) ||
+        (st = vsd_device_volume(ctx, ctx->emission, &dev->emission, 1, err, errlen)))
         return st;
     /* the environment belongs to the lighting: a new map or table means a new generation */
     if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_RGB, ctx->lighting_gen, e->rgb,

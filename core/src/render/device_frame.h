@@ -16,6 +16,11 @@ uint64_t vsd_device_key(uint64_t gen, const void *host);
 vsd_status vsd_device_array(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, uint64_t gen, const void *host,
                             size_t bytes, const void **dev, char *err, size_t errlen);
 
+/* kv (a copy of ctx->kd.density, or .emission when emission != 0, for volume vol) with its
+ * bricks replaced by their resident device copies. */
+vsd_status vsd_device_volume(const vsd_frame_ctx *ctx, const vsd_volume *vol, vsd_kvolume *kv, int emission,
+                             char *err, size_t errlen);
+
 /* dev = kd with every array (volume bricks, environment and its tables, lights) replaced
  * by its resident device copy. */
 vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_data *kd, vsd_kernel_data *dev,

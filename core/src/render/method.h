@@ -28,7 +28,8 @@ typedef struct vsd_frame_ctx {
     volatile int *cancel;
     /* The CUDA backend when this frame runs on the GPU, else NULL. Arrays a method keeps
      * on the device are keyed by the generation of the stage that made them: frame_gen
-     * changes whenever prepare_frame runs, lighting_gen whenever prepare_lighting runs. */
+     * changes whenever prepare_frame runs, lighting_gen whenever prepare_lighting runs
+     * (so also on every new frame, already while prepare_frame runs). */
     struct vsd_cuda *cuda;
     uint64_t frame_gen, lighting_gen;
 } vsd_frame_ctx;

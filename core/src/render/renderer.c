@@ -301,22 +301,29 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.strength, sc->environment.rotation_z);
 
     make_keys(r, frame_key, lighting_key);
-    ctx.frame_gen = r->frame_gen;
-    ctx.lighting_gen = r->lighting_gen;
-    if (strcmp(frame_key, r->frame_key) != 0) {
-        r->lighting_key[0] = '\0';
-        r->frame_gen = ++r->generation;
+    {
+        /* A stage's generation is new whenever its data may change; a new frame also
+         * starts a new lighting generation before prepare_frame runs, so nothing a method
+         * uploads while preparing the frame can match a key of the previous frame. */
+        int frame_changed = strcmp(frame_key, r->frame_key) != 0;
+        int lighting_changed = frame_changed || strcmp(lighting_key, r->lighting_key) != 0;
+        if (frame_changed) {
+            r->frame_key[0] = r->lighting_key[0] = '\0';
+            r->frame_gen = ++r->generation;
+        }
+        if (lighting_changed) r->lighting_gen = ++r->generation;
         ctx.frame_gen = r->frame_gen;
-        if (r->method->prepare_frame && (st = r->method->prepare_frame(r->method_state, &ctx, err, errlen)))
-            return st;
-        snprintf(r->frame_key, KEY_LEN, "%s", frame_key);
-    }
-    if (strcmp(lighting_key, r->lighting_key) != 0) {
-        r->lighting_gen = ++r->generation;
         ctx.lighting_gen = r->lighting_gen;
-        if (r->method->prepare_lighting && (st = r->method->prepare_lighting(r->method_state, &ctx, err, errlen)))
-            return st;
-        snprintf(r->lighting_key, KEY_LEN, "%s", lighting_key);
+        if (frame_changed) {
+            if (r->method->prepare_frame && (st = r->method->prepare_frame(r->method_state, &ctx, err, errlen)))
+                return st;
+            snprintf(r->frame_key, KEY_LEN, "%s", frame_key);
+        }
+        if (lighting_changed) {
+            if (r->method->prepare_lighting && (st = r->method->prepare_lighting(r->method_state, &ctx, err, errlen)))
+                return st;
+            snprintf(r->lighting_key, KEY_LEN, "%s", lighting_key);
+        }
     }
     t2 = now_seconds();
     stats->prepare_seconds = t2 - t1;

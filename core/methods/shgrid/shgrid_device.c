@@ -1,0 +1,71 @@
+#include "shgrid_device.h"
+#include "src/render/device_frame.h"
+
+/* One array of the grid on the device (NULL stays NULL). */
+static vsd_status put(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, const void *host, size_t bytes, const void **dev,
+                      char *err, size_t errlen)
+{
+    return vsd_device_array(ctx, slot, ctx->lighting_gen, host, bytes, dev, err, errlen);
+}
+
+/* d = g with its arrays resident; with_records = 0 for the record pass, which writes them. */
+static vsd_status device_grid(const vsd_frame_ctx *ctx, const vsd_kshgrid *g, int with_records, vsd_kshgrid *d,
+                              char *err, size_t errlen)
+{
+    size_t cells = (size_t)g->res[0] * g->res[1] * g->res[2], recs = (size_t)g->record_count;
+    size_t dirs = (size_t)g->dir_count, n2 = (size_t)g->n2, lights = (size_t)g->light_count;
+    const void *p;
+    vsd_status st;
+    *d = *g;
+#define PUT(field, slot, bytes) \
+    do { if ((st = put(ctx, slot, g->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
+    PUT(cell_record, VSD_SLOT_SH_CELLS, cells * sizeof(int32_t));
+    PUT(record_pos, VSD_SLOT_SH_POS, recs * 4 * sizeof(float));
+    PUT(dirs, VSD_SLOT_SH_DIRS, dirs * 4 * sizeof(float));
+    PUT(basis, VSD_SLOT_SH_BASIS, dirs * n2 * sizeof(float));
+    PUT(dir_radiance, VSD_SLOT_SH_RADIANCE, dirs * 4 * sizeof(float));
+    PUT(light, VSD_SLOT_SH_LIGHT, 3 * n2 * sizeof(float));
+    PUT(lights, VSD_SLOT_SH_LIGHTS, lights * 8 * sizeof(float));
+    if (with_records) {
+        PUT(records, VSD_SLOT_SH_RECORDS, recs * (size_t)g->stride * sizeof(float));
+        PUT(light_trans, VSD_SLOT_SH_LIGHT_TRANS, recs * lights * sizeof(float));
+    } else {
+        d->records = NULL;
+        d->light_trans = NULL;
+    }
+#undef PUT
+    return VSD_OK;
+}
+
+vsd_status vsd_shgrid_device_records(const vsd_frame_ctx *ctx, const vsd_kshgrid *g, int lights, float *host_out,
+                                     char *err, size_t errlen)
+{
+    vsd_kshgrid d;
+    vsd_kernel_data dkd;
+    vsd_cuda_progress progress;
+    size_t floats = (size_t)g->record_count * (size_t)(lights ? g->light_count : g->stride);
+    void *out;
+    vsd_status st;
+    if (floats == 0) return VSD_OK;
+    if ((st = vsd_device_kernel_data(ctx, g->kd, &dkd, err, errlen)) ||
+        (st = device_grid(ctx, g, 0, &d, err, errlen)) ||
+        (st = vsd_cuda_scratch(ctx->cuda, lights ? VSD_SLOT_SH_LIGHT_TRANS : VSD_SLOT_SH_RECORDS, 0,
+                               floats * sizeof(float), 0, &out, err, errlen)))
+        return st;
+    vsd_device_progress(ctx, lights ? "shgrid light records" : "record grid", 0.0f, 1.0f, &progress);
+    if ((st = vsd_cuda_shgrid_records(ctx->cuda, &d, &dkd, lights, out, &progress, err, errlen))) return st;
+    return vsd_cuda_download(ctx->cuda, host_out, out, floats * sizeof(float), err, errlen);
+}
+
+vsd_status vsd_shgrid_device_view(const vsd_frame_ctx *ctx, const void *kernel, int n, double *accum,
+                                  const struct vsd_cuda_progress *progress, char *err, size_t errlen)
+{
+    const vsd_kshgrid *g = kernel;
+    vsd_kshgrid d;
+    vsd_kernel_data dkd;
+    vsd_status st;
+    if ((st = vsd_device_kernel_data(ctx, g->kd, &dkd, err, errlen)) ||
+        (st = device_grid(ctx, g, 1, &d, err, errlen)))
+        return st;
+    return vsd_cuda_shgrid_view(ctx->cuda, &d, &dkd, n, accum, progress, err, errlen);
+}

@@ -1,0 +1,42 @@
+#include "distance_map_device.h"
+#include "device_frame.h"
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+vsd_status vsd_distance_map_build_device(const vsd_frame_ctx *ctx, const vsd_volume *vol, int emission,
+                                         float threshold, vsd_distance_map *dm, char *err, size_t errlen)
+{
+    double t0 = now_seconds();
+    vsd_kvolume kv = emission ? ctx->kd.emission : ctx->kd.density;
+    long long occupied = 0;
+    size_t n;
+    int a;
+    vsd_status st;
+    memset(dm, 0, sizeof *dm);
+    if (!vol || vol->brick_dims[0] == 0) return VSD_OK;
+    for (a = 0; a < 3; a++) {
+        dm->origin[a] = vol->origin[a];
+        dm->dims[a] = 8 * vol->brick_dims[a];
+    }
+    n = (size_t)dm->dims[0] * dm->dims[1] * dm->dims[2];
+    if (!(dm->skip = malloc(n)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %dx%dx%d distance map", dm->dims[0], dm->dims[1],
+                        dm->dims[2]);
+    st = vsd_device_volume(ctx, vol, &kv, emission, err, errlen);
+    if (!st) st = vsd_cuda_distance_map(ctx->cuda, &kv, threshold, dm->skip, &occupied, err, errlen);
+    if (st) {
+        vsd_distance_map_free(dm);
+        return st;
+    }
+    dm->occupied = occupied;
+    dm->seconds = now_seconds() - t0;
+    return VSD_OK;
+}
