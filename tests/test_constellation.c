@@ -109,8 +109,9 @@ static void test_leap_is_safe(void)
 
 /* The dense grid the shadow rays read (dense_grid.h) returns the same float as the brick
  * lookup at random points (both fast and cross-brick paths, negative index coordinates),
- * and its shadow codes say exactly what they promise: 0 only for cells with a non-zero
- * corner and no leap, 1 for all-zero cells without a leap, skip + 1 (capped) otherwise. */
+ * and its shadow codes say exactly what they promise: 0 only for cells with a corner above
+ * the threshold and no leap, 1 for cells within it and no leap, skip + 1 (capped)
+ * otherwise; at threshold 0 code 1 means all corners are exactly 0. */
 static void test_dense_grid(void)
 {
     int32_t dims[3] = {40, 40, 40}, lo[3] = {-13, 5, 2};
@@ -134,9 +135,9 @@ static void test_dense_grid(void)
         vsd_kvolume kv;
         char err[256];
         size_t sy, sz, c = 0;
-        int zero_cells = 0, leap_cells = 0, sampled_cells = 0;
+        int empty_cells = 0, leap_cells = 0, sampled_cells = 0;
         CHECK(vsd_distance_map_build(vol, t ? 0.3f : 0.0f, 2, &dm, NULL, 0) == VSD_OK);
-        CHECK(vsd_dense_grid_build(vol, t ? &dm : NULL, &g, err, sizeof err) == VSD_OK);
+        CHECK(vsd_dense_grid_build(vol, t ? &dm : NULL, t ? 0.3f : 0.0f, &g, err, sizeof err) == VSD_OK);
         CHECK(vsd_kvolume_setup(&kv, vol, ident, 1.0f, NULL, 0) == VSD_OK);
         CHECK(g.v && g.code);
         if (!g.v || !g.code) break;
@@ -164,14 +165,14 @@ static void test_dense_grid(void)
         for (z = 0; z < g.dims[2]; z++)
             for (y = 0; y < g.dims[1]; y++)
                 for (x = 0; x < g.dims[0]; x++, c++) {
-                    int gx = g.origin[0] + x, gy = g.origin[1] + y, gz = g.origin[2] + z, dx, dy, dz, zero = 1;
+                    int gx = g.origin[0] + x, gy = g.origin[1] + y, gz = g.origin[2] + z, dx, dy, dz, empty = 1;
                     int skip = t ? dm.skip[c] : 0, want;
                     for (dz = 0; dz < 2; dz++)
                         for (dy = 0; dy < 2; dy++)
                             for (dx = 0; dx < 2; dx++)
-                                if (vsd_volume_voxel(vol, gx + dx, gy + dy, gz + dz) != 0.0f) zero = 0;
-                    want = skip > 0 ? (skip >= 254 ? 255 : skip + 1) : zero;
-                    zero_cells += want == 1;
+                                if (fabsf(vsd_volume_voxel(vol, gx + dx, gy + dy, gz + dz)) > (t ? 0.3f : 0.0f)) empty = 0;
+                    want = skip > 0 ? (skip >= 254 ? 255 : skip + 1) : empty;
+                    empty_cells += want == 1;
                     leap_cells += want > 1;
                     sampled_cells += want == 0;
                     if (g.code[c] != want && bad < 10) {
@@ -179,14 +180,16 @@ static void test_dense_grid(void)
                         CHECK_MSG(0, "threshold %d: cell %d,%d,%d code %d, expected %d", t, x, y, z, g.code[c], want);
                     }
                 }
-        CHECK_MSG(zero_cells > 0 && sampled_cells > 0 && (t == 0 || leap_cells > 0),
-                  "cell classes: %d zero, %d leap, %d sampled", zero_cells, leap_cells, sampled_cells);
+        CHECK_MSG(empty_cells > 0 && sampled_cells > 0 && (t == 0 || leap_cells > 0),
+                  "cell classes: %d empty, %d leap, %d sampled", empty_cells, leap_cells, sampled_cells);
         vsd_dense_grid_free(&g);
         /* a map over other cells is refused, naming the problem */
         other = dm;
         other.dims[0] += 8;
-        CHECK(vsd_dense_grid_build(vol, &other, &g, err, sizeof err) == VSD_ERR_INVALID);
+        CHECK(vsd_dense_grid_build(vol, &other, 0.0f, &g, err, sizeof err) == VSD_ERR_INVALID);
         CHECK_CONTAINS(err, "distance map covers other cells");
+        CHECK(vsd_dense_grid_build(vol, NULL, -1.0f, &g, err, sizeof err) == VSD_ERR_INVALID);
+        CHECK_CONTAINS(err, "threshold -1 must be >= 0");
         vsd_distance_map_free(&dm);
     }
     vsd_volume_destroy(vol);

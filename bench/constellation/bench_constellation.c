@@ -1,14 +1,18 @@
 /* bench_constellation — the measurements of issue 3 (Navarro et al. 2009, Table 1 style).
  *
  *   vsd_bench_constellation table1   [--size N] [--lights K] [--frame F] [--threshold T]
- *       smoke64 frame F at NxN (default 512): raymarch brute force with K lights, then
- *       constellation without accelerations, + validity mask, + mask + distance map.
+ *                                    [--scene S] [--modes 0123]
+ *       scene S (default scenes/smoke64_sunset.json) frame F (24) at NxN (default 512):
+ *       0 raymarch brute force with K lights, then constellation 1 without accelerations,
+ *       2 + validity mask, 3 + mask + distance map; --modes picks rows (e.g. 23 to re-run
+ *       only the accelerated rows at another threshold: rows 0 and 1 do not depend on it).
  *   vsd_bench_constellation rmse     [--width W --height H --samples S]
  *       VolumeDir relative RMSE (4x4 blocks) of constellation (K lights, 2x2 rays) against
  *       reference on smoke64 frame 24 and cloud128, with the reference's own noise floor
  *       (two seeds).
  *   vsd_bench_constellation sequence [--size N]
- *       all 30 frames of smoke64: distance-map build, prepare and render time per frame.
+ *       all 30 frames of smoke64: distance-map and dense-grid builds (timed on their own),
+ *       prepare (both, as the render builds them) and render time per frame.
  *
  * Times are wall clock and process CPU time (user + system) of the render call; on a
  * shared machine CPU time is the steadier figure. Data come from VSD_SHARED_DATA. */
@@ -17,6 +21,8 @@
 #include "vsd/vdbio.h"
 #include "vsd/compare.h"
 #include "src/render/distance_map.h"
+#include "methods/constellation/dense_grid.h"
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -91,23 +97,36 @@ static double arg_num(int argc, char **argv, const char *name, double def)
     return def;
 }
 
+static const char *arg_str(int argc, char **argv, const char *name, const char *def)
+{
+    int i;
+    for (i = 2; i + 1 < argc; i++)
+        if (strcmp(argv[i], name) == 0) return argv[i + 1];
+    return def;
+}
+
 static int table1(int argc, char **argv)
 {
     int size = arg_int(argc, argv, "--size", 512), lights = arg_int(argc, argv, "--lights", 64);
     int frame = arg_int(argc, argv, "--frame", 24);
     double thr = arg_num(argc, argv, "--threshold", 0.0);
+    const char *scene = arg_str(argc, argv, "--scene", "scenes/smoke64_sunset.json");
+    const char *modes = arg_str(argc, argv, "--modes", "0123");
     char o[8][128];
     const char *ov[8];
     const char *names[4] = {"raymarch (brute force)", "constellation, no acceleration", "+ validity mask",
                             "+ validity mask + distance map"};
     double base_w = 0, base_c = 0;
     run_result res[4];
-    int k, i;
-    printf("smoke64 frame %d, %dx%d, %d lights, 1 ray per pixel, step = slice = half a voxel, threshold %g\n", frame,
+    int k, i, on[4];
+    memset(res, 0, sizeof res);
+    for (k = 0; k < 4; k++) on[k] = strchr(modes, '0' + k) != NULL;
+    printf("%s frame %d, %dx%d, %d lights, 1 ray per pixel, step = slice = half a voxel, threshold %g\n", scene, frame,
            size, size, lights, thr);
     printf("%-34s %10s %10s %10s %9s\n", "mode", "wall s", "cpu s", "prepare s", "speed-up");
     for (k = 0; k < 4; k++) {
         int n = 0;
+        if (!on[k]) continue;
         snprintf(o[n++], 128, "film.width=%d", size);
         snprintf(o[n++], 128, "film.height=%d", size);
         snprintf(o[n++], 128, "render.method=%s", k == 0 ? "raymarch" : "constellation");
@@ -119,28 +138,32 @@ static int table1(int argc, char **argv)
             snprintf(o[n++], 128, "render.options.density_threshold=%g", thr);
         }
         for (i = 0; i < n; i++) ov[i] = o[i];
-        if (!render_once("scenes/smoke64_sunset.json", ov, n, frame, &res[k])) return 1;
+        if (!render_once(scene, ov, n, frame, &res[k])) return 1;
         if (k == 0) {
             base_w = res[k].wall;
             base_c = res[k].cpu;
         }
-        printf("%-34s %10.2f %10.2f %10.3f %5.2f/%.2f\n", names[k], res[k].wall, res[k].cpu, res[k].prepare,
-               base_w / res[k].wall, base_c / res[k].cpu);
+        if (on[0])
+            printf("%-34s %10.2f %10.2f %10.3f %5.2f/%.2f\n", names[k], res[k].wall, res[k].cpu, res[k].prepare,
+                   base_w / res[k].wall, base_c / res[k].cpu);
+        else
+            printf("%-34s %10.2f %10.2f %10.3f %9s\n", names[k], res[k].wall, res[k].cpu, res[k].prepare, "-");
         fflush(stdout);
     }
-    for (k = 1; k < 4; k++) {
+    for (k = 2; k < 4 && on[1]; k++) {
         double e = 0;
-        if (vsd_block_rel_rmse(res[k].fb->pass[VSD_PASS_VOLUME_DIR], res[1].fb->pass[VSD_PASS_VOLUME_DIR], size,
+        if (on[k] && vsd_block_rel_rmse(res[k].fb->pass[VSD_PASS_VOLUME_DIR], res[1].fb->pass[VSD_PASS_VOLUME_DIR], size,
                                size, 3, 3, 1, &e, NULL, 0) == VSD_OK)
             printf("VolumeDir rel. RMSE of '%s' against no acceleration: %.6f\n", names[k], e);
     }
-    {
+    if (on[0] && on[3]) {
         double e = 0;
         if (vsd_block_rel_rmse(res[3].fb->pass[VSD_PASS_VOLUME_DIR], res[0].fb->pass[VSD_PASS_VOLUME_DIR], size, size,
                                3, 3, 4, &e, NULL, 0) == VSD_OK)
             printf("VolumeDir rel. RMSE (4x4 blocks) constellation vs raymarch: %.4f\n", e);
     }
-    for (k = 0; k < 4; k++) vsd_framebuffer_destroy(res[k].fb);
+    for (k = 0; k < 4; k++)
+        if (res[k].fb) vsd_framebuffer_destroy(res[k].fb);
     printf("speed-up = wall/cpu time of raymarch divided by the mode's\n");
     return 0;
 }
@@ -188,9 +211,14 @@ static int rmse(int argc, char **argv)
                            NULL, 0);
         vsd_block_rel_rmse(cst.fb->pass[VSD_PASS_TRANSMITTANCE], ref[0].fb->pass[VSD_PASS_TRANSMITTANCE], w, h, 3, 3,
                            4, &e_t, NULL, 0);
+        /* the two seeds' difference has sqrt(2) times one reference's noise and their mean
+         * 1/sqrt(2) times it: the mean's noise is e_noise / 2, and it adds in quadrature */
         printf("%s: VolumeDir rel. RMSE %.4f (reference seed-to-seed %.4f, so the averaged reference's own noise is "
-               "about %.4f); Transmittance %.4f; constellation render %.2f s\n",
-               scenes[s], e, e_noise, 0.5 * e_noise, e_t, cst.wall);
+               "about %.4f; bias estimate sqrt(e^2 - noise^2) = %.4f); Transmittance %.4f; constellation render %.2f s, "
+               "references %.1f + %.1f s\n",
+               scenes[s], e, e_noise, 0.5 * e_noise,
+               e * e > 0.25 * e_noise * e_noise ? sqrt(e * e - 0.25 * e_noise * e_noise) : 0.0, e_t, cst.wall,
+               ref[0].wall, ref[1].wall);
         vsd_framebuffer_destroy(ref[0].fb);
         vsd_framebuffer_destroy(ref[1].fb);
         vsd_framebuffer_destroy(cst.fb);
@@ -201,7 +229,7 @@ static int rmse(int argc, char **argv)
 static int sequence(int argc, char **argv)
 {
     int size = arg_int(argc, argv, "--size", 256), f;
-    double thr = arg_num(argc, argv, "--threshold", 0.0), tot_dm = 0, tot_frame = 0;
+    double thr = arg_num(argc, argv, "--threshold", 0.0), tot_dm = 0, tot_dense = 0, tot_frame = 0;
     vsd_scene sc;
     vsd_renderer *r = NULL;
     vsd_framebuffer *fb = NULL;
@@ -218,18 +246,21 @@ static int sequence(int argc, char **argv)
     }
     printf("smoke64 frames 1-30 at %dx%d, constellation defaults (64 lights), one renderer (as `vsd render`)\n", size,
            size);
-    printf("%5s %8s %12s %10s %10s %10s\n", "frame", "voxels", "dist map s", "prepare s", "render s", "frame s");
+    printf("%5s %8s %12s %10s %10s %10s %10s\n", "frame", "voxels", "dist map s", "dense s", "prepare s", "render s",
+           "frame s");
     for (f = 1; f <= 30; f++) {
         vsd_render_stats st;
         vsd_volume *vol = NULL;
         vsd_distance_map dm;
+        vsd_dense_grid dg;
         char path[1024];
         vsd_grid_select sel = {"density", -1};
         double w0;
         /* the distance map of this frame, timed on its own (the render builds it again in prepare) */
         snprintf(path, sizeof path, "%s/smoke64/fluid_data_%04d.vdb", VSD_SHARED_DATA, f);
         if (vsd_vdb_load(path, sel, &vol, err, sizeof err) ||
-            vsd_distance_map_build(vol, (float)thr, 0, &dm, err, sizeof err)) {
+            vsd_distance_map_build(vol, (float)thr, 0, &dm, err, sizeof err) ||
+            vsd_dense_grid_build(vol, &dm, (float)thr, &dg, err, sizeof err)) {
             fprintf(stderr, "%s\n", err);
             return 1;
         }
@@ -238,15 +269,18 @@ static int sequence(int argc, char **argv)
             fprintf(stderr, "frame %d: %s\n", f, err);
             return 1;
         }
-        printf("%5d %8llu %12.4f %10.4f %10.3f %10.3f\n", f, (unsigned long long)st.active_voxels, dm.seconds,
-               st.prepare_seconds, st.render_seconds, wall() - w0);
+        printf("%5d %8llu %12.4f %10.4f %10.4f %10.3f %10.3f\n", f, (unsigned long long)st.active_voxels, dm.seconds,
+               dg.seconds, st.prepare_seconds, st.render_seconds, wall() - w0);
         fflush(stdout);
         tot_dm += dm.seconds;
+        tot_dense += dg.seconds;
+        vsd_dense_grid_free(&dg);
         tot_frame += wall() - w0;
         vsd_distance_map_free(&dm);
         vsd_volume_destroy(vol);
     }
-    printf("mean: distance map %.4f s, frame (load + prepare + render) %.3f s\n", tot_dm / 30, tot_frame / 30);
+    printf("mean: distance map %.4f s, dense grid %.4f s, frame (load + prepare + render) %.3f s\n", tot_dm / 30,
+           tot_dense / 30, tot_frame / 30);
     vsd_framebuffer_destroy(fb);
     vsd_renderer_destroy(r);
     return 0;

@@ -147,7 +147,8 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
                                         errlen);
         if (st) return st;
     }
-    return vsd_dense_grid_build(ctx->density, s->opt.distance_map ? &s->dm_density : NULL, &s->field, err, errlen);
+    return vsd_dense_grid_build(ctx->density, s->opt.distance_map ? &s->dm_density : NULL,
+                                s->opt.distance_map ? (float)s->opt.threshold : 0.0f, &s->field, err, errlen);
 }
 
 /* 64-bit FNV-1a-style mix over the map's size and texel bits: the constellation is reused

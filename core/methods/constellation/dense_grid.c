@@ -1,6 +1,7 @@
 /* The dense copy of dense_grid.h: zero-filled, then each stored brick's 8^3 voxels copied
  * row by row into place; then the shadow code per cell from the corners and the map. */
 #include "dense_grid.h"
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -12,9 +13,9 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* Shadow codes (dense_grid.h): 1 where all 8 corners are 0, raised to skip + 1 where the
- * distance map promises a leap. */
-static void shadow_codes(vsd_dense_grid *g, const vsd_distance_map *dm)
+/* Shadow codes (dense_grid.h): 1 where all 8 corners are within the threshold, raised to
+ * skip + 1 where the distance map promises a leap. */
+static void shadow_codes(vsd_dense_grid *g, const vsd_distance_map *dm, float thr)
 {
     const size_t sy = (size_t)g->dims[0] + 1, sz = sy * ((size_t)g->dims[1] + 1);
     int32_t x, y, z;
@@ -23,23 +24,25 @@ static void shadow_codes(vsd_dense_grid *g, const vsd_distance_map *dm)
             size_t c = ((size_t)z * g->dims[1] + y) * g->dims[0];
             const float *b = g->v + (size_t)z * sz + (size_t)y * sy;
             for (x = 0; x < g->dims[0]; x++, c++, b++) {
-                int zero = b[0] == 0.0f && b[1] == 0.0f && b[sy] == 0.0f && b[sy + 1] == 0.0f && b[sz] == 0.0f &&
-                           b[sz + 1] == 0.0f && b[sz + sy] == 0.0f && b[sz + sy + 1] == 0.0f;
-                int code = zero;
+                int code = fabsf(b[0]) <= thr && fabsf(b[1]) <= thr && fabsf(b[sy]) <= thr &&
+                           fabsf(b[sy + 1]) <= thr && fabsf(b[sz]) <= thr && fabsf(b[sz + 1]) <= thr &&
+                           fabsf(b[sz + sy]) <= thr && fabsf(b[sz + sy + 1]) <= thr;
                 if (dm && dm->skip[c] > 0) code = dm->skip[c] >= 254 ? 255 : dm->skip[c] + 1;
                 g->code[c] = (uint8_t)code;
             }
         }
 }
 
-vsd_status vsd_dense_grid_build(const vsd_volume *vol, const vsd_distance_map *dm, vsd_dense_grid *g, char *err,
-                                size_t errlen)
+vsd_status vsd_dense_grid_build(const vsd_volume *vol, const vsd_distance_map *dm, float threshold, vsd_dense_grid *g,
+                                char *err, size_t errlen)
 {
     double t0 = now_seconds();
     size_t nx, ny, nz;
     int32_t bx, by, bz, y, z, a;
     const int32_t *bd;
     memset(g, 0, sizeof *g);
+    if (!(threshold >= 0.0f))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "dense grid: threshold %g must be >= 0", (double)threshold);
     if (!vol || vol->brick_dims[0] == 0) return VSD_OK;
     bd = vol->brick_dims;
     for (a = 0; a < 3; a++) {
@@ -73,7 +76,7 @@ vsd_status vsd_dense_grid_build(const vsd_volume *vol, const vsd_distance_map *d
                         memcpy(g->v + ((size_t)(bz * 8 + z) * ny + (size_t)(by * 8 + y)) * nx + (size_t)bx * 8,
                                b + (z * 8 + y) * 8, 8 * sizeof(float));
             }
-    shadow_codes(g, dm);
+    shadow_codes(g, dm, threshold);
     g->seconds = now_seconds() - t0;
     return VSD_OK;
 }

@@ -15,10 +15,12 @@
  *
  * Shadow code, one byte per cell, read before the corners: 0 = sample the cell; c >= 1 =
  * the sample needs no lookup and the ray may leap c - 1 voxels. A cell whose 8 corners
- * are all exactly 0 gets at least 1 (its field is +0, so skipping the sample changes no
- * bit; 17% of the shadow samples on smoke64 at threshold 0 fell in such cells next to the
- * smoke, where the distance map's radius is 0). With a distance map the code is
- * min(255, skip + 1) wherever the map promises a leap (skip >= 1), so one byte serves both.
+ * all have |v| <= threshold gets at least 1: the distance map's own notion of empty
+ * (distance_map.h), applied to the sample itself where the map's radius is 0. At
+ * threshold 0 that means all corners exactly 0, the field is +0 there and skipping the
+ * sample changes no bit (17% of the shadow samples on smoke64 frame 24 fell in such cells
+ * next to the smoke). With a distance map the code is min(255, skip + 1) wherever the map
+ * promises a leap (skip >= 1), so one byte serves both.
  *
  * Ownership: vsd_dense_grid_build fills a caller-owned struct; vsd_dense_grid_free
  * releases its array. */
@@ -41,11 +43,12 @@ typedef struct vsd_dense_grid {
     double seconds;         /* wall time of the build */
 } vsd_dense_grid;
 
-/* dm: the distance map of the same volume (same origin and dims), or NULL for no leaps.
+/* dm: the distance map of the same volume (same origin and dims), or NULL for no leaps;
+ * threshold: the map's density threshold (0 without a map: only exact zeros are skipped).
  * An empty volume, or one above VSD_DENSE_GRID_MAX_VOXELS, gives v = code = NULL and
- * VSD_OK; a dm over other cells is an error. */
-vsd_status vsd_dense_grid_build(const vsd_volume *vol, const vsd_distance_map *dm, vsd_dense_grid *g, char *err,
-                                size_t errlen);
+ * VSD_OK; a dm over other cells or a negative threshold is an error. */
+vsd_status vsd_dense_grid_build(const vsd_volume *vol, const vsd_distance_map *dm, float threshold, vsd_dense_grid *g,
+                                char *err, size_t errlen);
 void vsd_dense_grid_free(vsd_dense_grid *g);
 
 #endif
