@@ -1,5 +1,7 @@
 /* Method `shgrid` (Delalandre et al. 2013): the closed-form thin homogeneous box under a
- * uniform environment, agreement with `reference` single scattering on two data sets,
+ * uniform environment, the same box under a sky with a small sun (the extracted-lights
+ * extension against the paper's pure SH), agreement with `reference` single scattering
+ * within the 5% target on two data sets,
  * error decreasing with grid resolution and SH order, the record-grid cache across views
  * and environment rotations, and option validation. */
 #include "test_common.h"
@@ -54,55 +56,117 @@ static double expint2(double x, const double *gx, const double *gw, int n)
  * whatever the density profile across the slab (only optical depth enters). The box is
  * 2 x 2 wide and 0.1 thick (20:1), so its finite width changes the escape paths only for
  * grazing directions whose slab transmittance is already ~e^{-10 tau}. */
-static void test_thin_box(void)
+/* The slab of the thin-box tests: 2 x 2 x 0.1 world units, optical thickness 0.5 across. */
+static const char *const slab_json =
+    "{\"version\":1,\"volume\":{\"file\":\"memory.vdb\"},"
+    "\"medium\":{\"density\":5.0,\"albedo\":[1,1,1],\"anisotropy\":0},"
+    "\"camera\":{\"type\":\"orthographic\",\"ortho_scale\":0.4,\"position\":[1,1,5],\"look_at\":[1,1,0],\"up\":[0,1,0]},"
+    "\"film\":{\"width\":8,\"height\":8},\"render\":{\"method\":\"shgrid\"}}";
+static const double slab_tau = 5.0 * 10 * 0.01;
+
+static vsd_volume *slab_volume(void)
 {
     const int nx = 40, nz = 12;
-    const double density = 5.0, L = 1.0;
     int32_t dims[3] = {40, 40, 12}, lo[3] = {0, 0, 0};
     double m[16] = {0.05, 0, 0, 0, 0, 0.05, 0, 0, 0, 0, 0.01, 0, 0, 0, 0, 1};
-    float *v = calloc((size_t)nx * nx * nz, sizeof(float)), one[3] = {1, 1, 1};
+    float *v = calloc((size_t)nx * nx * nz, sizeof(float));
     vsd_volume *vol = NULL;
-    vsd_env *env = NULL;
-    double gx[200], gw[200], D = density * 10 * 0.01, expect = 0;
-    int x, y, z, i;
+    int x, y, z;
     for (z = 1; z <= 10; z++)
         for (y = 0; y < nx; y++)
             for (x = 0; x < nx; x++) v[((size_t)z * nx + y) * nx + x] = 1.0f;
     CHECK(vsd_volume_create_dense(v, dims, lo, m, &vol, NULL, 0) == VSD_OK);
-    CHECK(vsd_env_create_uniform(one, 64, 32, &env, NULL, 0) == VSD_OK);
     free(v);
+    return vol;
+}
+
+/* Closed form of the uniform-environment slab (radiance L), see test_thin_box. */
+static double slab_uniform(double L)
+{
+    double gx[200], gw[200], D = slab_tau, expect = 0;
+    int i;
     vsd_sh_gauss_legendre(200, gx, gw);
     for (i = 0; i < 200; i++) {
         double t = 0.5 * D * (gx[i] + 1);
         expect += 0.5 * D * gw[i] * exp(-t) * 0.5 * L * (expint2(t, gx, gw, 200) + expint2(D - t, gx, gw, 200));
     }
+    return expect;
+}
+
+/* Mean green VolumeDir over the 8x8 film of the slab scene with the given overrides. */
+static double slab_render(const vsd_volume *vol, const vsd_env *env, const char *const *ov, int nov)
+{
+    vsd_scene sc;
+    vsd_framebuffer *fb;
+    double got = 0;
+    int i;
+    if (!load_scene(slab_json, ov, nov, &sc)) return -1;
+    fb = render_mem(&sc, vol, env);
+    if (!fb) return -1;
+    for (i = 0; i < 64; i++) got += fb->pass[VSD_PASS_VOLUME_DIR][3 * i + 1] / 64;
+    vsd_framebuffer_destroy(fb);
+    return got;
+}
+
+static void test_thin_box(void)
+{
+    float one[3] = {1, 1, 1};
+    vsd_volume *vol = slab_volume();
+    vsd_env *env = NULL;
+    double D = slab_tau, expect = slab_uniform(1.0);
+    CHECK(vsd_env_create_uniform(one, 64, 32, &env, NULL, 0) == VSD_OK);
     {
-        const char *json =
-            "{\"version\":1,\"volume\":{\"file\":\"memory.vdb\"},"
-            "\"medium\":{\"density\":5.0,\"albedo\":[1,1,1],\"anisotropy\":0},"
-            "\"camera\":{\"type\":\"orthographic\",\"ortho_scale\":0.4,\"position\":[1,1,5],\"look_at\":[1,1,0],\"up\":[0,1,0]},"
-            "\"film\":{\"width\":8,\"height\":8},\"render\":{\"method\":\"shgrid\"}}";
         const char *grids[] = {"render.options.grid=8", "render.options.grid=32"};
         double got[2] = {0, 0};
         int gi;
-        for (gi = 0; gi < 2; gi++) {
-            vsd_scene sc;
-            const char *ov[1] = {grids[gi]};
-            vsd_framebuffer *fb;
-            if (!load_scene(json, ov, 1, &sc)) continue;
-            fb = render_mem(&sc, vol, env);
-            if (!fb) continue;
-            for (i = 0; i < 64; i++) got[gi] += fb->pass[VSD_PASS_VOLUME_DIR][3 * i + 1] / 64;
-            vsd_framebuffer_destroy(fb);
-        }
+        for (gi = 0; gi < 2; gi++) got[gi] = slab_render(vol, env, grids + gi, 1);
         printf("thin box (tau %.2f): closed form %.5f, shgrid grid 8: %.5f (%+.2f%%), grid 32: %.5f (%+.2f%%)\n", D,
                expect, got[0], 100 * (got[0] / expect - 1), got[1], 100 * (got[1] / expect - 1));
         /* grid 32 puts 16 cells across the slab, grid 8 four; the uniform map has only a
-         * y0 coefficient, so the error is the 192-direction HEALPix rule for T's y0 and the
-         * record interpolation, not SH truncation (measured -0.8% and +0.3%) */
+         * y0 coefficient (and no texel above light_threshold, so no light is extracted), so
+         * the error is the 192-direction HEALPix rule for T's y0 and the record
+         * interpolation, not SH truncation (measured -0.8% and +0.3%) */
         CHECK_MSG(fabs(got[1] / expect - 1) < 0.02, "grid 32: %g vs closed form %g", got[1], expect);
         CHECK_MSG(fabs(got[0] / expect - 1) < 0.06, "grid 8: %g vs closed form %g", got[0], expect);
     }
+    vsd_volume_destroy(vol);
+    vsd_env_destroy(env);
+}
+
+/* The extension (render.options.lights): the slab under a uniform sky of radiance 1 plus a
+ * small sun (4 texels of radiance 5000 at 45 degrees from the zenith, 256 x 128 map). Seen
+ * along the normal, each sun texel of irradiance E = L_s * solid angle at cosine mu adds
+ *   E/(4 pi) integral_0^D e^{-t} e^{-t/mu} dt = E/(4 pi) (1 - e^{-D(1+1/mu)}) / (1 + 1/mu)
+ * to the uniform-sky closed form. With the sun taken out of the SH the method must meet
+ * this within the record grid's error; the paper's pure form (lights=0) keeps the sun in an
+ * order-3 SH and is printed beside it. */
+static void test_sun_box(void)
+{
+    const int W = 256, H = 128, r0 = 31, c0 = 100;
+    float one[3] = {1, 1, 1};
+    vsd_volume *vol = slab_volume();
+    vsd_env *env = NULL;
+    double D = slab_tau, expect = slab_uniform(1.0), sun = 0, got, pure;
+    int r, c;
+    CHECK(vsd_env_create_uniform(one, W, H, &env, NULL, 0) == VSD_OK);
+    if (!env) return;
+    for (r = r0; r < r0 + 2; r++)
+        for (c = c0; c < c0 + 2; c++) {
+            double th0 = M_PI * r / H, th1 = M_PI * (r + 1) / H, dom = 2 * M_PI / W * (cos(th0) - cos(th1));
+            double mu = cos(0.5 * (th0 + th1)), k = 1 + 1 / mu;
+            int ch;
+            for (ch = 0; ch < 3; ch++) env->rgb[3 * (r * W + c) + ch] = 5001.0f;   /* sky 1 + sun 5000 */
+            sun += 5000.0 * dom / (4 * M_PI) * (1 - exp(-D * k)) / k;
+        }
+    {
+        const char *ov_ext[1] = {"render.options.grid=32"};
+        const char *ov_pure[2] = {"render.options.grid=32", "render.options.lights=0"};
+        got = slab_render(vol, env, ov_ext, 1);
+        pure = slab_render(vol, env, ov_pure, 2);
+    }
+    printf("sun box: closed form %.5f (sun %.5f), shgrid with lights %.5f (%+.2f%%), pure SH (lights=0) %.5f (%+.2f%%)\n",
+           expect + sun, sun, got, 100 * (got / (expect + sun) - 1), pure, 100 * (pure / (expect + sun) - 1));
+    CHECK_MSG(fabs(got / (expect + sun) - 1) < 0.02, "sun box with lights: %g vs closed form %g", got, expect + sun);
     vsd_volume_destroy(vol);
     vsd_env_destroy(env);
 }
@@ -130,16 +194,19 @@ static double dir_error(const vsd_framebuffer *a, const vsd_framebuffer *ref, in
     return e;
 }
 
-/* shgrid's VolumeDir against reference single scattering (2048 spp) at 48x27; the noise
- * floor (two reference seeds) is measured in the same run and printed beside it. */
-typedef struct dataset { const char *scene; int frame; double tol; } dataset;
+/* shgrid's VolumeDir (default settings) against reference single scattering (2048 spp)
+ * at 48x27; the noise floor f (two reference seeds) is measured in the same run. Each
+ * reference carries noise of about f / sqrt(2), which adds in quadrature to the method's own
+ * error e_m, so the checked estimate is e_m = sqrt(e^2 - f^2 / 2) against the issue's 5%
+ * target (measured about 3% here, 3.6-4.0% at 64x36 against 8192 spp references:
+ * docs/methods/shgrid.md). The raw error must also stay below 5% + f. */
+typedef struct dataset { const char *scene; int frame; } dataset;
 
 static void test_against_reference(void)
 {
     const dataset sets[] = {
-        /* tolerances: measured error + margin, see docs/methods/shgrid.md */
-        {"scenes/smoke64_sunset.json", 24, 0.12},
-        {"scenes/fire96_studio.json", 48, 0.10},
+        {"scenes/smoke64_sunset.json", 24},
+        {"scenes/fire96_studio.json", 48},
     };
     int si;
     for (si = 0; si < 2; si++) {
@@ -163,12 +230,14 @@ static void test_against_reference(void)
         }
         sh = render_file(sets[si].scene, sh_ov, 5, sets[si].frame);
         if (ref && ref2 && sh) {
-            double floor_ = dir_error(ref2, ref, 48, 27), e = dir_error(sh, ref, 48, 27), et = 1;
+            double floor_ = dir_error(ref2, ref, 48, 27), e = dir_error(sh, ref, 48, 27), et = 1, em;
             CHECK(vsd_block_rel_rmse(sh->pass[VSD_PASS_TRANSMITTANCE], ref->pass[VSD_PASS_TRANSMITTANCE], 48, 27, 3, 3, 4,
                                      &et, NULL, 0) == VSD_OK);
-            printf("%s: shgrid VolumeDir rel. RMSE %.4f (noise floor %.4f), Transmittance %.4f\n", sets[si].scene, e,
-                   floor_, et);
-            CHECK_MSG(e < sets[si].tol, "%s: VolumeDir rel. RMSE %.4f >= %.2f", sets[si].scene, e, sets[si].tol);
+            em = sqrt(fmax(0.0, e * e - 0.5 * floor_ * floor_));
+            printf("%s: shgrid VolumeDir rel. RMSE %.4f (noise floor %.4f; noise-corrected %.4f), Transmittance %.4f\n",
+                   sets[si].scene, e, floor_, em, et);
+            CHECK_MSG(em < 0.05, "%s: noise-corrected VolumeDir rel. RMSE %.4f >= 0.05", sets[si].scene, em);
+            CHECK_MSG(e < 0.05 + floor_, "%s: VolumeDir rel. RMSE %.4f >= 0.05 + floor %.4f", sets[si].scene, e, floor_);
             CHECK_MSG(et < 0.02, "%s: Transmittance rel. RMSE %.4f", sets[si].scene, et);
         }
         vsd_framebuffer_destroy(ref);
@@ -178,16 +247,18 @@ static void test_against_reference(void)
 }
 
 /* Error against a shgrid-independent answer (raymarch, 128 fixed lights, the same view
- * quadrature: noise-free) as the grid is refined and the order raised. Each step may not
- * raise the error by more than 0.015: the answer itself is off by about 2% (raymarch at
- * 256 vs 1024 lights differ by 2.1% on this view), and with 192 directions band 3 is
- * slightly aliased (order 3 -> 4 measured 0.070 -> 0.080 here). Over the whole range the
+ * quadrature: noise-free) as the grid is refined (default settings) and the SH order
+ * raised. The order sweep uses the paper's pure SH form (lights=0): with the bright texels
+ * taken out, the order only shapes the smooth remainder and the error sits at the answer's
+ * own level at every order. Each step may not raise the error by more than 0.015: the
+ * answer itself is off by about 2% (raymarch at 256 vs 1024 lights differ by 2.1% on this
+ * view), and with 192 directions band 3 is slightly aliased. Over the whole range the
  * error must fall clearly. */
 static void test_convergence(void)
 {
     const char *base[] = {"frames.start=24", "frames.end=24", "film.width=32", "film.height=18",
                           "environment.file=../env/studio.exr"};
-    const char *ov[8];
+    const char *ov[9];
     vsd_framebuffer *truth, *fb;
     const char *grids[] = {"render.options.grid=4", "render.options.grid=8", "render.options.grid=16", "render.options.grid=32"};
     const char *orders[] = {"render.options.order=1", "render.options.order=2", "render.options.order=3", "render.options.order=4"};
@@ -207,12 +278,13 @@ static void test_convergence(void)
         vsd_framebuffer_destroy(fb);
         ov[6] = orders[i];
         ov[7] = "render.options.grid=32";
-        fb = render_file("scenes/smoke64_sunset.json", ov, 8, 24);
+        ov[8] = "render.options.lights=0";
+        fb = render_file("scenes/smoke64_sunset.json", ov, 9, 24);
         eo[i] = fb ? dir_error(fb, truth, 32, 18) : 1;
         vsd_framebuffer_destroy(fb);
     }
     printf("error vs grid 4/8/16/32 (order 4): %.4f %.4f %.4f %.4f\n", eg[0], eg[1], eg[2], eg[3]);
-    printf("error vs order 1/2/3/4 (grid 32): %.4f %.4f %.4f %.4f\n", eo[0], eo[1], eo[2], eo[3]);
+    printf("error vs order 1/2/3/4 (grid 32, lights=0): %.4f %.4f %.4f %.4f\n", eo[0], eo[1], eo[2], eo[3]);
     for (i = 1; i < 4; i++) {
         CHECK_MSG(eg[i] <= eg[i - 1] + 0.015, "grid step %d: %.4f after %.4f", i, eg[i], eg[i - 1]);
         CHECK_MSG(eo[i] <= eo[i - 1] + 0.015, "order step %d: %.4f after %.4f", i, eo[i], eo[i - 1]);
@@ -280,10 +352,12 @@ static void test_options(void)
 {
     const char *bad[] = {"render.options.directions=100", "render.options.order=9", "render.options.grid=1",
                          "render.options.interpolation=\"cubic\"", "render.options.form=\"x\"", "render.options.probes=-1",
-                         "render.options.nope=1"};
-    const char *msg[] = {"directions", "order", "grid", "interpolation", "form", "probes", "unknown option"};
+                         "render.options.nope=1", "render.options.lights=65", "render.options.lights=2.5",
+                         "render.options.light_threshold=0.5"};
+    const char *msg[] = {"directions", "order", "grid", "interpolation", "form", "probes", "unknown option",
+                         "render.options.lights", "render.options.lights", "light_threshold"};
     int i;
-    for (i = 0; i < 7; i++) {
+    for (i = 0; i < 10; i++) {
         const char *ov[2] = {"render.method=shgrid", bad[i]};
         vsd_scene sc;
         vsd_renderer *r = NULL;
@@ -299,6 +373,7 @@ int main(void)
 {
     test_options();
     test_thin_box();
+    test_sun_box();
     test_cache();
     test_against_reference();
     test_convergence();

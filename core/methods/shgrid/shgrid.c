@@ -12,18 +12,22 @@
  *                     (§4.4): T*L projected per record from the HEALPix samples, which
  *                     re-marches the record grid.
  *   render            the view march with one SH dot product per sample.
- * Options: grid (cells per axis, default 32), order (SH order, default 3), directions
+ * Options: grid (cells per axis, default 32), order (SH order, default 4), directions
  * (M HEALPix directions, 12 nside^2, default 192), probes (k, k^3 density probes per cell,
  * default 3; 0 = keep every cell whose bricks are not empty), interpolation ("nearest" |
- * "trilinear", default "trilinear"), form ("auto" | "factored" | "product", default auto =
+ * "trilinear" | "log", default "log" = trilinear in log radiance), form ("auto" | "factored" | "product", default auto =
  * factored for g = 0, product otherwise), step (view march, world units, default half the
  * smallest voxel), record_step (record marches, default one voxel), pixel_samples (n x n
- * rays per pixel, default 2). */
+ * rays per pixel, default 2), lights (K, default 32: extracted bright lights, an extension
+ * beyond the paper, see shgrid_kernel.h; 0 = the paper's pure SH form), light_threshold
+ * (default 3: texels brighter than this multiple of the map's mean luminance are
+ * extracted). The paper's pure form is lights=0, interpolation="nearest". */
 #include "src/render/method.h"
 #include "src/render/accum.h"
 #include "src/render/kernel_setup.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/sh.h"
+#include "vsd/lighting.h"
 #include "shgrid_kernel.h"
 #include <chealpix.h>
 #include <math.h>
@@ -32,16 +36,25 @@
 
 static const char *const shgrid_options[] = {
     "grid", "order", "directions", "probes", "interpolation", "form", "step", "record_step",
-    "pixel_samples", NULL,
+    "pixel_samples", "lights", "light_threshold", NULL,
 };
 
 enum { FORM_AUTO, FORM_FACTORED, FORM_PRODUCT };
 
+/* Defaults chosen for the 5% VolumeDir target (docs/methods/shgrid.md, "Defaults"): order 4
+ * (the paper's Table 1 range is 2-4), 32 extracted lights for the texels above 3x the mean
+ * luminance, log-trilinear record lookup. */
+#define SHGRID_DEFAULT_ORDER 4
+#define SHGRID_DEFAULT_LIGHTS 32
+#define SHGRID_DEFAULT_LIGHT_THRESHOLD 3.0
+/* the record pass's second job: transmittance toward the extracted lights */
+enum { PASS_LIGHTS = 2 };
+
 typedef struct shgrid_state {
     /* options */
-    int grid, order, probes, interp, form, pixel_samples;
+    int grid, order, probes, interp, form, pixel_samples, light_max;
     long dirs_count, nside;
-    double step, record_step;
+    double step, record_step, light_threshold;
     /* HEALPix directions and their basis rows (fixed per renderer) */
     float *dirs, *basis, *dir_radiance;
     /* frame: the record grid */
@@ -59,6 +72,15 @@ typedef struct shgrid_state {
     double env_tex[3 * VSD_SH_MAX_COEFFS];   /* env SH in texture frame, unit strength */
     double env_sum;          /* content checksum of the projected map (pointers get reused) */
     int env_w, env_h, have_env;
+    /* extension: the map split into extracted lights + the remainder the SH carries */
+    vsd_env rest;            /* the map without its extracted texels (rgb owned here) */
+    vsd_light_constellation bright;   /* lights standing for the extracted texels, texture frame */
+    double bright_fraction;  /* luminance share of the map taken out of the SH */
+    float klights[8 * VSD_SHGRID_MAX_LIGHTS];   /* kernel lights (world, strength applied) */
+    int light_count;
+    float *light_trans;      /* [records * light_count] */
+    int have_light_trans;
+    float light_trans_rot;   /* rotation_z the light transmittances were marched for */
     vsd_sh_tensor *tensor;
     double frame_seconds, lighting_seconds;
 } shgrid_state;
@@ -68,9 +90,10 @@ static double opt_num(const vsd_scene *sc, const char *key, double def) { return
 static vsd_status shgrid_create(void **state, const vsd_scene *scene, char *err, size_t errlen)
 {
     shgrid_state *s;
-    double grid = opt_num(scene, "grid", 32), order = opt_num(scene, "order", 3);
+    double grid = opt_num(scene, "grid", 32), order = opt_num(scene, "order", SHGRID_DEFAULT_ORDER);
     double dirs = opt_num(scene, "directions", 192), probes = opt_num(scene, "probes", 3);
     double ps = opt_num(scene, "pixel_samples", 2);
+    double lights = opt_num(scene, "lights", SHGRID_DEFAULT_LIGHTS), lthr = opt_num(scene, "light_threshold", SHGRID_DEFAULT_LIGHT_THRESHOLD);
     char buf[32];
     int r;
     if (grid < 2 || grid > 256 || grid != floor(grid))
@@ -85,6 +108,12 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, char *err,
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.probes: %g is not an integer in 0..16", probes);
     if (ps < 1 || ps > 16 || ps != floor(ps))
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.pixel_samples: %g is not an integer in 1..16", ps);
+    if (lights < 0 || lights > VSD_SHGRID_MAX_LIGHTS || lights != floor(lights))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.lights: %g is not an integer in 0..%d", lights,
+                        (int)VSD_SHGRID_MAX_LIGHTS);
+    if (!(lthr >= 1.0) || isinf(lthr))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.light_threshold: %g must be a finite number >= 1 "
+                        "(a multiple of the map's mean luminance)", lthr);
     if (opt_num(scene, "step", 1.0) <= 0)
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.step: must be > 0");
     if (opt_num(scene, "record_step", 1.0) <= 0)
@@ -97,20 +126,23 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, char *err,
     s->nside = vsd_sh_healpix_nside(s->dirs_count);
     s->probes = (int)probes;
     s->pixel_samples = (int)ps;
+    s->light_max = (int)lights;
+    s->light_threshold = lthr;
     s->step = opt_num(scene, "step", 0.0);
     s->record_step = opt_num(scene, "record_step", 0.0);
-    s->interp = VSD_SHGRID_TRILINEAR;
+    s->interp = VSD_SHGRID_LOG_TRILINEAR;
     r = vsd_scene_option_string(scene, "interpolation", buf, sizeof buf);
     if (r) {
         if (r > 0 && strcmp(buf, "nearest") == 0) s->interp = VSD_SHGRID_NEAREST;
         else if (r > 0 && strcmp(buf, "trilinear") == 0) s->interp = VSD_SHGRID_TRILINEAR;
+        else if (r > 0 && strcmp(buf, "log") == 0) s->interp = VSD_SHGRID_LOG_TRILINEAR;
         else {
             free(s);
-            return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.interpolation: expected \"nearest\" or \"trilinear\"");
+            return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.interpolation: expected \"nearest\", \"trilinear\" or \"log\"");
         }
     } else if (strstr(scene->render.options_json, "\"interpolation\"")) {
         free(s);
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.interpolation: expected \"nearest\" or \"trilinear\"");
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.interpolation: expected \"nearest\", \"trilinear\" or \"log\"");
     }
     s->form = FORM_AUTO;
     r = vsd_scene_option_string(scene, "form", buf, sizeof buf);
@@ -156,10 +188,11 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, char *err,
 
 static void free_frame(shgrid_state *s)
 {
-    free(s->cell_record); free(s->record_pos); free(s->trans); free(s->rgb);
-    s->cell_record = NULL; s->record_pos = NULL; s->trans = NULL; s->rgb = NULL;
+    free(s->cell_record); free(s->record_pos); free(s->trans); free(s->rgb); free(s->light_trans);
+    s->cell_record = NULL; s->record_pos = NULL; s->trans = NULL; s->rgb = NULL; s->light_trans = NULL;
     s->record_count = 0;
     s->have_trans = 0;
+    s->have_light_trans = 0;
 }
 
 /* The kernel view of the state for the current stage. */
@@ -174,6 +207,9 @@ static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int ki
     g->basis = s->basis;
     g->dir_radiance = s->dir_radiance;
     g->light = s->light;
+    g->lights = s->klights;
+    g->light_trans = s->light_trans;
+    g->light_count = s->light_count;
     g->world_to_grid = s->world_to_grid;
     memcpy(g->res, s->res, sizeof g->res);
     g->order = s->order;
@@ -186,17 +222,22 @@ static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int ki
     g->record_step = (float)(s->record_step > 0 ? s->record_step : 2.0 * kd->density.step);
 }
 
-typedef struct record_job { const vsd_kshgrid *g; float *out; } record_job;
+typedef struct record_job { const vsd_kshgrid *g; float *out; int lights; } record_job;
 
 static void record_tile(void *user, int x0, int y0, int x1, int y1)
 {
     record_job *j = user;
     int r;
     (void)y0; (void)y1;
-    for (r = x0; r < x1; r++) vsd_shgrid_record(j->g, r, j->out + (size_t)r * j->g->stride);
+    for (r = x0; r < x1; r++) {
+        if (j->lights) vsd_shgrid_light_record(j->g, r, j->out + (size_t)r * j->g->light_count);
+        else vsd_shgrid_record(j->g, r, j->out + (size_t)r * j->g->stride);
+    }
 }
 
-/* The record pass over every record on the CPU threads (records are the tile job's x). */
+/* The record pass over every record on the CPU threads (records are the tile job's x):
+ * kind VSD_SHGRID_SCALAR / RGB for the SH records, PASS_LIGHTS for the transmittance
+ * toward the extracted lights. */
 static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kind, char *err, size_t errlen)
 {
     vsd_kshgrid g;
@@ -204,16 +245,17 @@ static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kin
     vsd_tile_job tj;
     vsd_status st;
     if (s->record_count == 0) return VSD_OK;
-    kernel_grid(s, &ctx->kd, kind, &g);
+    kernel_grid(s, &ctx->kd, kind == PASS_LIGHTS ? s->kind : kind, &g);
     job.g = &g;
-    job.out = kind == VSD_SHGRID_SCALAR ? s->trans : s->rgb;
+    job.lights = kind == PASS_LIGHTS;
+    job.out = job.lights ? s->light_trans : kind == VSD_SHGRID_SCALAR ? s->trans : s->rgb;
     memset(&tj, 0, sizeof tj);
     tj.width = s->record_count;
     tj.height = 1;
     tj.threads = ctx->threads;
     tj.fn = record_tile;
     tj.user = &job;
-    tj.stage = "record grid";
+    tj.stage = job.lights ? "light transmittance" : "record grid";
     tj.progress = ctx->progress;
     tj.progress_user = ctx->user;
     tj.progress_span = 1.0f;
@@ -374,11 +416,71 @@ static void healpix_radiance(shgrid_state *s, const vsd_env *env, const vsd_kenv
     free(acc);
 }
 
+/* Extension (shgrid_kernel.h): split the map into its bright texels — luminance above
+ * light_threshold times the map's mean luminance over the sphere — and the remainder.
+ * The bright part becomes at most light_max median-cut lights (texture frame, equal
+ * energy: a compact sun gets all of them); the remainder, kept in s->rest, is what the SH
+ * projections see. */
+static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size_t errlen)
+{
+    size_t n = (size_t)env->width * env->height, k;
+    float *bright;
+    double total = 0.0, taken = 0.0, thr;
+    int row, col;
+    vsd_status st = VSD_OK;
+    vsd_constellation_free(&s->bright);
+    memset(&s->bright, 0, sizeof s->bright);
+    free(s->rest.rgb);
+    s->rest = *env;
+    s->rest.rgb = malloc(sizeof(float) * 3 * n);
+    bright = calloc(3 * n, sizeof(float));
+    if (!s->rest.rgb || !bright) {
+        free(bright);
+        free(s->rest.rgb);
+        s->rest.rgb = NULL;
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "%s: no memory to split the map", env->file);
+    }
+    memcpy(s->rest.rgb, env->rgb, sizeof(float) * 3 * n);
+    for (row = 0; row < env->height; row++) {
+        double dom = 2.0 * VSD_PI / env->width *
+                     (cos(VSD_PI * row / env->height) - cos(VSD_PI * (row + 1.0) / env->height));
+        for (col = 0; col < env->width; col++) {
+            const float *p = env->rgb + 3 * ((size_t)row * env->width + col);
+            total += dom * vsd_luminance(f3(p[0], p[1], p[2]));
+        }
+    }
+    thr = s->light_threshold * total / (4.0 * VSD_PI);
+    for (row = 0; row < env->height; row++) {
+        double dom = 2.0 * VSD_PI / env->width *
+                     (cos(VSD_PI * row / env->height) - cos(VSD_PI * (row + 1.0) / env->height));
+        for (col = 0; col < env->width; col++) {
+            k = 3 * ((size_t)row * env->width + col);
+            {
+                float *p = s->rest.rgb + k;
+                double lum = vsd_luminance(f3(p[0], p[1], p[2]));
+                if (!(lum > thr)) continue;
+                memcpy(bright + k, p, 3 * sizeof(float));
+                p[0] = p[1] = p[2] = 0.0f;
+                taken += dom * lum;
+            }
+        }
+    }
+    s->bright_fraction = total > 0.0 ? taken / total : 0.0;
+    if (taken > 0.0) {
+        vsd_env benv = *env;
+        benv.rgb = bright;
+        st = vsd_constellation_build(&benv, s->light_max, VSD_LIGHTS_MEDIAN_CUT, &s->bright, err, errlen);
+    }
+    free(bright);
+    return st;
+}
+
 static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     shgrid_state *s = state;
     const vsd_scene *sc = ctx->scene;
-    int n2 = s->order * s->order, i, c;
+    int n2 = s->order * s->order, i, c, env_changed = 0;
+    const vsd_env *sh_env = ctx->env;
     vsd_status st;
     /* F_Ind: the environment's SH, projected once per map (texture frame) and rotated about
      * Z for Blender's Mapping rotation, so turning the map costs one SH rotation */
@@ -387,7 +489,10 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
         size_t k, n = (size_t)ctx->env->width * ctx->env->height * 3;
         for (k = 0; k < n; k++) sum += (double)ctx->env->rgb[k] * (double)(1 + (k % 7));
         if (!s->have_env || sum != s->env_sum || s->env_w != ctx->env->width || s->env_h != ctx->env->height) {
-            st = vsd_sh_project_env(s->order, ctx->env, 1.0, 0.0, s->env_tex, err, errlen);
+            s->have_env = 0;
+            env_changed = 1;
+            if (s->light_max > 0 && (st = split_env(s, ctx->env, err, errlen))) return st;
+            st = vsd_sh_project_env(s->order, s->light_max > 0 ? &s->rest : ctx->env, 1.0, 0.0, s->env_tex, err, errlen);
             if (st) return st;
             s->env_sum = sum;
             s->env_w = ctx->env->width;
@@ -405,13 +510,29 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
             for (i = 0; i < n2; i++) s->light[c * n2 + i] = (float)(out[i] * sc->environment.strength);
         }
     }
+    if (s->light_max > 0) sh_env = &s->rest;
+    /* extension: the extracted lights for this strength and rotation; the transmittance
+     * toward them is re-marched when their directions move (new frame, map or rotation) */
+    s->light_count = s->light_max > 0 ? s->bright.count : 0;
+    if (s->light_count > 0)
+        vsd_constellation_kernel_lights(&s->bright, sc->environment.strength, sc->environment.rotation_z, s->klights);
     if (s->record_count == 0) {
         s->kind = VSD_SHGRID_SCALAR;
         return VSD_OK;
     }
+    if (s->light_count > 0 &&
+        (env_changed || !s->have_light_trans || s->light_trans_rot != sc->environment.rotation_z)) {
+        free(s->light_trans);
+        s->have_light_trans = 0;
+        s->light_trans = malloc(sizeof(float) * (size_t)s->record_count * (size_t)s->light_count);
+        if (!s->light_trans) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for the light transmittances");
+        if ((st = run_records(s, ctx, PASS_LIGHTS, err, errlen))) return st;
+        s->have_light_trans = 1;
+        s->light_trans_rot = sc->environment.rotation_z;
+    }
     if (want_product(s, sc)) {
         /* §4.4 static-media form: T*L per HEALPix direction, projected per record */
-        healpix_radiance(s, ctx->env, &ctx->kd.env);
+        healpix_radiance(s, sh_env, &ctx->kd.env);
         s->kind = VSD_SHGRID_RGB;
         return run_records(s, ctx, VSD_SHGRID_RGB, err, errlen);
     }
@@ -454,7 +575,7 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
     vsd_kshgrid g;
     ctx->kd.march_step = vsd_method_march_step(ctx, s->step);
     kernel_grid(s, &ctx->kd, s->kind, &g);
-    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, &g, "ray marching", samples,
+    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, NULL, &g, "ray marching", samples,
                                         err, errlen);
 }
 
@@ -467,6 +588,8 @@ static void shgrid_destroy(void *state)
     free(s->basis);
     free(s->dir_radiance);
     vsd_sh_tensor_destroy(s->tensor);
+    vsd_constellation_free(&s->bright);
+    free(s->rest.rgb);
     free(s);
 }
 

@@ -18,7 +18,19 @@
  *     w_i = g^l y_i(d) — the HG convolution evaluated toward the viewer; per ray, since d
  *     is fixed along it.
  * Records are looked up at the nearest cell (the paper) or trilinearly between the eight
- * surrounding cell centres, renormalised over the non-empty ones. */
+ * surrounding cell centres, renormalised over the non-empty ones, either in radiance or in
+ * log radiance (a weighted geometric mean). The log form is an extension: in-scattered
+ * radiance falls about exponentially with depth into a lit surface, so a linear blend of
+ * the cell-centre values (the chord of a convex curve) over-brightens the skin, which a
+ * blend of logs does not.
+ *
+ * Extension beyond the paper (option `lights`, 0 = the paper's pure form): the map's
+ * brightest texels (a sun, studio lamps, windows) are taken out of the SH projection and
+ * stood for by K directional lights (a median cut of those texels only). Each record also
+ * stores the exact transmittance T_k from its cell centre toward each light, and the view
+ * pass adds sum_k phase(d . w_k) T_k E_k to the SH term, which then carries only the
+ * smooth remainder of the map. A small source is the one thing a low-order SH cannot hold:
+ * its product with the truncated T(w) is T's truncation error evaluated at one direction. */
 #ifndef VSD_SHGRID_KERNEL_H
 #define VSD_SHGRID_KERNEL_H
 #include "kernel/kernel_types.h"
@@ -26,10 +38,12 @@
 #include "kernel/kernel_env.h"
 #include "kernel/kernel_camera.h"
 #include "kernel/kernel_march.h"
+#include "kernel/kernel_phase.h"
 #include "src/sh/sh_kernel.h"
 
 enum { VSD_SHGRID_SCALAR = 0, VSD_SHGRID_RGB = 1 };
-enum { VSD_SHGRID_NEAREST = 0, VSD_SHGRID_TRILINEAR = 1 };
+enum { VSD_SHGRID_NEAREST = 0, VSD_SHGRID_TRILINEAR = 1, VSD_SHGRID_LOG_TRILINEAR = 2 };
+enum { VSD_SHGRID_MAX_LIGHTS = 64 };
 
 /* The method's own kernel data; kd is the scene's. Grid coordinates: cell (i,j,k) spans
  * [i, i+1) x ... ; g = world_to_grid(p). */
@@ -42,6 +56,8 @@ typedef struct VSD_ALIGN16 vsd_kshgrid {
     const float *basis;           /* [dir_count * n2] y_i(w_j) * 4pi / M */
     const float *dir_radiance;    /* [dir_count * 4] env averaged per HEALPix pixel (product form) */
     const float *light;           /* [3 * n2] environment SH (factored form) */
+    const float *lights;          /* [light_count * 8] extracted lights: world dir xyz, 0, E rgb, 0 */
+    const float *light_trans;     /* [record_count * light_count] T from each record toward each light */
     vsd_affine world_to_grid;
     int32_t res[3];
     int32_t order, n2, stride;    /* stride = n2 (scalar) or 3 n2 (RGB) */
@@ -50,7 +66,8 @@ typedef struct VSD_ALIGN16 vsd_kshgrid {
     int32_t dir_count;
     int32_t record_count;
     float record_step;            /* quadrature step of the record marches (world) */
-    float pad_[3];
+    int32_t light_count;          /* 0..VSD_SHGRID_MAX_LIGHTS; 0 = the paper's pure SH form */
+    float pad_[2];
 } vsd_kshgrid;
 
 /* Reduced-intensity record of one cell (the record pass), written to out[stride]. */
@@ -78,8 +95,24 @@ VSD_DEVICE void vsd_shgrid_record(const vsd_kshgrid *g, int32_t rec, float *out)
     }
 }
 
-/* In-scattered radiance per unit sigma_s from record rec; w: per-ray weights (RGB kind). */
-VSD_DEVICE vsd_f3 vsd_shgrid_record_radiance(const vsd_kshgrid *g, int32_t rec, const float *w)
+/* Transmittance from record rec's position toward each extracted light, out[light_count]:
+ * the same march as the record pass, K more directions. */
+VSD_DEVICE void vsd_shgrid_light_record(const vsd_kshgrid *g, int32_t rec, float *out)
+{
+    vsd_kvolume kv = g->kd->density;
+    const float *pp = g->record_pos + 4 * (size_t)rec;
+    vsd_f3 p = f3(pp[0], pp[1], pp[2]);
+    int32_t k;
+    kv.step = g->record_step;
+    for (k = 0; k < g->light_count; k++) {
+        const float *l = g->lights + 8 * (size_t)k;
+        out[k] = expf(-vsd_field_integral(&kv, p, f3(l[0], l[1], l[2]), 0.0f, VSD_INF, 0.5f));
+    }
+}
+
+/* In-scattered radiance per unit sigma_s from record rec; w: per-ray SH weights (RGB
+ * kind), ph: per-ray phase times irradiance of each extracted light (3 per light). */
+VSD_DEVICE vsd_f3 vsd_shgrid_record_radiance(const vsd_kshgrid *g, int32_t rec, const float *w, const float *ph)
 {
     const float *r = g->records + (size_t)rec * g->stride;
     float s[3] = {0.0f, 0.0f, 0.0f};
@@ -94,34 +127,79 @@ VSD_DEVICE vsd_f3 vsd_shgrid_record_radiance(const vsd_kshgrid *g, int32_t rec, 
         for (c = 0; c < 3; c++)
             for (i = 0; i < g->n2; i++) s[c] += w[i] * r[c * g->n2 + i];
     }
-    return f3(fmaxf(s[0], 0.0f), fmaxf(s[1], 0.0f), fmaxf(s[2], 0.0f));
+    /* the truncated SH may ring below zero; the exact light term never does */
+    for (c = 0; c < 3; c++) s[c] = fmaxf(s[c], 0.0f);
+    if (g->light_count > 0) {
+        const float *t = g->light_trans + (size_t)rec * g->light_count;
+        for (i = 0; i < g->light_count; i++)
+            for (c = 0; c < 3; c++) s[c] += t[i] * ph[3 * i + c];
+    }
+    return f3(s[0], s[1], s[2]);
 }
 
 /* In-scattered radiance at world point p: nearest cell, or trilinear between the records
  * at the eight surrounding cell centres (weights renormalised over non-empty cells). */
-VSD_DEVICE vsd_f3 vsd_shgrid_inscatter(const vsd_kshgrid *g, vsd_f3 p, const float *w)
+/* Below this, in-scattered radiance counts as zero in the log-trilinear mean (a record
+ * whose SH term rings to zero must not force its neighbours to black). */
+#define VSD_SHGRID_LOG_FLOOR 1e-12f
+
+/* Per-ray cache of the eight corner values around the current sample (logs for the
+ * log-trilinear lookup): the view step is a fraction of a cell, so consecutive samples
+ * mostly share the same eight records and the SH dot products are done once per cell. */
+typedef struct vsd_shgrid_corners {
+    int32_t key[3];   /* i0, j0, k0 of the cached corners */
+    int32_t filled;   /* 0 until the first lookup */
+    int32_t valid;    /* bit a: corner a holds a record */
+    vsd_f3 v[8];
+} vsd_shgrid_corners;
+
+VSD_DEVICE void vsd_shgrid_fill_corners(const vsd_kshgrid *g, int32_t i0, int32_t j0, int32_t k0, const float *w,
+                                        const float *ph, vsd_shgrid_corners *c)
+{
+    int32_t a, logi = g->interp == VSD_SHGRID_LOG_TRILINEAR;
+    c->key[0] = i0; c->key[1] = j0; c->key[2] = k0;
+    c->filled = 1;
+    c->valid = 0;
+    for (a = 0; a < 8; a++) {
+        int32_t i = i0 + (a & 1), j = j0 + ((a >> 1) & 1), k = k0 + ((a >> 2) & 1), rec;
+        vsd_f3 v;
+        if (i < 0 || j < 0 || k < 0 || i >= g->res[0] || j >= g->res[1] || k >= g->res[2]) continue;
+        rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
+        if (rec < 0) continue;
+        v = vsd_shgrid_record_radiance(g, rec, w, ph);
+        if (logi) v = f3(logf(fmaxf(v.x, VSD_SHGRID_LOG_FLOOR)), logf(fmaxf(v.y, VSD_SHGRID_LOG_FLOOR)),
+                         logf(fmaxf(v.z, VSD_SHGRID_LOG_FLOOR)));
+        c->v[a] = v;
+        c->valid |= 1 << a;
+    }
+}
+
+VSD_DEVICE vsd_f3 vsd_shgrid_inscatter(const vsd_kshgrid *g, vsd_f3 p, const float *w, const float *ph,
+                                       vsd_shgrid_corners *c)
 {
     vsd_f3 q = vsd_affine_point(&g->world_to_grid, p);
     if (g->interp == VSD_SHGRID_NEAREST) {
         int32_t i = (int32_t)floorf(q.x), j = (int32_t)floorf(q.y), k = (int32_t)floorf(q.z), rec;
         if (i < 0 || j < 0 || k < 0 || i >= g->res[0] || j >= g->res[1] || k >= g->res[2]) return f3s(0.0f);
         rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
-        return rec < 0 ? f3s(0.0f) : vsd_shgrid_record_radiance(g, rec, w);
+        return rec < 0 ? f3s(0.0f) : vsd_shgrid_record_radiance(g, rec, w, ph);
     } else {
         float fx = q.x - 0.5f, fy = q.y - 0.5f, fz = q.z - 0.5f;
         int32_t i0 = (int32_t)floorf(fx), j0 = (int32_t)floorf(fy), k0 = (int32_t)floorf(fz), a;
         float tx = fx - (float)i0, ty = fy - (float)j0, tz = fz - (float)k0, wsum = 0.0f;
         vsd_f3 s = f3s(0.0f);
+        if (!c->filled || c->key[0] != i0 || c->key[1] != j0 || c->key[2] != k0)
+            vsd_shgrid_fill_corners(g, i0, j0, k0, w, ph, c);
         for (a = 0; a < 8; a++) {
-            int32_t i = i0 + (a & 1), j = j0 + ((a >> 1) & 1), k = k0 + ((a >> 2) & 1), rec;
             float wt = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
-            if (wt <= 0.0f || i < 0 || j < 0 || k < 0 || i >= g->res[0] || j >= g->res[1] || k >= g->res[2]) continue;
-            rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
-            if (rec < 0) continue;
-            s = f3_add(s, f3_scale(vsd_shgrid_record_radiance(g, rec, w), wt));
+            if (!(c->valid & (1 << a)) || wt <= 0.0f) continue;
+            s = f3_add(s, f3_scale(c->v[a], wt));
             wsum += wt;
         }
-        return wsum > 0.0f ? f3_scale(s, 1.0f / wsum) : s;
+        if (!(wsum > 0.0f)) return f3s(0.0f);
+        s = f3_scale(s, 1.0f / wsum);
+        /* log-trilinear: the weighted geometric mean, exact where S falls exponentially */
+        return g->interp == VSD_SHGRID_LOG_TRILINEAR ? f3(expf(s.x), expf(s.y), expf(s.z)) : s;
     }
 }
 
@@ -133,9 +211,18 @@ VSD_DEVICE vsd_sample_result vsd_shgrid_pixel(const vsd_kshgrid *g, int32_t px, 
     vsd_march_acc acc;
     vsd_f3 o, d;
     float t0 = 0.0f, t1 = 0.0f, t, h = kd->march_step;
-    float w[VSD_SH_MAX_COEFFS];
+    float w[VSD_SH_MAX_COEFFS], ph[3 * VSD_SHGRID_MAX_LIGHTS];
+    vsd_shgrid_corners corners;
+    int32_t k;
+    corners.filled = 0;
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
+    /* the lights are directional and d is fixed along the ray: phase * E once per ray */
+    for (k = 0; k < g->light_count; k++) {
+        const float *l = g->lights + 8 * (size_t)k;
+        float pk = vsd_hg_eval(f3_dot(d, f3(l[0], l[1], l[2])), kd->medium.anisotropy);
+        ph[3 * k] = pk * l[4]; ph[3 * k + 1] = pk * l[5]; ph[3 * k + 2] = pk * l[6];
+    }
     if (g->kind == VSD_SHGRID_RGB) {
         /* convolution with HG toward the viewer: out(d) = sum_lm g^l f_lm y_lm(d) */
         float gl = 1.0f;
@@ -152,7 +239,7 @@ VSD_DEVICE vsd_sample_result vsd_shgrid_pixel(const vsd_kshgrid *g, int32_t px, 
             vsd_f3 p = f3_madd(o, d, tm);
             /* §4.5: emission accumulates along the same march */
             float absorbed = vsd_march_medium(kd, &acc, p, hs);
-            if (absorbed > 0.0f) vsd_march_scatter(kd, &acc, vsd_shgrid_inscatter(g, p, w), tm, absorbed);
+            if (absorbed > 0.0f) vsd_march_scatter(kd, &acc, vsd_shgrid_inscatter(g, p, w, ph, &corners), tm, absorbed);
         }
     }
     return vsd_march_finish(kd, &acc, d);
