@@ -30,26 +30,12 @@ __global__ void vsd_cuda_constellation_light_kernel(const vsd_kconstellation *kc
     }
 }
 
-static vsd_status put_constellation(vsd_cuda *c, const vsd_kconstellation *kc, const vsd_kernel_data *kd,
-                                    const vsd_kconstellation **dkc, char *err, size_t errlen)
-{
-    const vsd_kernel_data *dkd;
-    const void *dev;
-    vsd_status st = vsd_cuda_put_kd(c, kd, &dkd, err, errlen);
-    if (st) return st;
-    vsd_kconstellation h = *kc;
-    h.kd = dkd;
-    st = vsd_cuda_put_method(c, &h, sizeof h, &dev, err, errlen);
-    *dkc = (const vsd_kconstellation *)dev;
-    return st;
-}
-
 extern "C" vsd_status vsd_cuda_constellation_mask(vsd_cuda *c, const vsd_kconstellation *kc,
                                                   const vsd_kernel_data *kd, int32_t *first,
                                                   const vsd_cuda_progress *p, char *err, size_t errlen)
 {
     const vsd_kconstellation *dkc;
-    vsd_status st = put_constellation(c, kc, kd, &dkc, err, errlen);
+    vsd_status st = vsd_cuda_put_with_kd(c, kc, kd, &dkc, err, errlen);
     if (st) return st;
     int w = kd->camera.width;
     return vsd_cuda_bands(c, kd->camera.height, 256, p, "validity mask", [&](int y0, int y1) {
@@ -63,7 +49,7 @@ extern "C" vsd_status vsd_cuda_constellation_light(vsd_cuda *c, const vsd_kconst
                                                    const vsd_cuda_progress *p, char *err, size_t errlen)
 {
     const vsd_kconstellation *dkc;
-    vsd_status st = put_constellation(c, kc, kd, &dkc, err, errlen);
+    vsd_status st = vsd_cuda_put_with_kd(c, kc, kd, &dkc, err, errlen);
     if (st) return st;
     int w = kd->camera.width;
     return vsd_cuda_bands(c, kd->camera.height, 128, p, "lighting", [&](int y0, int y1) {

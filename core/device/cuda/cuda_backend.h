@@ -60,11 +60,11 @@ size_t vsd_cuda_resident_bytes(const vsd_cuda *c);
 uint64_t vsd_cuda_uploaded_bytes(const vsd_cuda *c);
 
 /* The device copy of host[0..bytes) in `slot`: copied only when `key` (or bytes) differs
- * from what the slot holds. bytes == 0 gives *dev = NULL. */
+ * from what the slot holds; key 0 always copies. bytes == 0 gives *dev = NULL. */
 vsd_status vsd_cuda_upload(vsd_cuda *c, vsd_cuda_slot slot, uint64_t key, const void *host, size_t bytes,
                            void **dev, char *err, size_t errlen);
 /* A device buffer of `bytes` in `slot` for kernels to write (zeroed when zero != 0); the
- * slot's key becomes `key`, so a later upload with the same key copies nothing. */
+ * slot's key becomes `key`, so a later upload with the same non-zero key copies nothing. */
 vsd_status vsd_cuda_scratch(vsd_cuda *c, vsd_cuda_slot slot, uint64_t key, size_t bytes, int zero,
                             void **dev, char *err, size_t errlen);
 vsd_status vsd_cuda_download(vsd_cuda *c, void *host, const void *dev, size_t bytes, char *err, size_t errlen);

@@ -58,6 +58,7 @@ extern "C" void vsd_cuda_close(vsd_cuda *c)
     cudaFree(c->d_kd);
     cudaFree(c->d_method);
     if (c->stream) cudaStreamDestroy(c->stream);
+    cudaGetLastError();   // leave no error behind for the next context on this thread
     free(c);
 }
 
@@ -102,10 +103,11 @@ static vsd_status slot_reserve(vsd_cuda *c, vsd_cuda_slot slot, size_t bytes, ch
 extern "C" vsd_status vsd_cuda_upload(vsd_cuda *c, vsd_cuda_slot slot, uint64_t key, const void *host, size_t bytes,
                                       void **dev, char *err, size_t errlen)
 {
+    vsd_cuda_use(c);
     vsd_cuda_buffer *b = &c->slot[slot];
     *dev = NULL;
     if (bytes == 0) return VSD_OK;
-    if (b->valid && b->key == key && b->used == bytes) {
+    if (key != 0 && b->valid && b->key == key && b->used == bytes) {
         *dev = b->ptr;
         return VSD_OK;
     }
@@ -125,6 +127,7 @@ extern "C" vsd_status vsd_cuda_upload(vsd_cuda *c, vsd_cuda_slot slot, uint64_t 
 extern "C" vsd_status vsd_cuda_scratch(vsd_cuda *c, vsd_cuda_slot slot, uint64_t key, size_t bytes, int zero,
                                        void **dev, char *err, size_t errlen)
 {
+    vsd_cuda_use(c);
     vsd_cuda_buffer *b = &c->slot[slot];
     *dev = NULL;
     if (bytes == 0) return VSD_OK;
@@ -144,6 +147,7 @@ extern "C" vsd_status vsd_cuda_scratch(vsd_cuda *c, vsd_cuda_slot slot, uint64_t
 extern "C" vsd_status vsd_cuda_download(vsd_cuda *c, void *host, const void *dev, size_t bytes, char *err,
                                         size_t errlen)
 {
+    vsd_cuda_use(c);
     if (bytes == 0) return VSD_OK;
     cudaError_t e = cudaMemcpyAsync(host, dev, bytes, cudaMemcpyDeviceToHost, c->stream);
     if (e != cudaSuccess) return vsd_cuda_fail(e, "copying from the device", err, errlen);
@@ -153,6 +157,7 @@ extern "C" vsd_status vsd_cuda_download(vsd_cuda *c, void *host, const void *dev
 vsd_status vsd_cuda_put_kd(vsd_cuda *c, const vsd_kernel_data *kd, const vsd_kernel_data **dkd, char *err,
                            size_t errlen)
 {
+    vsd_cuda_use(c);
     cudaError_t e = cudaMemcpyAsync(c->d_kd, kd, sizeof *kd, cudaMemcpyHostToDevice, c->stream);
     if (e != cudaSuccess) return vsd_cuda_fail(e, "copying the kernel data", err, errlen);
     c->uploaded += sizeof *kd;

@@ -29,6 +29,10 @@ struct vsd_cuda {
     size_t budget;     // most bytes the slots may hold ($VSD_CUDA_MAX_MB), 0 = the device's memory
 };
 
+// Makes c's device current on the calling thread (CUDA's current device is per thread, and
+// a daemon worker may render with a renderer another thread opened).
+inline void vsd_cuda_use(const vsd_cuda *c) { cudaSetDevice(c->device); }
+
 // The vsd_status for a CUDA error, with CUDA's name and message and what was being done.
 vsd_status vsd_cuda_fail(cudaError_t e, const char *what, char *err, size_t errlen);
 
@@ -38,6 +42,23 @@ vsd_status vsd_cuda_put_kd(vsd_cuda *c, const vsd_kernel_data *kd, const vsd_ker
 // Copies a method struct of `bytes` to the device; returns its device address.
 vsd_status vsd_cuda_put_method(vsd_cuda *c, const void *host, size_t bytes, const void **dev, char *err,
                                size_t errlen);
+
+// A method's kernel struct (host copy, device arrays) and the scene's kd on the device, the
+// struct's `kd` member pointing at the device kd.
+template <typename T>
+vsd_status vsd_cuda_put_with_kd(vsd_cuda *c, const T *m, const vsd_kernel_data *kd, const T **dm, char *err,
+                                size_t errlen)
+{
+    const vsd_kernel_data *dkd;
+    const void *dev = NULL;
+    vsd_status st = vsd_cuda_put_kd(c, kd, &dkd, err, errlen);
+    if (st) return st;
+    T h = *m;
+    h.kd = dkd;
+    st = vsd_cuda_put_method(c, &h, sizeof h, &dev, err, errlen);
+    *dm = (const T *)dev;
+    return st;
+}
 
 // Waits for the stream and turns a launch or execution error into a status.
 vsd_status vsd_cuda_finish(vsd_cuda *c, const char *what, char *err, size_t errlen);

@@ -78,6 +78,16 @@ extern "C" vsd_status vsd_cuda_distance_map(vsd_cuda *c, const vsd_kvolume *kv, 
     vsd_status st = VSD_OK;
     cudaError_t e;
     if (n == 0) return VSD_OK;
+    vsd_cuda_use(c);
+    {
+        // the scratch below counts against the context's budget like its slots
+        size_t scratch = n * (2 + sizeof(float)) + (size_t)batch * nmax * (2 * sizeof(float) + sizeof(int32_t)) +
+                         (size_t)batch * (nmax + 1) * sizeof(double);
+        if (c->budget && vsd_cuda_resident_bytes(c) + scratch > c->budget)
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen,
+                            "CUDA: the distance map's %.1f MiB of scratch would exceed VSD_CUDA_MAX_MB=%zu",
+                            (double)scratch / (1024.0 * 1024.0), c->budget >> 20);
+    }
 #define TRY(call, what) do { if ((e = (call)) != cudaSuccess) { st = vsd_cuda_fail(e, what, err, errlen); goto done; } } while (0)
     TRY(cudaMalloc((void **)&vocc, n), "allocating the distance map");
     TRY(cudaMalloc((void **)&skip, n), "allocating the distance map");

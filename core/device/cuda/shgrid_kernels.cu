@@ -29,27 +29,12 @@ __global__ void vsd_cuda_shgrid_view_kernel(const vsd_kshgrid *g, int y0, int y1
         }
 }
 
-// The kernel data and the grid on the device, the grid's kd pointing at the device kd.
-static vsd_status put_grid(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_data *kd, const vsd_kshgrid **dg,
-                           char *err, size_t errlen)
-{
-    const vsd_kernel_data *dkd;
-    const void *dev;
-    vsd_status st = vsd_cuda_put_kd(c, kd, &dkd, err, errlen);
-    if (st) return st;
-    vsd_kshgrid h = *g;
-    h.kd = dkd;
-    st = vsd_cuda_put_method(c, &h, sizeof h, &dev, err, errlen);
-    *dg = (const vsd_kshgrid *)dev;
-    return st;
-}
-
 extern "C" vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_data *kd,
                                               int lights, float *out, const vsd_cuda_progress *p, char *err,
                                               size_t errlen)
 {
     const vsd_kshgrid *dg;
-    vsd_status st = put_grid(c, g, kd, &dg, err, errlen);
+    vsd_status st = vsd_cuda_put_with_kd(c, g, kd, &dg, err, errlen);
     if (st) return st;
     // records as "rows" of a one-wide image, in bands of 4096 records
     int count = g->record_count;
@@ -63,7 +48,7 @@ extern "C" vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const vsd_kshgrid *g, co
                                            double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
 {
     const vsd_kshgrid *dg;
-    vsd_status st = put_grid(c, g, kd, &dg, err, errlen);
+    vsd_status st = vsd_cuda_put_with_kd(c, g, kd, &dg, err, errlen);
     if (st) return st;
     int w = kd->camera.width;
     return vsd_cuda_bands(c, kd->camera.height, 256, p, "ray marching", [&](int y0, int y1) {

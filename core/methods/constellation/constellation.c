@@ -11,10 +11,12 @@
 #include "src/render/method.h"
 #include "src/render/accum.h"
 #include "src/render/distance_map.h"
+#include "src/render/distance_map_device.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/lighting.h"
 #include "constellation_kernel.h"
 #include "dense_grid.h"
+#include "constellation_device.h"
 #include <cjson/cJSON.h>
 #include <math.h>
 #include <stdint.h>
@@ -133,6 +135,16 @@ static vsd_status cst_create(void **state, const vsd_scene *scene, char *err, si
  * made in every mode, so the accelerations are compared on the same lookup). The emission
  * map is built whenever an emission grid is loaded, because emission strength changes
  * re-run only prepare_lighting. */
+/* The paper builds the map per frame on the GPU; so does vsd when the frame runs there
+ * (the same map either way: tests/test_cuda.c). */
+static vsd_status build_map(const vsd_frame_ctx *ctx, int emission, float threshold, vsd_distance_map *dm, char *err,
+                            size_t errlen)
+{
+    const vsd_volume *vol = emission ? ctx->emission : ctx->density;
+    if (ctx->cuda) return vsd_distance_map_build_device(ctx, vol, emission, threshold, dm, err, errlen);
+    return vsd_distance_map_build(vol, threshold, ctx->threads, dm, err, errlen);
+}
+
 static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     cst_state *s = state;
@@ -141,10 +153,8 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     vsd_distance_map_free(&s->dm_emission);
     vsd_dense_grid_free(&s->field);
     if (s->opt.distance_map) {
-        st = vsd_distance_map_build(ctx->density, (float)s->opt.threshold, ctx->threads, &s->dm_density, err, errlen);
-        if (!st && ctx->emission)
-            st = vsd_distance_map_build(ctx->emission, (float)s->opt.threshold, ctx->threads, &s->dm_emission, err,
-                                        errlen);
+        st = build_map(ctx, 0, (float)s->opt.threshold, &s->dm_density, err, errlen);
+        if (!st && ctx->emission) st = build_map(ctx, 1, (float)s->opt.threshold, &s->dm_emission, err, errlen);
         if (st) return st;
     }
     return vsd_dense_grid_build(ctx->density, s->opt.distance_map ? &s->dm_density : NULL,
@@ -264,6 +274,14 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     kc.use_distance_map = s->opt.distance_map;
     kdistmap_from(&kc.dm_density, s->opt.distance_map ? &s->dm_density : NULL, &s->field);
     if (s->opt.distance_map) kdistmap_from(&kc.dm_emission, &s->dm_emission, NULL);
+    if (ctx->cuda) {
+        if ((st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen))) return st;
+        st = vsd_cst_device_render(ctx, &kc, s->opt.validity_mask, &acc, err, errlen);
+        if (!st) vsd_accum_resolve(&acc, n2, ctx->scene->film.transparent, fb);
+        vsd_accum_free(&acc);
+        *samples = n2;
+        return st;
+    }
     memset(&pass, 0, sizeof pass);
     pass.kc = &kc;
     if (s->opt.validity_mask) {

@@ -29,6 +29,7 @@
 #include "vsd/sh.h"
 #include "vsd/lighting.h"
 #include "shgrid_kernel.h"
+#include "shgrid_device.h"
 #include <chealpix.h>
 #include <math.h>
 #include <stdlib.h>
@@ -249,6 +250,8 @@ static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kin
     job.g = &g;
     job.lights = kind == PASS_LIGHTS;
     job.out = job.lights ? s->light_trans : kind == VSD_SHGRID_SCALAR ? s->trans : s->rgb;
+    /* the paper's per-frame GPU pass: one thread per record, results copied back */
+    if (ctx->cuda) return vsd_shgrid_device_records(ctx, &g, job.lights, job.out, err, errlen);
     memset(&tj, 0, sizeof tj);
     tj.width = s->record_count;
     tj.height = 1;
@@ -575,8 +578,8 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
     vsd_kshgrid g;
     ctx->kd.march_step = vsd_method_march_step(ctx, s->step);
     kernel_grid(s, &ctx->kd, s->kind, &g);
-    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, NULL, &g, "ray marching", samples,
-                                        err, errlen);
+    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, vsd_shgrid_device_view, &g,
+                                        "ray marching", samples, err, errlen);
 }
 
 static void shgrid_destroy(void *state)

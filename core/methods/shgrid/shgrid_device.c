@@ -1,14 +1,23 @@
 #include "shgrid_device.h"
 #include "src/render/device_frame.h"
 
-/* One array of the grid on the device (NULL stays NULL). */
-static vsd_status put(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, const void *host, size_t bytes, const void **dev,
-                      char *err, size_t errlen)
+/* One array of the grid on the device (NULL stays NULL). At render time the arrays are
+ * final for the lighting generation and stay resident; during the prepare stages shgrid.c
+ * still rewrites some in place (the HEALPix radiance, the environment SH, the extracted
+ * lights) between record passes of one generation, so record passes always copy. */
+static vsd_status put(const vsd_frame_ctx *ctx, int record_pass, vsd_cuda_slot slot, const void *host, size_t bytes,
+                      const void **dev, char *err, size_t errlen)
 {
-    return vsd_device_array(ctx, slot, ctx->lighting_gen, host, bytes, dev, err, errlen);
+    void *d = NULL;
+    vsd_status st = VSD_OK;
+    if (!record_pass) return vsd_device_array(ctx, slot, ctx->lighting_gen, host, bytes, dev, err, errlen);
+    if (host && bytes) st = vsd_cuda_upload(ctx->cuda, slot, 0, host, bytes, &d, err, errlen);
+    *dev = d;
+    return st;
 }
 
-/* d = g with its arrays resident; with_records = 0 for the record pass, which writes them. */
+/* d = g with its arrays on the device; with_records = 0 for the record pass, which writes
+ * them. */
 static vsd_status device_grid(const vsd_frame_ctx *ctx, const vsd_kshgrid *g, int with_records, vsd_kshgrid *d,
                               char *err, size_t errlen)
 {
@@ -18,7 +27,7 @@ static vsd_status device_grid(const vsd_frame_ctx *ctx, const vsd_kshgrid *g, in
     vsd_status st;
     *d = *g;
 #define PUT(field, slot, bytes) \
-    do { if ((st = put(ctx, slot, g->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
+    do { if ((st = put(ctx, !with_records, slot, g->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
     PUT(cell_record, VSD_SLOT_SH_CELLS, cells * sizeof(int32_t));
     PUT(record_pos, VSD_SLOT_SH_POS, recs * 4 * sizeof(float));
     PUT(dirs, VSD_SLOT_SH_DIRS, dirs * 4 * sizeof(float));

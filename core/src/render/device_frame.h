@@ -12,7 +12,9 @@
 /* The resident-slot key of host array `host` of generation `gen`. */
 uint64_t vsd_device_key(uint64_t gen, const void *host);
 
-/* Device copy of host[bytes] in slot, re-uploaded only when gen or host changed. */
+/* Device copy of host[bytes] in slot, re-uploaded only when gen or host changed. Such a
+ * key is only safe for data that is final for its generation: arrays a prepare stage
+ * still rewrites in place after uploading them must be copied with key 0 (always). */
 vsd_status vsd_device_array(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, uint64_t gen, const void *host,
                             size_t bytes, const void **dev, char *err, size_t errlen);
 

@@ -2,59 +2,19 @@
  * (Felzenszwalb & Huttenlocher 2012), then conservative leap radii in voxels. */
 #include "distance_map.h"
 #include "device/cpu/cpu_tiles.h"
+#include "kernel/kernel_edt.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-#define EDT_INF 1e30f
+#define EDT_INF VSD_EDT_INF
 
 static double now_seconds(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* 1D squared distance transform of f (n samples, EDT_INF = no parabola) into d, by the
- * lower envelope of the parabolas (q - p)^2 + f(p). v and z are scratch of n and n + 1.
- * Parabolas of infinite height are left out, so lines with no site stay at EDT_INF and
- * no infinity enters the intersection arithmetic. */
-static void edt_1d(const float *f, int n, float *d, int *v, double *z)
-{
-    int q, k = -1;
-    for (q = 0; q < n; q++) {
-        double s;
-        if (f[q] >= EDT_INF) continue;
-        if (k < 0) {
-            k = 0;
-            v[0] = q;
-            z[0] = -1e300;
-            z[1] = 1e300;
-            continue;
-        }
-        /* pop parabolas hidden by the new one; z[0] = -inf stops the loop at k = 0 */
-        for (;;) {
-            int p = v[k];
-            s = (((double)f[q] + (double)q * q) - ((double)f[p] + (double)p * p)) / (2.0 * (q - p));
-            if (s <= z[k]) k--; else break;
-        }
-        k++;
-        v[k] = q;
-        z[k] = s;
-        z[k + 1] = 1e300;
-    }
-    if (k < 0) {
-        for (q = 0; q < n; q++) d[q] = EDT_INF;
-        return;
-    }
-    k = 0;
-    for (q = 0; q < n; q++) {
-        double dq;
-        while (z[k + 1] < q) k++;
-        dq = (double)(q - v[k]) * (q - v[k]) + f[v[k]];
-        d[q] = (float)dq;
-    }
 }
 
 typedef struct edt_pass {
@@ -71,7 +31,7 @@ static void edt_lines(void *user, int a0, int b0, int a1, int b1)
     int n = p->dims[p->axis], a, b, q;
     size_t stride = p->axis == 0 ? 1 : (p->axis == 1 ? (size_t)p->dims[0] : (size_t)p->dims[0] * p->dims[1]);
     float *f = malloc(sizeof(float) * 2 * (size_t)n);
-    int *v = malloc(sizeof(int) * (size_t)n);
+    int32_t *v = malloc(sizeof(int32_t) * (size_t)n);
     double *z = malloc(sizeof(double) * (size_t)(n + 1));
     if (!f || !v || !z) { /* cannot happen for sane sizes; the caller checked a big block */
         free(f); free(v); free(z);
@@ -84,7 +44,7 @@ static void edt_lines(void *user, int a0, int b0, int a1, int b1)
             else if (p->axis == 1) base = (size_t)b * p->dims[0] * p->dims[1] + a;
             else base = (size_t)b * p->dims[0] + a;
             for (q = 0; q < n; q++) f[q] = p->d2[base + q * stride];
-            edt_1d(f, n, f + n, v, z);
+            vsd_edt_line(f, n, f + n, v, z);
             for (q = 0; q < n; q++) p->d2[base + q * stride] = f[n + q];
         }
     free(f); free(v); free(z);
@@ -124,8 +84,7 @@ typedef struct skip_pass {
     size_t slab;         /* cells per z slice */
 } skip_pass;
 
-/* Leap radius from a squared distance: floor(D - sqrt(3) - 1e-3), clamped to 0..255
- * (see distance_map.h for why sqrt(3)). */
+/* Leap radii from the squared distances (kernel/kernel_edt.h, shared with the GPU pass). */
 static void skip_rows(void *user, int x0, int z0, int x1, int z1)
 {
     const skip_pass *p = user;
@@ -133,11 +92,7 @@ static void skip_rows(void *user, int x0, int z0, int x1, int z1)
     (void)x0; (void)x1;
     for (z = z0; z < z1; z++) {
         size_t i, base = (size_t)z * p->slab;
-        for (i = base; i < base + p->slab; i++) {
-            float d2 = p->d2[i];
-            float r = d2 >= EDT_INF ? 255.0f : floorf(sqrtf(d2) - 1.7320508f - 1e-3f);
-            p->skip[i] = (uint8_t)(r <= 0.0f ? 0 : (r >= 255.0f ? 255 : (int)r));
-        }
+        for (i = base; i < base + p->slab; i++) p->skip[i] = vsd_edt_skip(p->d2[i]);
     }
 }
 
@@ -185,21 +140,26 @@ static int64_t cell_occupancy(const vsd_volume *vol, float threshold, const int3
     return count;
 }
 
-vsd_status vsd_distance_map_build(const vsd_volume *vol, float threshold, int threads, vsd_distance_map *dm,
-                                  char *err, size_t errlen)
+size_t vsd_distance_map_layout(const vsd_volume *vol, vsd_distance_map *dm)
 {
-    double t0 = now_seconds();
-    size_t n;
-    uint8_t *occ;
-    float *d2;
     int a;
     memset(dm, 0, sizeof *dm);
-    if (!vol || vol->brick_dims[0] == 0) return VSD_OK;
+    if (!vol || vol->brick_dims[0] == 0) return 0;
     for (a = 0; a < 3; a++) {
         dm->origin[a] = vol->origin[a];
         dm->dims[a] = 8 * vol->brick_dims[a];
     }
-    n = (size_t)dm->dims[0] * dm->dims[1] * dm->dims[2];
+    return (size_t)dm->dims[0] * dm->dims[1] * dm->dims[2];
+}
+
+vsd_status vsd_distance_map_build(const vsd_volume *vol, float threshold, int threads, vsd_distance_map *dm,
+                                  char *err, size_t errlen)
+{
+    double t0 = now_seconds();
+    size_t n = vsd_distance_map_layout(vol, dm);
+    uint8_t *occ;
+    float *d2;
+    if (n == 0) return VSD_OK;
     occ = calloc(n, 1);
     d2 = malloc(sizeof(float) * n);
     dm->skip = malloc(n);

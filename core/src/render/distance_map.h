@@ -30,6 +30,10 @@ typedef struct vsd_distance_map {
     double seconds;         /* wall time of the build */
 } vsd_distance_map;
 
+/* Clears dm and lays it over vol's brick box (origin, dims); returns the cell count, 0 for
+ * an empty volume. The CPU build and the GPU build (distance_map_device.h) start here. */
+size_t vsd_distance_map_layout(const vsd_volume *vol, vsd_distance_map *dm);
+
 /* threads: 0 = all cores. */
 vsd_status vsd_distance_map_build(const vsd_volume *vol, float threshold, int threads, vsd_distance_map *dm,
                                   char *err, size_t errlen);

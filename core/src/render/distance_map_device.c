@@ -17,16 +17,9 @@ vsd_status vsd_distance_map_build_device(const vsd_frame_ctx *ctx, const vsd_vol
     double t0 = now_seconds();
     vsd_kvolume kv = emission ? ctx->kd.emission : ctx->kd.density;
     long long occupied = 0;
-    size_t n;
-    int a;
+    size_t n = vsd_distance_map_layout(vol, dm);
     vsd_status st;
-    memset(dm, 0, sizeof *dm);
-    if (!vol || vol->brick_dims[0] == 0) return VSD_OK;
-    for (a = 0; a < 3; a++) {
-        dm->origin[a] = vol->origin[a];
-        dm->dims[a] = 8 * vol->brick_dims[a];
-    }
-    n = (size_t)dm->dims[0] * dm->dims[1] * dm->dims[2];
+    if (n == 0) return VSD_OK;
     if (!(dm->skip = malloc(n)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %dx%dx%d distance map", dm->dims[0], dm->dims[1],
                         dm->dims[2]);

@@ -35,6 +35,9 @@ struct vsd_renderer {
     vsd_cuda *cuda;
     char cuda_error[512];
     uint64_t generation, frame_gen, lighting_gen;
+    /* bumped by use_volumes / use_env and part of their cache keys: new contents may sit
+     * at a freed object's address */
+    unsigned long volumes_serial, env_serial;
 };
 
 const char *vsd_version(void) { return VSD_VERSION_STRING; }
@@ -124,6 +127,7 @@ static void free_owned_env(vsd_renderer *r)
 void vsd_renderer_use_volumes(vsd_renderer *r, const vsd_volume *density, const vsd_volume *emission)
 {
     free_owned_volumes(r);
+    r->volumes_serial++;
     r->ext_density = density;
     r->ext_emission = density ? emission : NULL;
 }
@@ -131,6 +135,7 @@ void vsd_renderer_use_volumes(vsd_renderer *r, const vsd_volume *density, const 
 void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env)
 {
     free_owned_env(r);
+    r->env_serial++;
     r->ext_env = env;
 }
 
@@ -143,7 +148,7 @@ static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t err
     if (r->ext_density) {
         r->density = r->ext_density;
         r->emission = r->ext_emission;
-        snprintf(r->volume_key, sizeof r->volume_key, "memory:%p:%p", (const void *)r->density,
+        snprintf(r->volume_key, sizeof r->volume_key, "memory:%lu:%p:%p", r->volumes_serial, (const void *)r->density,
                  (const void *)r->emission);
         return VSD_OK;
     }
@@ -174,7 +179,7 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
     const float *c = sc->environment.color;
     char key[KEY_LEN];
     vsd_status st;
-    if (r->ext_env) snprintf(key, sizeof key, "memory:%p", (const void *)r->ext_env);
+    if (r->ext_env) snprintf(key, sizeof key, "memory:%lu:%p", r->env_serial, (const void *)r->ext_env);
     else snprintf(key, sizeof key, "%s|%s|%g,%g,%g", sc->environment.file, sc->environment.colorspace, c[0], c[1], c[2]);
     if (r->env && strcmp(key, r->env_key) == 0) return VSD_OK;
     free_owned_env(r);
@@ -248,6 +253,12 @@ vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fbp
     if (!stats) stats = &local;
     if ((st = pick_device(r, &cuda, err, errlen))) return st;
     st = render_on(r, cuda, frame, fbp, stats, err, errlen);
+    if (cuda && st == VSD_ERR_DEVICE && strcmp(r->scene.render.device, "cuda") == 0) {
+        /* a failed launch can leave the context unusable: open a fresh one next time */
+        vsd_cuda_close(r->cuda);
+        r->cuda = NULL;
+        r->frame_key[0] = r->lighting_key[0] = '\0';
+    }
     if (cuda && strcmp(r->scene.render.device, "auto") == 0 &&
         (st == VSD_ERR_NOMEM || st == VSD_ERR_DEVICE)) {
         /* `auto` promised a picture, not a GPU: drop the device (and what the methods

@@ -39,8 +39,14 @@ static vsd_status stratified_device(vsd_frame_ctx *ctx, vsd_accum *acc, int n, v
     st = vsd_device_accum(ctx, acc->width, acc->height, &dev, err, errlen);
     if (st) return st;
     vsd_device_progress(ctx, stage, 0.0f, 1.0f, &progress);
-    if ((st = device_fn(ctx, kernel, n, dev, &progress, err, errlen))) return st;
-    return vsd_device_accum_fetch(ctx, dev, acc, err, errlen);
+    st = device_fn(ctx, kernel, n, dev, &progress, err, errlen);
+    /* cancelled: the bands done are in the sums, as the CPU's finished tiles are */
+    if (!st || st == VSD_ERR_CANCELLED) {
+        char ferr[256];
+        vsd_status fst = vsd_device_accum_fetch(ctx, dev, acc, ferr, sizeof ferr);
+        if (fst) return vsd_fail(fst, err, errlen, "%s", ferr);
+    }
+    return st;
 }
 
 vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, vsd_pixel_fn fn,
@@ -54,7 +60,7 @@ vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb,
     if (st) return st;
     if (ctx->cuda) {
         st = stratified_device(ctx, &acc, n, device_fn, kernel, stage, err, errlen);
-        if (!st) vsd_accum_resolve(&acc, n * n, ctx->scene->film.transparent, fb);
+        if (!st || st == VSD_ERR_CANCELLED) vsd_accum_resolve(&acc, n * n, ctx->scene->film.transparent, fb);
         vsd_accum_free(&acc);
         *samples = n * n;
         return st;
