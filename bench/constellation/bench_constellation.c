@@ -1,11 +1,13 @@
 /* bench_constellation — the measurements of issue 3 (Navarro et al. 2009, Table 1 style).
  *
  *   vsd_bench_constellation table1   [--size N] [--lights K] [--frame F] [--threshold T]
- *                                    [--scene S] [--modes 0123]
+ *                                    [--scene S] [--modes 0123] [--shadow-step H]
  *       scene S (default scenes/smoke64_sunset.json) frame F (24) at NxN (default 512):
  *       0 raymarch brute force with K lights, then constellation 1 without accelerations,
  *       2 + validity mask, 3 + mask + distance map; --modes picks rows (e.g. 23 to re-run
- *       only the accelerated rows at another threshold: rows 0 and 1 do not depend on it).
+ *       only the accelerated rows at another threshold: rows 0 and 1 do not depend on it);
+ *       --shadow-step sets the constellation rows' shadow step (world units, 0 = default
+ *       half a voxel, the same step as raymarch).
  *   vsd_bench_constellation rmse     [--width W --height H --samples S]
  *       VolumeDir relative RMSE (4x4 blocks) of constellation (K lights, 2x2 rays) against
  *       reference on smoke64 frame 24 and cloud128, with the reference's own noise floor
@@ -112,8 +114,9 @@ static int table1(int argc, char **argv)
     double thr = arg_num(argc, argv, "--threshold", 0.0);
     const char *scene = arg_str(argc, argv, "--scene", "scenes/smoke64_sunset.json");
     const char *modes = arg_str(argc, argv, "--modes", "0123");
-    char o[8][128];
-    const char *ov[8];
+    double shadow_step = arg_num(argc, argv, "--shadow-step", 0.0);
+    char o[9][128];
+    const char *ov[9];
     const char *names[4] = {"raymarch (brute force)", "constellation, no acceleration", "+ validity mask",
                             "+ validity mask + distance map"};
     double base_w = 0, base_c = 0;
@@ -121,8 +124,9 @@ static int table1(int argc, char **argv)
     int k, i, on[4];
     memset(res, 0, sizeof res);
     for (k = 0; k < 4; k++) on[k] = strchr(modes, '0' + k) != NULL;
-    printf("%s frame %d, %dx%d, %d lights, 1 ray per pixel, step = slice = half a voxel, threshold %g\n", scene, frame,
-           size, size, lights, thr);
+    printf("%s frame %d, %dx%d, %d lights, 1 ray per pixel, slice = half a voxel, shadow step %s, threshold %g\n",
+           scene, frame, size, size, lights, shadow_step > 0 ? arg_str(argc, argv, "--shadow-step", "") : "half a voxel",
+           thr);
     printf("%-34s %10s %10s %10s %9s\n", "mode", "wall s", "cpu s", "prepare s", "speed-up");
     for (k = 0; k < 4; k++) {
         int n = 0;
@@ -136,6 +140,7 @@ static int table1(int argc, char **argv)
             snprintf(o[n++], 128, "render.options.validity_mask=%s", k >= 2 ? "true" : "false");
             snprintf(o[n++], 128, "render.options.distance_map=%s", k >= 3 ? "true" : "false");
             snprintf(o[n++], 128, "render.options.density_threshold=%g", thr);
+            snprintf(o[n++], 128, "render.options.shadow_step=%g", shadow_step);
         }
         for (i = 0; i < n; i++) ov[i] = o[i];
         if (!render_once(scene, ov, n, frame, &res[k])) return 1;
