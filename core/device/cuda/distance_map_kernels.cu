@@ -69,7 +69,9 @@ extern "C" vsd_status vsd_cuda_distance_map(vsd_cuda *c, const vsd_kvolume *kv, 
     int3 dims = make_int3(8 * bd.x, 8 * bd.y, 8 * bd.z);
     size_t n = (size_t)dims.x * dims.y * dims.z;
     int nmax = dims.x > dims.y ? (dims.x > dims.z ? dims.x : dims.z) : (dims.y > dims.z ? dims.y : dims.z);
-    const int batch = 16384;   // lines per launch: bounds the scratch to batch x 20 bytes x longest axis
+    // lines per launch: bounds the scratch to batch x 20 bytes x longest axis
+    size_t most_lines = (size_t)dims.x * dims.y * dims.z / (size_t)(nmax > 0 ? nmax : 1);
+    const int batch = most_lines < 16384 ? (int)most_lines : 16384;
     uint8_t *vocc = NULL, *skip = NULL;
     float *d2 = NULL, *fbuf = NULL;
     int32_t *vbuf = NULL;

@@ -277,7 +277,7 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     if (ctx->cuda) {
         if ((st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen))) return st;
         st = vsd_cst_device_render(ctx, &kc, s->opt.validity_mask, &acc, err, errlen);
-        if (!st) vsd_accum_resolve(&acc, n2, ctx->scene->film.transparent, fb);
+        if (!st || st == VSD_ERR_CANCELLED) vsd_accum_resolve(&acc, n2, ctx->scene->film.transparent, fb);
         vsd_accum_free(&acc);
         *samples = n2;
         return st;

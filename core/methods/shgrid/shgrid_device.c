@@ -29,16 +29,18 @@ static vsd_status device_grid(const vsd_frame_ctx *ctx, const vsd_kshgrid *g, in
 #define PUT(field, slot, bytes) \
     do { if ((st = put(ctx, !with_records, slot, g->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
     PUT(cell_record, VSD_SLOT_SH_CELLS, cells * sizeof(int32_t));
-    PUT(record_pos, VSD_SLOT_SH_POS, recs * 4 * sizeof(float));
-    PUT(dirs, VSD_SLOT_SH_DIRS, dirs * 4 * sizeof(float));
-    PUT(basis, VSD_SLOT_SH_BASIS, dirs * n2 * sizeof(float));
-    PUT(dir_radiance, VSD_SLOT_SH_RADIANCE, dirs * 4 * sizeof(float));
     PUT(light, VSD_SLOT_SH_LIGHT, 3 * n2 * sizeof(float));
     PUT(lights, VSD_SLOT_SH_LIGHTS, lights * 8 * sizeof(float));
     if (with_records) {
+        /* the view pass reads the records, not what made them */
         PUT(records, VSD_SLOT_SH_RECORDS, recs * (size_t)g->stride * sizeof(float));
         PUT(light_trans, VSD_SLOT_SH_LIGHT_TRANS, recs * lights * sizeof(float));
+        d->record_pos = d->dirs = d->basis = d->dir_radiance = NULL;
     } else {
+        PUT(record_pos, VSD_SLOT_SH_POS, recs * 4 * sizeof(float));
+        PUT(dirs, VSD_SLOT_SH_DIRS, dirs * 4 * sizeof(float));
+        PUT(basis, VSD_SLOT_SH_BASIS, dirs * n2 * sizeof(float));
+        PUT(dir_radiance, VSD_SLOT_SH_RADIANCE, dirs * 4 * sizeof(float));
         d->records = NULL;
         d->light_trans = NULL;
     }

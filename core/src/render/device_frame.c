@@ -29,15 +29,15 @@ vsd_status vsd_device_volume(const vsd_frame_ctx *ctx, const vsd_volume *vol, vs
         kv->brick_max = NULL;
         return VSD_OK;
     }
-    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 0), ctx->frame_gen, kv->brick_slots,
+    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 0), ctx->volume_gen, kv->brick_slots,
                                cells * sizeof(int32_t), &d, err, errlen)))
         return st;
     kv->brick_slots = d;
-    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 1), ctx->frame_gen, kv->voxels,
+    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 1), ctx->volume_gen, kv->voxels,
                                (size_t)vol->brick_count * VSD_BRICK_VOXELS * sizeof(float), &d, err, errlen)))
         return st;
     kv->voxels = d;
-    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 2), ctx->frame_gen, kv->brick_max,
+    if ((st = vsd_device_array(ctx, (vsd_cuda_slot)(first_slot + 2), ctx->volume_gen, kv->brick_max,
                                cells * sizeof(float), &d, err, errlen)))
         return st;
     kv->brick_max = d;
@@ -54,16 +54,16 @@ vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_dat
     if ((st = vsd_device_volume(ctx, ctx->density, &dev->density, 0, err, errlen)) ||
         (st = vsd_device_volume(ctx, ctx->emission, &dev->emission, 1, err, errlen)))
         return st;
-    /* the environment belongs to the lighting: a new map or table means a new generation */
-    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_RGB, ctx->lighting_gen, e->rgb,
+    /* the map and its tables change only with the map (strength and rotation are in kd) */
+    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_RGB, ctx->env_gen, e->rgb,
                                (size_t)e->width * e->height * 3 * sizeof(float), &d, err, errlen)))
         return st;
     dev->env.rgb = d;
-    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_ROWS, ctx->lighting_gen, e->cdf_rows,
+    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_ROWS, ctx->env_gen, e->cdf_rows,
                                (size_t)(e->height + 1) * sizeof(float), &d, err, errlen)))
         return st;
     dev->env.cdf_rows = d;
-    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_COLS, ctx->lighting_gen, e->cdf_cols,
+    if ((st = vsd_device_array(ctx, VSD_SLOT_ENV_COLS, ctx->env_gen, e->cdf_cols,
                                (size_t)e->height * (e->width + 1) * sizeof(float), &d, err, errlen)))
         return st;
     dev->env.cdf_cols = d;

@@ -29,9 +29,10 @@ typedef struct vsd_frame_ctx {
     /* The CUDA backend when this frame runs on the GPU, else NULL. Arrays a method keeps
      * on the device are keyed by the generation of the stage that made them: frame_gen
      * changes whenever prepare_frame runs, lighting_gen whenever prepare_lighting runs
-     * (so also on every new frame, already while prepare_frame runs). */
+     * (so also on every new frame, already while prepare_frame runs); volume_gen and
+     * env_gen change only with the loaded volumes or environment map themselves. */
     struct vsd_cuda *cuda;
-    uint64_t frame_gen, lighting_gen;
+    uint64_t frame_gen, lighting_gen, volume_gen, env_gen;
 } vsd_frame_ctx;
 
 typedef struct vsd_method {

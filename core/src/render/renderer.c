@@ -34,7 +34,8 @@ struct vsd_renderer {
      * for the renderer's life; cuda_error remembers why `auto` fell back to the CPU. */
     vsd_cuda *cuda;
     char cuda_error[512];
-    uint64_t generation, frame_gen, lighting_gen;
+    uint64_t generation, frame_gen, lighting_gen, volume_gen, env_gen;
+    char volume_gen_key[KEY_LEN], env_gen_key[KEY_LEN];   /* what volume_gen / env_gen stand for */
     /* bumped by use_volumes / use_env and part of their cache keys: new contents may sit
      * at a freed object's address */
     unsigned long volumes_serial, env_serial;
@@ -288,6 +289,16 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     else if (strcmp(sc->render.device, "auto") == 0) snprintf(stats->device_note, sizeof stats->device_note, "%s", r->cuda_error);
 
     if ((st = load_volumes(r, frame, err, errlen)) || (st = load_env(r, err, errlen))) return st;
+    /* the inputs' own generations: device copies of the bricks and the map survive changes
+     * of the medium or the lighting that re-prepare the method but leave them as they are */
+    if (strcmp(r->volume_key, r->volume_gen_key) != 0) {
+        r->volume_gen = ++r->generation;
+        snprintf(r->volume_gen_key, KEY_LEN, "%s", r->volume_key);
+    }
+    if (strcmp(r->env_key, r->env_gen_key) != 0) {
+        r->env_gen = ++r->generation;
+        snprintf(r->env_gen_key, KEY_LEN, "%s", r->env_key);
+    }
     t1 = now_seconds();
     stats->load_seconds = t1 - t0;
     stats->active_voxels = r->density->active_voxels;
@@ -325,6 +336,8 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
         if (lighting_changed) r->lighting_gen = ++r->generation;
         ctx.frame_gen = r->frame_gen;
         ctx.lighting_gen = r->lighting_gen;
+        ctx.volume_gen = r->volume_gen;
+        ctx.env_gen = r->env_gen;
         if (frame_changed) {
             if (r->method->prepare_frame && (st = r->method->prepare_frame(r->method_state, &ctx, err, errlen)))
                 return st;

@@ -1,0 +1,124 @@
+/* The CUDA backend's library side without a GPU: every method renders through the device
+ * code paths (uploads, resident slots, generation keys, kernel-struct mirroring, device
+ * passes) against tests/device_emulation/emulated_cuda.c, which runs the shared kernels
+ * on host copies and reports host pointers, short uploads and stale slots. One renderer
+ * takes a sequence of edits (camera, rotation, strength, anisotropy, density, frames,
+ * albedo); after each, its image must equal a fresh CPU renderer's bit for bit, a camera
+ * change must copy at most 4 KiB, and the emulator must have reported nothing. The real
+ * GPU is covered by test_cuda (skipped where none answers). */
+#include "test_common.h"
+#include "vsd/render.h"
+#include "vsd/scene.h"
+#include <stdlib.h>
+
+extern int emulated_cuda_errors;
+
+typedef struct residency_case {
+    const char *scene;
+    const char *method;
+    const char *options;   /* render.options as JSON, or NULL */
+    int frame, next_frame; /* two frames of the sequence */
+} residency_case;
+
+static vsd_framebuffer *cpu_render(vsd_scene sc, int frame)
+{
+    vsd_renderer *r = NULL;
+    vsd_framebuffer *fb = NULL;
+    char err[1024];
+    vsd_status st;
+    snprintf(sc.render.device, sizeof sc.render.device, "cpu");
+    st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
+    if (!st) st = vsd_renderer_render(r, frame, &fb, NULL, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "cpu: %s", err);
+    vsd_renderer_destroy(r);
+    return fb;
+}
+
+typedef enum { EDIT_NONE, EDIT_CAMERA, EDIT_LIGHTING, EDIT_FRAME } edit_kind;
+
+/* One step: apply the edit (already made to sc), render on the emulated device, compare. */
+static void step(vsd_renderer *r, vsd_scene *sc, int frame, const char *label, edit_kind kind,
+                 vsd_framebuffer **fb, const residency_case *c)
+{
+    vsd_render_stats st;
+    vsd_framebuffer *ref;
+    char err[1024];
+    int errors0 = emulated_cuda_errors;
+    vsd_status s = vsd_renderer_set_scene(r, sc, err, sizeof err);
+    if (!s) s = vsd_renderer_render(r, frame, fb, &st, err, sizeof err);
+    CHECK_MSG(s == VSD_OK, "%s %s %s: %s", c->scene, c->method, label, err);
+    if (s) return;
+    CHECK_MSG(strcmp(st.device, "cuda") == 0, "%s: rendered on %s", label, st.device);
+    if (kind == EDIT_CAMERA)
+        CHECK_MSG(st.device_uploaded_bytes <= 4096, "%s %s %s: a camera change copied %llu bytes", c->scene,
+                  c->method, label, st.device_uploaded_bytes);
+    if (kind == EDIT_NONE)
+        CHECK_MSG(st.device_uploaded_bytes > 100000, "%s %s: the first render copied only %llu bytes", c->scene,
+                  c->method, st.device_uploaded_bytes);
+    ref = cpu_render(*sc, frame);
+    if (ref)
+        CHECK_MSG(memcmp(ref->pass[VSD_PASS_COMBINED], (*fb)->pass[VSD_PASS_COMBINED],
+                         sizeof(float) * 4 * (size_t)ref->width * ref->height) == 0 &&
+                  memcmp(ref->pass[VSD_PASS_VOLUME_DIR], (*fb)->pass[VSD_PASS_VOLUME_DIR],
+                         sizeof(float) * 3 * (size_t)ref->width * ref->height) == 0,
+                  "%s %s %s: the device-path image differs from a fresh CPU render", c->scene, c->method, label);
+    CHECK_MSG(emulated_cuda_errors == errors0, "%s %s %s: %d emulator reports (see above)", c->scene, c->method,
+              label, emulated_cuda_errors - errors0);
+    printf("  %-16s copied %9llu bytes\n", label, st.device_uploaded_bytes);
+    vsd_framebuffer_destroy(ref);
+}
+
+static void run_case(const residency_case *c)
+{
+    char m[64];
+    const char *ov[5] = {m, "render.device=cuda", "film.width=40", "film.height=24", "render.samples=2"};
+    vsd_scene sc;
+    vsd_renderer *r = NULL;
+    vsd_framebuffer *fb = NULL;
+    char err[1024];
+    vsd_status st;
+    int f = c->frame;
+    snprintf(m, sizeof m, "render.method=%s", c->method);
+    st = vsd_scene_load(test_data(c->scene), ov, 5, &sc, err, sizeof err);
+    if (!st && c->options) snprintf(sc.render.options_json, sizeof sc.render.options_json, "%s", c->options);
+    if (!st) st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "%s: %s", c->scene, err);
+    if (st) return;
+    printf("%s, %s %s:\n", c->scene, c->method, c->options ? c->options : "");
+    step(r, &sc, f, "first", EDIT_NONE, &fb, c);
+    sc.camera.matrix[3] += 0.3;
+    step(r, &sc, f, "camera", EDIT_CAMERA, &fb, c);
+    sc.environment.rotation_z += 1.0f;
+    step(r, &sc, f, "rotation", EDIT_LIGHTING, &fb, c);
+    sc.camera.matrix[7] += 0.2;
+    step(r, &sc, f, "camera 2", EDIT_CAMERA, &fb, c);
+    sc.environment.strength *= 2.0f;
+    step(r, &sc, f, "strength", EDIT_LIGHTING, &fb, c);
+    sc.medium.anisotropy = 0.5f;
+    step(r, &sc, f, "anisotropy 0.5", EDIT_LIGHTING, &fb, c);
+    sc.medium.anisotropy = 0.0f;
+    step(r, &sc, f, "anisotropy 0", EDIT_LIGHTING, &fb, c);
+    sc.medium.density *= 0.5f;
+    step(r, &sc, f, "density", EDIT_LIGHTING, &fb, c);
+    step(r, &sc, c->next_frame, "next frame", EDIT_FRAME, &fb, c);
+    sc.medium.albedo[0] = 0.5f;
+    step(r, &sc, c->next_frame, "albedo", EDIT_LIGHTING, &fb, c);
+    step(r, &sc, f, "previous frame", EDIT_FRAME, &fb, c);
+    vsd_renderer_destroy(r);
+    vsd_framebuffer_destroy(fb);
+}
+
+int main(void)
+{
+    static const residency_case cases[] = {
+        {"scenes/smoke64_sunset.json", "raymarch", "{\"lights\":16,\"pixel_samples\":1}", 24, 25},
+        {"scenes/smoke64_sunset.json", "reference", NULL, 24, 25},
+        {"scenes/smoke64_sunset.json", "constellation", "{\"lights\":16}", 24, 25},
+        {"scenes/fire96_studio.json", "constellation", "{\"lights\":16}", 48, 36},
+        {"scenes/smoke64_sunset.json", "shgrid", "{\"grid\":16,\"lights\":8,\"pixel_samples\":1}", 24, 25},
+        {"scenes/fire96_studio.json", "shgrid", "{\"grid\":16,\"lights\":8,\"form\":\"factored\"}", 48, 36},
+    };
+    size_t i;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) run_case(&cases[i]);
+    return test_finish("test_device_residency");
+}
