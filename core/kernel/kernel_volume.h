@@ -73,16 +73,16 @@ typedef struct vsd_dda {
     int32_t cell_index;   /* linear index of the current cell, x fastest */
 } vsd_dda;
 
-/* Start walking the world ray o + t d, t in [tmin, tmax]; returns 0 when it misses. */
-VSD_DEVICE int vsd_dda_init(vsd_dda *w, const vsd_kvolume *v, vsd_f3 o, vsd_f3 d, float tmin, float tmax)
+/* The index-space ray q + t dq (t in world units: the map is affine and dq is not
+ * renormalised) clipped to the volume's brick box within [*t0, *t1] (slab test); returns
+ * 0 when the ray misses the box. Shared by the DDA and the constellation's shadow rays. */
+VSD_DEVICE int vsd_kvolume_clip_index(const vsd_kvolume *v, vsd_f3 q, vsd_f3 dq, float *t0, float *t1)
 {
-    vsd_f3 oi = vsd_affine_point(&v->world_to_index, o);
-    vsd_f3 di = vsd_affine_vector(&v->world_to_index, d);
-    float ov[3], dv[3], t0 = tmin, t1 = tmax;
+    float ov[3], dv[3], a0 = *t0, a1 = *t1;
     int a;
     if (v->dims[0] == 0) return 0;
-    ov[0] = oi.x; ov[1] = oi.y; ov[2] = oi.z;
-    dv[0] = di.x; dv[1] = di.y; dv[2] = di.z;
+    ov[0] = q.x; ov[1] = q.y; ov[2] = q.z;
+    dv[0] = dq.x; dv[1] = dq.y; dv[2] = dq.z;
     for (a = 0; a < 3; a++) {
         float lo = (float)v->origin[a], hi = (float)(v->origin[a] + 8 * v->dims[a]);
         if (fabsf(dv[a]) < 1e-12f) {
@@ -91,11 +91,25 @@ VSD_DEVICE int vsd_dda_init(vsd_dda *w, const vsd_kvolume *v, vsd_f3 o, vsd_f3 d
             float inv = 1.0f / dv[a];
             float ta = (lo - ov[a]) * inv, tb = (hi - ov[a]) * inv;
             if (ta > tb) { float s = ta; ta = tb; tb = s; }
-            t0 = vsd_maxf(t0, ta);
-            t1 = vsd_minf(t1, tb);
+            a0 = vsd_maxf(a0, ta);
+            a1 = vsd_minf(a1, tb);
         }
     }
-    if (!(t0 < t1)) return 0;
+    *t0 = a0;
+    *t1 = a1;
+    return a0 < a1;
+}
+
+/* Start walking the world ray o + t d, t in [tmin, tmax]; returns 0 when it misses. */
+VSD_DEVICE int vsd_dda_init(vsd_dda *w, const vsd_kvolume *v, vsd_f3 o, vsd_f3 d, float tmin, float tmax)
+{
+    vsd_f3 oi = vsd_affine_point(&v->world_to_index, o);
+    vsd_f3 di = vsd_affine_vector(&v->world_to_index, d);
+    float ov[3], dv[3], t0 = tmin, t1 = tmax;
+    int a;
+    if (!vsd_kvolume_clip_index(v, oi, di, &t0, &t1)) return 0;
+    ov[0] = oi.x; ov[1] = oi.y; ov[2] = oi.z;
+    dv[0] = di.x; dv[1] = di.y; dv[2] = di.z;
     for (a = 0; a < 3; a++) {
         float pa = ov[a] + t0 * dv[a];
         int32_t c = (int32_t)floorf((pa - (float)v->origin[a]) * 0.125f);

@@ -87,31 +87,14 @@ VSD_DEVICE int32_t vsd_dm_steps(float r, float h)
     return (int32_t)s;
 }
 
-/* The ray q + t dq (index space, t in world units as everywhere) clipped to the density
- * volume's brick box for t >= 0: the same slab test as vsd_dda_init, done once per shadow
- * ray on the index-space origin the caller already has. Returns 0 when it misses. */
+/* The ray q + t dq (index space) clipped to the density volume's brick box for t >= 0,
+ * once per shadow ray on the index-space origin the caller already has (the DDA's slab
+ * test). Returns 0 when it misses. */
 VSD_DEVICE int vsd_cst_clip_index(const vsd_kvolume *v, vsd_f3 q, vsd_f3 dq, float *t0, float *t1)
 {
-    float ov[3], dv[3], a0 = 0.0f, a1 = VSD_INF;
-    int a;
-    if (v->dims[0] == 0) return 0;
-    ov[0] = q.x; ov[1] = q.y; ov[2] = q.z;
-    dv[0] = dq.x; dv[1] = dq.y; dv[2] = dq.z;
-    for (a = 0; a < 3; a++) {
-        float lo = (float)v->origin[a], hi = (float)(v->origin[a] + 8 * v->dims[a]);
-        if (fabsf(dv[a]) < 1e-12f) {
-            if (ov[a] < lo || ov[a] >= hi) return 0;
-        } else {
-            float inv = 1.0f / dv[a];
-            float ta = (lo - ov[a]) * inv, tb = (hi - ov[a]) * inv;
-            if (ta > tb) { float s = ta; ta = tb; tb = s; }
-            a0 = vsd_maxf(a0, ta);
-            a1 = vsd_minf(a1, tb);
-        }
-    }
-    *t0 = a0;
-    *t1 = a1;
-    return a0 < a1;
+    *t0 = 0.0f;
+    *t1 = VSD_INF;
+    return vsd_kvolume_clip_index(v, q, dq, t0, t1);
 }
 
 /* Trilinear interpolation of the dense grid's cell whose corner (0,0,0) is b (x stride 1,
