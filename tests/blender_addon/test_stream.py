@@ -104,8 +104,16 @@ def main():
         names = side.upload_files([vdbs[0]])
         long_job = {"version": 1, "volume": {"file": names[vdbs[0]]}, "environment": {"color": [1, 1, 1]},
                     "film": {"width": 64, "height": 36}, "render": {"method": "reference", "samples": 1000000}}
-        jobs = [side.submit(long_job), side.submit(long_job)]
-        time.sleep(0.5)
+        # the worker must hold the first job before the second is queued, or the second is
+        # refused and the queue is left with room (then F12 waits behind a 10^6-spp job)
+        jobs = [side.submit(long_job)]
+        deadline = time.monotonic() + 30.0
+        while side.stats()["queue"]["running"] < 1 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        jobs.append(side.submit(long_job))
+        deadline = time.monotonic() + 30.0
+        while side.stats()["queue"]["queued"] < 1 and time.monotonic() < deadline:
+            time.sleep(0.05)
         err = common.run_blender_render()
         print("full queue ->", err)
         check(err is not None and "(busy)" in err and "queue" in err,
