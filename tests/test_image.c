@@ -293,7 +293,7 @@ static void test_renamed_passes(void)
 
     names[VSD_PASS_EMIT] = "Emit.v2";
     CHECK(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_ERR_INVALID);
-    CHECK_MSG(strstr(g_err, "EXR pass name \"Emit.v2\" for Emit contains '.'") != NULL, "%s", g_err);
+    CHECK_MSG(strstr(g_err, "EXR pass name for Emit: \"Emit.v2\" contains '.'") != NULL, "%s", g_err);
     names[VSD_PASS_EMIT] = "Volume Direct";
     CHECK(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_ERR_INVALID);
     CHECK_MSG(strstr(g_err, "EXR passes VolumeDir and Emit both named \"Volume Direct\"") != NULL, "%s", g_err);
@@ -303,7 +303,7 @@ static void test_renamed_passes(void)
     opt.pass_mask = 0;
     names[VSD_PASS_EMIT] = "0123456789012345678901234567890123456789012345678901234567890123"; /* 64 */
     CHECK(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_ERR_INVALID);
-    CHECK_MSG(strstr(g_err, "EXR pass name for Emit longer than 63 characters") != NULL, "%s", g_err);
+    CHECK_MSG(strstr(g_err, "EXR pass name for Emit: longer than 63 characters") != NULL, "%s", g_err);
     vsd_framebuffer_destroy(fb);
 }
 

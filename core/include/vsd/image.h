@@ -32,6 +32,17 @@ int vsd_pass_channels(vsd_pass p);
 /* Parse a pass name; returns VSD_PASS_COUNT when unknown. */
 vsd_pass vsd_pass_from_name(const char *name);
 
+/* Longest EXR pass (layer) name: Blender's RenderPass.name holds 63 bytes. */
+#define VSD_PASS_NAME_MAX 63
+/* The rules for a pass's name in an EXR file (scene files and the EXR writer share them):
+ * returns 0 when `name` may name a pass, else 1 with the reason in why ("empty name",
+ * "longer than 63 characters ...", "\"a.b\" contains '.' ..."). Blender splits a channel
+ * name "<layer>.<pass>.<channel>" at its dots, so a pass name holds none. */
+int vsd_pass_name_problem(const char *name, char *why, size_t whylen);
+/* Two passes p < q, both in mask, with the same name in names[VSD_PASS_COUNT] (they would
+ * be one layer to every reader): returns 1 and sets *p, *q; 0 when all differ. */
+int vsd_pass_names_clash(const char *const names[], unsigned mask, int *p, int *q);
+
 /* All passes allocated, interleaved per pixel (Combined: RGBARGBA..., Depth: one float),
  * row 0 = top of the image, zero-filled (Depth filled with VSD_DEPTH_EMPTY). */
 typedef struct vsd_framebuffer {

@@ -9,6 +9,7 @@
 #ifndef VSD_SCENE_H
 #define VSD_SCENE_H
 #include "vsd/status.h"
+#include "vsd/image.h"   /* vsd_pass: output.passes and output.pass_names */
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -16,11 +17,6 @@ extern "C" {
 #define VSD_PATH_LEN 1024
 #define VSD_NAME_LEN 128
 #define VSD_OPTIONS_LEN 4096
-/* Passes a scene can name: VSD_PASS_COUNT of vsd/image.h (scene.c checks that they agree;
- * this header does not include the image module). */
-#define VSD_SCENE_PASSES 6
-/* Longest EXR pass (layer) name: Blender's RenderPass.name holds 63 bytes. */
-#define VSD_PASS_NAME_MAX 63
 
 typedef enum vsd_camera_type { VSD_CAMERA_PERSPECTIVE = 0, VSD_CAMERA_ORTHOGRAPHIC = 1 } vsd_camera_type;
 
@@ -85,7 +81,7 @@ typedef struct vsd_scene {
         char layer[VSD_NAME_LEN];        /* default "ViewLayer" */
         /* EXR layer name written for each pass, indexed by vsd_pass (output.pass_names);
          * default vsd's own names ("VolumeDir", ...). */
-        char pass_names[VSD_SCENE_PASSES][VSD_PASS_NAME_MAX + 1];
+        char pass_names[VSD_PASS_COUNT][VSD_PASS_NAME_MAX + 1];
         int half;                        /* default 0 */
         char preview_png[VSD_PATH_LEN];  /* "" = none (default) */
         char view[VSD_NAME_LEN];         /* OCIO view for the preview, "" = config default */

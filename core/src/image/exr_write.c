@@ -13,11 +13,10 @@
 #include <unistd.h>
 
 #define LAYER_MAX 200                 /* keeps every channel name within a fixed buffer */
-#define PASS_NAME_MAX 63              /* Blender's RenderPass.name holds 63 bytes */
 #define EXR_SHORT_NAME_MAX 31         /* longer names need the EXR "long names" flag */
 
 typedef struct exr_chan {
-    char name[LAYER_MAX + PASS_NAME_MAX + 8];
+    char name[LAYER_MAX + VSD_PASS_NAME_MAX + 8];
     vsd_pass pass;
     int comp;                         /* index into the pass's interleaved channels */
     int half;                         /* stored as half (else float32) */
@@ -63,29 +62,22 @@ static int64_t write_fn(exr_const_context_t ctxt, void *userdata, const void *bu
 }
 
 /* The pass part of each channel name: opt->pass_names where given (a Blender version that
- * renames its passes, e.g. 5.0's "Volume Direct"), else vsd's own. Blender splits a channel
- * name at its last two dots, so a pass name holds none; two written passes with one name
- * would be one layer to every reader. */
+ * renames its passes, e.g. 5.0's "Volume Direct"), else vsd's own, checked by the rules
+ * scene files follow too (vsd_pass_name_problem, vsd_pass_names_clash). */
 static vsd_status pass_names(const vsd_exr_write_options *opt, unsigned mask,
                              const char *names[VSD_PASS_COUNT], char *err, size_t errlen)
 {
-    for (int p = 0; p < VSD_PASS_COUNT; p++) {
+    char why[160];
+    int p, q;
+    for (p = 0; p < VSD_PASS_COUNT; p++) {
         const char *given = opt && opt->pass_names ? opt->pass_names[p] : NULL;
         names[p] = given && *given ? given : vsd_pass_name((vsd_pass)p);
-        if (strlen(names[p]) > PASS_NAME_MAX)
-            return vsd_fail(VSD_ERR_INVALID, err, errlen,
-                            "EXR pass name for %s longer than %d characters", vsd_pass_name((vsd_pass)p),
-                            PASS_NAME_MAX);
-        if (strchr(names[p], '.'))
-            return vsd_fail(VSD_ERR_INVALID, err, errlen,
-                            "EXR pass name \"%s\" for %s contains '.' (the layer.pass.channel separator)",
-                            names[p], vsd_pass_name((vsd_pass)p));
+        if (vsd_pass_name_problem(names[p], why, sizeof why))
+            return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR pass name for %s: %s", vsd_pass_name((vsd_pass)p), why);
     }
-    for (int p = 0; p < VSD_PASS_COUNT; p++)
-        for (int q = p + 1; q < VSD_PASS_COUNT; q++)
-            if ((mask & VSD_PASS_BIT(p)) && (mask & VSD_PASS_BIT(q)) && strcmp(names[p], names[q]) == 0)
-                return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR passes %s and %s both named \"%s\"",
-                                vsd_pass_name((vsd_pass)p), vsd_pass_name((vsd_pass)q), names[p]);
+    if (vsd_pass_names_clash(names, mask, &p, &q))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR passes %s and %s both named \"%s\"",
+                        vsd_pass_name((vsd_pass)p), vsd_pass_name((vsd_pass)q), names[p]);
     return VSD_OK;
 }
 

@@ -700,13 +700,11 @@ static vsd_status unknown_pass(parser *p, const char *path, const char *name)
     return fail(p, VSD_ERR_INVALID, path, "unknown pass \"%s\" (known: %s)", name, known);
 }
 
-_Static_assert(VSD_SCENE_PASSES == VSD_PASS_COUNT, "vsd/scene.h VSD_SCENE_PASSES must equal VSD_PASS_COUNT");
-
 /* output.pass_names: {vsd pass: EXR layer name}, for a Blender whose pass names differ from
  * vsd's (5.0 calls VolumeDir "Volume Direct"); RenderResult.load_from_file matches names
- * exactly. Every pass not listed keeps its own name. A name holds no '.' (Blender splits
- * "<layer>.<pass>.<channel>" at the dots) and no two passes share one, so the file always
- * reads back pass by pass; the EXR writer checks the same rules for its other callers. */
+ * exactly. Every pass not listed keeps its own name. The names follow the EXR writer's
+ * rules (vsd_pass_name_problem, vsd_pass_names_clash), checked here so that a bad scene
+ * file fails when it is read, naming the field. */
 static vsd_status apply_pass_names(parser *p, const field *f, const cJSON *item, const char *path)
 {
     (void)f;
@@ -727,19 +725,17 @@ static vsd_status apply_pass_names(parser *p, const field *f, const cJSON *item,
         if (!cJSON_IsString(e))
             return fail(p, VSD_ERR_TYPE, sub, "expected string");
         const char *v = e->valuestring;
-        if (!v[0])
-            return fail(p, VSD_ERR_INVALID, sub, "empty name");
-        if (strlen(v) > VSD_PASS_NAME_MAX)
-            return fail(p, VSD_ERR_INVALID, sub, "longer than %d characters (Blender's limit)", VSD_PASS_NAME_MAX);
-        if (strchr(v, '.'))
-            return fail(p, VSD_ERR_INVALID, sub, "\"%s\" contains '.' (the EXR layer.pass.channel separator)", v);
+        char why[160];
+        if (vsd_pass_name_problem(v, why, sizeof why))
+            return fail(p, VSD_ERR_INVALID, sub, "%s", why);
         snprintf(names[pass], sizeof names[pass], "%s", v);
     }
-    for (int i = 0; i < VSD_PASS_COUNT; i++)
-        for (int j = i + 1; j < VSD_PASS_COUNT; j++)
-            if (strcmp(names[i], names[j]) == 0)
-                return fail(p, VSD_ERR_INVALID, path, "%s and %s are both named \"%s\"",
-                            vsd_pass_name((vsd_pass)i), vsd_pass_name((vsd_pass)j), names[i]);
+    const char *list[VSD_PASS_COUNT];
+    int a, b;
+    for (int i = 0; i < VSD_PASS_COUNT; i++) list[i] = names[i];
+    if (vsd_pass_names_clash(list, VSD_PASS_ALL, &a, &b))
+        return fail(p, VSD_ERR_INVALID, path, "%s and %s are both named \"%s\"", vsd_pass_name((vsd_pass)a),
+                    vsd_pass_name((vsd_pass)b), names[a]);
     return VSD_OK;
 }
 
