@@ -50,11 +50,5 @@ vsd_status vsd_cst_device_render(const vsd_frame_ctx *ctx, const vsd_kconstellat
     if ((st = vsd_device_accum(ctx, acc->width, acc->height, &sums, err, errlen))) return st;
     vsd_device_progress(ctx, "lighting", use_mask ? 0.05f : 0.0f, use_mask ? 0.95f : 1.0f, &progress);
     st = vsd_cuda_constellation_light(ctx->cuda, &dkc, &dkd, sums, &progress, err, errlen);
-    /* cancelled: the bands done are in the sums, as the CPU's finished tiles are */
-    if (!st || st == VSD_ERR_CANCELLED) {
-        char ferr[256];
-        vsd_status fst = vsd_device_accum_fetch(ctx, sums, acc, ferr, sizeof ferr);
-        if (fst) return vsd_fail(fst, err, errlen, "%s", ferr);
-    }
-    return st;
+    return vsd_device_accum_collect(ctx, sums, acc, st, err, errlen);
 }

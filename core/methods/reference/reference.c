@@ -47,12 +47,7 @@ static vsd_status reference_device(vsd_frame_ctx *ctx, vsd_accum *acc, int total
         if (*done >= 2) batch *= 2;
     }
     /* a cancelled render still resolves the rounds it finished */
-    if (!st || st == VSD_ERR_CANCELLED) {
-        char ferr[256];
-        vsd_status fst = vsd_device_accum_fetch(ctx, dev, acc, ferr, sizeof ferr);
-        if (fst) return vsd_fail(fst, err, errlen, "%s", ferr);
-    }
-    return st;
+    return dev ? vsd_device_accum_collect(ctx, dev, acc, st, err, errlen) : st;
 }
 
 static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,

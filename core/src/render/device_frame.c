@@ -84,11 +84,15 @@ vsd_status vsd_device_accum(const vsd_frame_ctx *ctx, int width, int height, dou
     return st;
 }
 
-vsd_status vsd_device_accum_fetch(const vsd_frame_ctx *ctx, const double *dev, vsd_accum *acc, char *err,
-                                  size_t errlen)
+vsd_status vsd_device_accum_collect(const vsd_frame_ctx *ctx, const double *dev, vsd_accum *acc, vsd_status st,
+                                    char *err, size_t errlen)
 {
-    return vsd_cuda_download(ctx->cuda, acc->v, dev, (size_t)acc->width * acc->height * VSD_ACC_N * sizeof(double),
-                             err, errlen);
+    char ferr[256];
+    vsd_status fst;
+    if (st != VSD_OK && st != VSD_ERR_CANCELLED) return st;
+    fst = vsd_cuda_download(ctx->cuda, acc->v, dev, (size_t)acc->width * acc->height * VSD_ACC_N * sizeof(double),
+                            ferr, sizeof ferr);
+    return fst ? vsd_fail(fst, err, errlen, "%s", ferr) : st;
 }
 
 void vsd_device_progress(const vsd_frame_ctx *ctx, const char *stage, float base, float span,

@@ -31,9 +31,11 @@ vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_dat
 /* Zeroed per-pixel sums on the device for a width x height view. */
 vsd_status vsd_device_accum(const vsd_frame_ctx *ctx, int width, int height, double **dev, char *err,
                             size_t errlen);
-/* Copies the device sums into acc (already initialised to the same size). */
-vsd_status vsd_device_accum_fetch(const vsd_frame_ctx *ctx, const double *dev, vsd_accum *acc, char *err,
-                                  size_t errlen);
+/* The end of a device view pass that returned st: when it finished or was cancelled (the
+ * bands done are in the sums, as the CPU's finished tiles are), copies the device sums into
+ * acc (initialised to the same size). Returns st, or the copy's failure. */
+vsd_status vsd_device_accum_collect(const vsd_frame_ctx *ctx, const double *dev, vsd_accum *acc, vsd_status st,
+                                    char *err, size_t errlen);
 
 /* Progress of a device stage: ctx's callback and cancel flag, [base, base + span). */
 void vsd_device_progress(const vsd_frame_ctx *ctx, const char *stage, float base, float span,

@@ -34,8 +34,9 @@ struct vsd_renderer {
      * for the renderer's life; cuda_error remembers why `auto` fell back to the CPU. */
     vsd_cuda *cuda;
     char cuda_error[512];
+    /* generations of the loaded inputs and of the method's stages (method.h): one counter,
+     * bumped where the data they stand for changes */
     uint64_t generation, frame_gen, lighting_gen, volume_gen, env_gen;
-    char volume_gen_key[KEY_LEN], env_gen_key[KEY_LEN];   /* what volume_gen / env_gen stand for */
     /* bumped by use_volumes / use_env and part of their cache keys: new contents may sit
      * at a freed object's address */
     unsigned long volumes_serial, env_serial;
@@ -149,8 +150,12 @@ static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t err
     if (r->ext_density) {
         r->density = r->ext_density;
         r->emission = r->ext_emission;
-        snprintf(r->volume_key, sizeof r->volume_key, "memory:%lu:%p:%p", r->volumes_serial, (const void *)r->density,
+        snprintf(key, sizeof key, "memory:%lu:%p:%p", r->volumes_serial, (const void *)r->density,
                  (const void *)r->emission);
+        if (strcmp(key, r->volume_key) != 0) {
+            r->volume_gen = ++r->generation;
+            snprintf(r->volume_key, sizeof r->volume_key, "%s", key);
+        }
         return VSD_OK;
     }
     st = vsd_frame_path(sc->volume.file, frame, path, sizeof path, err, errlen);
@@ -170,6 +175,7 @@ static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t err
     }
     r->density = r->owned_density;
     r->emission = r->owned_emission;
+    r->volume_gen = ++r->generation;
     snprintf(r->volume_key, sizeof r->volume_key, "%s", key);
     return VSD_OK;
 }
@@ -193,6 +199,7 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
     r->env = r->ext_env ? r->ext_env : r->owned_env;
     st = vsd_env_tables_build(r->env, &r->tables, err, errlen);
     if (st) return st;
+    r->env_gen = ++r->generation;
     snprintf(r->env_key, sizeof r->env_key, "%s", key);
     return VSD_OK;
 }
@@ -241,6 +248,15 @@ static vsd_status pick_device(vsd_renderer *r, vsd_cuda **cuda, char *err, size_
     return VSD_OK;
 }
 
+/* Closes the device and forgets what the method prepared for it (it prepares again on the
+ * next render, on whichever backend that uses). */
+static void drop_device(vsd_renderer *r)
+{
+    vsd_cuda_close(r->cuda);
+    r->cuda = NULL;
+    r->frame_key[0] = r->lighting_key[0] = '\0';
+}
+
 /* One attempt at the frame on the chosen backend. */
 static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_framebuffer **fbp,
                             vsd_render_stats *stats, char *err, size_t errlen);
@@ -256,18 +272,14 @@ vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fbp
     st = render_on(r, cuda, frame, fbp, stats, err, errlen);
     if (cuda && st == VSD_ERR_DEVICE && strcmp(r->scene.render.device, "cuda") == 0) {
         /* a failed launch can leave the context unusable: open a fresh one next time */
-        vsd_cuda_close(r->cuda);
-        r->cuda = NULL;
-        r->frame_key[0] = r->lighting_key[0] = '\0';
+        drop_device(r);
     }
     if (cuda && strcmp(r->scene.render.device, "auto") == 0 &&
         (st == VSD_ERR_NOMEM || st == VSD_ERR_DEVICE)) {
         /* `auto` promised a picture, not a GPU: drop the device (and what the methods
          * prepared for it) and render this and later frames on the CPU */
         snprintf(r->cuda_error, sizeof r->cuda_error, "%.500s", err ? err : "CUDA failed");
-        vsd_cuda_close(r->cuda);
-        r->cuda = NULL;
-        r->frame_key[0] = r->lighting_key[0] = '\0';
+        drop_device(r);
         st = render_on(r, NULL, frame, fbp, stats, err, errlen);
     }
     return st;
@@ -289,16 +301,6 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     else if (strcmp(sc->render.device, "auto") == 0) snprintf(stats->device_note, sizeof stats->device_note, "%s", r->cuda_error);
 
     if ((st = load_volumes(r, frame, err, errlen)) || (st = load_env(r, err, errlen))) return st;
-    /* the inputs' own generations: device copies of the bricks and the map survive changes
-     * of the medium or the lighting that re-prepare the method but leave them as they are */
-    if (strcmp(r->volume_key, r->volume_gen_key) != 0) {
-        r->volume_gen = ++r->generation;
-        snprintf(r->volume_gen_key, KEY_LEN, "%s", r->volume_key);
-    }
-    if (strcmp(r->env_key, r->env_gen_key) != 0) {
-        r->env_gen = ++r->generation;
-        snprintf(r->env_gen_key, KEY_LEN, "%s", r->env_key);
-    }
     t1 = now_seconds();
     stats->load_seconds = t1 - t0;
     stats->active_voxels = r->density->active_voxels;

@@ -40,13 +40,7 @@ static vsd_status stratified_device(vsd_frame_ctx *ctx, vsd_accum *acc, int n, v
     if (st) return st;
     vsd_device_progress(ctx, stage, 0.0f, 1.0f, &progress);
     st = device_fn(ctx, kernel, n, dev, &progress, err, errlen);
-    /* cancelled: the bands done are in the sums, as the CPU's finished tiles are */
-    if (!st || st == VSD_ERR_CANCELLED) {
-        char ferr[256];
-        vsd_status fst = vsd_device_accum_fetch(ctx, dev, acc, ferr, sizeof ferr);
-        if (fst) return vsd_fail(fst, err, errlen, "%s", ferr);
-    }
-    return st;
+    return vsd_device_accum_collect(ctx, dev, acc, st, err, errlen);
 }
 
 vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, vsd_pixel_fn fn,
