@@ -32,6 +32,11 @@ vsd_status vsd_env_create_uniform(const float rgb[3], int width, int height, vsd
 
 void vsd_env_destroy(vsd_env *env);
 
+/* Solid angle of one texel of row `row` of a width x height map (every texel of a row has
+ * the same): (2 pi / width) (cos theta0 - cos theta1), theta = pi row / height. The one
+ * quadrature weight every integral over a map uses (projections, light constellations). */
+double vsd_env_texel_solid_angle(int width, int height, int row);
+
 #ifdef __cplusplus
 }
 #endif

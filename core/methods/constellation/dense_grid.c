@@ -4,14 +4,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+#include "src/common/clock.h"
 
 /* Shadow codes (dense_grid.h): 1 where all 8 corners are within the threshold, raised to
  * skip + 1 where the distance map promises a leap. */
@@ -36,7 +29,7 @@ static void shadow_codes(vsd_dense_grid *g, const vsd_distance_map *dm, float th
 vsd_status vsd_dense_grid_build(const vsd_volume *vol, const vsd_distance_map *dm, float threshold, vsd_dense_grid *g,
                                 char *err, size_t errlen)
 {
-    double t0 = now_seconds();
+    double t0 = vsd_clock_seconds();
     size_t nx, ny, nz;
     int32_t bx, by, bz, y, z, a;
     const int32_t *bd;
@@ -77,7 +70,7 @@ vsd_status vsd_dense_grid_build(const vsd_volume *vol, const vsd_distance_map *d
                                b + (z * 8 + y) * 8, 8 * sizeof(float));
             }
     shadow_codes(g, dm, threshold);
-    g->seconds = now_seconds() - t0;
+    g->seconds = vsd_clock_seconds() - t0;
     return VSD_OK;
 }
 

@@ -391,7 +391,7 @@ static void healpix_radiance(shgrid_state *s, const vsd_env *env, const vsd_kenv
     if (!acc) return;
     for (row = 0; row < env->height; row++) {
         double th0 = VSD_PI * (double)row / env->height, th1 = VSD_PI * (row + 1.0) / env->height;
-        double dom = 2.0 * VSD_PI / env->width * (cos(th0) - cos(th1)), thc = 0.5 * (th0 + th1);
+        double dom = vsd_env_texel_solid_angle(env->width, env->height, row), thc = 0.5 * (th0 + th1);
         for (col = 0; col < env->width; col++) {
             const float *p = env->rgb + 3 * ((size_t)row * env->width + col);
             double u = (col + 0.5) / env->width, phit = (0.5 - u) * 2.0 * VSD_PI;
@@ -445,8 +445,7 @@ static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size
     }
     memcpy(s->rest.rgb, env->rgb, sizeof(float) * 3 * n);
     for (row = 0; row < env->height; row++) {
-        double dom = 2.0 * VSD_PI / env->width *
-                     (cos(VSD_PI * row / env->height) - cos(VSD_PI * (row + 1.0) / env->height));
+        double dom = vsd_env_texel_solid_angle(env->width, env->height, row);
         for (col = 0; col < env->width; col++) {
             const float *p = env->rgb + 3 * ((size_t)row * env->width + col);
             total += dom * vsd_luminance(f3(p[0], p[1], p[2]));
@@ -454,8 +453,7 @@ static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size
     }
     thr = s->light_threshold * total / (4.0 * VSD_PI);
     for (row = 0; row < env->height; row++) {
-        double dom = 2.0 * VSD_PI / env->width *
-                     (cos(VSD_PI * row / env->height) - cos(VSD_PI * (row + 1.0) / env->height));
+        double dom = vsd_env_texel_solid_angle(env->width, env->height, row);
         for (col = 0; col < env->width; col++) {
             k = 3 * ((size_t)row * env->width + col);
             {

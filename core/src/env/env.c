@@ -186,3 +186,10 @@ void vsd_env_destroy(vsd_env *env)
     free(env->rgb);
     free(env);
 }
+
+double vsd_env_texel_solid_angle(int width, int height, int row)
+{
+    const double pi = 3.14159265358979323846;   /* M_PI, which _POSIX_C_SOURCE hides */
+    double t0 = pi * row / height, t1 = pi * (row + 1) / height;
+    return 2.0 * pi / width * (cos(t0) - cos(t1));
+}

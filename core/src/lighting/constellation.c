@@ -44,8 +44,8 @@ static int geom_init(env_geom *g, const vsd_env *env)
         return 0;
     }
     for (y = 0; y < h; y++) {
-        double t0 = M_PI * y / h, t1 = M_PI * (y + 1) / h, tc = M_PI * (y + 0.5) / h;
-        g->row_omega[y] = 2.0 * M_PI / w * (cos(t0) - cos(t1));
+        double tc = M_PI * (y + 0.5) / h;
+        g->row_omega[y] = vsd_env_texel_solid_angle(w, h, y);
         g->row_sin[y] = sin(tc);
         g->row_cos[y] = cos(tc);
     }
@@ -76,8 +76,7 @@ void vsd_env_integral(const vsd_env *env, double rgb[3])
     int x, y;
     rgb[0] = rgb[1] = rgb[2] = 0;
     for (y = 0; y < env->height; y++) {
-        double t0 = M_PI * y / env->height, t1 = M_PI * (y + 1) / env->height;
-        double om = 2.0 * M_PI / env->width * (cos(t0) - cos(t1)), r[3] = {0, 0, 0};
+        double om = vsd_env_texel_solid_angle(env->width, env->height, y), r[3] = {0, 0, 0};
         const float *p = env->rgb + (size_t)y * env->width * 3;
         for (x = 0; x < env->width; x++) {
             r[0] += p[3 * x];

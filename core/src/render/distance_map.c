@@ -6,16 +6,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
+#include "src/common/clock.h"
 
 #define EDT_INF VSD_EDT_INF
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 typedef struct edt_pass {
     float *d2;
@@ -155,7 +148,7 @@ size_t vsd_distance_map_layout(const vsd_volume *vol, vsd_distance_map *dm)
 vsd_status vsd_distance_map_build(const vsd_volume *vol, float threshold, int threads, vsd_distance_map *dm,
                                   char *err, size_t errlen)
 {
-    double t0 = now_seconds();
+    double t0 = vsd_clock_seconds();
     size_t n = vsd_distance_map_layout(vol, dm);
     uint8_t *occ;
     float *d2;
@@ -189,7 +182,7 @@ vsd_status vsd_distance_map_build(const vsd_volume *vol, float threshold, int th
     }
     free(occ);
     free(d2);
-    dm->seconds = now_seconds() - t0;
+    dm->seconds = vsd_clock_seconds() - t0;
     return VSD_OK;
 }
 

@@ -2,19 +2,12 @@
 #include "device_frame.h"
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+#include "src/common/clock.h"
 
 vsd_status vsd_distance_map_build_device(const vsd_frame_ctx *ctx, const vsd_volume *vol, int emission,
                                          float threshold, vsd_distance_map *dm, char *err, size_t errlen)
 {
-    double t0 = now_seconds();
+    double t0 = vsd_clock_seconds();
     vsd_kvolume kv = emission ? ctx->kd.emission : ctx->kd.density;
     long long occupied = 0;
     size_t n = vsd_distance_map_layout(vol, dm);
@@ -30,6 +23,6 @@ vsd_status vsd_distance_map_build_device(const vsd_frame_ctx *ctx, const vsd_vol
         return st;
     }
     dm->occupied = occupied;
-    dm->seconds = now_seconds() - t0;
+    dm->seconds = vsd_clock_seconds() - t0;
     return VSD_OK;
 }

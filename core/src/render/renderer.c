@@ -11,7 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
+#include "src/common/clock.h"
 
 #define KEY_LEN 4096
 
@@ -43,13 +43,6 @@ struct vsd_renderer {
 };
 
 const char *vsd_version(void) { return VSD_VERSION_STRING; }
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static void release_method(vsd_renderer *r)
 {
@@ -291,7 +284,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     const vsd_scene *sc = &r->scene;
     vsd_frame_ctx ctx;
     char frame_key[KEY_LEN], lighting_key[KEY_LEN];
-    double t0 = now_seconds(), t1, t2;
+    double t0 = vsd_clock_seconds(), t1, t2;
     uint64_t uploaded0 = cuda ? vsd_cuda_uploaded_bytes(cuda) : 0;
     vsd_status st;
     memset(stats, 0, sizeof *stats);
@@ -301,7 +294,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     else if (strcmp(sc->render.device, "auto") == 0) snprintf(stats->device_note, sizeof stats->device_note, "%s", r->cuda_error);
 
     if ((st = load_volumes(r, frame, err, errlen)) || (st = load_env(r, err, errlen))) return st;
-    t1 = now_seconds();
+    t1 = vsd_clock_seconds();
     stats->load_seconds = t1 - t0;
     stats->active_voxels = r->density->active_voxels;
 
@@ -351,7 +344,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
             snprintf(r->lighting_key, KEY_LEN, "%s", lighting_key);
         }
     }
-    t2 = now_seconds();
+    t2 = vsd_clock_seconds();
     stats->prepare_seconds = t2 - t1;
 
     if (!*fbp || (*fbp)->width != sc->film.width || (*fbp)->height != sc->film.height) {
@@ -361,7 +354,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     }
     vsd_framebuffer_clear(*fbp);
     st = r->method->render(r->method_state, &ctx, *fbp, &stats->samples, err, errlen);
-    stats->render_seconds = now_seconds() - t2;
+    stats->render_seconds = vsd_clock_seconds() - t2;
     if (cuda) stats->device_uploaded_bytes = vsd_cuda_uploaded_bytes(cuda) - uploaded0;
     return st;
 }

@@ -156,7 +156,7 @@ vsd_status vsd_sh_project_env(int order, const vsd_env *env, double strength, do
     memset(coef, 0, sizeof(double) * (size_t)(3 * n2));
     for (row = 0; row < env->height; row++) {
         double th0 = PI * row / env->height, th1 = PI * (row + 1) / env->height, thc = 0.5 * (th0 + th1);
-        double domega = 2.0 * PI / env->width * (cos(th0) - cos(th1)) * strength;
+        double domega = vsd_env_texel_solid_angle(env->width, env->height, row) * strength;
         double st = sin(thc), ct = cos(thc);
         /* accumulate a row separately: rows are summed in double over ~1000 texels each, so
          * a bright sun does not swamp the small terms of other rows */
