@@ -12,7 +12,14 @@
  *             `reference`)
  * Usage: bench_device [--scenes a,b] [--methods m,n] [--width W --height H] [--orbit N]
  *                     [--samples N] [--cpu-scale k] [--cpu-threads N] [--no-cpu]
- * Prints a markdown table on stdout; exits 77 when no CUDA device answers. */
+ *                     [--data DIR] [--max-seconds S]
+ *   --data         the shared data folder (default $VSD_SHARED_DATA, else the build's
+ *                  ../shared/data); scene files are read from DIR/scenes
+ *   --max-seconds  a time budget: no new scene/method case starts once S seconds have
+ *                  passed, and the cases left are listed as not run (the GPU machine gives
+ *                  one command 10 minutes)
+ * Prints a markdown table on stdout (the header first, also without a GPU); exits 77 when
+ * no CUDA device answers. */
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include "vsd/compare.h"
@@ -23,8 +30,9 @@
 #include <time.h>
 
 typedef struct bench_opts {
-    const char *scenes, *methods;
+    const char *scenes, *methods, *data;
     int width, height, orbit, samples, cpu_scale, cpu_threads, no_cpu;
+    double max_seconds;
 } bench_opts;
 
 static double now_seconds(void)
@@ -34,13 +42,15 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+static const char *data_dir;
+
 static vsd_status load_scene(const char *name, const char *method, const char *device, int w, int h, int samples,
                              vsd_scene *sc, char *err, size_t errlen)
 {
     char path[1024], ov[5][64];
     const char *ovp[5];
     int i;
-    snprintf(path, sizeof path, "%s/%s.json", VSD_BENCH_SCENES, name);
+    snprintf(path, sizeof path, "%s/scenes/%s.json", data_dir, name);
     snprintf(ov[0], 64, "render.method=%s", method);
     snprintf(ov[1], 64, "render.device=%s", device);
     snprintf(ov[2], 64, "film.width=%d", w);
@@ -134,6 +144,7 @@ static int parse(int argc, char **argv, bench_opts *o)
     o->orbit = 60;
     o->samples = 16;
     o->cpu_scale = 4;
+    o->data = getenv("VSD_SHARED_DATA") && *getenv("VSD_SHARED_DATA") ? getenv("VSD_SHARED_DATA") : VSD_BENCH_DATA;
     for (i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--no-cpu")) { o->no_cpu = 1; continue; }
@@ -146,35 +157,54 @@ static int parse(int argc, char **argv, bench_opts *o)
         else if (!strcmp(a, "--samples")) o->samples = atoi(v);
         else if (!strcmp(a, "--cpu-scale")) o->cpu_scale = atoi(v);
         else if (!strcmp(a, "--cpu-threads")) o->cpu_threads = atoi(v);
+        else if (!strcmp(a, "--data")) o->data = v;
+        else if (!strcmp(a, "--max-seconds")) o->max_seconds = atof(v);
         else return fprintf(stderr, "bench_device: unknown option %s\n", a), 0;
         i++;
     }
     if (o->width < 16 || o->height < 16 || o->orbit < 0 || o->samples < 1 || o->cpu_scale < 1 ||
-        o->width / o->cpu_scale < 4 || o->height / o->cpu_scale < 4)
+        o->width / o->cpu_scale < 4 || o->height / o->cpu_scale < 4 || o->max_seconds < 0)
         return fprintf(stderr, "bench_device: bad sizes\n"), 0;
     return 1;
+}
+
+static void print_header(void)
+{
+    printf("| scene | method | spp | GPU prepare ms | GPU first view ms | GPU orbit view ms | orbit fps | "
+           "CPU s (scaled to film) | GPU speed-up | rel. RMSE GPU vs CPU |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    fflush(stdout);
 }
 
 int main(int argc, char **argv)
 {
     bench_opts o;
     char name[256], err[1024], scenes[1024], methods[256], *sp, *mp, *sv, *mv;
+    double start;
     memset(&o, 0, sizeof o);
     if (!parse(argc, argv, &o)) return 2;
+    data_dir = o.data;
+    start = now_seconds();
     if (vsd_render_cuda_probe(name, sizeof name, err, sizeof err)) {
+        print_header();
         fprintf(stderr, "bench_device: no CUDA device: %s\n", err);
+        printf("\nno CUDA device: %s\n", err);
         return 77;
     }
     printf("GPU: %s; film %dx%d, %d orbit views, reference %d spp; CPU on a %dx%d film, %d threads (0 = all)\n\n",
            name, o.width, o.height, o.orbit, o.samples, o.width / o.cpu_scale, o.height / o.cpu_scale, o.cpu_threads);
-    printf("| scene | method | spp | GPU prepare ms | GPU first view ms | GPU orbit view ms | orbit fps | "
-           "CPU s (scaled to film) | GPU speed-up | rel. RMSE GPU vs CPU |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    print_header();
     snprintf(scenes, sizeof scenes, "%s", o.scenes);
     for (sv = strtok_r(scenes, ",", &sp); sv; sv = strtok_r(NULL, ",", &sp)) {
         snprintf(methods, sizeof methods, "%s", o.methods);
         for (mv = strtok_r(methods, ",", &mp); mv; mv = strtok_r(NULL, ",", &mp)) {
             device_result r;
-            vsd_status s = bench_one(&o, sv, mv, &r, err, sizeof err);
+            vsd_status s;
+            if (o.max_seconds > 0 && now_seconds() - start > o.max_seconds) {
+                printf("| %s | %s | not run: the %.0f s budget (--max-seconds) was spent |\n", sv, mv, o.max_seconds);
+                fflush(stdout);
+                continue;
+            }
+            s = bench_one(&o, sv, mv, &r, err, sizeof err);
             if (s) {
                 printf("| %s | %s | failed: %s |\n", sv, mv, err);
                 fflush(stdout);

@@ -3,10 +3,13 @@
 
 int vsd_test_failures = 0;
 
+/* $VSD_SHARED_DATA overrides the build's path, so a test binary carried to another machine
+ * (scripts/gpu-bundle.sh) reads the data files that travel with it. */
 const char *test_data(const char *rel)
 {
     static char buf[2048];
-    snprintf(buf, sizeof buf, "%s/%s", VSD_SHARED_DATA, rel);
+    const char *dir = getenv("VSD_SHARED_DATA");
+    snprintf(buf, sizeof buf, "%s/%s", dir && *dir ? dir : VSD_SHARED_DATA, rel);
     return buf;
 }
 
