@@ -549,18 +549,10 @@ def map_camera(cam_ob, w, h, m):
 def render_block(settings, viewport=False):
     """The scene's render section from the add-on's settings (Scene.vsd)."""
     import json
-    opts = {}
+    from . import method_options
     method = settings.viewport_method if viewport else settings.method
-    if method == "raymarch":
-        if settings.raymarch_lights > 0:
-            opts["lights"] = settings.raymarch_lights
-        if settings.raymarch_step > 0.0:
-            opts["step"] = settings.raymarch_step
-        if settings.raymarch_pixel_samples > 0:
-            opts["pixel_samples"] = settings.raymarch_pixel_samples
-    elif method == "reference":
-        if settings.max_bounces > 0:
-            opts["max_bounces"] = settings.max_bounces
+    # the options set away from vsd's defaults, by its own table (method_options.py)
+    opts = method_options.values(settings.id_data, method)
     text = settings.options_json.strip()
     if text:
         try:

@@ -3,7 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from . import connection
+from . import connection, method_options
 
 METHODS = [
     ("reference", "Reference", "Unbiased volumetric path tracing, all bounces (matches Cycles)"),
@@ -32,17 +32,9 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
     device: EnumProperty(name="Device", items=DEVICES, default="auto")
     threads: IntProperty(name="Threads", default=0, min=0, max=4096,
                          description="CPU threads of the daemon for this job, 0 = all")
-    max_bounces: IntProperty(name="Max Bounces", default=0, min=0, max=100000,
-                             description="reference: path length limit, 0 = vsd's default (1024)")
-    raymarch_lights: IntProperty(name="Lights", default=0, min=0, max=65536,
-                                 description="raymarch: environment directions K, 0 = default (256)")
-    raymarch_step: FloatProperty(name="Step", default=0.0, min=0.0, precision=4, unit="LENGTH",
-                                 description="raymarch: step length, 0 = half the smallest voxel")
-    raymarch_pixel_samples: IntProperty(name="Pixel Samples", default=0, min=0, max=16,
-                                        description="raymarch: n x n rays per pixel, 0 = default (2)")
     options_json: StringProperty(name="Options", default="",
                                  description="More method options as a JSON object, e.g. "
-                                 "{\"lights\": 64}; overrides the fields above")
+                                 "{\"lights\": 64}; overrides the option fields")
     viewport_method: EnumProperty(name="Viewport Method", items=METHODS, default="raymarch",
                                   description="Method of the rendered viewport preview",
                                   update=_tag_redraw)
@@ -56,11 +48,16 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
                                       "viewport's resolution, then refines to full")
 
 
+def _vsd_path_changed(self, context):
+    load_options_table(self)
+
+
 class VSDPreferences(bpy.types.AddonPreferences):
     bl_idname = __package__
 
     vsd_path: StringProperty(name="vsd Binary", subtype="FILE_PATH", default="",
-                             description="Path of the `vsd` executable (empty: `vsd` on PATH)")
+                             description="Path of the `vsd` executable (empty: `vsd` on PATH)",
+                             update=_vsd_path_changed)
     address: StringProperty(name="Daemon Address", default="",
                             description="Unix socket path, or HOST:PORT for TCP (empty: the "
                             "default socket $XDG_RUNTIME_DIR/vsd.sock)")
@@ -146,12 +143,8 @@ class RENDER_PT_vsd_options(VSDPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         col = layout.column()
-        if s.method == "reference":
-            col.prop(s, "max_bounces")
-        elif s.method == "raymarch":
-            col.prop(s, "raymarch_lights")
-            col.prop(s, "raymarch_step")
-            col.prop(s, "raymarch_pixel_samples")
+        # one row per option of vsd's own table (vsd methods --json / HELLO)
+        method_options.draw(col, context.scene, s.method)
         col.prop(s, "options_json")
 
 
@@ -212,15 +205,31 @@ CLASSES = (VSDSceneSettings, VSDPreferences, VSD_OT_daemon_status, VSD_OT_stop_d
            RENDER_PT_vsd, RENDER_PT_vsd_options, RENDER_PT_vsd_viewport, RENDER_PT_vsd_daemon)
 
 
+def load_options_table(prefs):
+    """The method option table from the vsd binary (the preference, else PATH)."""
+    try:
+        path = connection.find_vsd(prefs.vsd_path if prefs else "")
+    except Exception:
+        return False
+    return method_options.load_from_binary(path)
+
+
+def _prefs():
+    addon = bpy.context.preferences.addons.get(__package__)
+    return addon.preferences if addon else None
+
+
 def register():
     for c in CLASSES:
         bpy.utils.register_class(c)
     bpy.types.Scene.vsd = PointerProperty(type=VSDSceneSettings)
+    load_options_table(_prefs())
     for p in _compat_panels():
         p.COMPAT_ENGINES.add("VSD")
 
 
 def unregister():
+    method_options.unregister()
     for p in _compat_panels():
         p.COMPAT_ENGINES.discard("VSD")
     del bpy.types.Scene.vsd

@@ -15,5 +15,6 @@ enum {
 int vsd_cmd_render(int argc, char **argv);
 int vsd_cmd_info(int argc, char **argv);
 int vsd_cmd_compare(int argc, char **argv);
+int vsd_cmd_methods(int argc, char **argv);
 
 #endif

@@ -14,6 +14,7 @@ static void usage(FILE *f)
             "  render SCENE.json   render frames of a scene file to multilayer EXR (and a PNG preview)\n"
             "  info FILE.vdb       list the grids of OpenVDB files\n"
             "  compare A.exr B.exr relative RMSE of every pass of A against B (block-averaged)\n"
+            "  methods [--json]    the rendering methods and their render.options (type, range, default)\n"
             "  serve               run the render daemon (Unix socket; see docs/protocol.md)\n"
             "  version             print the version\n"
             "\n"
@@ -30,6 +31,7 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "render") == 0) return vsd_cmd_render(argc - 1, argv + 1);
     if (strcmp(argv[1], "info") == 0) return vsd_cmd_info(argc - 1, argv + 1);
     if (strcmp(argv[1], "compare") == 0) return vsd_cmd_compare(argc - 1, argv + 1);
+    if (strcmp(argv[1], "methods") == 0) return vsd_cmd_methods(argc - 1, argv + 1);
     if (strcmp(argv[1], "serve") == 0) return vsd_cmd_serve(argc - 1, argv + 1);
     if (strcmp(argv[1], "version") == 0 || strcmp(argv[1], "--version") == 0) {
         printf("vsd %s\n", vsd_version());

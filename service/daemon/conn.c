@@ -159,6 +159,13 @@ static int on_hello(vsdd_conn *c, const cJSON *msg, const cJSON *id)
     cJSON_AddStringToObject(o, "server_version", vsd_version());
     arr = cJSON_AddArrayToObject(o, "methods");
     for (m = vsd_method_names(); *m; m++) cJSON_AddItemToArray(arr, cJSON_CreateString(*m));
+    {
+        /* every method's option table, so clients draw their settings from it */
+        char *table = vsd_method_options_json();
+        cJSON *parsed = table ? cJSON_Parse(table) : NULL;
+        free(table);
+        if (parsed) cJSON_AddItemToObject(o, "method_options", parsed);
+    }
     arr = cJSON_AddArrayToObject(o, "devices");
     cJSON_AddItemToArray(arr, cJSON_CreateString("cpu"));
     if (g_daemon.cuda_device[0]) cJSON_AddItemToArray(arr, cJSON_CreateString("cuda"));

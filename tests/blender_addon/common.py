@@ -202,7 +202,7 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
     scene.frame_set(frame_start)
     s = scene.vsd
     s.method = "raymarch"
-    s.raymarch_lights = 8
+    scene.vsd_options.raymarch.lights = 8   # a row of the table vsd sent (method_options.py)
     s.samples = 1
     s.device = "cpu"
     return scene, ob

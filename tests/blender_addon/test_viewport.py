@@ -119,13 +119,13 @@ def setup():
         scene, ob = common.build_scene(data, width=640, height=360, frame_start=1, frame_offset=29,
                                        rotation_deg=150.0, strength=1.5)
         scene.view_settings.view_transform = "Filmic"
-        scene.vsd.raymarch_lights = 8
-        scene.vsd.raymarch_pixel_samples = 1
+        scene.vsd_options.raymarch.lights = 8
+        scene.vsd_options.raymarch.pixel_samples = 1
         scene.vsd.viewport_resolution = 25
     else:
         scene, ob = common.build_scene(data, width=640, height=360, frame_start=1, frame_offset=19)
-        scene.vsd.raymarch_lights = 4
-        scene.vsd.raymarch_pixel_samples = 1
+        scene.vsd_options.raymarch.lights = 4
+        scene.vsd_options.raymarch.pixel_samples = 1
         scene.vsd.viewport_resolution = 25
     scene.vsd.viewport_method = "raymarch"
     scene.vsd.viewport_start_scale = 4
@@ -219,7 +219,7 @@ def _step():
             print("preview benchmark: %d orbit steps, %dx%d preview (%s, %d lights): full-resolution "
                   "preview %.2f frames/s median, %.2f min, %.2f max" % (
                       len(fps), w, h, bpy.context.scene.vsd.viewport_method,
-                      bpy.context.scene.vsd.raymarch_lights, fps[len(fps) // 2], fps[0], fps[-1]), flush=True)
+                      bpy.context.scene.vsd_options.raymarch.lights, fps[len(fps) // 2], fps[0], fps[-1]), flush=True)
             check(all(p is True for _, p in state["bench"]),
                   "every orbit step re-used the daemon's preparation (%s)" % [p for _, p in state["bench"]])
             state.update(step=7, t0=time.monotonic(), change=0)

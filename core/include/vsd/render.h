@@ -74,6 +74,12 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
 /* Names of the methods this build renders (NULL-terminated, static). */
 const char *const *vsd_method_names(void);
 
+/* Every method's render.options table as JSON, {"method": [{"key", "type", "min", "max",
+ * "default", "choices", "doc", "auto_zero", "unit"}, ...], ...}: what `vsd methods --json`
+ * prints and the daemon's HELLO carries (docs/protocol.md). Malloc'd; free() it. NULL
+ * when out of memory. */
+char *vsd_method_options_json(void);
+
 const char *vsd_version(void);
 
 #ifdef __cplusplus

@@ -17,26 +17,46 @@
 #include "constellation_kernel.h"
 #include "dense_grid.h"
 #include "constellation_device.h"
-#include <cjson/cJSON.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
-static const char *const constellation_options[] = {
-    "lights", "lights_method", "slice", "density_threshold", "shadow_step", "early_termination",
-    "distance_map", "validity_mask", "pixel_samples", NULL,
-};
-
 typedef struct cst_options {
     int lights;
-    vsd_lights_method lights_method;
+    int lights_method;         /* vsd_lights_method: the index into lights_method_names */
     double slice;              /* 0 = half a voxel */
     double threshold;
     double shadow_step;        /* 0 = half a voxel */
     double early_termination;
     int distance_map, validity_mask, pixel_samples;
 } cst_options;
+
+/* in vsd_lights_method's order */
+static const char *const lights_method_names[] = {"median_cut", "kmeans", NULL};
+
+static const vsd_option_spec cst_option_rows[] = {
+    {"lights", VSD_OPT_INT, 1, 65536, 64, NULL, "N: the map as N lights (the constellation)",
+     offsetof(cst_options, lights), 0, NULL},
+    {"lights_method", VSD_OPT_CHOICE, 0, 0, VSD_LIGHTS_MEDIAN_CUT, lights_method_names,
+     "equal-energy median cut, or k-means refined from it", offsetof(cst_options, lights_method), 0, NULL},
+    {"slice", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "spacing of the view-sample shells, world units (0 = half a voxel)",
+     offsetof(cst_options, slice), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+    {"density_threshold", VSD_OPT_NUMBER, 0, 1e30, 0, NULL,
+     "grid values at or below this count as empty for the distance map and the mask",
+     offsetof(cst_options, threshold), 0, NULL},
+    {"shadow_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "shadow-ray step, world units (0 = half a voxel)",
+     offsetof(cst_options, shadow_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+    {"early_termination", VSD_OPT_NUMBER, 0, 1, 1e-3, NULL, "stop a view ray once its transmittance is below this",
+     offsetof(cst_options, early_termination), 0, NULL},
+    {"distance_map", VSD_OPT_BOOL, 0, 1, 1, NULL, "leap over empty space with the Euclidean distance map (§4.1)",
+     offsetof(cst_options, distance_map), 0, NULL},
+    {"validity_mask", VSD_OPT_BOOL, 0, 1, 1, NULL, "start each view ray at its first non-empty shell (§4.2)",
+     offsetof(cst_options, validity_mask), 0, NULL},
+    {"pixel_samples", VSD_OPT_INT, 1, 16, 1, NULL, "n: n x n stratified view rays per pixel",
+     offsetof(cst_options, pixel_samples), 0, NULL},
+};
 
 typedef struct cst_state {
     cst_options opt;
@@ -49,83 +69,12 @@ typedef struct cst_state {
     int light_count;
 } cst_state;
 
-/* Read and validate the options: wrong types and out-of-range values are errors naming
- * the option (vsd_method_check_options has already refused unknown keys). */
-static vsd_status parse_options(const vsd_scene *scene, cst_options *o, char *err, size_t errlen)
-{
-    static const struct { const char *key; double lo, hi, def; int is_bool, is_int; } spec[] = {
-        {"lights", 1, 65536, 64, 0, 1},
-        {"slice", 0, 1e30, 0, 0, 0},
-        {"density_threshold", 0, 1e30, 0, 0, 0},
-        {"shadow_step", 0, 1e30, 0, 0, 0},
-        {"early_termination", 0, 1, 1e-3, 0, 0},
-        {"distance_map", 0, 1, 1, 1, 0},
-        {"validity_mask", 0, 1, 1, 1, 0},
-        {"pixel_samples", 1, 16, 1, 0, 1},
-    };
-    double val[sizeof spec / sizeof spec[0]];
-    cJSON *root = cJSON_Parse(scene->render.options_json[0] ? scene->render.options_json : "{}");
-    const cJSON *it;
-    size_t i;
-    vsd_status st = VSD_OK;
-    if (!root) return vsd_fail(VSD_ERR_FORMAT, err, errlen, "render.options: not a JSON object");
-    for (i = 0; i < sizeof spec / sizeof spec[0] && !st; i++) {
-        it = cJSON_GetObjectItemCaseSensitive(root, spec[i].key);
-        val[i] = spec[i].def;
-        if (!it) continue;
-        if (spec[i].is_bool) {
-            if (cJSON_IsBool(it)) val[i] = cJSON_IsTrue(it) ? 1 : 0;
-            else st = vsd_fail(VSD_ERR_TYPE, err, errlen, "render.options.%s: expected boolean (true or false)", spec[i].key);
-            continue;
-        }
-        if (!cJSON_IsNumber(it) || !isfinite(it->valuedouble)) {
-            st = vsd_fail(VSD_ERR_TYPE, err, errlen, "render.options.%s: expected a finite number", spec[i].key);
-            continue;
-        }
-        val[i] = it->valuedouble;
-        if (spec[i].is_int && val[i] != floor(val[i]))
-            st = vsd_fail(VSD_ERR_TYPE, err, errlen, "render.options.%s: expected integer, got %g", spec[i].key, val[i]);
-        else if (val[i] < spec[i].lo || val[i] > spec[i].hi)
-            st = vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.%s: %g is out of range %g..%g", spec[i].key,
-                          val[i], spec[i].lo, spec[i].hi);
-        else if ((i == 1 || i == 3) && val[i] != 0 && !(val[i] > 0))
-            st = vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.%s: must be > 0", spec[i].key);
-    }
-    o->lights_method = VSD_LIGHTS_MEDIAN_CUT;
-    it = cJSON_GetObjectItemCaseSensitive(root, "lights_method");
-    if (!st && it) {
-        if (!cJSON_IsString(it))
-            st = vsd_fail(VSD_ERR_TYPE, err, errlen, "render.options.lights_method: expected string");
-        else if (strcmp(it->valuestring, "median_cut") == 0) o->lights_method = VSD_LIGHTS_MEDIAN_CUT;
-        else if (strcmp(it->valuestring, "kmeans") == 0) o->lights_method = VSD_LIGHTS_KMEANS;
-        else
-            st = vsd_fail(VSD_ERR_INVALID, err, errlen,
-                          "render.options.lights_method: \"%.64s\" is not one of \"median_cut\", \"kmeans\"",
-                          it->valuestring);
-    }
-    cJSON_Delete(root);
-    if (st) return st;
-    o->lights = (int)val[0];
-    o->slice = val[1];
-    o->threshold = val[2];
-    o->shadow_step = val[3];
-    o->early_termination = val[4];
-    o->distance_map = (int)val[5];
-    o->validity_mask = (int)val[6];
-    o->pixel_samples = (int)val[7];
-    return VSD_OK;
-}
-
-static vsd_status cst_create(void **state, const vsd_scene *scene, char *err, size_t errlen)
+static vsd_status cst_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
 {
     cst_state *s = calloc(1, sizeof *s);
-    vsd_status st;
+    (void)scene;
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
-    st = parse_options(scene, &s->opt, err, errlen);
-    if (st) {
-        free(s);
-        return st;
-    }
+    s->opt = *(const cst_options *)options;
     *state = s;
     return VSD_OK;
 }
@@ -183,7 +132,7 @@ static vsd_status cst_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         vsd_status st;
         vsd_constellation_free(&s->cons);
         s->cons_valid = 0;
-        st = vsd_constellation_build(ctx->env, s->opt.lights, s->opt.lights_method, &s->cons, err, errlen);
+        st = vsd_constellation_build(ctx->env, s->opt.lights, (vsd_lights_method)s->opt.lights_method, &s->cons, err, errlen);
         if (st) return st;
         s->cons_key = key;
         s->cons_valid = 1;
@@ -330,6 +279,6 @@ static void cst_destroy(void *state)
 }
 
 const vsd_method vsd_method_constellation = {
-    "constellation", constellation_options, cst_create, cst_prepare_frame, cst_prepare_lighting, cst_render,
+    "constellation", VSD_OPTION_TABLE(cst_option_rows, cst_options), cst_create, cst_prepare_frame, cst_prepare_lighting, cst_render,
     cst_destroy,
 };

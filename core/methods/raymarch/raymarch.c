@@ -7,37 +7,36 @@
 #include "src/render/env_lights.h"
 #include "src/render/device_frame.h"
 #include "raymarch_kernel.h"
+#include <stddef.h>
 #include <stdlib.h>
 
-static const char *const raymarch_options[] = { "lights", "step", "pixel_samples", NULL };
+typedef struct raymarch_options {
+    int lights, pixel_samples;
+    double step;
+} raymarch_options;
+
+static const vsd_option_spec raymarch_option_rows[] = {
+    {"lights", VSD_OPT_INT, 1, 65536, 256, NULL,
+     "K fixed environment directions (importance-sampled) each step's shadow rays go to",
+     offsetof(raymarch_options, lights), 0, NULL},
+    {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view and shadow march step, world units (0 = half the smallest voxel)",
+     offsetof(raymarch_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+    {"pixel_samples", VSD_OPT_INT, 1, 16, 2, NULL, "n: n x n stratified view rays per pixel",
+     offsetof(raymarch_options, pixel_samples), 0, NULL},
+};
 
 typedef struct raymarch_state {
+    raymarch_options opt;
     float *lights;
-    int count;
-    int pixel_samples;
 } raymarch_state;
 
-
-static vsd_status raymarch_create(void **state, const vsd_scene *scene, char *err, size_t errlen)
+static vsd_status raymarch_create(void **state, const vsd_scene *scene, const void *options, char *err,
+                                  size_t errlen)
 {
     raymarch_state *s = calloc(1, sizeof *s);
-    double k = vsd_scene_option_number(scene, "lights", 256);
-    double ps = vsd_scene_option_number(scene, "pixel_samples", 2);
+    (void)scene;
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
-    if (ps < 1 || ps > 16) {
-        free(s);
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.pixel_samples: %g is out of range 1..16", ps);
-    }
-    s->pixel_samples = (int)ps;
-    if (k < 1 || k > 65536) {
-        free(s);
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.lights: %g is out of range 1..65536", k);
-    }
-    if (vsd_scene_option_number(scene, "step", 1.0) <= 0) {
-        free(s);
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.step: must be > 0");
-    }
-    s->count = (int)k;
+    s->opt = *(const raymarch_options *)options;
     *state = s;
     return VSD_OK;
 }
@@ -46,9 +45,9 @@ static vsd_status raymarch_prepare_lighting(void *state, vsd_frame_ctx *ctx, cha
 {
     raymarch_state *s = state;
     free(s->lights);
-    s->lights = malloc(sizeof(float) * 8 * (size_t)s->count);
-    if (!s->lights) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d lights", s->count);
-    vsd_env_importance_lights(&ctx->kd.env, s->count, s->lights);
+    s->lights = malloc(sizeof(float) * 8 * (size_t)s->opt.lights);
+    if (!s->lights) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d lights", s->opt.lights);
+    vsd_env_importance_lights(&ctx->kd.env, s->opt.lights, s->lights);
     return VSD_OK;
 }
 
@@ -71,9 +70,9 @@ static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuff
 {
     raymarch_state *s = state;
     ctx->kd.lights = s->lights;
-    ctx->kd.light_count = s->count;
-    ctx->kd.march_step = vsd_method_march_step(ctx, vsd_scene_option_number(ctx->scene, "step", 0.0));
-    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, raymarch_sample, raymarch_device, &ctx->kd,
+    ctx->kd.light_count = s->opt.lights;
+    ctx->kd.march_step = vsd_method_march_step(ctx, s->opt.step);
+    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, raymarch_sample, raymarch_device, &ctx->kd,
                                         "ray marching", samples, err, errlen);
 }
 
@@ -86,6 +85,6 @@ static void raymarch_destroy(void *state)
 }
 
 const vsd_method vsd_method_raymarch = {
-    "raymarch", raymarch_options, raymarch_create, NULL, raymarch_prepare_lighting, raymarch_render,
+    "raymarch", VSD_OPTION_TABLE(raymarch_option_rows, raymarch_options), raymarch_create, NULL, raymarch_prepare_lighting, raymarch_render,
     raymarch_destroy,
 };

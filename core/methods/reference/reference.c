@@ -6,9 +6,29 @@
 #include "src/render/device_frame.h"
 #include "device/cpu/cpu_tiles.h"
 #include "reference_kernel.h"
+#include <stddef.h>
 #include <stdlib.h>
 
-static const char *const reference_options[] = { "max_bounces", NULL };
+typedef struct reference_options {
+    int max_bounces;
+} reference_options;
+
+static const vsd_option_spec reference_option_rows[] = {
+    {"max_bounces", VSD_OPT_INT, 1, 1000000, 1024, NULL,
+     "path length limit in scattering events (Russian roulette ends most paths long before)",
+     offsetof(reference_options, max_bounces), 0, NULL},
+};
+
+static vsd_status reference_create(void **state, const vsd_scene *scene, const void *options, char *err,
+                                   size_t errlen)
+{
+    reference_options *o = malloc(sizeof *o);
+    (void)scene;
+    if (!o) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    *o = *(const reference_options *)options;
+    *state = o;
+    return VSD_OK;
+}
 
 typedef struct reference_round {
     const vsd_kernel_data *kd;
@@ -59,10 +79,7 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
     vsd_tile_job job;
     vsd_status st;
     int total = sc->render.samples, done = 0, batch = 1;
-    (void)state;
-    ctx->kd.max_bounces = (int)vsd_scene_option_number(sc, "max_bounces", 1024);
-    if (ctx->kd.max_bounces < 1)
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.max_bounces: must be >= 1");
+    ctx->kd.max_bounces = ((const reference_options *)state)->max_bounces;
     st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
     if (st) return st;
     if (ctx->cuda) {
@@ -97,5 +114,6 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
 }
 
 const vsd_method vsd_method_reference = {
-    "reference", reference_options, NULL, NULL, NULL, reference_render, NULL,
+    "reference", VSD_OPTION_TABLE(reference_option_rows, reference_options), reference_create, NULL, NULL,
+    reference_render, free,
 };

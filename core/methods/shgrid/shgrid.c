@@ -33,12 +33,8 @@
 #include <chealpix.h>
 #include <math.h>
 #include <stdlib.h>
+#include <stddef.h>
 #include <string.h>
-
-static const char *const shgrid_options[] = {
-    "grid", "order", "directions", "probes", "interpolation", "form", "step", "record_step",
-    "pixel_samples", "lights", "light_threshold", NULL,
-};
 
 enum { FORM_AUTO, FORM_FACTORED, FORM_PRODUCT };
 
@@ -86,79 +82,68 @@ typedef struct shgrid_state {
     double frame_seconds, lighting_seconds;
 } shgrid_state;
 
-static double opt_num(const vsd_scene *sc, const char *key, double def) { return vsd_scene_option_number(sc, key, def); }
+typedef struct shgrid_options {
+    int grid, order, directions, probes, interp, form, pixel_samples, lights;
+    double step, record_step, light_threshold;
+} shgrid_options;
 
-static vsd_status shgrid_create(void **state, const vsd_scene *scene, char *err, size_t errlen)
+/* in VSD_SHGRID_NEAREST.. and FORM_AUTO.. order */
+static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
+static const char *const form_names[] = {"auto", "factored", "product", NULL};
+
+static const char *healpix_count_problem(double v)
 {
+    return vsd_sh_healpix_nside((long)v) ? NULL : "is not a HEALPix pixel count 12 nside^2 (12, 48, 108, 192, 300, ...)";
+}
+
+static const vsd_option_spec shgrid_option_rows[] = {
+    {"grid", VSD_OPT_INT, 2, 256, 32, NULL, "record cells per axis over the density's box (the paper's N^3)",
+     offsetof(shgrid_options, grid), 0, NULL},
+    {"order", VSD_OPT_INT, 1, VSD_SH_MAX_ORDER, SHGRID_DEFAULT_ORDER, NULL, "spherical-harmonic order (order^2 coefficients)",
+     offsetof(shgrid_options, order), 0, NULL},
+    {"directions", VSD_OPT_INT, 12, 196608, 192, NULL, "HEALPix directions each record marches toward (12 nside^2)",
+     offsetof(shgrid_options, directions), 0, healpix_count_problem},
+    {"probes", VSD_OPT_INT, 0, 16, 3, NULL, "k: k^3 density probes per cell decide whether it is empty (0 = keep cells over non-empty bricks)",
+     offsetof(shgrid_options, probes), 0, NULL},
+    {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_SHGRID_LOG_TRILINEAR, interp_names,
+     "record lookup: nearest cell (the paper), trilinear, or trilinear in log radiance",
+     offsetof(shgrid_options, interp), 0, NULL},
+    {"form", VSD_OPT_CHOICE, 0, 0, FORM_AUTO, form_names,
+     "factored (isotropic phase, fast relighting) or product (RGB records); auto picks by anisotropy",
+     offsetof(shgrid_options, form), 0, NULL},
+    {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = half the smallest voxel)",
+     offsetof(shgrid_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+    {"record_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "record march step, world units (0 = half the smallest voxel)",
+     offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+    {"pixel_samples", VSD_OPT_INT, 1, 16, 2, NULL, "n: n x n stratified view rays per pixel",
+     offsetof(shgrid_options, pixel_samples), 0, NULL},
+    {"lights", VSD_OPT_INT, 0, VSD_SHGRID_MAX_LIGHTS, SHGRID_DEFAULT_LIGHTS, NULL,
+     "bright texels taken out of the SH as exact lights (0 = the paper's pure SH form)",
+     offsetof(shgrid_options, lights), 0, NULL},
+    {"light_threshold", VSD_OPT_NUMBER, 1, 1e30, SHGRID_DEFAULT_LIGHT_THRESHOLD, NULL,
+     "texels brighter than this multiple of the map's mean luminance become lights",
+     offsetof(shgrid_options, light_threshold), 0, NULL},
+};
+
+static vsd_status shgrid_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
+{
+    const shgrid_options *o = options;
     shgrid_state *s;
-    double grid = opt_num(scene, "grid", 32), order = opt_num(scene, "order", SHGRID_DEFAULT_ORDER);
-    double dirs = opt_num(scene, "directions", 192), probes = opt_num(scene, "probes", 3);
-    double ps = opt_num(scene, "pixel_samples", 2);
-    double lights = opt_num(scene, "lights", SHGRID_DEFAULT_LIGHTS), lthr = opt_num(scene, "light_threshold", SHGRID_DEFAULT_LIGHT_THRESHOLD);
-    char buf[32];
-    int r;
-    if (grid < 2 || grid > 256 || grid != floor(grid))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.grid: %g is not an integer in 2..256", grid);
-    if (order < 1 || order > VSD_SH_MAX_ORDER || order != floor(order))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.order: %g is not an integer in 1..%d", order, VSD_SH_MAX_ORDER);
-    if (dirs < 12 || dirs > 196608 || dirs != floor(dirs) || !vsd_sh_healpix_nside((long)dirs))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen,
-                        "render.options.directions: %g is not a HEALPix pixel count 12 nside^2 "
-                        "(12, 48, 108, 192, 300, 432, 588, 768, ...) up to 196608", dirs);
-    if (probes < 0 || probes > 16 || probes != floor(probes))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.probes: %g is not an integer in 0..16", probes);
-    if (ps < 1 || ps > 16 || ps != floor(ps))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.pixel_samples: %g is not an integer in 1..16", ps);
-    if (lights < 0 || lights > VSD_SHGRID_MAX_LIGHTS || lights != floor(lights))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.lights: %g is not an integer in 0..%d", lights,
-                        (int)VSD_SHGRID_MAX_LIGHTS);
-    if (!(lthr >= 1.0) || isinf(lthr))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.light_threshold: %g must be a finite number >= 1 "
-                        "(a multiple of the map's mean luminance)", lthr);
-    if (opt_num(scene, "step", 1.0) <= 0)
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.step: must be > 0");
-    if (opt_num(scene, "record_step", 1.0) <= 0)
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.record_step: must be > 0");
+    (void)scene;
     s = calloc(1, sizeof *s);
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
-    s->grid = (int)grid;
-    s->order = (int)order;
-    s->dirs_count = (long)dirs;
+    s->grid = o->grid;
+    s->order = o->order;
+    s->dirs_count = o->directions;
     s->nside = vsd_sh_healpix_nside(s->dirs_count);
-    s->probes = (int)probes;
-    s->pixel_samples = (int)ps;
-    s->light_max = (int)lights;
-    s->light_threshold = lthr;
-    s->step = opt_num(scene, "step", 0.0);
-    s->record_step = opt_num(scene, "record_step", 0.0);
-    s->interp = VSD_SHGRID_LOG_TRILINEAR;
-    r = vsd_scene_option_string(scene, "interpolation", buf, sizeof buf);
-    if (r) {
-        if (r > 0 && strcmp(buf, "nearest") == 0) s->interp = VSD_SHGRID_NEAREST;
-        else if (r > 0 && strcmp(buf, "trilinear") == 0) s->interp = VSD_SHGRID_TRILINEAR;
-        else if (r > 0 && strcmp(buf, "log") == 0) s->interp = VSD_SHGRID_LOG_TRILINEAR;
-        else {
-            free(s);
-            return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.interpolation: expected \"nearest\", \"trilinear\" or \"log\"");
-        }
-    } else if (strstr(scene->render.options_json, "\"interpolation\"")) {
-        free(s);
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.interpolation: expected \"nearest\", \"trilinear\" or \"log\"");
-    }
-    s->form = FORM_AUTO;
-    r = vsd_scene_option_string(scene, "form", buf, sizeof buf);
-    if (r) {
-        if (r > 0 && strcmp(buf, "auto") == 0) s->form = FORM_AUTO;
-        else if (r > 0 && strcmp(buf, "factored") == 0) s->form = FORM_FACTORED;
-        else if (r > 0 && strcmp(buf, "product") == 0) s->form = FORM_PRODUCT;
-        else {
-            free(s);
-            return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.form: expected \"auto\", \"factored\" or \"product\"");
-        }
-    } else if (strstr(scene->render.options_json, "\"form\"")) {
-        free(s);
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "render.options.form: expected \"auto\", \"factored\" or \"product\"");
-    }
+    s->probes = o->probes;
+    s->pixel_samples = o->pixel_samples;
+    s->light_max = o->lights;
+    s->light_threshold = o->light_threshold;
+    s->step = o->step;
+    s->record_step = o->record_step;
+    s->interp = o->interp;
+    s->form = o->form;
     /* the HEALPix directions and the basis at them, weighted 4pi/M, once */
     {
         int n2 = s->order * s->order;
@@ -168,9 +153,10 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, char *err,
         s->basis = malloc(sizeof(float) * (size_t)n2 * (size_t)s->dirs_count);
         s->dir_radiance = calloc(4 * (size_t)s->dirs_count, sizeof(float));
         if (!d || !s->dirs || !s->basis || !s->dir_radiance) {
+            long count = s->dirs_count;
             free(d);
             free(s->dirs); free(s->basis); free(s->dir_radiance); free(s);
-            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %ld directions", (long)dirs);
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %ld directions", count);
         }
         vsd_sh_healpix_dirs(s->nside, d, NULL, 0);
         for (j = 0; j < s->dirs_count; j++) {
@@ -595,6 +581,6 @@ static void shgrid_destroy(void *state)
 }
 
 const vsd_method vsd_method_shgrid = {
-    "shgrid", shgrid_options, shgrid_create, shgrid_prepare_frame, shgrid_prepare_lighting, shgrid_render,
+    "shgrid", VSD_OPTION_TABLE(shgrid_option_rows, shgrid_options), shgrid_create, shgrid_prepare_frame, shgrid_prepare_lighting, shgrid_render,
     shgrid_destroy,
 };

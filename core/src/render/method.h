@@ -2,7 +2,8 @@
  * context the renderer hands it. Methods live in core/methods/<name>/.
  *
  * Life cycle, driven by renderer.c:
- *   create()             once per renderer, after options are validated against `options`
+ *   create()             once per renderer, with the option struct that `options` (the
+ *                        method's table, method_options.h) filled from render.options
  *   prepare_frame()      when the volume frame changes (new file or medium density)
  *   prepare_lighting()   when the environment, its rotation/strength or the medium changes
  *   render()             per view: fills the framebuffer
@@ -14,6 +15,7 @@
 #include "vsd/volume.h"
 #include "vsd/env.h"
 #include "kernel/kernel_types.h"
+#include "method_options.h"
 
 /* Everything a method may read while preparing or rendering one frame. */
 typedef struct vsd_frame_ctx {
@@ -37,8 +39,8 @@ typedef struct vsd_frame_ctx {
 
 typedef struct vsd_method {
     const char *name;
-    const char *const *options;        /* accepted render.options keys, NULL-terminated */
-    vsd_status (*create)(void **state, const vsd_scene *scene, char *err, size_t errlen);
+    vsd_option_table options;          /* render.options: the one table of keys, types, ranges */
+    vsd_status (*create)(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen);
     vsd_status (*prepare_frame)(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen);
     vsd_status (*prepare_lighting)(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen);
     vsd_status (*render)(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
@@ -59,9 +61,10 @@ struct vsd_tile_job;
 void vsd_method_tile_job(struct vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_framebuffer *fb,
                          void (*fn)(void *, int, int, int, int), void *user, const char *stage);
 
-/* Validate scene->render.options_json against method->options: an unknown key is an
- * error naming it and listing the accepted ones. */
-vsd_status vsd_method_check_options(const vsd_method *m, const vsd_scene *scene, char *err, size_t errlen);
+/* Read scene->render.options_json against m->options into a new option struct (free()
+ * it): an unknown key, wrong type or out-of-range value is an error naming it. */
+vsd_status vsd_method_parse_options(const vsd_method *m, const vsd_scene *scene, void **options, char *err,
+                                    size_t errlen);
 
 /* One ray through pixel (x, y) at sub-pixel position (jx, jy) of a deterministic method;
  * `kernel` is the method's own kernel data. */

@@ -2,6 +2,7 @@
  * all list the same methods. */
 #include "method.h"
 #include "device/cpu/cpu_tiles.h"
+#include <stdlib.h>
 #include <string.h>
 #include <cjson/cJSON.h>
 
@@ -26,36 +27,33 @@ const vsd_method *vsd_method_find(const char *name)
     return NULL;
 }
 
-static int option_known(const vsd_method *m, const char *key)
+vsd_status vsd_method_parse_options(const vsd_method *m, const vsd_scene *scene, void **options, char *err,
+                                    size_t errlen)
 {
-    const char *const *o;
-    for (o = m->options; o && *o; o++)
-        if (strcmp(*o, key) == 0) return 1;
-    return 0;
+    /* at least one byte, so a method without options still gets a pointer to free */
+    void *o = calloc(1, m->options.struct_size ? m->options.struct_size : 1);
+    vsd_status st;
+    *options = NULL;
+    if (!o) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    st = vsd_options_parse(&m->options, m->name, scene->render.options_json, o, err, errlen);
+    if (st) {
+        free(o);
+        return st;
+    }
+    *options = o;
+    return VSD_OK;
 }
 
-vsd_status vsd_method_check_options(const vsd_method *m, const vsd_scene *scene, char *err, size_t errlen)
+char *vsd_method_options_json(void)
 {
-    cJSON *root = cJSON_Parse(scene->render.options_json[0] ? scene->render.options_json : "{}");
-    cJSON *item;
-    vsd_status st = VSD_OK;
-    if (!root) return vsd_fail(VSD_ERR_FORMAT, err, errlen, "render.options: not a JSON object");
-    cJSON_ArrayForEach(item, root) {
-        if (!option_known(m, item->string)) {
-            char known[512] = "";
-            const char *const *o;
-            for (o = m->options; o && *o; o++) {
-                if (known[0]) strncat(known, ", ", sizeof known - strlen(known) - 1);
-                strncat(known, *o, sizeof known - strlen(known) - 1);
-            }
-            st = vsd_fail(VSD_ERR_INVALID, err, errlen,
-                          "render.options.%s: unknown option for method %s (known: %s)",
-                          item->string, m->name, known[0] ? known : "none");
-            break;
-        }
-    }
+    cJSON *root = cJSON_CreateObject();
+    char *text;
+    size_t i;
+    for (i = 0; root && i < REGISTRY_COUNT; i++)
+        cJSON_AddItemToObject(root, registry[i]->name, (cJSON *)vsd_options_table_json(&registry[i]->options));
+    text = root ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
-    return st;
+    return text;
 }
 
 void vsd_method_tile_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_framebuffer *fb,

@@ -55,7 +55,7 @@ static vsd_status pick_method(vsd_renderer *r, char *err, size_t errlen)
 {
     const vsd_scene *sc = &r->scene;
     const vsd_method *m = vsd_method_find(sc->render.method);
-    vsd_status st;
+    vsd_status st = VSD_OK;
     if (!m) {
         char known[512] = "";
         const char *const *n;
@@ -66,12 +66,14 @@ static vsd_status pick_method(vsd_renderer *r, char *err, size_t errlen)
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "render.method: unknown method '%s' (available: %s)", sc->render.method, known);
     }
-    st = vsd_method_check_options(m, sc, err, errlen);
+    void *options;
+    st = vsd_method_parse_options(m, sc, &options, err, errlen);
     if (st) return st;
     release_method(r);
     r->method = m;
-    if (m->create) return m->create(&r->method_state, sc, err, errlen);
-    return VSD_OK;
+    if (m->create) st = m->create(&r->method_state, sc, options, err, errlen);
+    free(options);
+    return st;
 }
 
 vsd_status vsd_renderer_create(const vsd_scene *scene, const vsd_render_options *opt,

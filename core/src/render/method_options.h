@@ -1,0 +1,56 @@
+/* method_options.h — each method declares its render.options as one table of
+ * vsd_option_spec rows (key, type, range, default, choices, a one-line doc, and where the
+ * value goes in the method's option struct). One checker reads scene->render.options_json
+ * against the table and fills the struct; the same table is what `vsd methods`, the
+ * daemon's HELLO and the Blender add-on's panel show. Adding an option is one row. */
+#ifndef VSD_METHOD_OPTIONS_H
+#define VSD_METHOD_OPTIONS_H
+#include "vsd/status.h"
+#include <stddef.h>
+
+typedef enum vsd_option_type {
+    VSD_OPT_INT,     /* an int in the struct; JSON number without a fraction */
+    VSD_OPT_NUMBER,  /* a double in the struct; finite JSON number */
+    VSD_OPT_BOOL,    /* an int (0/1) in the struct; JSON true/false */
+    VSD_OPT_CHOICE   /* an int in the struct: the index into choices; JSON string */
+} vsd_option_type;
+
+enum {
+    VSD_OPT_ZERO_AUTO = 1u << 0, /* NUMBER: 0 (the default) means "chosen from the volume";
+                                    otherwise the value must be > min */
+    VSD_OPT_LENGTH = 1u << 1     /* NUMBER: a length in world units (the add-on shows metres) */
+};
+
+typedef struct vsd_option_spec {
+    const char *key;
+    vsd_option_type type;
+    double min, max;                      /* INT, NUMBER: accepted range, inclusive */
+    double def;                           /* INT, NUMBER, BOOL (0/1); CHOICE: index into choices */
+    const char *const *choices;           /* CHOICE: NULL-terminated */
+    const char *doc;                      /* one line: what it does, and its unit */
+    size_t offset;                        /* offsetof(the method's option struct, field) */
+    unsigned flags;
+    /* an extra rule on a valid-range number: NULL when v is fine, else what is wrong */
+    const char *(*check)(double v);
+} vsd_option_spec;
+
+/* A method's table: rows, their count, and the size of the struct they fill. */
+typedef struct vsd_option_table {
+    const vsd_option_spec *rows;
+    size_t count;
+    size_t struct_size;
+} vsd_option_table;
+
+#define VSD_OPTION_TABLE(rows, type) { rows, sizeof rows / sizeof rows[0], sizeof(type) }
+
+/* Fills out (struct_size bytes) with every default, then with the values options_json
+ * sets. An unknown key, a wrong type, a value out of range or not among the choices is an
+ * error naming render.options.<key> and what it accepts. */
+vsd_status vsd_options_parse(const vsd_option_table *t, const char *method, const char *options_json, void *out,
+                             char *err, size_t errlen);
+
+/* The table as a JSON array (cJSON *, returned as void * so this header needs no cJSON):
+ * [{"key", "type", "min", "max", "default", "choices", "doc", "auto_zero", "unit"}, ...]. */
+void *vsd_options_table_json(const vsd_option_table *t);
+
+#endif

@@ -1,0 +1,133 @@
+# The Method Options panel is generated from vsd's own option table, in real Blender:
+#   blender --background --factory-startup --python-exit-code 1 \
+#       --python tests/blender_addon/test_options.py -- VSD SHARED_DATA TMP_DIR
+#
+# * enabling the add-on with the vsd binary in the preferences loads `vsd methods --json`;
+# * every option of every method has a property with the table's type, default, range and
+#   doc, and the panel draws a row for it when that method is picked;
+# * only values set away from the defaults are sent (render.options), and they are what the
+#   table's checker accepts: a real render through the daemon with one of them works;
+# * the daemon's HELLO carries the same table.
+import json
+import os
+import subprocess
+import sys
+
+import bpy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+from common import check  # noqa: E402
+
+vsd, data, tmp, _ = common.args()
+common.fresh_tmp(tmp)
+table = json.loads(subprocess.run([vsd, "methods", "--json"], capture_output=True, check=True).stdout)
+check(set(table) >= {"reference", "raymarch", "constellation", "shgrid"}, "vsd methods --json lists the methods")
+
+common.install_addon(tmp, vsd=vsd)
+import vsd_blender  # noqa: E402
+from vsd_blender import mapping, method_options, ui  # noqa: E402
+
+check(method_options.table() == table, "the add-on loaded the table from the vsd binary (%s)" % method_options.source())
+scene = bpy.context.scene
+scene.render.engine = "VSD"
+
+
+class Recorder(object):
+    """Stands in for a panel's layout and records the rows drawn."""
+
+    def __init__(self):
+        self.rows = []
+        self.use_property_split = self.use_property_decorate = False
+
+    def column(self, **kw):
+        return self
+
+    def row(self, **kw):
+        return self
+
+    def prop(self, data, key, **kw):
+        self.rows.append((data, key))
+
+    def label(self, **kw):
+        self.rows.append((None, kw.get("text")))
+
+
+class FakePanel(object):
+    def __init__(self):
+        self.layout = Recorder()
+
+
+for method, rows in sorted(table.items()):
+    group = getattr(scene.vsd_options, method, None)
+    check(group is not None, "Scene.vsd_options.%s exists" % method)
+    if group is None:
+        continue
+    for row in rows:
+        key = row["key"]
+        p = group.bl_rna.properties.get(key)
+        check(p is not None, "%s.%s is a property" % (method, key))
+        if p is None:
+            continue
+        expect_type = {"int": "INT", "number": "FLOAT", "bool": "BOOLEAN", "choice": "ENUM"}[row["type"]]
+        check(p.type == expect_type, "%s.%s is %s" % (method, key, expect_type))
+        check(row["doc"] in p.description, "%s.%s carries the table's doc" % (method, key))
+        value = getattr(group, key)
+        if row["type"] in ("int", "number"):
+            check(abs(value - row["default"]) <= 1e-6 * max(1.0, abs(row["default"])),
+                  "%s.%s defaults to %s (got %s)" % (method, key, row["default"], value))
+            check(p.hard_min == max(row["min"], -2 ** 31 + 1) or abs(p.hard_min - row["min"]) < 1e-6,
+                  "%s.%s minimum %s (got %s)" % (method, key, row["min"], p.hard_min))
+        elif row["type"] == "choice":
+            check(value == row["default"] and [i.identifier for i in p.enum_items] == row["choices"],
+                  "%s.%s offers %s, default %s" % (method, key, row["choices"], row["default"]))
+        else:
+            check(value == row["default"], "%s.%s defaults to %s" % (method, key, row["default"]))
+    # the panel draws one row per option for the picked method
+    scene.vsd.method = method
+    panel = FakePanel()
+    ui.RENDER_PT_vsd_options.draw(panel, bpy.context)
+    drawn = [k for d, k in panel.layout.rows if d is not None and d == group]
+    check(drawn == [r["key"] for r in rows], "the panel draws %s's rows %s (drew %s)" % (
+        method, [r["key"] for r in rows], drawn))
+
+# nothing set: no options sent; set ones are sent with their JSON types
+scene.vsd.method = "constellation"
+check(mapping.render_block(scene.vsd)["options"] == {}, "defaults send no options")
+scene.vsd_options.constellation.lights = 16
+scene.vsd_options.constellation.distance_map = False
+scene.vsd_options.constellation.lights_method = "kmeans"
+opts = mapping.render_block(scene.vsd)["options"]
+check(opts == {"lights": 16, "distance_map": False, "lights_method": "kmeans"}, "set options are sent: %s" % opts)
+scene.vsd.options_json = '{"lights": 8}'
+check(mapping.render_block(scene.vsd)["options"]["lights"] == 8, "the JSON field overrides a row")
+scene.vsd.options_json = ""
+
+# the daemon's HELLO carries the same table, and a render with a generated option works
+d = common.Daemon(vsd, tmp)
+try:
+    prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+    prefs.address = d.sock
+    st = vsd_blender.connection.refresh_status(vsd_blender.connection.Settings.from_prefs(prefs))
+    check(st["ok"], "connected to the daemon: %s" % st["text"])
+    c = vsd_blender.connection.client(vsd_blender.connection.Settings.from_prefs(prefs))
+    check(c.server.get("method_options") == table, "HELLO.method_options equals `vsd methods --json`")
+    scene2, ob = common.build_scene(data, width=48, height=27)   # replaces the objects of this scene
+    scene2.vsd.method = "raymarch"
+    scene2.vsd_options.raymarch.lights = 4
+    scene2.vsd_options.raymarch.pixel_samples = 1
+    block = mapping.render_block(scene2.vsd)
+    check(block["options"] == {"lights": 4, "pixel_samples": 1}, "raymarch options sent: %s" % block["options"])
+    images = []
+    for lights in (4, 1):
+        scene2.vsd_options.raymarch.lights = lights
+        out = os.path.join(tmp, "options_%d.exr" % lights)
+        err = common.run_blender_render(out)
+        check(err is None, "F12 with raymarch lights=%d (%s)" % (lights, err))
+        images.append(common.read_exr(out)[0] if err is None else {})
+    key = [k for k in images[0] if k.endswith("VolumeDir.R")]
+    check(bool(key) and images[0][key[0]] != images[1].get(key[0]),
+          "the generated option reaches the renderer (lights 4 and 1 give different VolumeDir)")
+finally:
+    d.stop()
+common.finish("blender_addon_options")
