@@ -244,9 +244,50 @@ static void test_reference_vs_raymarch_smoke(void)
     vsd_framebuffer_destroy(fb[1]);
 }
 
+/* Early termination (kernel/kernel_march.h): a cube of optical depth 16 under a uniform
+ * map of radiance L. The ray stops once T < 1e-3, so the Transmittance pass holds T at the
+ * stop, between 1e-3 * (1 - a) (a: one step's collision probability) and 1e-3, instead of
+ * e^-16; VolumeDir loses at most 1e-3 * albedo * L per pixel against the full march. */
+static void test_early_termination(void)
+{
+    const double h = 0.1, sigma = 20.0, L = 0.5, albedo = 0.8;
+    const double a = 1.0 - exp(-sigma * 0.5 * h);   /* raymarch's step: half a voxel */
+    vsd_volume *vol = box_volume(8, 16, 1.0f, h);
+    vsd_framebuffer *fb[2] = {NULL, NULL};
+    const char *stops[2] = {"render.options.early_termination=0", "render.options.early_termination=0.001"};
+    int i, x, y;
+    for (i = 0; i < 2; i++) {
+        vsd_scene sc;
+        const char *ov[5] = {"render.method=raymarch", "medium.density=20", "medium.albedo=[0.8,0.8,0.8]",
+                             "film.transparent=true", stops[i]};
+        if (load_scene(ortho_scene, ov, 5, &sc)) fb[i] = render(&sc, vol, NULL, 0);
+    }
+    if (fb[0] && fb[1]) {
+        double worst = 0.0, moved = 0.0;
+        for (y = 2; y < 6; y++)
+            for (x = 2; x < 6; x++) {
+                int p = y * 8 + x;
+                float t_full = fb[0]->pass[VSD_PASS_TRANSMITTANCE][3 * p], t_stop = fb[1]->pass[VSD_PASS_TRANSMITTANCE][3 * p];
+                double d = fabs(fb[0]->pass[VSD_PASS_VOLUME_DIR][3 * p + 1] - fb[1]->pass[VSD_PASS_VOLUME_DIR][3 * p + 1]);
+                CHECK_MSG(t_full < 1e-6, "the full march reaches T = %g (expected ~e^-16)", t_full);
+                CHECK_MSG(t_stop < 1e-3 && t_stop >= 1e-3 * (1.0 - a) * 0.999, "T at the stop %g, expected in [%g, 1e-3)",
+                          t_stop, 1e-3 * (1.0 - a));
+                if (d > worst) worst = d;
+                moved += d;
+            }
+        CHECK_MSG(worst <= 1e-3 * albedo * L, "VolumeDir lost %g > the bound %g", worst, 1e-3 * albedo * L);
+        CHECK_MSG(moved > 0.0, "termination changed nothing: did the ray stop?");
+        printf("early termination: VolumeDir change %.3g (bound %.3g)\n", worst, 1e-3 * albedo * L);
+    }
+    vsd_framebuffer_destroy(fb[0]);
+    vsd_framebuffer_destroy(fb[1]);
+    vsd_volume_destroy(vol);
+}
+
 int main(void)
 {
     test_slab_transmittance();
+    test_early_termination();
     test_white_furnace();
     test_environment_direction();
     test_determinism();

@@ -212,7 +212,11 @@ static double dir_error(const vsd_framebuffer *a, const vsd_framebuffer *ref, in
  * reference carries noise of about f / sqrt(2), which adds in quadrature to the method's own
  * error e_m, so the checked estimate is e_m = sqrt(e^2 - f^2 / 2) against the issue's 5%
  * target (measured about 3% here, 3.6-4.0% at 64x36 against 8192 spp references:
- * docs/methods/shgrid.md). The raw error must also stay below 5% + f. */
+ * docs/methods/shgrid.md). The raw error must also stay below 5% + f. shgrid renders 2x2
+ * rays per pixel here: the reference averages over each pixel's area, and at 48x27 one
+ * point sample per pixel adds about 8% of silhouette aliasing that says nothing about the
+ * lighting this test is about (the default, 1 ray, is measured at real film sizes by
+ * bench/tte). */
 typedef struct dataset { const char *scene; int frame; } dataset;
 
 static void test_against_reference(void)
@@ -224,7 +228,7 @@ static void test_against_reference(void)
     int si;
     for (si = 0; si < 2; si++) {
         char fr[2][32];
-        const char *ref_ov[6], *sh_ov[5];
+        const char *ref_ov[6], *sh_ov[6];
         vsd_framebuffer *ref, *ref2, *sh;
         snprintf(fr[0], sizeof fr[0], "frames.start=%d", sets[si].frame);
         snprintf(fr[1], sizeof fr[1], "frames.end=%d", sets[si].frame);
@@ -235,13 +239,14 @@ static void test_against_reference(void)
         ref_ov[4] = "render.method=reference";
         ref_ov[5] = "render.samples=2048";
         sh_ov[4] = "render.method=shgrid";
+        sh_ov[5] = "render.options.pixel_samples=2";
         ref = render_file(sets[si].scene, ref_ov, 6, sets[si].frame);
         ref_ov[5] = "render.seed=9";
         {
             const char *ov2[7] = {ref_ov[0], ref_ov[1], ref_ov[2], ref_ov[3], ref_ov[4], "render.samples=2048", "render.seed=9"};
             ref2 = render_file(sets[si].scene, ov2, 7, sets[si].frame);
         }
-        sh = render_file(sets[si].scene, sh_ov, 5, sets[si].frame);
+        sh = render_file(sets[si].scene, sh_ov, 6, sets[si].frame);
         if (ref && ref2 && sh) {
             double floor_ = dir_error(ref2, ref, 48, 27), e = dir_error(sh, ref, 48, 27), et = 1, em;
             CHECK(vsd_block_rel_rmse(sh->pass[VSD_PASS_TRANSMITTANCE], ref->pass[VSD_PASS_TRANSMITTANCE], 48, 27, 3, 3, 4,

@@ -23,6 +23,7 @@
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include "vsd/compare.h"
+#include "bench_camera.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -60,19 +61,6 @@ static vsd_status load_scene(const char *name, const char *method, const char *d
     return vsd_scene_load(path, ovp, 5, sc, err, errlen);
 }
 
-/* camera-to-world turned by angle about the world Z axis */
-static void orbit_camera(vsd_scene *sc, const double base[16], double angle)
-{
-    double c = cos(angle), s = sin(angle);
-    int col;
-    for (col = 0; col < 4; col++) {
-        double x = base[col], y = base[4 + col];
-        sc->camera.matrix[col] = c * x - s * y;
-        sc->camera.matrix[4 + col] = s * x + c * y;
-        sc->camera.matrix[8 + col] = base[8 + col];
-    }
-}
-
 typedef struct device_result {
     double prepare_s, first_view_s, orbit_view_s, cpu_s_scaled, rel_rmse;
     int samples;
@@ -102,7 +90,7 @@ static vsd_status bench_one(const bench_opts *o, const char *scene, const char *
     snprintf(res->device_name, sizeof res->device_name, "%s", st.device_name);
     t = now_seconds();
     for (i = 1; !s && i <= o->orbit; i++) {
-        orbit_camera(&sc, base, 2.0 * 3.14159265358979 * i / (o->orbit + 1));
+        bench_orbit_camera(&sc, base, 2.0 * 3.14159265358979 * i / (o->orbit + 1));
         if (!(s = vsd_renderer_set_scene(r, &sc, err, errlen))) s = vsd_renderer_render(r, frame, &fb, &st, err, errlen);
     }
     res->orbit_view_s = o->orbit > 0 ? (now_seconds() - t) / o->orbit : res->first_view_s;

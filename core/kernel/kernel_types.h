@@ -133,7 +133,8 @@ typedef struct VSD_ALIGN16 vsd_kernel_data {
     int32_t seed;
     int32_t max_bounces;
     float march_step;         /* ray-march step in world units (raymarch) */
-    int32_t pad_[3];
+    float march_stop;         /* view marches stop once transmittance is below this (0 = never) */
+    int32_t pad_[2];
 } vsd_kernel_data;
 
 VSD_STATIC_ASSERT(sizeof(vsd_kvolume) % 16 == 0, "vsd_kvolume must stay 16-byte aligned");

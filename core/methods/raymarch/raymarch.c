@@ -2,7 +2,7 @@
  * Lighting preparation picks the K fixed environment directions; the view pass marches
  * n x n stratified rays per pixel (a box filter like the reference's, without noise).
  * Options: lights (K, default 256), step (world units, default half the smallest voxel),
- * pixel_samples (n, default 2). */
+ * pixel_samples (n, default 1), early_termination (default 1e-3). */
 #include "src/render/method.h"
 #include "src/render/env_lights.h"
 #include "src/render/device_frame.h"
@@ -12,7 +12,7 @@
 
 typedef struct raymarch_options {
     int lights, pixel_samples;
-    double step;
+    double step, early_termination;
 } raymarch_options;
 
 static const vsd_option_spec raymarch_option_rows[] = {
@@ -21,8 +21,11 @@ static const vsd_option_spec raymarch_option_rows[] = {
      offsetof(raymarch_options, lights), 0, NULL},
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view and shadow march step, world units (0 = half the smallest voxel)",
      offsetof(raymarch_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
-    {"pixel_samples", VSD_OPT_INT, 1, 16, 2, NULL, "n: n x n stratified view rays per pixel",
+    {"pixel_samples", VSD_OPT_INT, 1, 16, 1, NULL, "n: n x n stratified view rays per pixel",
      offsetof(raymarch_options, pixel_samples), 0, NULL},
+    {"early_termination", VSD_OPT_NUMBER, 0, 1, 1e-3, NULL,
+     "stop a view ray once its transmittance is below this (0 = never; bound in kernel_march.h)",
+     offsetof(raymarch_options, early_termination), 0, NULL},
 };
 
 typedef struct raymarch_state {
@@ -72,6 +75,7 @@ static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuff
     ctx->kd.lights = s->lights;
     ctx->kd.light_count = s->opt.lights;
     ctx->kd.march_step = vsd_method_march_step(ctx, s->opt.step);
+    ctx->kd.march_stop = (float)s->opt.early_termination;
     return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, raymarch_sample, raymarch_device, &ctx->kd,
                                         "ray marching", samples, err, errlen);
 }

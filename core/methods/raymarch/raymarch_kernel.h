@@ -42,13 +42,14 @@ VSD_DEVICE vsd_f3 vsd_march_inscatter(const vsd_kernel_data *kd, vsd_f3 p, vsd_f
 VSD_DEVICE vsd_sample_result vsd_raymarch_pixel(const vsd_kernel_data *kd, int32_t px, int32_t py, float jx, float jy)
 {
     vsd_march_acc acc;
+    vsd_march_walk walk;
     vsd_f3 o, d;
-    float t0, t1, t, h = kd->march_step;
+    float t0, t1, tm, hs;
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
     if (vsd_march_extent(kd, o, d, &t0, &t1)) {
-        for (t = t0; t < t1; t += h) {
-            float hs = vsd_minf(h, t1 - t), tm = t + 0.5f * hs;
+        vsd_march_walk_begin(&walk, kd, o, d, t0, t1);
+        while (vsd_march_walk_next(&walk, kd, acc.tr, &tm, &hs)) {
             vsd_f3 p = f3_madd(o, d, tm);
             float absorbed = vsd_march_medium(kd, &acc, p, hs);
             if (absorbed > 0.0f) vsd_march_scatter(kd, &acc, vsd_march_inscatter(kd, p, d), tm, absorbed);

@@ -51,7 +51,7 @@ typedef struct shgrid_state {
     /* options */
     int grid, order, probes, interp, form, pixel_samples, light_max;
     long dirs_count, nside;
-    double step, record_step, light_threshold;
+    double step, record_step, light_threshold, early_termination;
     /* HEALPix directions and their basis rows (fixed per renderer) */
     float *dirs, *basis, *dir_radiance;
     /* frame: the record grid */
@@ -63,6 +63,7 @@ typedef struct shgrid_state {
     float *trans;            /* [records * n2] SH of transmittance, when have_trans */
     int have_trans;
     float *rgb;              /* [records * 3 n2] SH of T*L (RGB kind) */
+    float *baked;            /* [records * 3] in-scattered RGB per unit sigma_s (BAKED kind) */
     int kind;                /* what render uses */
     /* lighting */
     float light[3 * VSD_SH_MAX_COEFFS];
@@ -84,7 +85,7 @@ typedef struct shgrid_state {
 
 typedef struct shgrid_options {
     int grid, order, directions, probes, interp, form, pixel_samples, lights;
-    double step, record_step, light_threshold;
+    double step, record_step, light_threshold, early_termination;
 } shgrid_options;
 
 /* in VSD_SHGRID_NEAREST.. and FORM_AUTO.. order */
@@ -115,8 +116,11 @@ static const vsd_option_spec shgrid_option_rows[] = {
      offsetof(shgrid_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
     {"record_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "record march step, world units (0 = half the smallest voxel)",
      offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
-    {"pixel_samples", VSD_OPT_INT, 1, 16, 2, NULL, "n: n x n stratified view rays per pixel",
+    {"pixel_samples", VSD_OPT_INT, 1, 16, 1, NULL, "n: n x n stratified view rays per pixel",
      offsetof(shgrid_options, pixel_samples), 0, NULL},
+    {"early_termination", VSD_OPT_NUMBER, 0, 1, 1e-3, NULL,
+     "stop a view ray once its transmittance is below this (0 = never; bound in kernel_march.h)",
+     offsetof(shgrid_options, early_termination), 0, NULL},
     {"lights", VSD_OPT_INT, 0, VSD_SHGRID_MAX_LIGHTS, SHGRID_DEFAULT_LIGHTS, NULL,
      "bright texels taken out of the SH as exact lights (0 = the paper's pure SH form)",
      offsetof(shgrid_options, lights), 0, NULL},
@@ -142,6 +146,7 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, const void
     s->light_threshold = o->light_threshold;
     s->step = o->step;
     s->record_step = o->record_step;
+    s->early_termination = o->early_termination;
     s->interp = o->interp;
     s->form = o->form;
     /* the HEALPix directions and the basis at them, weighted 4pi/M, once */
@@ -175,8 +180,9 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, const void
 
 static void free_frame(shgrid_state *s)
 {
-    free(s->cell_record); free(s->record_pos); free(s->trans); free(s->rgb); free(s->light_trans);
+    free(s->cell_record); free(s->record_pos); free(s->trans); free(s->rgb); free(s->light_trans); free(s->baked);
     s->cell_record = NULL; s->record_pos = NULL; s->trans = NULL; s->rgb = NULL; s->light_trans = NULL;
+    s->baked = NULL;
     s->record_count = 0;
     s->have_trans = 0;
     s->have_light_trans = 0;
@@ -188,7 +194,7 @@ static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int ki
     memset(g, 0, sizeof *g);
     g->kd = kd;
     g->cell_record = s->cell_record;
-    g->records = kind == VSD_SHGRID_SCALAR ? s->trans : s->rgb;
+    g->records = kind == VSD_SHGRID_SCALAR ? s->trans : kind == VSD_SHGRID_BAKED ? s->baked : s->rgb;
     g->record_pos = s->record_pos;
     g->dirs = s->dirs;
     g->basis = s->basis;
@@ -202,7 +208,9 @@ static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int ki
     g->order = s->order;
     g->n2 = s->order * s->order;
     g->kind = kind;
-    g->stride = kind == VSD_SHGRID_SCALAR ? g->n2 : 3 * g->n2;
+    g->stride = kind == VSD_SHGRID_SCALAR ? g->n2 : kind == VSD_SHGRID_BAKED ? 3 : 3 * g->n2;
+    /* baked records already hold the extracted lights' term */
+    if (kind == VSD_SHGRID_BAKED) g->light_count = 0;
     g->interp = s->interp;
     g->dir_count = (int32_t)s->dirs_count;
     g->record_count = s->record_count;
@@ -232,7 +240,7 @@ static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kin
     vsd_tile_job tj;
     vsd_status st;
     if (s->record_count == 0) return VSD_OK;
-    kernel_grid(s, &ctx->kd, kind == PASS_LIGHTS ? s->kind : kind, &g);
+    kernel_grid(s, &ctx->kd, kind == PASS_LIGHTS ? VSD_SHGRID_SCALAR : kind, &g);
     job.g = &g;
     job.lights = kind == PASS_LIGHTS;
     job.out = job.lights ? s->light_trans : kind == VSD_SHGRID_SCALAR ? s->trans : s->rgb;
@@ -462,6 +470,34 @@ static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size
     return st;
 }
 
+/* Isotropic phase: each record's in-scattered radiance (SH term plus the extracted
+ * lights' term) is the same for every view direction, so the lighting stage evaluates it
+ * once per record with the view pass's own function, and the view pass reads it. */
+static vsd_status bake_isotropic(shgrid_state *s, const vsd_kernel_data *kd, char *err, size_t errlen)
+{
+    vsd_kshgrid g;
+    float ph[3 * VSD_SHGRID_MAX_LIGHTS];
+    int r, k;
+    free(s->baked);
+    s->baked = malloc(sizeof(float) * 3 * (size_t)s->record_count);
+    if (!s->baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", s->record_count);
+    kernel_grid(s, kd, VSD_SHGRID_SCALAR, &g);
+    for (k = 0; k < g.light_count; k++) {
+        float pk = vsd_hg_eval(0.0f, 0.0f);   /* 1 / 4pi, whatever the direction */
+        ph[3 * k] = pk * s->klights[8 * k + 4];
+        ph[3 * k + 1] = pk * s->klights[8 * k + 5];
+        ph[3 * k + 2] = pk * s->klights[8 * k + 6];
+    }
+    for (r = 0; r < s->record_count; r++) {
+        vsd_f3 v = vsd_shgrid_record_radiance(&g, r, NULL, ph);
+        s->baked[3 * (size_t)r] = v.x;
+        s->baked[3 * (size_t)r + 1] = v.y;
+        s->baked[3 * (size_t)r + 2] = v.z;
+    }
+    s->kind = VSD_SHGRID_BAKED;
+    return VSD_OK;
+}
+
 static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     shgrid_state *s = state;
@@ -527,10 +563,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
         if ((st = run_records(s, ctx, VSD_SHGRID_SCALAR, err, errlen))) return st;
         s->have_trans = 1;
     }
-    if (sc->medium.anisotropy == 0.0f) {
-        s->kind = VSD_SHGRID_SCALAR;
-        return VSD_OK;
-    }
+    if (sc->medium.anisotropy == 0.0f) return bake_isotropic(s, &ctx->kd, err, errlen);
     /* factored form with an anisotropic phase: (T * L) per record by the triple product,
      * then the view pass convolves with HG */
     if (!s->tensor && (st = vsd_sh_tensor_create(s->order, &s->tensor, err, errlen))) return st;
@@ -561,6 +594,7 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
     shgrid_state *s = state;
     vsd_kshgrid g;
     ctx->kd.march_step = vsd_method_march_step(ctx, s->step);
+    ctx->kd.march_stop = (float)s->early_termination;
     kernel_grid(s, &ctx->kd, s->kind, &g);
     return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, vsd_shgrid_device_view, &g,
                                         "ray marching", samples, err, errlen);

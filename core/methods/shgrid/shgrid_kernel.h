@@ -41,7 +41,10 @@
 #include "kernel/kernel_phase.h"
 #include "src/sh/sh_kernel.h"
 
-enum { VSD_SHGRID_SCALAR = 0, VSD_SHGRID_RGB = 1 };
+/* BAKED: the lighting stage's in-scattered RGB per record (isotropic phase: it does not
+ * depend on the view direction), 3 floats per record, so a camera change redoes none of
+ * the lighting and a view lookup reads 8 RGB triples. */
+enum { VSD_SHGRID_SCALAR = 0, VSD_SHGRID_RGB = 1, VSD_SHGRID_BAKED = 2 };
 enum { VSD_SHGRID_NEAREST = 0, VSD_SHGRID_TRILINEAR = 1, VSD_SHGRID_LOG_TRILINEAR = 2 };
 enum { VSD_SHGRID_MAX_LIGHTS = 64 };
 
@@ -61,7 +64,7 @@ typedef struct VSD_ALIGN16 vsd_kshgrid {
     vsd_affine world_to_grid;
     int32_t res[3];
     int32_t order, n2, stride;    /* stride = n2 (scalar) or 3 n2 (RGB) */
-    int32_t kind;                 /* VSD_SHGRID_SCALAR or VSD_SHGRID_RGB */
+    int32_t kind;                 /* VSD_SHGRID_SCALAR, _RGB or _BAKED */
     int32_t interp;
     int32_t dir_count;
     int32_t record_count;
@@ -117,6 +120,7 @@ VSD_DEVICE vsd_f3 vsd_shgrid_record_radiance(const vsd_kshgrid *g, int32_t rec, 
     const float *r = g->records + (size_t)rec * g->stride;
     float s[3] = {0.0f, 0.0f, 0.0f};
     int32_t i, c;
+    if (g->kind == VSD_SHGRID_BAKED) return f3(r[0], r[1], r[2]);
     if (g->kind == VSD_SHGRID_SCALAR) {
         for (c = 0; c < 3; c++) {
             const float *l = g->light + c * g->n2;
@@ -153,16 +157,29 @@ typedef struct vsd_shgrid_corners {
     vsd_f3 v[8];
 } vsd_shgrid_corners;
 
+/* A ray moving into a neighbouring cell shares 4 (or 2, or 1) corners with the last one:
+ * those are copied, not recomputed (the same values, so the image does not change). */
 VSD_DEVICE void vsd_shgrid_fill_corners(const vsd_kshgrid *g, int32_t i0, int32_t j0, int32_t k0, const float *w,
                                         const float *ph, vsd_shgrid_corners *c)
 {
     int32_t a, logi = g->interp == VSD_SHGRID_LOG_TRILINEAR;
+    int32_t di = i0 - c->key[0], dj = j0 - c->key[1], dk = k0 - c->key[2], had = c->filled, old_valid = c->valid;
+    vsd_f3 old[8];
+    for (a = 0; a < 8; a++) old[a] = c->v[a];
     c->key[0] = i0; c->key[1] = j0; c->key[2] = k0;
     c->filled = 1;
     c->valid = 0;
     for (a = 0; a < 8; a++) {
-        int32_t i = i0 + (a & 1), j = j0 + ((a >> 1) & 1), k = k0 + ((a >> 2) & 1), rec;
+        int32_t ax = a & 1, ay = (a >> 1) & 1, az = (a >> 2) & 1;
+        int32_t i = i0 + ax, j = j0 + ay, k = k0 + az, rec;
+        int32_t ox = ax + di, oy = ay + dj, oz = az + dk;   /* this corner in the old cube */
         vsd_f3 v;
+        if (had && ox >= 0 && ox <= 1 && oy >= 0 && oy <= 1 && oz >= 0 && oz <= 1) {
+            int32_t b = ox | (oy << 1) | (oz << 2);
+            c->v[a] = old[b];
+            if (old_valid & (1 << b)) c->valid |= 1 << a;
+            continue;
+        }
         if (i < 0 || j < 0 || k < 0 || i >= g->res[0] || j >= g->res[1] || k >= g->res[2]) continue;
         rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
         if (rec < 0) continue;
@@ -210,11 +227,13 @@ VSD_DEVICE vsd_sample_result vsd_shgrid_pixel(const vsd_kshgrid *g, int32_t px, 
     const vsd_kernel_data *kd = g->kd;
     vsd_march_acc acc;
     vsd_f3 o, d;
-    float t0 = 0.0f, t1 = 0.0f, t, h = kd->march_step;
+    float t0 = 0.0f, t1 = 0.0f;
     float w[VSD_SH_MAX_COEFFS], ph[3 * VSD_SHGRID_MAX_LIGHTS];
     vsd_shgrid_corners corners;
     int32_t k;
     corners.filled = 0;
+    corners.valid = 0;
+    corners.key[0] = corners.key[1] = corners.key[2] = 0;
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
     /* the lights are directional and d is fixed along the ray: phase * E once per ray */
@@ -234,8 +253,10 @@ VSD_DEVICE vsd_sample_result vsd_shgrid_pixel(const vsd_kshgrid *g, int32_t px, 
         }
     }
     if (vsd_march_extent(kd, o, d, &t0, &t1)) {
-        for (t = t0; t < t1; t += h) {
-            float hs = vsd_minf(h, t1 - t), tm = t + 0.5f * hs;
+        vsd_march_walk walk;
+        float tm, hs;
+        vsd_march_walk_begin(&walk, kd, o, d, t0, t1);
+        while (vsd_march_walk_next(&walk, kd, acc.tr, &tm, &hs)) {
             vsd_f3 p = f3_madd(o, d, tm);
             /* §4.5: emission accumulates along the same march */
             float absorbed = vsd_march_medium(kd, &acc, p, hs);
