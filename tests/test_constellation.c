@@ -251,7 +251,7 @@ static const char *blob_scene =
     "\"emission_color\":[1,0.5,0.2],\"emission_strength\":2.0},"
     "\"camera\":{\"position\":[0.3,-3.5,1.2],\"look_at\":[0,0,0],\"up\":[0,0,1],\"fov\":0.8},"
     "\"film\":{\"width\":40,\"height\":30,\"transparent\":false},"
-    "\"render\":{\"method\":\"constellation\",\"options\":{\"lights\":24}}}";
+    "\"render\":{\"method\":\"constellation\",\"options\":{\"lights\":24,\"shadows\":\"rays\"}}}";
 
 /* A sky-like map: bright lobe (a sun) plus a blue gradient. */
 static vsd_env *sky_env(void)
@@ -331,13 +331,22 @@ static void test_acceleration_exact(void)
  * threshold 0.001 within 0.5% (measured 0.11% at 128x128). */
 static void test_acceleration_exact_smoke(void)
 {
-    const char *base[3] = {"film.width=48", "film.height=27", "render.method=constellation"};
-    const char *ov_off[5] = {base[0], base[1], base[2], "render.options.distance_map=false",
+    const char *base[4] = {"film.width=48", "film.height=27", "render.method=constellation",
+                           "render.options.shadows=\"rays\""};
+    const char *ov_off[6] = {base[0], base[1], base[2], base[3], "render.options.distance_map=false",
                              "render.options.validity_mask=false"};
-    const char *ov_thr[4] = {base[0], base[1], base[2], "render.options.density_threshold=0.001"};
-    vsd_framebuffer *on = render_file("scenes/smoke64_sunset.json", base, 3, 24);
-    vsd_framebuffer *off = render_file("scenes/smoke64_sunset.json", ov_off, 5, 24);
-    vsd_framebuffer *thr = render_file("scenes/smoke64_sunset.json", ov_thr, 4, 24);
+    const char *ov_thr[5] = {base[0], base[1], base[2], base[3], "render.options.density_threshold=0.001"};
+    /* cached shadows: the lighting stage's shadow rays leap the same way */
+    const char *grid_on[3] = {base[0], base[1], base[2]};
+    const char *grid_off[4] = {base[0], base[1], base[2], "render.options.distance_map=false"};
+    vsd_framebuffer *on = render_file("scenes/smoke64_sunset.json", base, 4, 24);
+    vsd_framebuffer *off = render_file("scenes/smoke64_sunset.json", ov_off, 6, 24);
+    vsd_framebuffer *thr = render_file("scenes/smoke64_sunset.json", ov_thr, 5, 24);
+    vsd_framebuffer *g_on = render_file("scenes/smoke64_sunset.json", grid_on, 3, 24);
+    vsd_framebuffer *g_off = render_file("scenes/smoke64_sunset.json", grid_off, 4, 24);
+    CHECK_MSG(g_on && g_off && fb_identical(g_on, g_off), "smoke64, cached shadows: distance map changes the image");
+    vsd_framebuffer_destroy(g_on);
+    vsd_framebuffer_destroy(g_off);
     CHECK_MSG(on && off && fb_identical(on, off), "smoke64: accelerated image differs at threshold 0");
     if (thr && off) {
         double e = 1;
@@ -437,6 +446,8 @@ static void test_options(void)
         {"render.options.slice=-1", "out of range"},
         {"render.options.early_termination=2", "out of range"},
         {"render.options.step=1", "unknown option"},
+        {"render.options={\"lights\":65}", "more than the 64 lights"},
+        {"render.options.shadows=\"maps\"", "not one of"},
         {"render.options.density_threshold=\"x\"", "expected a finite number"},
     };
     size_t i;
@@ -459,27 +470,31 @@ static void test_options(void)
 static void test_against_reference(void)
 {
     const char *scenes[2] = {"scenes/smoke64_sunset.json", "scenes/cloud128_interior.json"};
+    const char *shadows[2] = {"render.options.shadows=\"grid\"", "render.options.shadows=\"rays\""};
     const int frames[2] = {24, 1};
     const double bound[2] = {0.07, 0.07};
-    int s;
+    int s, m;
     for (s = 0; s < 2; s++) {
         const char *ov_ref[4] = {"film.width=48", "film.height=27", "render.method=reference", "render.samples=1024"};
-        const char *ov_cst[4] = {"film.width=48", "film.height=27", "render.method=constellation",
-                                 "render.options.pixel_samples=2"};
         vsd_framebuffer *ref = render_file(scenes[s], ov_ref, 4, frames[s]);
-        vsd_framebuffer *cst = render_file(scenes[s], ov_cst, 4, frames[s]);
+        for (m = 0; m < 2; m++) {
+        const char *ov_cst[5] = {"film.width=48", "film.height=27", "render.method=constellation",
+                                 "render.options.pixel_samples=2", shadows[m]};
+        vsd_framebuffer *cst = render_file(scenes[s], ov_cst, 5, frames[s]);
         if (ref && cst) {
             double e = 1, et = 1;
             CHECK(vsd_block_rel_rmse(cst->pass[VSD_PASS_VOLUME_DIR], ref->pass[VSD_PASS_VOLUME_DIR], 48, 27, 3, 3, 4, &e,
                                      NULL, 0) == VSD_OK);
             CHECK(vsd_block_rel_rmse(cst->pass[VSD_PASS_TRANSMITTANCE], ref->pass[VSD_PASS_TRANSMITTANCE], 48, 27, 3, 3,
                                      4, &et, NULL, 0) == VSD_OK);
-            printf("%s: constellation vs reference VolumeDir rel. RMSE %.4f, Transmittance %.4f\n", scenes[s], e, et);
-            CHECK_MSG(e < bound[s], "%s: VolumeDir rel. RMSE %.4f >= %.2f", scenes[s], e, bound[s]);
+            printf("%s (%s): constellation vs reference VolumeDir rel. RMSE %.4f, Transmittance %.4f\n", scenes[s],
+                   shadows[m], e, et);
+            CHECK_MSG(e < bound[s], "%s (%s): VolumeDir rel. RMSE %.4f >= %.2f", scenes[s], shadows[m], e, bound[s]);
             CHECK_MSG(et < 0.02, "%s: Transmittance rel. RMSE %.4f >= 0.02", scenes[s], et);
         }
-        vsd_framebuffer_destroy(ref);
         vsd_framebuffer_destroy(cst);
+        }
+        vsd_framebuffer_destroy(ref);
     }
 }
 

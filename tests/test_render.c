@@ -284,8 +284,51 @@ static void test_early_termination(void)
     vsd_volume_destroy(vol);
 }
 
+/* A camera change on a kept renderer (cached preparation and lighting) gives the image a
+ * fresh renderer gives at the new camera, for every deterministic method: the caches hold
+ * nothing that depends on the view. */
+static void test_cached_view_equals_fresh(void)
+{
+    const char *methods[] = {"render.method=raymarch", "render.method=shgrid", "render.method=constellation"};
+    size_t m;
+    for (m = 0; m < sizeof methods / sizeof methods[0]; m++) {
+        const char *ov[5] = {methods[m], "film.width=64", "film.height=36", "frames.start=24", "frames.end=24"};
+        vsd_scene sc;
+        vsd_renderer *kept = NULL, *fresh = NULL;
+        vsd_framebuffer *a = NULL, *b = NULL;
+        char err[1024];
+        double c = cos(0.3), s_ = sin(0.3), e = 1.0;
+        int col;
+        if (vsd_scene_load(test_data("scenes/smoke64_sunset.json"), ov, 5, &sc, err, sizeof err) != VSD_OK) {
+            CHECK_MSG(0, "%s", err);
+            continue;
+        }
+        CHECK(vsd_renderer_create(&sc, NULL, &kept, err, sizeof err) == VSD_OK);
+        CHECK(kept && vsd_renderer_render(kept, 24, &a, NULL, err, sizeof err) == VSD_OK);
+        for (col = 0; col < 4; col++) {   /* turn the camera 0.3 rad about world Z */
+            double x = sc.camera.matrix[col], y = sc.camera.matrix[4 + col];
+            sc.camera.matrix[col] = c * x - s_ * y;
+            sc.camera.matrix[4 + col] = s_ * x + c * y;
+        }
+        CHECK(kept && vsd_renderer_set_scene(kept, &sc, err, sizeof err) == VSD_OK &&
+              vsd_renderer_render(kept, 24, &a, NULL, err, sizeof err) == VSD_OK);
+        CHECK(vsd_renderer_create(&sc, NULL, &fresh, err, sizeof err) == VSD_OK &&
+              vsd_renderer_render(fresh, 24, &b, NULL, err, sizeof err) == VSD_OK);
+        if (a && b) {
+            CHECK(vsd_block_rel_rmse(a->pass[VSD_PASS_COMBINED], b->pass[VSD_PASS_COMBINED], 64, 36, 4, 4, 1, &e, NULL, 0) ==
+                  VSD_OK);
+            CHECK_MSG(e <= 1e-6, "%s: the cached view differs from a fresh render (rel. RMSE %g)", methods[m], e);
+        }
+        vsd_renderer_destroy(kept);
+        vsd_renderer_destroy(fresh);
+        vsd_framebuffer_destroy(a);
+        vsd_framebuffer_destroy(b);
+    }
+}
+
 int main(void)
 {
+    test_cached_view_equals_fresh();
     test_slab_transmittance();
     test_early_termination();
     test_white_furnace();

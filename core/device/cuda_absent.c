@@ -57,14 +57,14 @@ vsd_status vsd_cuda_raymarch(vsd_cuda *c, const vsd_kernel_data *kd, int n, doub
     return absent(err, errlen);
 }
 
-vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd,
+vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd,
                                    int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
 {
     (void)c; (void)g; (void)kd; (void)lights; (void)out; (void)p;
     return absent(err, errlen);
 }
 
-vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd, int n,
+vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd, int n,
                                 double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
 {
     (void)c; (void)g; (void)kd; (void)n; (void)accum; (void)p;

@@ -169,21 +169,21 @@ vsd_status vsd_cuda_raymarch(vsd_cuda *c, const vsd_kernel_data *kd, int n, doub
     prog(p, 1, 1);
     return VSD_OK;
 }
-static void chk_grid(vsd_cuda *c, const vsd_kshgrid *g, int view, int lights)
+static void chk_grid(vsd_cuda *c, const vsd_krecord_grid *g, int view, int lights)
 {
     size_t rc = (size_t)g->record_count, dc = (size_t)g->dir_count, n2 = (size_t)g->n2, lc = (size_t)g->light_count;
     if (view) chk(c, g->cell_record, (size_t)g->res[0] * g->res[1] * g->res[2] * 4, "sh.cell_record");
     if (view) chk(c, g->records, rc * g->stride * 4, "sh.records");
     chk(c, g->record_pos, view ? 0 : rc * 16, "sh.record_pos");
     if (!view && !lights) { chk(c, g->dirs, dc * 16, "sh.dirs"); chk(c, g->basis, dc * n2 * 4, "sh.basis"); }
-    if (!view && !lights && g->kind == VSD_SHGRID_RGB) chk(c, g->dir_radiance, dc * 16, "sh.dir_radiance");
-    if (view && g->kind == VSD_SHGRID_SCALAR) chk(c, g->light, 3 * n2 * 4, "sh.light");
+    if (!view && !lights && g->kind == VSD_RECORDS_SH_RGB) chk(c, g->dir_radiance, dc * 16, "sh.dir_radiance");
+    if (view && g->kind == VSD_RECORDS_SH_SCALAR) chk(c, g->light, 3 * n2 * 4, "sh.light");
     if (view || lights) chk(c, g->lights, lc * 32, "sh.lights");
     if (view) chk(c, g->light_trans, rc * lc * 4, "sh.light_trans");
 }
-vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd, int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
+vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd, int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
 {
-    vsd_kshgrid h = *g; const vsd_kshgrid *dg;
+    vsd_krecord_grid h = *g; const vsd_krecord_grid *dg;
     (void)err; (void)errlen;
     h.kd = put_kd(c, kd); dg = put_method(c, &h, sizeof h);
     chk_grid(c, g, 0, lights);
@@ -195,9 +195,9 @@ vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_kshgrid *g, con
     prog(p, 1, 1);
     return VSD_OK;
 }
-vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd, int n, double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
+vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd, int n, double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
 {
-    vsd_kshgrid h = *g; const vsd_kshgrid *dg;
+    vsd_krecord_grid h = *g; const vsd_krecord_grid *dg;
     float inv = 1.0f / (float)n;
     (void)err; (void)errlen;
     h.kd = put_kd(c, kd); dg = put_method(c, &h, sizeof h);
@@ -205,7 +205,7 @@ vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_kshgrid *g, const 
     for (int y = 0; y < kd->camera.height; y++)
         for (int x = 0; x < kd->camera.width; x++)
             for (int j = 0; j < n; j++) for (int i = 0; i < n; i++) {
-                vsd_sample_result r = vsd_shgrid_pixel(dg, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
+                vsd_sample_result r = vsd_records_pixel(dg, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
                 vsd_accum_sample(accum + ((size_t)y * kd->camera.width + x) * VSD_ACC_N, &r);
             }
     prog(p, 1, 1);

@@ -6,7 +6,7 @@
  * it changes, so the daemon's cached renderer re-renders a new camera by uploading nothing
  * but the kernel-data struct that holds the camera.
  *
- * Kernel structs (vsd_kernel_data, vsd_kshgrid, vsd_kconstellation) are passed as host
+ * Kernel structs (vsd_kernel_data, vsd_krecord_grid, vsd_kconstellation) are passed as host
  * copies whose array pointers are device pointers (from vsd_cuda_upload/vsd_cuda_scratch);
  * the launchers copy them to the device and fix up the struct-to-struct `kd` pointer.
  * The launched kernels are the same per-pixel / per-record functions the CPU backend
@@ -85,14 +85,14 @@ vsd_status vsd_cuda_reference_round(vsd_cuda *c, const vsd_kernel_data *kd, int 
 vsd_status vsd_cuda_raymarch(vsd_cuda *c, const vsd_kernel_data *kd, int n, double *accum,
                              const vsd_cuda_progress *p, char *err, size_t errlen);
 
-struct vsd_kshgrid;
+struct vsd_krecord_grid;
 struct vsd_kconstellation;
 /* shgrid: the record pass (one thread per record, into the device array out: the SH
  * records, or with lights != 0 the transmittance toward each extracted light) and the
  * view pass (n x n stratified rays per pixel). */
-vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd,
+vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd,
                                    int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen);
-vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_kshgrid *g, const vsd_kernel_data *kd, int n,
+vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd, int n,
                                 double *accum, const vsd_cuda_progress *p, char *err, size_t errlen);
 /* The distance map of src/render/distance_map.h for the volume kv (device arrays), built
  * on the GPU: skip_host receives the 8*brick_dims cells' leap radii, *occupied the count of

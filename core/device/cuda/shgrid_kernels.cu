@@ -6,7 +6,7 @@
 
 // lights == 0: the SH records (stride floats each); else the transmittance toward each
 // extracted light (light_count floats each).
-__global__ void vsd_cuda_shgrid_records_kernel(const vsd_kshgrid *g, int r0, int r1, int lights, float *out)
+__global__ void vsd_cuda_shgrid_records_kernel(const vsd_krecord_grid *g, int r0, int r1, int lights, float *out)
 {
     int rec = r0 + blockIdx.x * blockDim.x + threadIdx.x;
     if (rec >= r1) return;
@@ -15,7 +15,7 @@ __global__ void vsd_cuda_shgrid_records_kernel(const vsd_kshgrid *g, int r0, int
 }
 
 // n x n stratified rays per pixel, in the order of src/render/stratified.c.
-__global__ void vsd_cuda_shgrid_view_kernel(const vsd_kshgrid *g, int y0, int y1, int n, double *accum)
+__global__ void vsd_cuda_shgrid_view_kernel(const vsd_krecord_grid *g, int y0, int y1, int n, double *accum)
 {
     int x = blockIdx.x * blockDim.x + threadIdx.x;
     int y = y0 + blockIdx.y * blockDim.y + threadIdx.y;
@@ -24,16 +24,16 @@ __global__ void vsd_cuda_shgrid_view_kernel(const vsd_kshgrid *g, int y0, int y1
     float inv = 1.0f / (float)n;
     for (int j = 0; j < n; j++)
         for (int i = 0; i < n; i++) {
-            vsd_sample_result r = vsd_shgrid_pixel(g, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
+            vsd_sample_result r = vsd_records_pixel(g, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
             vsd_accum_sample(px, &r);
         }
 }
 
-extern "C" vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_data *kd,
+extern "C" vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const vsd_krecord_grid *g, const vsd_kernel_data *kd,
                                               int lights, float *out, const vsd_cuda_progress *p, char *err,
                                               size_t errlen)
 {
-    const vsd_kshgrid *dg;
+    const vsd_krecord_grid *dg;
     vsd_status st = vsd_cuda_put_with_kd(c, g, kd, &dg, err, errlen);
     if (st) return st;
     // records as "rows" of a one-wide image, in bands of 4096 records
@@ -44,10 +44,10 @@ extern "C" vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const vsd_kshgrid *g,
     }, err, errlen);
 }
 
-extern "C" vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const vsd_kshgrid *g, const vsd_kernel_data *kd, int n,
+extern "C" vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const vsd_krecord_grid *g, const vsd_kernel_data *kd, int n,
                                            double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
 {
-    const vsd_kshgrid *dg;
+    const vsd_krecord_grid *dg;
     vsd_status st = vsd_cuda_put_with_kd(c, g, kd, &dg, err, errlen);
     if (st) return st;
     int w = kd->camera.width;

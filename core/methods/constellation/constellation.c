@@ -17,6 +17,9 @@
 #include "constellation_kernel.h"
 #include "dense_grid.h"
 #include "constellation_device.h"
+#include "src/render/record_grid.h"
+#include "src/render/record_grid_device.h"
+#include "kernel/kernel_record_grid.h"
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -31,10 +34,18 @@ typedef struct cst_options {
     double shadow_step;        /* 0 = half a voxel */
     double early_termination;
     int distance_map, validity_mask, pixel_samples;
+    int shadows;               /* SHADOWS_GRID or SHADOWS_RAYS */
+    int shadow_grid;           /* record cells per axis (shadows = grid) */
+    int interp;                /* VSD_RECORDS_NEAREST.. (shadows = grid) */
 } cst_options;
+
+enum { SHADOWS_GRID = 0, SHADOWS_RAYS = 1 };
 
 /* in vsd_lights_method's order */
 static const char *const lights_method_names[] = {"median_cut", "kmeans", NULL};
+static const char *const shadows_names[] = {"grid", "rays", NULL};
+/* in VSD_RECORDS_NEAREST.. order */
+static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
 
 static const vsd_option_spec cst_option_rows[] = {
     {"lights", VSD_OPT_INT, 1, 65536, 64, NULL, "N: the map as N lights (the constellation)",
@@ -56,6 +67,14 @@ static const vsd_option_spec cst_option_rows[] = {
      offsetof(cst_options, validity_mask), 0, NULL},
     {"pixel_samples", VSD_OPT_INT, 1, 16, 1, NULL, "n: n x n stratified view rays per pixel",
      offsetof(cst_options, pixel_samples), 0, NULL},
+    {"shadows", VSD_OPT_CHOICE, 0, 0, SHADOWS_GRID, shadows_names,
+     "grid: each light's transmittance cached on a record grid per lighting change; rays: the paper's shadow rays "
+     "per view sample", offsetof(cst_options, shadows), 0, NULL},
+    {"shadow_grid", VSD_OPT_INT, 4, 256, 64, NULL, "shadows = grid: record cells per axis over the density's box",
+     offsetof(cst_options, shadow_grid), 0, NULL},
+    {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, interp_names,
+     "shadows = grid: record lookup, nearest cell, trilinear, or trilinear in log radiance",
+     offsetof(cst_options, interp), 0, NULL},
 };
 
 typedef struct cst_state {
@@ -67,14 +86,25 @@ typedef struct cst_state {
     int cons_valid;
     float *lights;              /* kernel layout, rotated and scaled */
     int light_count;
+    /* shadows = grid: records over the density's box, each light's transmittance from
+     * each record (per lighting change), or for an isotropic phase the baked RGB */
+    vsd_record_grid rg;
+    float *light_trans;         /* [rg.count * light_count] */
+    float *baked;               /* [rg.count * 3], NULL when g != 0 */
 } cst_state;
 
 static vsd_status cst_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
 {
-    cst_state *s = calloc(1, sizeof *s);
+    const cst_options *o = options;
+    cst_state *s;
     (void)scene;
+    if (o->shadows == SHADOWS_GRID && o->lights > VSD_RECORDS_MAX_LIGHTS)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                        "render.options.lights: %d is more than the %d lights a record holds with shadows = \"grid\" "
+                        "(use shadows = \"rays\" for more)", o->lights, (int)VSD_RECORDS_MAX_LIGHTS);
+    s = calloc(1, sizeof *s);
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
-    s->opt = *(const cst_options *)options;
+    s->opt = *o;
     *state = s;
     return VSD_OK;
 }
@@ -94,6 +124,16 @@ static vsd_status build_map(const vsd_frame_ctx *ctx, int emission, float thresh
     return vsd_distance_map_build(vol, threshold, ctx->threads, dm, err, errlen);
 }
 
+static void free_shadow_records(cst_state *s)
+{
+    vsd_record_grid_free(&s->rg);
+    free(s->light_trans);
+    free(s->baked);
+    s->light_trans = s->baked = NULL;
+}
+
+static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen);
+
 static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     cst_state *s = state;
@@ -101,11 +141,16 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     vsd_distance_map_free(&s->dm_density);
     vsd_distance_map_free(&s->dm_emission);
     vsd_dense_grid_free(&s->field);
+    free_shadow_records(s);
     if (s->opt.distance_map) {
         st = build_map(ctx, 0, (float)s->opt.threshold, &s->dm_density, err, errlen);
         if (!st && ctx->emission) st = build_map(ctx, 1, (float)s->opt.threshold, &s->dm_emission, err, errlen);
         if (st) return st;
     }
+    /* probes 2: 8 density probes per cell besides the brick majorants */
+    if (s->opt.shadows == SHADOWS_GRID &&
+        (st = vsd_record_grid_build(&ctx->kd.density, s->opt.shadow_grid, 2, &s->rg, err, errlen)))
+        return st;
     return vsd_dense_grid_build(ctx->density, s->opt.distance_map ? &s->dm_density : NULL,
                                 s->opt.distance_map ? (float)s->opt.threshold : 0.0f, &s->field, err, errlen);
 }
@@ -142,6 +187,7 @@ static vsd_status cst_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if (!s->lights) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d lights", s->cons.count);
     vsd_constellation_kernel_lights(&s->cons, sc->environment.strength, sc->environment.rotation_z, s->lights);
     s->light_count = s->cons.count;
+    if (s->opt.shadows == SHADOWS_GRID) return light_shadow_records(s, ctx, err, errlen);
     return VSD_OK;
 }
 
@@ -200,6 +246,141 @@ static float half_voxel(const vsd_frame_ctx *ctx)
     return h > 0 ? h : 0.01f;
 }
 
+/* The method's kernel data for this frame (ctx->kd gets the lights and the march step). */
+static void kernel_setup(cst_state *s, vsd_frame_ctx *ctx, vsd_kconstellation *kc)
+{
+    ctx->kd.lights = s->lights;
+    ctx->kd.light_count = s->light_count;
+    memset(kc, 0, sizeof *kc);
+    kc->kd = &ctx->kd;
+    kc->slice = s->opt.slice > 0 ? (float)s->opt.slice : half_voxel(ctx);
+    kc->shadow_step = s->opt.shadow_step > 0 ? (float)s->opt.shadow_step : half_voxel(ctx);
+    ctx->kd.march_step = kc->shadow_step;
+    kc->threshold = (float)s->opt.threshold;
+    kc->early_termination = (float)s->opt.early_termination;
+    kc->pixel_samples = s->opt.pixel_samples;
+    kc->use_distance_map = s->opt.distance_map;
+    kdistmap_from(&kc->dm_density, s->opt.distance_map ? &s->dm_density : NULL, &s->field);
+    if (s->opt.distance_map) kdistmap_from(&kc->dm_emission, &s->dm_emission, NULL);
+}
+
+/* shadows = grid: the record grid as the shared view pass reads it */
+static void records_view(const cst_state *s, const vsd_kernel_data *kd, vsd_krecord_grid *g)
+{
+    memset(g, 0, sizeof *g);
+    g->kd = kd;
+    g->cell_record = s->rg.cell_record;
+    g->world_to_grid = s->rg.world_to_grid;
+    memcpy(g->res, s->rg.res, sizeof g->res);
+    g->record_count = s->rg.count;
+    g->interp = s->opt.interp;
+    if (s->baked) {
+        g->kind = VSD_RECORDS_BAKED;
+        g->records = s->baked;
+        g->stride = 3;
+    } else {
+        g->kind = VSD_RECORDS_LIGHTS;
+        g->lights = s->lights;
+        g->light_trans = s->light_trans;
+        g->light_count = s->light_count;
+    }
+}
+
+typedef struct shadow_job {
+    const vsd_kconstellation *kc;
+    const vsd_record_grid *rg;
+    float *out;
+} shadow_job;
+
+static void shadow_tile(void *user, int x0, int y0, int x1, int y1)
+{
+    shadow_job *j = user;
+    int r, n = j->kc->kd->light_count;
+    (void)y0; (void)y1;
+    for (r = x0; r < x1; r++) {
+        const float *p = j->rg->record_pos + 4 * (size_t)r;
+        vsd_cst_light_record(j->kc, f3(p[0], p[1], p[2]), j->out + (size_t)r * n);
+    }
+}
+
+/* shadows = grid, per lighting change: every record's transmittance toward every light
+ * (the paper's shadow rays, once per record instead of once per view sample); with an
+ * isotropic phase the in-scattered RGB sum_n T_n L_n / 4pi is then baked per record, so
+ * the view pass reads one RGB triple per corner. On the CUDA backend this stage runs on the
+ * CPU threads (a device launcher for it is future work); the view pass runs on the GPU. */
+static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    vsd_kconstellation kc;
+    shadow_job job;
+    vsd_tile_job tj;
+    vsd_status st;
+    free(s->light_trans);
+    free(s->baked);
+    s->light_trans = s->baked = NULL;
+    if (s->rg.count == 0 || s->light_count == 0) return VSD_OK;
+    s->light_trans = malloc(sizeof(float) * (size_t)s->rg.count * (size_t)s->light_count);
+    if (!s->light_trans)
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d x %d cached shadows", s->rg.count, s->light_count);
+    kernel_setup(s, ctx, &kc);
+    job.kc = &kc;
+    job.rg = &s->rg;
+    job.out = s->light_trans;
+    memset(&tj, 0, sizeof tj);
+    tj.width = s->rg.count;
+    tj.height = 1;
+    tj.threads = ctx->threads;
+    tj.fn = shadow_tile;
+    tj.user = &job;
+    tj.stage = "cached shadows";
+    tj.progress = ctx->progress;
+    tj.progress_user = ctx->user;
+    tj.progress_span = 1.0f;
+    tj.cancel = ctx->cancel;
+    if ((st = vsd_cpu_run_tiles(&tj))) return vsd_fail(st, err, errlen, "cached shadows cancelled");
+    if (ctx->scene->medium.anisotropy == 0.0f) {
+        vsd_krecord_grid g;
+        float ph[3 * VSD_RECORDS_MAX_LIGHTS], *baked;
+        int r, n;
+        records_view(s, &ctx->kd, &g);   /* the LIGHTS kind, while s->baked is NULL */
+        baked = malloc(sizeof(float) * 3 * (size_t)s->rg.count);
+        if (!baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", s->rg.count);
+        for (n = 0; n < s->light_count; n++) {
+            float pk = vsd_hg_eval(0.0f, 0.0f);
+            ph[3 * n] = pk * s->lights[8 * n + 4];
+            ph[3 * n + 1] = pk * s->lights[8 * n + 5];
+            ph[3 * n + 2] = pk * s->lights[8 * n + 6];
+        }
+        for (r = 0; r < s->rg.count; r++) {
+            vsd_f3 v = vsd_records_radiance(&g, r, NULL, ph);
+            baked[3 * (size_t)r] = v.x;
+            baked[3 * (size_t)r + 1] = v.y;
+            baked[3 * (size_t)r + 2] = v.z;
+        }
+        s->baked = baked;
+
+    }
+    return VSD_OK;
+}
+
+static vsd_sample_result records_sample(const void *kernel, int x, int y, float jx, float jy)
+{
+    return vsd_records_pixel((const vsd_krecord_grid *)kernel, x, y, jx, jy);
+}
+
+/* shadows = grid, per view: the shared march with the record lookup, slice as its step */
+static vsd_status render_cached(cst_state *s, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
+                                size_t errlen)
+{
+    vsd_krecord_grid g;
+    ctx->kd.lights = s->lights;
+    ctx->kd.light_count = s->light_count;
+    ctx->kd.march_step = s->opt.slice > 0 ? (float)s->opt.slice : half_voxel(ctx);
+    ctx->kd.march_stop = (float)s->opt.early_termination;
+    records_view(s, &ctx->kd, &g);
+    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, records_sample, vsd_record_grid_device_view, &g,
+                                        "ray marching", samples, err, errlen);
+}
+
 static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
                              size_t errlen)
 {
@@ -210,19 +391,8 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     vsd_tile_job job;
     vsd_status st;
     int n2 = s->opt.pixel_samples * s->opt.pixel_samples;
-    ctx->kd.lights = s->lights;
-    ctx->kd.light_count = s->light_count;
-    memset(&kc, 0, sizeof kc);
-    kc.kd = &ctx->kd;
-    kc.slice = s->opt.slice > 0 ? (float)s->opt.slice : half_voxel(ctx);
-    kc.shadow_step = s->opt.shadow_step > 0 ? (float)s->opt.shadow_step : half_voxel(ctx);
-    ctx->kd.march_step = kc.shadow_step;
-    kc.threshold = (float)s->opt.threshold;
-    kc.early_termination = (float)s->opt.early_termination;
-    kc.pixel_samples = s->opt.pixel_samples;
-    kc.use_distance_map = s->opt.distance_map;
-    kdistmap_from(&kc.dm_density, s->opt.distance_map ? &s->dm_density : NULL, &s->field);
-    if (s->opt.distance_map) kdistmap_from(&kc.dm_emission, &s->dm_emission, NULL);
+    if (s->opt.shadows == SHADOWS_GRID) return render_cached(s, ctx, fb, samples, err, errlen);
+    kernel_setup(s, ctx, &kc);
     if (ctx->cuda) {
         if ((st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen))) return st;
         st = vsd_cst_device_render(ctx, &kc, s->opt.validity_mask, &acc, err, errlen);
@@ -273,6 +443,7 @@ static void cst_destroy(void *state)
     vsd_distance_map_free(&s->dm_density);
     vsd_distance_map_free(&s->dm_emission);
     vsd_dense_grid_free(&s->field);
+    free_shadow_records(s);
     vsd_constellation_free(&s->cons);
     free(s->lights);
     free(s);

@@ -199,6 +199,28 @@ VSD_DEVICE vsd_f3 vsd_cst_inscatter(const vsd_kconstellation *kc, vsd_f3 p, vsd_
     return s;
 }
 
+/* Cached shadows (shadows = "grid"): the transmittance from world point p toward each
+ * light, out[light_count], by the same shadow rays the per-sample mode sends (distance-map
+ * leaps, dense grid, early termination). Run once per record per lighting change. */
+VSD_DEVICE void vsd_cst_light_record(const vsd_kconstellation *kc, vsd_f3 p, float *out)
+{
+    const vsd_kernel_data *kd = kc->kd;
+    const vsd_affine *a = &kd->density.world_to_index;
+    vsd_f3 qa = vsd_affine_point(a, p);
+    float sum_stop = vsd_cst_sum_stop(kc);
+    int32_t n;
+    for (n = 0; n < kd->light_count; n++) {
+        const float *l = kd->lights + 8 * n;
+        vsd_f3 da = vsd_affine_vector(a, f3(l[0], l[1], l[2]));
+        float wpv = 0.0f;
+        if (kc->use_distance_map) {
+            float len = sqrtf(f3_dot(da, da));
+            wpv = len > 0.0f ? 1.0f / len : 0.0f;
+        }
+        out[n] = vsd_cst_shadow(kc, qa, da, wpv, sum_stop);
+    }
+}
+
 /* View ray of sub-sample s (0..n*n-1) of pixel (px, py): the centre of stratum s. */
 VSD_DEVICE void vsd_cst_view_ray(const vsd_kconstellation *kc, int32_t px, int32_t py, int32_t s, vsd_f3 *o, vsd_f3 *d)
 {

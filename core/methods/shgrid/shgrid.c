@@ -18,13 +18,15 @@
  * "trilinear" | "log", default "log" = trilinear in log radiance), form ("auto" | "factored" | "product", default auto =
  * factored for g = 0, product otherwise), step (view march, world units, default half the
  * smallest voxel), record_step (record marches, default one voxel), pixel_samples (n x n
- * rays per pixel, default 2), lights (K, default 32: extracted bright lights, an extension
+ * rays per pixel, default 1), lights (K, default 32: extracted bright lights, an extension
  * beyond the paper, see shgrid_kernel.h; 0 = the paper's pure SH form), light_threshold
  * (default 3: texels brighter than this multiple of the map's mean luminance are
  * extracted). The paper's pure form is lights=0, interpolation="nearest". */
 #include "src/render/method.h"
 #include "src/render/accum.h"
 #include "src/render/kernel_setup.h"
+#include "src/render/record_grid.h"
+#include "src/render/record_grid_device.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/sh.h"
 #include "vsd/lighting.h"
@@ -55,11 +57,7 @@ typedef struct shgrid_state {
     /* HEALPix directions and their basis rows (fixed per renderer) */
     float *dirs, *basis, *dir_radiance;
     /* frame: the record grid */
-    int res[3];
-    vsd_affine world_to_grid;
-    int32_t *cell_record;
-    float *record_pos;
-    int record_count;
+    vsd_record_grid rg;
     float *trans;            /* [records * n2] SH of transmittance, when have_trans */
     int have_trans;
     float *rgb;              /* [records * 3 n2] SH of T*L (RGB kind) */
@@ -74,7 +72,7 @@ typedef struct shgrid_state {
     vsd_env rest;            /* the map without its extracted texels (rgb owned here) */
     vsd_light_constellation bright;   /* lights standing for the extracted texels, texture frame */
     double bright_fraction;  /* luminance share of the map taken out of the SH */
-    float klights[8 * VSD_SHGRID_MAX_LIGHTS];   /* kernel lights (world, strength applied) */
+    float klights[8 * VSD_RECORDS_MAX_LIGHTS];   /* kernel lights (world, strength applied) */
     int light_count;
     float *light_trans;      /* [records * light_count] */
     int have_light_trans;
@@ -88,7 +86,7 @@ typedef struct shgrid_options {
     double step, record_step, light_threshold, early_termination;
 } shgrid_options;
 
-/* in VSD_SHGRID_NEAREST.. and FORM_AUTO.. order */
+/* in VSD_RECORDS_NEAREST.. and FORM_AUTO.. order */
 static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
 static const char *const form_names[] = {"auto", "factored", "product", NULL};
 
@@ -106,7 +104,7 @@ static const vsd_option_spec shgrid_option_rows[] = {
      offsetof(shgrid_options, directions), 0, healpix_count_problem},
     {"probes", VSD_OPT_INT, 0, 16, 3, NULL, "k: k^3 density probes per cell decide whether it is empty (0 = keep cells over non-empty bricks)",
      offsetof(shgrid_options, probes), 0, NULL},
-    {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_SHGRID_LOG_TRILINEAR, interp_names,
+    {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, interp_names,
      "record lookup: nearest cell (the paper), trilinear, or trilinear in log radiance",
      offsetof(shgrid_options, interp), 0, NULL},
     {"form", VSD_OPT_CHOICE, 0, 0, FORM_AUTO, form_names,
@@ -121,7 +119,7 @@ static const vsd_option_spec shgrid_option_rows[] = {
     {"early_termination", VSD_OPT_NUMBER, 0, 1, 1e-3, NULL,
      "stop a view ray once its transmittance is below this (0 = never; bound in kernel_march.h)",
      offsetof(shgrid_options, early_termination), 0, NULL},
-    {"lights", VSD_OPT_INT, 0, VSD_SHGRID_MAX_LIGHTS, SHGRID_DEFAULT_LIGHTS, NULL,
+    {"lights", VSD_OPT_INT, 0, VSD_RECORDS_MAX_LIGHTS, SHGRID_DEFAULT_LIGHTS, NULL,
      "bright texels taken out of the SH as exact lights (0 = the paper's pure SH form)",
      offsetof(shgrid_options, lights), 0, NULL},
     {"light_threshold", VSD_OPT_NUMBER, 1, 1e30, SHGRID_DEFAULT_LIGHT_THRESHOLD, NULL,
@@ -180,22 +178,21 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, const void
 
 static void free_frame(shgrid_state *s)
 {
-    free(s->cell_record); free(s->record_pos); free(s->trans); free(s->rgb); free(s->light_trans); free(s->baked);
-    s->cell_record = NULL; s->record_pos = NULL; s->trans = NULL; s->rgb = NULL; s->light_trans = NULL;
-    s->baked = NULL;
-    s->record_count = 0;
+    vsd_record_grid_free(&s->rg);
+    free(s->trans); free(s->rgb); free(s->light_trans); free(s->baked);
+    s->trans = NULL; s->rgb = NULL; s->light_trans = NULL; s->baked = NULL;
     s->have_trans = 0;
     s->have_light_trans = 0;
 }
 
 /* The kernel view of the state for the current stage. */
-static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int kind, vsd_kshgrid *g)
+static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int kind, vsd_krecord_grid *g)
 {
     memset(g, 0, sizeof *g);
     g->kd = kd;
-    g->cell_record = s->cell_record;
-    g->records = kind == VSD_SHGRID_SCALAR ? s->trans : kind == VSD_SHGRID_BAKED ? s->baked : s->rgb;
-    g->record_pos = s->record_pos;
+    g->cell_record = s->rg.cell_record;
+    g->records = kind == VSD_RECORDS_SH_SCALAR ? s->trans : kind == VSD_RECORDS_BAKED ? s->baked : s->rgb;
+    g->record_pos = s->rg.record_pos;
     g->dirs = s->dirs;
     g->basis = s->basis;
     g->dir_radiance = s->dir_radiance;
@@ -203,21 +200,21 @@ static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int ki
     g->lights = s->klights;
     g->light_trans = s->light_trans;
     g->light_count = s->light_count;
-    g->world_to_grid = s->world_to_grid;
-    memcpy(g->res, s->res, sizeof g->res);
+    g->world_to_grid = s->rg.world_to_grid;
+    memcpy(g->res, s->rg.res, sizeof g->res);
     g->order = s->order;
     g->n2 = s->order * s->order;
     g->kind = kind;
-    g->stride = kind == VSD_SHGRID_SCALAR ? g->n2 : kind == VSD_SHGRID_BAKED ? 3 : 3 * g->n2;
+    g->stride = kind == VSD_RECORDS_SH_SCALAR ? g->n2 : kind == VSD_RECORDS_BAKED ? 3 : 3 * g->n2;
     /* baked records already hold the extracted lights' term */
-    if (kind == VSD_SHGRID_BAKED) g->light_count = 0;
+    if (kind == VSD_RECORDS_BAKED) g->light_count = 0;
     g->interp = s->interp;
     g->dir_count = (int32_t)s->dirs_count;
-    g->record_count = s->record_count;
+    g->record_count = s->rg.count;
     g->record_step = (float)(s->record_step > 0 ? s->record_step : 2.0 * kd->density.step);
 }
 
-typedef struct record_job { const vsd_kshgrid *g; float *out; int lights; } record_job;
+typedef struct record_job { const vsd_krecord_grid *g; float *out; int lights; } record_job;
 
 static void record_tile(void *user, int x0, int y0, int x1, int y1)
 {
@@ -231,23 +228,23 @@ static void record_tile(void *user, int x0, int y0, int x1, int y1)
 }
 
 /* The record pass over every record on the CPU threads (records are the tile job's x):
- * kind VSD_SHGRID_SCALAR / RGB for the SH records, PASS_LIGHTS for the transmittance
+ * kind VSD_RECORDS_SH_SCALAR / RGB for the SH records, PASS_LIGHTS for the transmittance
  * toward the extracted lights. */
 static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kind, char *err, size_t errlen)
 {
-    vsd_kshgrid g;
+    vsd_krecord_grid g;
     record_job job;
     vsd_tile_job tj;
     vsd_status st;
-    if (s->record_count == 0) return VSD_OK;
-    kernel_grid(s, &ctx->kd, kind == PASS_LIGHTS ? VSD_SHGRID_SCALAR : kind, &g);
+    if (s->rg.count == 0) return VSD_OK;
+    kernel_grid(s, &ctx->kd, kind == PASS_LIGHTS ? VSD_RECORDS_SH_SCALAR : kind, &g);
     job.g = &g;
     job.lights = kind == PASS_LIGHTS;
-    job.out = job.lights ? s->light_trans : kind == VSD_SHGRID_SCALAR ? s->trans : s->rgb;
+    job.out = job.lights ? s->light_trans : kind == VSD_RECORDS_SH_SCALAR ? s->trans : s->rgb;
     /* the paper's per-frame GPU pass: one thread per record, results copied back */
     if (ctx->cuda) return vsd_shgrid_device_records(ctx, &g, job.lights, job.out, err, errlen);
     memset(&tj, 0, sizeof tj);
-    tj.width = s->record_count;
+    tj.width = s->rg.count;
     tj.height = 1;
     tj.threads = ctx->threads;
     tj.fn = record_tile;
@@ -269,106 +266,23 @@ static int want_product(const shgrid_state *s, const vsd_scene *sc)
     return sc->medium.anisotropy != 0.0f;
 }
 
-/* Is the cell with index-space box [lo, hi) non-empty? First the brick majorants (exact:
- * a cell over empty bricks is empty), then the paper's k^3 probes of the density. */
-static int cell_nonempty(const vsd_kvolume *v, const double lo[3], const double hi[3], int k)
-{
-    int b0[3], b1[3], a, x, y, z, any = 0;
-    for (a = 0; a < 3; a++) {
-        b0[a] = (int)floor((lo[a] - v->origin[a]) / 8.0);
-        b1[a] = (int)floor((hi[a] - v->origin[a]) / 8.0);
-        if (b0[a] < 0) b0[a] = 0;
-        if (b1[a] > v->dims[a] - 1) b1[a] = v->dims[a] - 1;
-    }
-    for (z = b0[2]; z <= b1[2] && !any; z++)
-        for (y = b0[1]; y <= b1[1] && !any; y++)
-            for (x = b0[0]; x <= b1[0] && !any; x++)
-                if (v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f) any = 1;
-    if (!any || k == 0) return any;
-    for (z = 0; z < k; z++)
-        for (y = 0; y < k; y++)
-            for (x = 0; x < k; x++) {
-                vsd_f3 p = f3((float)(lo[0] + (hi[0] - lo[0]) * (x + 0.5) / k),
-                              (float)(lo[1] + (hi[1] - lo[1]) * (y + 0.5) / k),
-                              (float)(lo[2] + (hi[2] - lo[2]) * (z + 0.5) / k));
-                if (vsd_kvolume_field(v, p) > 0.0f) return 1;
-            }
-    return 0;
-}
-
 static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     shgrid_state *s = state;
     const vsd_kvolume *v = &ctx->kd.density;
-    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3], w2i[16], i2w[16];
-    int a, x, y, z, n2 = s->order * s->order, any = 0;
-    size_t ncell;
+    int n2 = s->order * s->order;
+    vsd_status st;
     free_frame(s);
-    s->res[0] = s->res[1] = s->res[2] = 0;
-    if (v->dims[0] == 0) return VSD_OK;
-    /* the medium's box: the union of non-empty brick cells (index space) */
-    for (z = 0; z < v->dims[2]; z++)
-        for (y = 0; y < v->dims[1]; y++)
-            for (x = 0; x < v->dims[0]; x++) {
-                int b[3] = {x, y, z};
-                if (!(v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f)) continue;
-                for (a = 0; a < 3; a++) {
-                    double l = v->origin[a] + 8.0 * b[a], h = l + 8.0;
-                    if (!any || l < lo[a]) lo[a] = l;
-                    if (!any || h > hi[a]) hi[a] = h;
-                }
-                any = 1;
-            }
-    if (!any) return VSD_OK;
-    for (a = 0; a < 3; a++) {
-        s->res[a] = s->grid;
-        cell[a] = (hi[a] - lo[a]) / s->grid;
-    }
-    /* world -> grid = scale(1/cell) . translate(-lo) . world_to_index */
-    for (a = 0; a < 3; a++) {
-        int c;
-        for (c = 0; c < 4; c++) s->world_to_grid.m[4 * a + c] = (float)(v->world_to_index.m[4 * a + c] / cell[a]);
-        s->world_to_grid.m[4 * a + 3] -= (float)(lo[a] / cell[a]);
-    }
-    for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
-    w2i[12] = w2i[13] = w2i[14] = 0; w2i[15] = 1;
-    if (!vsd_mat4_invert(w2i, i2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
-    ncell = (size_t)s->res[0] * s->res[1] * s->res[2];
-    s->cell_record = malloc(sizeof(int32_t) * ncell);
-    if (!s->cell_record) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %d^3 record grid", s->grid);
-    s->record_count = 0;
-    for (z = 0; z < s->res[2]; z++)
-        for (y = 0; y < s->res[1]; y++)
-            for (x = 0; x < s->res[0]; x++) {
-                double cl[3], ch[3];
-                int c[3] = {x, y, z};
-                for (a = 0; a < 3; a++) { cl[a] = lo[a] + cell[a] * c[a]; ch[a] = cl[a] + cell[a]; }
-                s->cell_record[((size_t)z * s->res[1] + y) * s->res[0] + x] =
-                    cell_nonempty(v, cl, ch, s->probes) ? s->record_count++ : -1;
-            }
-    s->record_pos = malloc(sizeof(float) * 4 * (size_t)(s->record_count ? s->record_count : 1));
-    s->trans = malloc(sizeof(float) * (size_t)n2 * (size_t)(s->record_count ? s->record_count : 1));
-    s->rgb = malloc(sizeof(float) * 3 * (size_t)n2 * (size_t)(s->record_count ? s->record_count : 1));
-    if (!s->record_pos || !s->trans || !s->rgb) {
+    if ((st = vsd_record_grid_build(v, s->grid, s->probes, &s->rg, err, errlen))) return st;
+    s->trans = malloc(sizeof(float) * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
+    s->rgb = malloc(sizeof(float) * 3 * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
+    if (!s->trans || !s->rgb) {
         free_frame(s);
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d SH records", s->record_count);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d SH records", s->rg.count);
     }
-    /* record positions: the cell centres in world space */
-    for (z = 0; z < s->res[2]; z++)
-        for (y = 0; y < s->res[1]; y++)
-            for (x = 0; x < s->res[0]; x++) {
-                int r = s->cell_record[((size_t)z * s->res[1] + y) * s->res[0] + x], c[3] = {x, y, z};
-                double p[3];
-                if (r < 0) continue;
-                for (a = 0; a < 3; a++) p[a] = lo[a] + cell[a] * (c[a] + 0.5);
-                for (a = 0; a < 3; a++)
-                    s->record_pos[4 * r + a] = (float)(i2w[4 * a] * p[0] + i2w[4 * a + 1] * p[1] + i2w[4 * a + 2] * p[2] + i2w[4 * a + 3]);
-                s->record_pos[4 * r + 3] = 1.0f;
-            }
     /* the volume-dependent factor, when the lighting will not be baked into the records */
     if (!want_product(s, ctx->scene)) {
-        vsd_status st = run_records(s, ctx, VSD_SHGRID_SCALAR, err, errlen);
-        if (st) return st;
+        if ((st = run_records(s, ctx, VSD_RECORDS_SH_SCALAR, err, errlen))) return st;
         s->have_trans = 1;
     }
     return VSD_OK;
@@ -475,26 +389,26 @@ static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size
  * once per record with the view pass's own function, and the view pass reads it. */
 static vsd_status bake_isotropic(shgrid_state *s, const vsd_kernel_data *kd, char *err, size_t errlen)
 {
-    vsd_kshgrid g;
-    float ph[3 * VSD_SHGRID_MAX_LIGHTS];
+    vsd_krecord_grid g;
+    float ph[3 * VSD_RECORDS_MAX_LIGHTS];
     int r, k;
     free(s->baked);
-    s->baked = malloc(sizeof(float) * 3 * (size_t)s->record_count);
-    if (!s->baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", s->record_count);
-    kernel_grid(s, kd, VSD_SHGRID_SCALAR, &g);
+    s->baked = malloc(sizeof(float) * 3 * (size_t)s->rg.count);
+    if (!s->baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", s->rg.count);
+    kernel_grid(s, kd, VSD_RECORDS_SH_SCALAR, &g);
     for (k = 0; k < g.light_count; k++) {
         float pk = vsd_hg_eval(0.0f, 0.0f);   /* 1 / 4pi, whatever the direction */
         ph[3 * k] = pk * s->klights[8 * k + 4];
         ph[3 * k + 1] = pk * s->klights[8 * k + 5];
         ph[3 * k + 2] = pk * s->klights[8 * k + 6];
     }
-    for (r = 0; r < s->record_count; r++) {
-        vsd_f3 v = vsd_shgrid_record_radiance(&g, r, NULL, ph);
+    for (r = 0; r < s->rg.count; r++) {
+        vsd_f3 v = vsd_records_radiance(&g, r, NULL, ph);
         s->baked[3 * (size_t)r] = v.x;
         s->baked[3 * (size_t)r + 1] = v.y;
         s->baked[3 * (size_t)r + 2] = v.z;
     }
-    s->kind = VSD_SHGRID_BAKED;
+    s->kind = VSD_RECORDS_BAKED;
     return VSD_OK;
 }
 
@@ -539,15 +453,15 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     s->light_count = s->light_max > 0 ? s->bright.count : 0;
     if (s->light_count > 0)
         vsd_constellation_kernel_lights(&s->bright, sc->environment.strength, sc->environment.rotation_z, s->klights);
-    if (s->record_count == 0) {
-        s->kind = VSD_SHGRID_SCALAR;
+    if (s->rg.count == 0) {
+        s->kind = VSD_RECORDS_SH_SCALAR;
         return VSD_OK;
     }
     if (s->light_count > 0 &&
         (env_changed || !s->have_light_trans || s->light_trans_rot != sc->environment.rotation_z)) {
         free(s->light_trans);
         s->have_light_trans = 0;
-        s->light_trans = malloc(sizeof(float) * (size_t)s->record_count * (size_t)s->light_count);
+        s->light_trans = malloc(sizeof(float) * (size_t)s->rg.count * (size_t)s->light_count);
         if (!s->light_trans) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for the light transmittances");
         if ((st = run_records(s, ctx, PASS_LIGHTS, err, errlen))) return st;
         s->have_light_trans = 1;
@@ -556,11 +470,11 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     if (want_product(s, sc)) {
         /* §4.4 static-media form: T*L per HEALPix direction, projected per record */
         healpix_radiance(s, sh_env, &ctx->kd.env);
-        s->kind = VSD_SHGRID_RGB;
-        return run_records(s, ctx, VSD_SHGRID_RGB, err, errlen);
+        s->kind = VSD_RECORDS_SH_RGB;
+        return run_records(s, ctx, VSD_RECORDS_SH_RGB, err, errlen);
     }
     if (!s->have_trans) {
-        if ((st = run_records(s, ctx, VSD_SHGRID_SCALAR, err, errlen))) return st;
+        if ((st = run_records(s, ctx, VSD_RECORDS_SH_SCALAR, err, errlen))) return st;
         s->have_trans = 1;
     }
     if (sc->medium.anisotropy == 0.0f) return bake_isotropic(s, &ctx->kd, err, errlen);
@@ -570,7 +484,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     {
         int r;
         double t[VSD_SH_MAX_COEFFS], l[VSD_SH_MAX_COEFFS], o[VSD_SH_MAX_COEFFS];
-        for (r = 0; r < s->record_count; r++) {
+        for (r = 0; r < s->rg.count; r++) {
             for (i = 0; i < n2; i++) t[i] = s->trans[(size_t)r * n2 + i];
             for (c = 0; c < 3; c++) {
                 for (i = 0; i < n2; i++) l[i] = s->light[c * n2 + i];
@@ -579,24 +493,24 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
             }
         }
     }
-    s->kind = VSD_SHGRID_RGB;
+    s->kind = VSD_RECORDS_SH_RGB;
     return VSD_OK;
 }
 
 static vsd_sample_result shgrid_sample(const void *kernel, int x, int y, float jx, float jy)
 {
-    return vsd_shgrid_pixel((const vsd_kshgrid *)kernel, x, y, jx, jy);
+    return vsd_records_pixel((const vsd_krecord_grid *)kernel, x, y, jx, jy);
 }
 
 static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                                 char *err, size_t errlen)
 {
     shgrid_state *s = state;
-    vsd_kshgrid g;
+    vsd_krecord_grid g;
     ctx->kd.march_step = vsd_method_march_step(ctx, s->step);
     ctx->kd.march_stop = (float)s->early_termination;
     kernel_grid(s, &ctx->kd, s->kind, &g);
-    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, vsd_shgrid_device_view, &g,
+    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, vsd_record_grid_device_view, &g,
                                         "ray marching", samples, err, errlen);
 }
 

@@ -1,0 +1,219 @@
+/* kernel_record_grid.h — a grid of lighting records and the view pass that reads it, shared
+ * by every method that caches its lighting (shgrid: Delalandre et al. 2013's record grid;
+ * constellation with shadows = "grid": the transmittance toward each light, cached per
+ * lighting change). CPU and CUDA run these same functions.
+ *
+ * Records sit at the centres of the non-empty cells of a grid over the density's box
+ * (src/render/record_grid.h builds it). A record holds what the view pass needs to get
+ * the in-scattered radiance per unit sigma_s at its centre, by kind:
+ *   SH_SCALAR  SH of the transmittance T(w) (n^2 floats); S = (1/4pi) sum_i R_i L_i with
+ *              the environment's SH (isotropic phase)
+ *   SH_RGB     SH of T(w) L(w) per channel (3 n^2); S = sum_i w_i R_ci with per-ray weights
+ *              w_i = g^l y_i(d): the HG convolution toward the viewer
+ *   BAKED      S itself, RGB (isotropic phase: it does not depend on the view direction), so
+ *              a camera change reads 8 RGB triples and redoes none of the lighting
+ *   LIGHTS     nothing but the directional lights' term below
+ * plus, with light_count > 0, the transmittance T_k toward each directional light, whose
+ * term sum_k phase(d . w_k) T_k E_k is added (phase times E per ray: d is fixed along it).
+ *
+ * The view pass marches the ray with the shared march (kernel_march.h) and looks the
+ * records up at the nearest cell (Delalandre's paper) or trilinearly between the eight
+ * surrounding cell centres, renormalised over the non-empty ones, either in radiance or in
+ * log radiance (a weighted geometric mean: in-scattered radiance falls about
+ * exponentially with depth into a lit surface, so a linear blend of the cell-centre values
+ * — the chord of a convex curve — over-brightens the skin, which a blend of logs does not). */
+#ifndef VSD_KERNEL_RECORD_GRID_H
+#define VSD_KERNEL_RECORD_GRID_H
+#include "kernel_types.h"
+#include "kernel_volume.h"
+#include "kernel_env.h"
+#include "kernel_camera.h"
+#include "kernel_march.h"
+#include "kernel_phase.h"
+#include "src/sh/sh_kernel.h"
+
+enum { VSD_RECORDS_SH_SCALAR = 0, VSD_RECORDS_SH_RGB = 1, VSD_RECORDS_BAKED = 2, VSD_RECORDS_LIGHTS = 3 };
+enum { VSD_RECORDS_NEAREST = 0, VSD_RECORDS_TRILINEAR = 1, VSD_RECORDS_LOG_TRILINEAR = 2 };
+enum { VSD_RECORDS_MAX_LIGHTS = 64 };
+
+/* The record grid as kernels see it; kd is the scene's. Grid coordinates: cell (i,j,k) spans
+ * [i, i+1) x ... ; g = world_to_grid(p). */
+typedef struct VSD_ALIGN16 vsd_krecord_grid {
+    const vsd_kernel_data *kd;
+    const int32_t *cell_record;   /* [res x*y*z] record index, -1 for eliminated cells */
+    const float *records;         /* [record_count * stride] coefficients */
+    const float *record_pos;      /* [record_count * 4] world position of each record */
+    const float *dirs;            /* [dir_count * 4] HEALPix directions (xyz, 0) */
+    const float *basis;           /* [dir_count * n2] y_i(w_j) * 4pi / M */
+    const float *dir_radiance;    /* [dir_count * 4] env averaged per HEALPix pixel (product form) */
+    const float *light;           /* [3 * n2] environment SH (factored form) */
+    const float *lights;          /* [light_count * 8] extracted lights: world dir xyz, 0, E rgb, 0 */
+    const float *light_trans;     /* [record_count * light_count] T from each record toward each light */
+    vsd_affine world_to_grid;
+    int32_t res[3];
+    int32_t order, n2, stride;    /* stride = n2 (scalar) or 3 n2 (RGB) */
+    int32_t kind;                 /* VSD_RECORDS_SH_SCALAR, _SH_RGB, _BAKED or _LIGHTS */
+    int32_t interp;
+    int32_t dir_count;
+    int32_t record_count;
+    float record_step;            /* quadrature step of the record marches (world) */
+    int32_t light_count;          /* 0..VSD_RECORDS_MAX_LIGHTS; 0 = the paper's pure SH form */
+    float pad_[2];
+} vsd_krecord_grid;
+
+/* In-scattered radiance per unit sigma_s from record rec; w: per-ray SH weights (RGB
+ * kind), ph: per-ray phase times irradiance of each extracted light (3 per light). */
+VSD_DEVICE vsd_f3 vsd_records_radiance(const vsd_krecord_grid *g, int32_t rec, const float *w, const float *ph)
+{
+    const float *r = g->kind == VSD_RECORDS_LIGHTS ? 0 : g->records + (size_t)rec * g->stride;
+    float s[3] = {0.0f, 0.0f, 0.0f};
+    int32_t i, c;
+    if (g->kind == VSD_RECORDS_BAKED) return f3(r[0], r[1], r[2]);
+    if (g->kind == VSD_RECORDS_LIGHTS) {
+        /* no SH term: the lights' term below is all */
+    } else if (g->kind == VSD_RECORDS_SH_SCALAR) {
+        for (c = 0; c < 3; c++) {
+            const float *l = g->light + c * g->n2;
+            for (i = 0; i < g->n2; i++) s[c] += r[i] * l[i];
+            s[c] *= 1.0f / (4.0f * VSD_PI);
+        }
+    } else {
+        for (c = 0; c < 3; c++)
+            for (i = 0; i < g->n2; i++) s[c] += w[i] * r[c * g->n2 + i];
+    }
+    /* the truncated SH may ring below zero; the exact light term never does */
+    for (c = 0; c < 3; c++) s[c] = fmaxf(s[c], 0.0f);
+    if (g->light_count > 0) {
+        const float *t = g->light_trans + (size_t)rec * g->light_count;
+        for (i = 0; i < g->light_count; i++)
+            for (c = 0; c < 3; c++) s[c] += t[i] * ph[3 * i + c];
+    }
+    return f3(s[0], s[1], s[2]);
+}
+
+/* In-scattered radiance at world point p: nearest cell, or trilinear between the records
+ * at the eight surrounding cell centres (weights renormalised over non-empty cells). */
+/* Below this, in-scattered radiance counts as zero in the log-trilinear mean (a record
+ * whose SH term rings to zero must not force its neighbours to black). */
+#define VSD_RECORDS_LOG_FLOOR 1e-12f
+
+/* Per-ray cache of the eight corner values around the current sample (logs for the
+ * log-trilinear lookup): the view step is a fraction of a cell, so consecutive samples
+ * mostly share the same eight records and the SH dot products are done once per cell. */
+typedef struct vsd_records_corners {
+    int32_t key[3];   /* i0, j0, k0 of the cached corners */
+    int32_t filled;   /* 0 until the first lookup */
+    int32_t valid;    /* bit a: corner a holds a record */
+    vsd_f3 v[8];
+} vsd_records_corners;
+
+/* A ray moving into a neighbouring cell shares 4 (or 2, or 1) corners with the last one:
+ * those are copied, not recomputed (the same values, so the image does not change). */
+VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, int32_t j0, int32_t k0, const float *w,
+                                        const float *ph, vsd_records_corners *c)
+{
+    int32_t a, logi = g->interp == VSD_RECORDS_LOG_TRILINEAR;
+    int32_t di = i0 - c->key[0], dj = j0 - c->key[1], dk = k0 - c->key[2], had = c->filled, old_valid = c->valid;
+    vsd_f3 old[8];
+    for (a = 0; a < 8; a++) old[a] = c->v[a];
+    c->key[0] = i0; c->key[1] = j0; c->key[2] = k0;
+    c->filled = 1;
+    c->valid = 0;
+    for (a = 0; a < 8; a++) {
+        int32_t ax = a & 1, ay = (a >> 1) & 1, az = (a >> 2) & 1;
+        int32_t i = i0 + ax, j = j0 + ay, k = k0 + az, rec;
+        int32_t ox = ax + di, oy = ay + dj, oz = az + dk;   /* this corner in the old cube */
+        vsd_f3 v;
+        if (had && ox >= 0 && ox <= 1 && oy >= 0 && oy <= 1 && oz >= 0 && oz <= 1) {
+            int32_t b = ox | (oy << 1) | (oz << 2);
+            c->v[a] = old[b];
+            if (old_valid & (1 << b)) c->valid |= 1 << a;
+            continue;
+        }
+        if (i < 0 || j < 0 || k < 0 || i >= g->res[0] || j >= g->res[1] || k >= g->res[2]) continue;
+        rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
+        if (rec < 0) continue;
+        v = vsd_records_radiance(g, rec, w, ph);
+        if (logi) v = f3(logf(fmaxf(v.x, VSD_RECORDS_LOG_FLOOR)), logf(fmaxf(v.y, VSD_RECORDS_LOG_FLOOR)),
+                         logf(fmaxf(v.z, VSD_RECORDS_LOG_FLOOR)));
+        c->v[a] = v;
+        c->valid |= 1 << a;
+    }
+}
+
+VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, const float *w, const float *ph,
+                                       vsd_records_corners *c)
+{
+    vsd_f3 q = vsd_affine_point(&g->world_to_grid, p);
+    if (g->interp == VSD_RECORDS_NEAREST) {
+        int32_t i = (int32_t)floorf(q.x), j = (int32_t)floorf(q.y), k = (int32_t)floorf(q.z), rec;
+        if (i < 0 || j < 0 || k < 0 || i >= g->res[0] || j >= g->res[1] || k >= g->res[2]) return f3s(0.0f);
+        rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
+        return rec < 0 ? f3s(0.0f) : vsd_records_radiance(g, rec, w, ph);
+    } else {
+        float fx = q.x - 0.5f, fy = q.y - 0.5f, fz = q.z - 0.5f;
+        int32_t i0 = (int32_t)floorf(fx), j0 = (int32_t)floorf(fy), k0 = (int32_t)floorf(fz), a;
+        float tx = fx - (float)i0, ty = fy - (float)j0, tz = fz - (float)k0, wsum = 0.0f;
+        vsd_f3 s = f3s(0.0f);
+        if (!c->filled || c->key[0] != i0 || c->key[1] != j0 || c->key[2] != k0)
+            vsd_records_fill_corners(g, i0, j0, k0, w, ph, c);
+        for (a = 0; a < 8; a++) {
+            float wt = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
+            if (!(c->valid & (1 << a)) || wt <= 0.0f) continue;
+            s = f3_add(s, f3_scale(c->v[a], wt));
+            wsum += wt;
+        }
+        if (!(wsum > 0.0f)) return f3s(0.0f);
+        s = f3_scale(s, 1.0f / wsum);
+        /* log-trilinear: the weighted geometric mean, exact where S falls exponentially */
+        return g->interp == VSD_RECORDS_LOG_TRILINEAR ? f3(expf(s.x), expf(s.y), expf(s.z)) : s;
+    }
+}
+
+/* One view ray through pixel (px, py) at sub-pixel (jx, jy): the shared march
+ * (kernel_march.h) with the record lookup in place of shadow rays. */
+VSD_DEVICE vsd_sample_result vsd_records_pixel(const vsd_krecord_grid *g, int32_t px, int32_t py, float jx, float jy)
+{
+    const vsd_kernel_data *kd = g->kd;
+    vsd_march_acc acc;
+    vsd_f3 o, d;
+    float t0 = 0.0f, t1 = 0.0f;
+    float w[VSD_SH_MAX_COEFFS], ph[3 * VSD_RECORDS_MAX_LIGHTS];
+    vsd_records_corners corners;
+    int32_t k;
+    corners.filled = 0;
+    corners.valid = 0;
+    corners.key[0] = corners.key[1] = corners.key[2] = 0;
+    vsd_march_begin(&acc);
+    vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
+    /* the lights are directional and d is fixed along the ray: phase * E once per ray */
+    for (k = 0; k < g->light_count; k++) {
+        const float *l = g->lights + 8 * (size_t)k;
+        float pk = vsd_hg_eval(f3_dot(d, f3(l[0], l[1], l[2])), kd->medium.anisotropy);
+        ph[3 * k] = pk * l[4]; ph[3 * k + 1] = pk * l[5]; ph[3 * k + 2] = pk * l[6];
+    }
+    if (g->kind == VSD_RECORDS_SH_RGB) {
+        /* convolution with HG toward the viewer: out(d) = sum_lm g^l f_lm y_lm(d) */
+        float gl = 1.0f;
+        int32_t l, m;
+        vsd_sh_eval_f(g->order, d, w);
+        for (l = 0; l < g->order; l++) {
+            for (m = -l; m <= l; m++) w[l * (l + 1) + m] *= gl;
+            gl *= kd->medium.anisotropy;
+        }
+    }
+    if (vsd_march_extent(kd, o, d, &t0, &t1)) {
+        vsd_march_walk walk;
+        float tm, hs;
+        vsd_march_walk_begin(&walk, kd, o, d, t0, t1);
+        while (vsd_march_walk_next(&walk, kd, acc.tr, &tm, &hs)) {
+            vsd_f3 p = f3_madd(o, d, tm);
+            /* §4.5: emission accumulates along the same march */
+            float absorbed = vsd_march_medium(kd, &acc, p, hs);
+            if (absorbed > 0.0f) vsd_march_scatter(kd, &acc, vsd_records_inscatter(g, p, w, ph, &corners), tm, absorbed);
+        }
+    }
+    return vsd_march_finish(kd, &acc, d);
+}
+
+#endif

@@ -1,0 +1,116 @@
+/* The record grid (record_grid.h), moved here from shgrid.c so constellation's cached
+ * shadows use the same cells. */
+#include "record_grid.h"
+#include "kernel/kernel_volume.h"
+#include "kernel_setup.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Is the cell with index-space box [lo, hi) non-empty? First the brick majorants (exact:
+ * a cell over empty bricks is empty), then the paper's k^3 probes of the density. */
+static int cell_nonempty(const vsd_kvolume *v, const double lo[3], const double hi[3], int k)
+{
+    int b0[3], b1[3], a, x, y, z, any = 0;
+    for (a = 0; a < 3; a++) {
+        b0[a] = (int)floor((lo[a] - v->origin[a]) / 8.0);
+        b1[a] = (int)floor((hi[a] - v->origin[a]) / 8.0);
+        if (b0[a] < 0) b0[a] = 0;
+        if (b1[a] > v->dims[a] - 1) b1[a] = v->dims[a] - 1;
+    }
+    for (z = b0[2]; z <= b1[2] && !any; z++)
+        for (y = b0[1]; y <= b1[1] && !any; y++)
+            for (x = b0[0]; x <= b1[0] && !any; x++)
+                if (v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f) any = 1;
+    if (!any || k == 0) return any;
+    for (z = 0; z < k; z++)
+        for (y = 0; y < k; y++)
+            for (x = 0; x < k; x++) {
+                vsd_f3 p = f3((float)(lo[0] + (hi[0] - lo[0]) * (x + 0.5) / k),
+                              (float)(lo[1] + (hi[1] - lo[1]) * (y + 0.5) / k),
+                              (float)(lo[2] + (hi[2] - lo[2]) * (z + 0.5) / k));
+                if (vsd_kvolume_field(v, p) > 0.0f) return 1;
+            }
+    return 0;
+}
+
+void vsd_record_grid_free(vsd_record_grid *g)
+{
+    free(g->cell_record);
+    free(g->record_pos);
+    memset(g, 0, sizeof *g);
+}
+
+vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
+                                 size_t errlen)
+{
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3], w2i[16], i2w[16];
+    int a, x, y, z, any = 0;
+    size_t ncell;
+    vsd_record_grid_free(g);
+    if (v->dims[0] == 0) return VSD_OK;
+    /* the medium's box: the union of non-empty brick cells (index space) */
+    for (z = 0; z < v->dims[2]; z++)
+        for (y = 0; y < v->dims[1]; y++)
+            for (x = 0; x < v->dims[0]; x++) {
+                int b[3] = {x, y, z};
+                if (!(v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f)) continue;
+                for (a = 0; a < 3; a++) {
+                    double l = v->origin[a] + 8.0 * b[a], h = l + 8.0;
+                    if (!any || l < lo[a]) lo[a] = l;
+                    if (!any || h > hi[a]) hi[a] = h;
+                }
+                any = 1;
+            }
+    if (!any) return VSD_OK;
+    for (a = 0; a < 3; a++) {
+        g->res[a] = cells;
+        cell[a] = (hi[a] - lo[a]) / cells;
+    }
+    /* world -> grid = scale(1/cell) . translate(-lo) . world_to_index */
+    for (a = 0; a < 3; a++) {
+        int c;
+        for (c = 0; c < 4; c++) g->world_to_grid.m[4 * a + c] = (float)(v->world_to_index.m[4 * a + c] / cell[a]);
+        g->world_to_grid.m[4 * a + 3] -= (float)(lo[a] / cell[a]);
+    }
+    for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
+    w2i[12] = w2i[13] = w2i[14] = 0;
+    w2i[15] = 1;
+    if (!vsd_mat4_invert(w2i, i2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
+    ncell = (size_t)g->res[0] * g->res[1] * g->res[2];
+    g->cell_record = malloc(sizeof(int32_t) * ncell);
+    if (!g->cell_record) {
+        vsd_record_grid_free(g);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %d^3 record grid", cells);
+    }
+    for (z = 0; z < g->res[2]; z++)
+        for (y = 0; y < g->res[1]; y++)
+            for (x = 0; x < g->res[0]; x++) {
+                double cl[3], ch[3];
+                int c[3] = {x, y, z};
+                for (a = 0; a < 3; a++) {
+                    cl[a] = lo[a] + cell[a] * c[a];
+                    ch[a] = cl[a] + cell[a];
+                }
+                g->cell_record[((size_t)z * g->res[1] + y) * g->res[0] + x] =
+                    cell_nonempty(v, cl, ch, probes) ? g->count++ : -1;
+            }
+    g->record_pos = malloc(sizeof(float) * 4 * (size_t)(g->count ? g->count : 1));
+    if (!g->record_pos) {
+        vsd_record_grid_free(g);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d records", (int)g->count);
+    }
+    for (z = 0; z < g->res[2]; z++)
+        for (y = 0; y < g->res[1]; y++)
+            for (x = 0; x < g->res[0]; x++) {
+                int r = g->cell_record[((size_t)z * g->res[1] + y) * g->res[0] + x], c[3] = {x, y, z};
+                double p[3];
+                if (r < 0) continue;
+                for (a = 0; a < 3; a++) p[a] = lo[a] + cell[a] * (c[a] + 0.5);
+                for (a = 0; a < 3; a++)
+                    g->record_pos[4 * r + a] =
+                        (float)(i2w[4 * a] * p[0] + i2w[4 * a + 1] * p[1] + i2w[4 * a + 2] * p[2] + i2w[4 * a + 3]);
+                g->record_pos[4 * r + 3] = 1.0f;
+            }
+    return VSD_OK;
+}

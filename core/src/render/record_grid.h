@@ -1,0 +1,27 @@
+/* record_grid.h — the grid of lighting records that kernel/kernel_record_grid.h reads:
+ * `cells` cells per axis over the density's box (the union of its non-empty 8^3 bricks,
+ * index space), a record at the centre of every non-empty cell. Built per volume frame by
+ * shgrid (Delalandre et al. 2013, §4.2) and by constellation's cached shadows.
+ *
+ * A cell is empty when every brick it overlaps has majorant 0 (exact), or, with probes
+ * k > 0, when k^3 probes of the density inside it all read 0 (the paper's Fig. 5 test).
+ * Ownership: vsd_record_grid_build fills a caller-owned struct; vsd_record_grid_free
+ * releases its arrays. */
+#ifndef VSD_RECORD_GRID_H
+#define VSD_RECORD_GRID_H
+#include "kernel/kernel_types.h"
+#include "vsd/status.h"
+
+typedef struct vsd_record_grid {
+    int32_t res[3];               /* cells per axis; 0 when the volume is empty */
+    vsd_affine world_to_grid;     /* cell (i,j,k) spans [i, i+1) x ... */
+    int32_t *cell_record;         /* [res x*y*z], x fastest: record index, -1 = empty cell */
+    float *record_pos;            /* [count * 4]: the cell centres, world space */
+    int32_t count;
+} vsd_record_grid;
+
+vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
+                                 size_t errlen);
+void vsd_record_grid_free(vsd_record_grid *g);
+
+#endif
