@@ -61,32 +61,55 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     float pad_[2];
 } vsd_krecord_grid;
 
+/* sum_i a[i] b[i] over n terms in four interleaved partial sums (lane i % 4), added
+ * pairwise at the end: a fixed order the compiler can keep in one SIMD register (gcc's SLP
+ * vectoriser does; a plain running sum it may not reorder), the same on CPU and CUDA. */
+VSD_DEVICE float vsd_records_dot(const float *a, const float *b, int32_t n)
+{
+    float acc[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+    int32_t i, l;
+    for (i = 0; i + 4 <= n; i += 4)
+        for (l = 0; l < 4; l++) acc[l] += a[i + l] * b[i + l];
+    for (l = 0; i < n; i++, l++) acc[l] += a[i] * b[i];
+    return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+}
+
+/* Per-ray weights of the directional lights: ph[c * VSD_RECORDS_MAX_LIGHTS + k] = phase(d .
+ * w_k) E_kc (planar, so the per-record sums are contiguous dot products). The lights are
+ * directional and d is fixed along a ray, so this runs once per ray; an isotropic phase
+ * (g = 0) makes it independent of d, which is what lets records be baked. */
+VSD_DEVICE void vsd_records_light_weights(const float *lights, int32_t count, vsd_f3 d, float g, float *ph)
+{
+    int32_t k;
+    for (k = 0; k < count; k++) {
+        const float *l = lights + 8 * (size_t)k;
+        float pk = vsd_hg_eval(f3_dot(d, f3(l[0], l[1], l[2])), g);
+        ph[k] = pk * l[4];
+        ph[VSD_RECORDS_MAX_LIGHTS + k] = pk * l[5];
+        ph[2 * VSD_RECORDS_MAX_LIGHTS + k] = pk * l[6];
+    }
+}
+
 /* In-scattered radiance per unit sigma_s from record rec; w: per-ray SH weights (RGB
- * kind), ph: per-ray phase times irradiance of each extracted light (3 per light). */
+ * kind), ph: the lights' per-ray weights (vsd_records_light_weights). */
 VSD_DEVICE vsd_f3 vsd_records_radiance(const vsd_krecord_grid *g, int32_t rec, const float *w, const float *ph)
 {
     const float *r = g->kind == VSD_RECORDS_LIGHTS ? 0 : g->records + (size_t)rec * g->stride;
     float s[3] = {0.0f, 0.0f, 0.0f};
-    int32_t i, c;
+    int32_t c;
     if (g->kind == VSD_RECORDS_BAKED) return f3(r[0], r[1], r[2]);
     if (g->kind == VSD_RECORDS_LIGHTS) {
         /* no SH term: the lights' term below is all */
     } else if (g->kind == VSD_RECORDS_SH_SCALAR) {
-        for (c = 0; c < 3; c++) {
-            const float *l = g->light + c * g->n2;
-            for (i = 0; i < g->n2; i++) s[c] += r[i] * l[i];
-            s[c] *= 1.0f / (4.0f * VSD_PI);
-        }
+        for (c = 0; c < 3; c++) s[c] = vsd_records_dot(r, g->light + c * g->n2, g->n2) * (1.0f / (4.0f * VSD_PI));
     } else {
-        for (c = 0; c < 3; c++)
-            for (i = 0; i < g->n2; i++) s[c] += w[i] * r[c * g->n2 + i];
+        for (c = 0; c < 3; c++) s[c] = vsd_records_dot(w, r + c * g->n2, g->n2);
     }
     /* the truncated SH may ring below zero; the exact light term never does */
     for (c = 0; c < 3; c++) s[c] = fmaxf(s[c], 0.0f);
     if (g->light_count > 0) {
         const float *t = g->light_trans + (size_t)rec * g->light_count;
-        for (i = 0; i < g->light_count; i++)
-            for (c = 0; c < 3; c++) s[c] += t[i] * ph[3 * i + c];
+        for (c = 0; c < 3; c++) s[c] += vsd_records_dot(t, ph + c * VSD_RECORDS_MAX_LIGHTS, g->light_count);
     }
     return f3(s[0], s[1], s[2]);
 }
@@ -180,18 +203,12 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel(const vsd_krecord_grid *g, int32_
     float t0 = 0.0f, t1 = 0.0f;
     float w[VSD_SH_MAX_COEFFS], ph[3 * VSD_RECORDS_MAX_LIGHTS];
     vsd_records_corners corners;
-    int32_t k;
     corners.filled = 0;
     corners.valid = 0;
     corners.key[0] = corners.key[1] = corners.key[2] = 0;
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
-    /* the lights are directional and d is fixed along the ray: phase * E once per ray */
-    for (k = 0; k < g->light_count; k++) {
-        const float *l = g->lights + 8 * (size_t)k;
-        float pk = vsd_hg_eval(f3_dot(d, f3(l[0], l[1], l[2])), kd->medium.anisotropy);
-        ph[3 * k] = pk * l[4]; ph[3 * k + 1] = pk * l[5]; ph[3 * k + 2] = pk * l[6];
-    }
+    vsd_records_light_weights(g->lights, g->light_count, d, kd->medium.anisotropy, ph);
     if (g->kind == VSD_RECORDS_SH_RGB) {
         /* convolution with HG toward the viewer: out(d) = sum_lm g^l f_lm y_lm(d) */
         float gl = 1.0f;

@@ -35,8 +35,11 @@ def _prop_for(row):
     doc = row.get("doc", "")
     t = row["type"]
     if t == "int":
+        lo = 0 if row.get("auto_zero") else int(row["min"])
+        if row.get("auto_zero"):
+            doc += " [0 = automatic]"
         return IntProperty(name=row["key"], description=doc, default=int(row["default"]),
-                           min=max(int(row["min"]), -INT_LIMIT), max=min(int(row["max"]), INT_LIMIT))
+                           min=max(lo, -INT_LIMIT), max=min(int(row["max"]), INT_LIMIT))
     if t == "number":
         kw = {}
         if row.get("unit") == "length":

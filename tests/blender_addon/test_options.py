@@ -76,8 +76,8 @@ for method, rows in sorted(table.items()):
         if row["type"] in ("int", "number"):
             check(abs(value - row["default"]) <= 1e-6 * max(1.0, abs(row["default"])),
                   "%s.%s defaults to %s (got %s)" % (method, key, row["default"], value))
-            check(p.hard_min == max(row["min"], -2 ** 31 + 1) or abs(p.hard_min - row["min"]) < 1e-6,
-                  "%s.%s minimum %s (got %s)" % (method, key, row["min"], p.hard_min))
+            lo = 0 if row.get("auto_zero") else row["min"]   # 0 = automatic stays settable
+            check(abs(p.hard_min - lo) < 1e-6, "%s.%s minimum %s (got %s)" % (method, key, lo, p.hard_min))
         elif row["type"] == "choice":
             check(value == row["default"] and [i.identifier for i in p.enum_items] == row["choices"],
                   "%s.%s offers %s, default %s" % (method, key, row["choices"], row["default"]))

@@ -12,7 +12,7 @@
  *                     (§4.4): T*L projected per record from the HEALPix samples, which
  *                     re-marches the record grid.
  *   render            the view march with one SH dot product per sample.
- * Options: grid (cells per axis, default 32), order (SH order, default 4), directions
+ * Options: grid (cells per axis, default 0 = automatic: 32..64), order (SH order, default 4), directions
  * (M HEALPix directions, 12 nside^2, default 192), probes (k, k^3 density probes per cell,
  * default 3; 0 = keep every cell whose bricks are not empty), interpolation ("nearest" |
  * "trilinear" | "log", default "log" = trilinear in log radiance), form ("auto" | "factored" | "product", default auto =
@@ -96,8 +96,9 @@ static const char *healpix_count_problem(double v)
 }
 
 static const vsd_option_spec shgrid_option_rows[] = {
-    {"grid", VSD_OPT_INT, 2, 256, 32, NULL, "record cells per axis over the density's box (the paper's N^3)",
-     offsetof(shgrid_options, grid), 0, NULL},
+    {"grid", VSD_OPT_INT, 1, 256, 0, NULL,
+     "record cells per axis over the density's box, the paper's N (0 = a cell per 4 voxels of the longest axis, 32..64)",
+     offsetof(shgrid_options, grid), VSD_OPT_ZERO_AUTO, NULL},
     {"order", VSD_OPT_INT, 1, VSD_SH_MAX_ORDER, SHGRID_DEFAULT_ORDER, NULL, "spherical-harmonic order (order^2 coefficients)",
      offsetof(shgrid_options, order), 0, NULL},
     {"directions", VSD_OPT_INT, 12, 196608, 192, NULL, "HEALPix directions each record marches toward (12 nside^2)",
@@ -266,6 +267,17 @@ static int want_product(const shgrid_state *s, const vsd_scene *sc)
     return sc->medium.anisotropy != 0.0f;
 }
 
+/* grid = 0: about 4 voxels per cell along the volume's longest axis, 32 to 64 cells. A
+ * fixed 32 spread 7 voxels over a cell of a 223-voxel Houdini smoke, where the records'
+ * interpolation blurred the self-shadowing (docs/methods/shgrid.md, "Large volumes"). */
+static int auto_grid(const vsd_kvolume *v)
+{
+    int longest = 8 * (v->dims[0] > v->dims[1] ? (v->dims[0] > v->dims[2] ? v->dims[0] : v->dims[2])
+                                               : (v->dims[1] > v->dims[2] ? v->dims[1] : v->dims[2]));
+    int cells = (longest + 3) / 4;
+    return cells < 32 ? 32 : cells > 64 ? 64 : cells;
+}
+
 static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     shgrid_state *s = state;
@@ -273,7 +285,8 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
     int n2 = s->order * s->order;
     vsd_status st;
     free_frame(s);
-    if ((st = vsd_record_grid_build(v, s->grid, s->probes, &s->rg, err, errlen))) return st;
+    if ((st = vsd_record_grid_build(v, s->grid > 0 ? s->grid : auto_grid(v), s->probes, &s->rg, err, errlen)))
+        return st;
     s->trans = malloc(sizeof(float) * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
     s->rgb = malloc(sizeof(float) * 3 * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
     if (!s->trans || !s->rgb) {
@@ -390,24 +403,11 @@ static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size
 static vsd_status bake_isotropic(shgrid_state *s, const vsd_kernel_data *kd, char *err, size_t errlen)
 {
     vsd_krecord_grid g;
-    float ph[3 * VSD_RECORDS_MAX_LIGHTS];
-    int r, k;
+    vsd_status st;
     free(s->baked);
-    s->baked = malloc(sizeof(float) * 3 * (size_t)s->rg.count);
-    if (!s->baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", s->rg.count);
+    s->baked = NULL;
     kernel_grid(s, kd, VSD_RECORDS_SH_SCALAR, &g);
-    for (k = 0; k < g.light_count; k++) {
-        float pk = vsd_hg_eval(0.0f, 0.0f);   /* 1 / 4pi, whatever the direction */
-        ph[3 * k] = pk * s->klights[8 * k + 4];
-        ph[3 * k + 1] = pk * s->klights[8 * k + 5];
-        ph[3 * k + 2] = pk * s->klights[8 * k + 6];
-    }
-    for (r = 0; r < s->rg.count; r++) {
-        vsd_f3 v = vsd_records_radiance(&g, r, NULL, ph);
-        s->baked[3 * (size_t)r] = v.x;
-        s->baked[3 * (size_t)r + 1] = v.y;
-        s->baked[3 * (size_t)r + 2] = v.z;
-    }
+    if ((st = vsd_record_grid_bake(&g, &s->baked, err, errlen))) return st;
     s->kind = VSD_RECORDS_BAKED;
     return VSD_OK;
 }

@@ -16,8 +16,8 @@ typedef enum vsd_option_type {
 } vsd_option_type;
 
 enum {
-    VSD_OPT_ZERO_AUTO = 1u << 0, /* NUMBER: 0 (the default) means "chosen from the volume";
-                                    otherwise the value must be > min */
+    VSD_OPT_ZERO_AUTO = 1u << 0, /* INT, NUMBER: 0 (the default) means "chosen from the
+                                    volume"; otherwise the value must be > min */
     VSD_OPT_LENGTH = 1u << 1     /* NUMBER: a length in world units (the add-on shows metres) */
 };
 

@@ -2,6 +2,7 @@
  * shadows use the same cells. */
 #include "record_grid.h"
 #include "kernel/kernel_volume.h"
+#include "kernel/kernel_record_grid.h"
 #include "kernel_setup.h"
 #include <math.h>
 #include <stdlib.h>
@@ -112,5 +113,24 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
                         (float)(i2w[4 * a] * p[0] + i2w[4 * a + 1] * p[1] + i2w[4 * a + 2] * p[2] + i2w[4 * a + 3]);
                 g->record_pos[4 * r + 3] = 1.0f;
             }
+    return VSD_OK;
+}
+
+vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *err, size_t errlen)
+{
+    float ph[3 * VSD_RECORDS_MAX_LIGHTS], *baked;
+    int32_t r;
+    *out = NULL;
+    baked = malloc(sizeof(float) * 3 * (size_t)(g->record_count > 0 ? g->record_count : 1));
+    if (!baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", (int)g->record_count);
+    /* g = 0: the weights are the same for every direction */
+    vsd_records_light_weights(g->lights, g->light_count, f3(0.0f, 0.0f, 1.0f), 0.0f, ph);
+    for (r = 0; r < g->record_count; r++) {
+        vsd_f3 v = vsd_records_radiance(g, r, NULL, ph);
+        baked[3 * (size_t)r] = v.x;
+        baked[3 * (size_t)r + 1] = v.y;
+        baked[3 * (size_t)r + 2] = v.z;
+    }
+    *out = baked;
     return VSD_OK;
 }

@@ -24,4 +24,11 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
                                  size_t errlen);
 void vsd_record_grid_free(vsd_record_grid *g);
 
+/* Isotropic phase: every record's in-scattered RGB (the SH term and the lights' term of
+ * g, whose kind must not be BAKED), evaluated once with the view pass's own function;
+ * *out (malloc'd, 3 floats per record) is then the records of a BAKED grid, which a
+ * camera change reads without redoing any lighting. */
+struct vsd_krecord_grid;
+vsd_status vsd_record_grid_bake(const struct vsd_krecord_grid *g, float **out, char *err, size_t errlen);
+
 #endif
