@@ -296,6 +296,8 @@ static void measure_reference(const tte_opts *o, const char *scene, int spp, con
         out->cold = (st.load_seconds + st.prepare_seconds) + out->camera;
         out->err_comb = block_error(fb, ref->pass[VSD_PASS_COMBINED], VSD_PASS_COMBINED, o->eval_w, o->eval_h);
         out->err_vdir = block_error(fb, ref->pass[VSD_PASS_VOLUME_DIR], VSD_PASS_VOLUME_DIR, o->eval_w, o->eval_h);
+    } else {
+        out->camera = out->lighting = out->frame = out->cold = -1.0;   /* past the limit: "> limit" */
     }
     vsd_renderer_destroy(r);
     vsd_framebuffer_destroy(fb);

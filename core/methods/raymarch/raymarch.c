@@ -21,11 +21,8 @@ static const vsd_option_spec raymarch_option_rows[] = {
      offsetof(raymarch_options, lights), 0, NULL},
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view and shadow march step, world units (0 = half the smallest voxel)",
      offsetof(raymarch_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
-    {"pixel_samples", VSD_OPT_INT, 1, 16, 1, NULL, "n: n x n stratified view rays per pixel",
-     offsetof(raymarch_options, pixel_samples), 0, NULL},
-    {"early_termination", VSD_OPT_NUMBER, 0, 1, 1e-3, NULL,
-     "stop a view ray once its transmittance is below this (0 = never; bound in kernel_march.h)",
-     offsetof(raymarch_options, early_termination), 0, NULL},
+    VSD_OPTION_PIXEL_SAMPLES(raymarch_options),
+    VSD_OPTION_EARLY_TERMINATION(raymarch_options, "view ray"),
 };
 
 typedef struct raymarch_state {

@@ -49,11 +49,23 @@ enum { FORM_AUTO, FORM_FACTORED, FORM_PRODUCT };
 /* the record pass's second job: transmittance toward the extracted lights */
 enum { PASS_LIGHTS = 2 };
 
-typedef struct shgrid_state {
-    /* options */
-    int grid, order, probes, interp, form, pixel_samples, light_max;
-    long dirs_count, nside;
+typedef struct shgrid_options {
+    int grid, order, directions, probes, interp, form, pixel_samples, lights;
     double step, record_step, light_threshold, early_termination;
+} shgrid_options;
+
+/* in VSD_RECORDS_NEAREST.. and FORM_AUTO.. order */
+static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
+static const char *const form_names[] = {"auto", "factored", "product", NULL};
+
+static const char *healpix_count_problem(double v)
+{
+    return vsd_sh_healpix_nside((long)v) ? NULL : "is not a HEALPix pixel count 12 nside^2 (12, 48, 108, 192, 300, ...)";
+}
+
+typedef struct shgrid_state {
+    shgrid_options opt;
+    long dirs_count, nside;  /* opt.directions and its HEALPix nside */
     /* HEALPix directions and their basis rows (fixed per renderer) */
     float *dirs, *basis, *dir_radiance;
     /* frame: the record grid */
@@ -81,20 +93,6 @@ typedef struct shgrid_state {
     double frame_seconds, lighting_seconds;
 } shgrid_state;
 
-typedef struct shgrid_options {
-    int grid, order, directions, probes, interp, form, pixel_samples, lights;
-    double step, record_step, light_threshold, early_termination;
-} shgrid_options;
-
-/* in VSD_RECORDS_NEAREST.. and FORM_AUTO.. order */
-static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
-static const char *const form_names[] = {"auto", "factored", "product", NULL};
-
-static const char *healpix_count_problem(double v)
-{
-    return vsd_sh_healpix_nside((long)v) ? NULL : "is not a HEALPix pixel count 12 nside^2 (12, 48, 108, 192, 300, ...)";
-}
-
 static const vsd_option_spec shgrid_option_rows[] = {
     {"grid", VSD_OPT_INT, 1, 256, 0, NULL,
      "record cells per axis over the density's box, the paper's N (0 = a cell per 4 voxels of the longest axis, 32..64)",
@@ -115,11 +113,8 @@ static const vsd_option_spec shgrid_option_rows[] = {
      offsetof(shgrid_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
     {"record_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "record march step, world units (0 = half the smallest voxel)",
      offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
-    {"pixel_samples", VSD_OPT_INT, 1, 16, 1, NULL, "n: n x n stratified view rays per pixel",
-     offsetof(shgrid_options, pixel_samples), 0, NULL},
-    {"early_termination", VSD_OPT_NUMBER, 0, 1, 1e-3, NULL,
-     "stop a view ray once its transmittance is below this (0 = never; bound in kernel_march.h)",
-     offsetof(shgrid_options, early_termination), 0, NULL},
+    VSD_OPTION_PIXEL_SAMPLES(shgrid_options),
+    VSD_OPTION_EARLY_TERMINATION(shgrid_options, "view ray"),
     {"lights", VSD_OPT_INT, 0, VSD_RECORDS_MAX_LIGHTS, SHGRID_DEFAULT_LIGHTS, NULL,
      "bright texels taken out of the SH as exact lights (0 = the paper's pure SH form)",
      offsetof(shgrid_options, lights), 0, NULL},
@@ -135,22 +130,12 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, const void
     (void)scene;
     s = calloc(1, sizeof *s);
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
-    s->grid = o->grid;
-    s->order = o->order;
+    s->opt = *o;
     s->dirs_count = o->directions;
     s->nside = vsd_sh_healpix_nside(s->dirs_count);
-    s->probes = o->probes;
-    s->pixel_samples = o->pixel_samples;
-    s->light_max = o->lights;
-    s->light_threshold = o->light_threshold;
-    s->step = o->step;
-    s->record_step = o->record_step;
-    s->early_termination = o->early_termination;
-    s->interp = o->interp;
-    s->form = o->form;
     /* the HEALPix directions and the basis at them, weighted 4pi/M, once */
     {
-        int n2 = s->order * s->order;
+        int n2 = s->opt.order * s->opt.order;
         long j;
         double *d = malloc(sizeof(double) * 3 * (size_t)s->dirs_count);
         s->dirs = malloc(sizeof(float) * 4 * (size_t)s->dirs_count);
@@ -166,7 +151,7 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, const void
         for (j = 0; j < s->dirs_count; j++) {
             double y[VSD_SH_MAX_COEFFS];
             int i;
-            vsd_sh_eval(s->order, d + 3 * j, y);
+            vsd_sh_eval(s->opt.order, d + 3 * j, y);
             for (i = 0; i < 3; i++) s->dirs[4 * j + i] = (float)d[3 * j + i];
             s->dirs[4 * j + 3] = 0.0f;
             for (i = 0; i < n2; i++) s->basis[j * n2 + i] = (float)(y[i] * 4.0 * VSD_PI / (double)s->dirs_count);
@@ -203,16 +188,16 @@ static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int ki
     g->light_count = s->light_count;
     g->world_to_grid = s->rg.world_to_grid;
     memcpy(g->res, s->rg.res, sizeof g->res);
-    g->order = s->order;
-    g->n2 = s->order * s->order;
+    g->order = s->opt.order;
+    g->n2 = s->opt.order * s->opt.order;
     g->kind = kind;
     g->stride = kind == VSD_RECORDS_SH_SCALAR ? g->n2 : kind == VSD_RECORDS_BAKED ? 3 : 3 * g->n2;
     /* baked records already hold the extracted lights' term */
     if (kind == VSD_RECORDS_BAKED) g->light_count = 0;
-    g->interp = s->interp;
+    g->interp = s->opt.interp;
     g->dir_count = (int32_t)s->dirs_count;
     g->record_count = s->rg.count;
-    g->record_step = (float)(s->record_step > 0 ? s->record_step : 2.0 * kd->density.step);
+    g->record_step = (float)(s->opt.record_step > 0 ? s->opt.record_step : 2.0 * kd->density.step);
 }
 
 typedef struct record_job { const vsd_krecord_grid *g; float *out; int lights; } record_job;
@@ -262,8 +247,8 @@ static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kin
 
 static int want_product(const shgrid_state *s, const vsd_scene *sc)
 {
-    if (s->form == FORM_PRODUCT) return 1;
-    if (s->form == FORM_FACTORED) return 0;
+    if (s->opt.form == FORM_PRODUCT) return 1;
+    if (s->opt.form == FORM_FACTORED) return 0;
     return sc->medium.anisotropy != 0.0f;
 }
 
@@ -282,10 +267,10 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
 {
     shgrid_state *s = state;
     const vsd_kvolume *v = &ctx->kd.density;
-    int n2 = s->order * s->order;
+    int n2 = s->opt.order * s->opt.order;
     vsd_status st;
     free_frame(s);
-    if ((st = vsd_record_grid_build(v, s->grid > 0 ? s->grid : auto_grid(v), s->probes, &s->rg, err, errlen)))
+    if ((st = vsd_record_grid_build(v, s->opt.grid > 0 ? s->opt.grid : auto_grid(v), s->opt.probes, &s->rg, err, errlen)))
         return st;
     s->trans = malloc(sizeof(float) * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
     s->rgb = malloc(sizeof(float) * 3 * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
@@ -372,7 +357,7 @@ static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size
             total += dom * vsd_luminance(f3(p[0], p[1], p[2]));
         }
     }
-    thr = s->light_threshold * total / (4.0 * VSD_PI);
+    thr = s->opt.light_threshold * total / (4.0 * VSD_PI);
     for (row = 0; row < env->height; row++) {
         double dom = vsd_env_texel_solid_angle(env->width, env->height, row);
         for (col = 0; col < env->width; col++) {
@@ -391,7 +376,7 @@ static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size
     if (taken > 0.0) {
         vsd_env benv = *env;
         benv.rgb = bright;
-        st = vsd_constellation_build(&benv, s->light_max, VSD_LIGHTS_MEDIAN_CUT, &s->bright, err, errlen);
+        st = vsd_constellation_build(&benv, s->opt.lights, VSD_LIGHTS_MEDIAN_CUT, &s->bright, err, errlen);
     }
     free(bright);
     return st;
@@ -416,7 +401,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
 {
     shgrid_state *s = state;
     const vsd_scene *sc = ctx->scene;
-    int n2 = s->order * s->order, i, c, env_changed = 0;
+    int n2 = s->opt.order * s->opt.order, i, c, env_changed = 0;
     const vsd_env *sh_env = ctx->env;
     vsd_status st;
     /* F_Ind: the environment's SH, projected once per map (texture frame) and rotated about
@@ -428,8 +413,8 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
         if (!s->have_env || sum != s->env_sum || s->env_w != ctx->env->width || s->env_h != ctx->env->height) {
             s->have_env = 0;
             env_changed = 1;
-            if (s->light_max > 0 && (st = split_env(s, ctx->env, err, errlen))) return st;
-            st = vsd_sh_project_env(s->order, s->light_max > 0 ? &s->rest : ctx->env, 1.0, 0.0, s->env_tex, err, errlen);
+            if (s->opt.lights > 0 && (st = split_env(s, ctx->env, err, errlen))) return st;
+            st = vsd_sh_project_env(s->opt.order, s->opt.lights > 0 ? &s->rest : ctx->env, 1.0, 0.0, s->env_tex, err, errlen);
             if (st) return st;
             s->env_sum = sum;
             s->env_w = ctx->env->width;
@@ -441,16 +426,16 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
         double rz = sc->environment.rotation_z, R[9] = {cos(rz), sin(rz), 0, -sin(rz), cos(rz), 0, 0, 0, 1};
         double out[VSD_SH_MAX_COEFFS];
         vsd_sh_rotation rot;
-        vsd_sh_rotation_init(&rot, s->order, R);   /* world = Rz(-rotation) texture */
+        vsd_sh_rotation_init(&rot, s->opt.order, R);   /* world = Rz(-rotation) texture */
         for (c = 0; c < 3; c++) {
             vsd_sh_rotate(&rot, s->env_tex + c * n2, out);
             for (i = 0; i < n2; i++) s->light[c * n2 + i] = (float)(out[i] * sc->environment.strength);
         }
     }
-    if (s->light_max > 0) sh_env = &s->rest;
+    if (s->opt.lights > 0) sh_env = &s->rest;
     /* extension: the extracted lights for this strength and rotation; the transmittance
      * toward them is re-marched when their directions move (new frame, map or rotation) */
-    s->light_count = s->light_max > 0 ? s->bright.count : 0;
+    s->light_count = s->opt.lights > 0 ? s->bright.count : 0;
     if (s->light_count > 0)
         vsd_constellation_kernel_lights(&s->bright, sc->environment.strength, sc->environment.rotation_z, s->klights);
     if (s->rg.count == 0) {
@@ -480,7 +465,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     if (sc->medium.anisotropy == 0.0f) return bake_isotropic(s, &ctx->kd, err, errlen);
     /* factored form with an anisotropic phase: (T * L) per record by the triple product,
      * then the view pass convolves with HG */
-    if (!s->tensor && (st = vsd_sh_tensor_create(s->order, &s->tensor, err, errlen))) return st;
+    if (!s->tensor && (st = vsd_sh_tensor_create(s->opt.order, &s->tensor, err, errlen))) return st;
     {
         int r;
         double t[VSD_SH_MAX_COEFFS], l[VSD_SH_MAX_COEFFS], o[VSD_SH_MAX_COEFFS];
@@ -507,10 +492,10 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
 {
     shgrid_state *s = state;
     vsd_krecord_grid g;
-    ctx->kd.march_step = vsd_method_march_step(ctx, s->step);
-    ctx->kd.march_stop = (float)s->early_termination;
+    ctx->kd.march_step = vsd_method_march_step(ctx, s->opt.step);
+    ctx->kd.march_stop = (float)s->opt.early_termination;
     kernel_grid(s, &ctx->kd, s->kind, &g);
-    return vsd_method_render_stratified(ctx, fb, s->pixel_samples, shgrid_sample, vsd_record_grid_device_view, &g,
+    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, shgrid_sample, vsd_record_grid_device_view, &g,
                                         "ray marching", samples, err, errlen);
 }
 

@@ -43,6 +43,15 @@ typedef struct vsd_option_table {
 
 #define VSD_OPTION_TABLE(rows, type) { rows, sizeof rows / sizeof rows[0], sizeof(type) }
 
+/* Rows every method on the shared view march (kernel/kernel_march.h) declares the same way. */
+#define VSD_OPTION_PIXEL_SAMPLES(type) \
+    {"pixel_samples", VSD_OPT_INT, 1, 16, 1, NULL, "n: n x n stratified view rays per pixel", \
+     offsetof(type, pixel_samples), 0, NULL}
+#define VSD_OPTION_EARLY_TERMINATION(type, what) \
+    {"early_termination", VSD_OPT_NUMBER, 0, 1, 1e-3, NULL, \
+     "stop a " what " once its transmittance is below this (0 = never; bound in kernel_march.h)", \
+     offsetof(type, early_termination), 0, NULL}
+
 /* Fills out (struct_size bytes) with every default, then with the values options_json
  * sets. An unknown key, a wrong type, a value out of range or not among the choices is an
  * error naming render.options.<key> and what it accepts. */
