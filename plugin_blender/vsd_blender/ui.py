@@ -35,7 +35,7 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
     options_json: StringProperty(name="Options", default="",
                                  description="More method options as a JSON object, e.g. "
                                  "{\"lights\": 64}; overrides the option fields")
-    viewport_method: EnumProperty(name="Viewport Method", items=METHODS, default="raymarch",
+    viewport_method: EnumProperty(name="Viewport Method", items=METHODS, default="shgrid",
                                   description="Method of the rendered viewport preview",
                                   update=_tag_redraw)
     viewport_samples: IntProperty(name="Viewport Samples", default=4, min=1, max=100000)
