@@ -329,17 +329,7 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
     job.kc = &kc;
     job.rg = &s->rg;
     job.out = s->light_trans;
-    memset(&tj, 0, sizeof tj);
-    tj.width = s->rg.count;
-    tj.height = 1;
-    tj.threads = ctx->threads;
-    tj.fn = shadow_tile;
-    tj.user = &job;
-    tj.stage = "cached shadows";
-    tj.progress = ctx->progress;
-    tj.progress_user = ctx->user;
-    tj.progress_span = 1.0f;
-    tj.cancel = ctx->cancel;
+    vsd_method_item_job(&tj, ctx, s->rg.count, shadow_tile, &job, "cached shadows");
     if ((st = vsd_cpu_run_tiles(&tj))) return vsd_fail(st, err, errlen, "cached shadows cancelled");
     if (ctx->scene->medium.anisotropy == 0.0f) {
         vsd_krecord_grid g;

@@ -229,17 +229,7 @@ static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kin
     job.out = job.lights ? s->light_trans : kind == VSD_RECORDS_SH_SCALAR ? s->trans : s->rgb;
     /* the paper's per-frame GPU pass: one thread per record, results copied back */
     if (ctx->cuda) return vsd_shgrid_device_records(ctx, &g, job.lights, job.out, err, errlen);
-    memset(&tj, 0, sizeof tj);
-    tj.width = s->rg.count;
-    tj.height = 1;
-    tj.threads = ctx->threads;
-    tj.fn = record_tile;
-    tj.user = &job;
-    tj.stage = job.lights ? "light transmittance" : "record grid";
-    tj.progress = ctx->progress;
-    tj.progress_user = ctx->user;
-    tj.progress_span = 1.0f;
-    tj.cancel = ctx->cancel;
+    vsd_method_item_job(&tj, ctx, s->rg.count, record_tile, &job, job.lights ? "light transmittance" : "record grid");
     st = vsd_cpu_run_tiles(&tj);
     if (st == VSD_ERR_CANCELLED) return vsd_fail(st, err, errlen, "render cancelled");
     return st;

@@ -61,6 +61,11 @@ struct vsd_tile_job;
 void vsd_method_tile_job(struct vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_framebuffer *fb,
                          void (*fn)(void *, int, int, int, int), void *user, const char *stage);
 
+/* A CPU job over `count` items (records of a record grid): fn gets item ranges as the
+ * x range of a count x 1 image. */
+void vsd_method_item_job(struct vsd_tile_job *job, const vsd_frame_ctx *ctx, int count,
+                         void (*fn)(void *, int, int, int, int), void *user, const char *stage);
+
 /* Read scene->render.options_json against m->options into a new option struct (free()
  * it): an unknown key, wrong type or out-of-range value is an error naming it. */
 vsd_status vsd_method_parse_options(const vsd_method *m, const vsd_scene *scene, void **options, char *err,

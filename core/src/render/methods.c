@@ -56,12 +56,12 @@ char *vsd_method_options_json(void)
     return text;
 }
 
-void vsd_method_tile_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_framebuffer *fb,
-                         void (*fn)(void *, int, int, int, int), void *user, const char *stage)
+static void fill_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, int width, int height,
+                     void (*fn)(void *, int, int, int, int), void *user, const char *stage)
 {
     memset(job, 0, sizeof *job);
-    job->width = fb->width;
-    job->height = fb->height;
+    job->width = width;
+    job->height = height;
     job->threads = ctx->threads;
     job->fn = fn;
     job->user = user;
@@ -70,4 +70,16 @@ void vsd_method_tile_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_
     job->progress_user = ctx->user;
     job->progress_span = 1.0f;
     job->cancel = ctx->cancel;
+}
+
+void vsd_method_tile_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_framebuffer *fb,
+                         void (*fn)(void *, int, int, int, int), void *user, const char *stage)
+{
+    fill_job(job, ctx, fb->width, fb->height, fn, user, stage);
+}
+
+void vsd_method_item_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, int count,
+                         void (*fn)(void *, int, int, int, int), void *user, const char *stage)
+{
+    fill_job(job, ctx, count, 1, fn, user, stage);
 }
