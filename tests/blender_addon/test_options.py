@@ -115,9 +115,9 @@ try:
     scene2, ob = common.build_scene(data, width=48, height=27)   # replaces the objects of this scene
     scene2.vsd.method = "raymarch"
     scene2.vsd_options.raymarch.lights = 4
-    scene2.vsd_options.raymarch.pixel_samples = 1
+    scene2.vsd_options.raymarch.pixel_samples = 2   # the default is 1: only changed values are sent
     block = mapping.render_block(scene2.vsd)
-    check(block["options"] == {"lights": 4, "pixel_samples": 1}, "raymarch options sent: %s" % block["options"])
+    check(block["options"] == {"lights": 4, "pixel_samples": 2}, "raymarch options sent: %s" % block["options"])
     images = []
     for lights in (4, 1):
         scene2.vsd_options.raymarch.lights = lights
