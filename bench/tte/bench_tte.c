@@ -24,7 +24,9 @@
  * Output: a markdown table on stdout, and with --csv FILE one line per point
  * (scene,method,spp,cold,camera,lighting,frame,err_combined,err_voldir) for
  * bench/tte/plot_tte.py, which draws the log-log plot of error against camera-change time.
- * A render past --time-limit seconds (default 600) is cancelled and shown as "> limit". */
+ * A render past --time-limit seconds (default 600) is cancelled and shown as "> limit".
+ * --set key=value (up to 8) overrides a scene field for the methods' renders, not for the
+ * reference (e.g. --set render.options.step=0.0156). */
 #include "vsd/compare.h"
 #include "vsd/image.h"
 #include "vsd/render.h"
@@ -39,8 +41,12 @@
 
 #define BLOCK 4
 
+#define MAX_SETS 8
+
 typedef struct tte_opts {
     const char *data, *scenes, *methods, *cache, *csv, *spp_list;
+    const char *sets[MAX_SETS];   /* --set key=value overrides for the methods (not the reference) */
+    int set_count;
     int width, height, eval_w, eval_h, ref_spp, threads;
     double time_limit;
 } tte_opts;
@@ -70,8 +76,8 @@ static int load(const tte_opts *o, const char *scene, const char *method, int w,
                 vsd_scene *sc)
 {
     char path[1024], ov[5][96], err[1024];
-    const char *ovp[5];
-    int i;
+    const char *ovp[5 + MAX_SETS];
+    int i, n = 5;
     snprintf(path, sizeof path, "%s/scenes/%s.json", o->data, scene);
     snprintf(ov[0], sizeof ov[0], "render.method=%s", method);
     snprintf(ov[1], sizeof ov[1], "film.width=%d", w);
@@ -79,7 +85,9 @@ static int load(const tte_opts *o, const char *scene, const char *method, int w,
     snprintf(ov[3], sizeof ov[3], "render.samples=%d", spp);
     snprintf(ov[4], sizeof ov[4], "render.seed=%d", seed);
     for (i = 0; i < 5; i++) ovp[i] = ov[i];
-    if (vsd_scene_load(path, ovp, 5, sc, err, sizeof err) != VSD_OK) {
+    if (strcmp(method, "reference") != 0)
+        for (i = 0; i < o->set_count; i++) ovp[n++] = o->sets[i];
+    if (vsd_scene_load(path, ovp, n, sc, err, sizeof err) != VSD_OK) {
         fprintf(stderr, "bench_tte: %s\n", err);
         return 0;
     }
@@ -359,6 +367,7 @@ static int parse(int argc, char **argv, tte_opts *o)
         else if (!strcmp(a, "--ref-spp")) o->ref_spp = atoi(v);
         else if (!strcmp(a, "--threads")) o->threads = atoi(v);
         else if (!strcmp(a, "--time-limit")) o->time_limit = atof(v);
+        else if (!strcmp(a, "--set") && o->set_count < MAX_SETS) o->sets[o->set_count++] = v;
         else return fprintf(stderr, "bench_tte: unknown option %s\n", a), 0;
         i++;
     }

@@ -16,7 +16,7 @@
  * (M HEALPix directions, 12 nside^2, default 192), probes (k, k^3 density probes per cell,
  * default 3; 0 = keep every cell whose bricks are not empty), interpolation ("nearest" |
  * "trilinear" | "log", default "log" = trilinear in log radiance), form ("auto" | "factored" | "product", default auto =
- * factored for g = 0, product otherwise), step (view march, world units, default half the
+ * factored for g = 0, product otherwise), step (view march, world units, default the
  * smallest voxel), record_step (record marches, default one voxel), pixel_samples (n x n
  * rays per pixel, default 1), lights (K, default 32: extracted bright lights, an extension
  * beyond the paper, see shgrid_kernel.h; 0 = the paper's pure SH form), light_threshold
@@ -109,7 +109,7 @@ static const vsd_option_spec shgrid_option_rows[] = {
     {"form", VSD_OPT_CHOICE, 0, 0, FORM_AUTO, form_names,
      "factored (isotropic phase, fast relighting) or product (RGB records); auto picks by anisotropy",
      offsetof(shgrid_options, form), 0, NULL},
-    {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = half the smallest voxel)",
+    {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = the smallest voxel)",
      offsetof(shgrid_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
     {"record_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "record march step, world units (0 = half the smallest voxel)",
      offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
@@ -482,7 +482,10 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
 {
     shgrid_state *s = state;
     vsd_krecord_grid g;
-    ctx->kd.march_step = vsd_method_march_step(ctx, s->opt.step);
+    /* default: a whole voxel. The records are interpolated anyway; against half a voxel
+     * VolumeDir moved 3.65% -> 3.65% on smoke128 and 36.41% -> 36.46% on cloud256
+     * (docs/tte.md), and the view costs half. */
+    ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_stop = (float)s->opt.early_termination;
     kernel_grid(s, &ctx->kd, s->kind, &g);
     return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, shgrid_sample, vsd_record_grid_device_view, &g,
