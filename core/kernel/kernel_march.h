@@ -7,7 +7,8 @@
  * shrinks by 1 - a. This is exact for piecewise-constant media and stable for thick ones.
  * Methods differ only in where they put the steps and how they compute S.
  *
- * Where the steps go (vsd_march_walk, shared by raymarch and shgrid): t_k = t0 + k h,
+ * Where the steps go (vsd_march_walk, shared by raymarch and the record-grid view of
+ * kernel_record_grid.h: shgrid, constellation's cached shadows): t_k = t0 + k h,
  * k = 0, 1, ... while t_k < t1, the last step cut at t1, each sampled at its midpoint.
  * Two accelerations, neither of which moves a step:
  *  - empty bricks: a 3D DDA over the density's 8^3 brick cells runs alongside, and steps

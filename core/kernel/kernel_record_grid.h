@@ -114,8 +114,6 @@ VSD_DEVICE vsd_f3 vsd_records_radiance(const vsd_krecord_grid *g, int32_t rec, c
     return f3(s[0], s[1], s[2]);
 }
 
-/* In-scattered radiance at world point p: nearest cell, or trilinear between the records
- * at the eight surrounding cell centres (weights renormalised over non-empty cells). */
 /* Below this, in-scattered radiance counts as zero in the log-trilinear mean (a record
  * whose SH term rings to zero must not force its neighbours to black). */
 #define VSD_RECORDS_LOG_FLOOR 1e-12f
@@ -164,6 +162,8 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
     }
 }
 
+/* In-scattered radiance at world point p: nearest cell, or trilinear between the records
+ * at the eight surrounding cell centres (weights renormalised over non-empty cells). */
 VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, const float *w, const float *ph,
                                        vsd_records_corners *c)
 {

@@ -106,10 +106,6 @@ vsd_status vsd_scene_parse(const char *json, const char *base_dir,
 vsd_status vsd_frame_path(const char *pattern, int frame, char *out, size_t outlen,
                           char *err, size_t errlen);
 
-/* Look up a method option (from render.options) as number/int/bool/string with default. */
-double vsd_scene_option_number(const vsd_scene *scene, const char *key, double fallback);
-int vsd_scene_option_string(const vsd_scene *scene, const char *key, char *out, size_t outlen);
-
 #ifdef __cplusplus
 }
 #endif

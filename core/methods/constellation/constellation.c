@@ -18,7 +18,6 @@
 #include "dense_grid.h"
 #include "constellation_device.h"
 #include "src/render/record_grid.h"
-#include "src/render/record_grid_device.h"
 #include "kernel/kernel_record_grid.h"
 #include <math.h>
 #include <stddef.h>
@@ -111,8 +110,9 @@ static vsd_status cst_create(void **state, const vsd_scene *scene, const void *o
 /* Per volume frame: the distance maps (the paper's only per-frame preprocessing) and the
  * dense copy of the density grid the shadow rays sample (the paper's 3D texture upload;
  * made in every mode, so the accelerations are compared on the same lookup). The emission
- * map is built whenever an emission grid is loaded, because emission strength changes
- * re-run only prepare_lighting. */
+ * map serves only the per-sample view leaps (shadows = rays); there it is built whenever an
+ * emission grid is loaded, because emission strength changes re-run only
+ * prepare_lighting. With shadows = grid, the record grid too. */
 /* The paper builds the map per frame on the GPU; so does vsd when the frame runs there
  * (the same map either way: tests/test_cuda.c). */
 static vsd_status build_map(const vsd_frame_ctx *ctx, int emission, float threshold, vsd_distance_map *dm, char *err,
@@ -143,7 +143,9 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     free_shadow_records(s);
     if (s->opt.distance_map) {
         st = build_map(ctx, 0, (float)s->opt.threshold, &s->dm_density, err, errlen);
-        if (!st && ctx->emission) st = build_map(ctx, 1, (float)s->opt.threshold, &s->dm_emission, err, errlen);
+        /* the emission map serves only the per-sample view leaps of shadows = rays */
+        if (!st && ctx->emission && s->opt.shadows == SHADOWS_RAYS)
+            st = build_map(ctx, 1, (float)s->opt.threshold, &s->dm_emission, err, errlen);
         if (st) return st;
     }
     /* probes 2: 8 density probes per cell besides the brick majorants */
@@ -237,14 +239,6 @@ static void kdistmap_from(vsd_kdistmap *k, const vsd_distance_map *dm, const vsd
     }
 }
 
-/* The default step: half the smallest voxel of the density grid (or of the emission grid
- * when there is no density). */
-static float half_voxel(const vsd_frame_ctx *ctx)
-{
-    float h = ctx->kd.density.step > 0 ? ctx->kd.density.step : ctx->kd.emission.step;
-    return h > 0 ? h : 0.01f;
-}
-
 /* The method's kernel data for this frame (ctx->kd gets the lights and the march step). */
 static void kernel_setup(cst_state *s, vsd_frame_ctx *ctx, vsd_kconstellation *kc)
 {
@@ -252,13 +246,13 @@ static void kernel_setup(cst_state *s, vsd_frame_ctx *ctx, vsd_kconstellation *k
     ctx->kd.light_count = s->light_count;
     memset(kc, 0, sizeof *kc);
     kc->kd = &ctx->kd;
-    kc->slice = s->opt.slice > 0 ? (float)s->opt.slice : half_voxel(ctx);
+    kc->slice = vsd_method_march_step(ctx, s->opt.slice);
     /* the cached shadows are interpolated between records anyway: by default their rays
      * step a whole voxel (VolumeDir moved 0.06% on smoke128 frame 45, the stage took half
      * the time); the per-sample rays keep the paper's half voxel */
-    kc->shadow_step = s->opt.shadow_step > 0         ? (float)s->opt.shadow_step
-                      : s->opt.shadows == SHADOWS_GRID ? 2.0f * half_voxel(ctx)
-                                                       : half_voxel(ctx);
+    kc->shadow_step = s->opt.shadow_step > 0 || s->opt.shadows == SHADOWS_RAYS
+                          ? vsd_method_march_step(ctx, s->opt.shadow_step)
+                          : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_step = kc->shadow_step;
     kc->threshold = (float)s->opt.threshold;
     kc->early_termination = (float)s->opt.early_termination;
@@ -334,14 +328,12 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
     if (ctx->scene->medium.anisotropy == 0.0f) {
         vsd_krecord_grid g;
         records_view(s, &ctx->kd, &g);   /* the LIGHTS kind, while s->baked is NULL */
-        return vsd_record_grid_bake(&g, &s->baked, err, errlen);
+        if ((st = vsd_record_grid_bake(&g, &s->baked, err, errlen))) return st;
+        /* baked records hold the lights' term: the transmittances are not read again */
+        free(s->light_trans);
+        s->light_trans = NULL;
     }
     return VSD_OK;
-}
-
-static vsd_sample_result records_sample(const void *kernel, int x, int y, float jx, float jy)
-{
-    return vsd_records_pixel((const vsd_krecord_grid *)kernel, x, y, jx, jy);
 }
 
 /* shadows = grid, per view: the shared march with the record lookup, slice as its step */
@@ -351,13 +343,9 @@ static vsd_status render_cached(cst_state *s, vsd_frame_ctx *ctx, vsd_framebuffe
     vsd_krecord_grid g;
     ctx->kd.lights = s->lights;
     ctx->kd.light_count = s->light_count;
-    /* default: a whole voxel (VolumeDir 2.04% -> 2.07% on smoke128, 18.27% -> 18.27% on
-     * cloud256 against half a voxel, docs/tte.md; the view costs half) */
-    ctx->kd.march_step = s->opt.slice > 0 ? (float)s->opt.slice : 2.0f * half_voxel(ctx);
-    ctx->kd.march_stop = (float)s->opt.early_termination;
     records_view(s, &ctx->kd, &g);
-    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, records_sample, vsd_record_grid_device_view, &g,
-                                        "ray marching", samples, err, errlen);
+    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, samples,
+                                  err, errlen);
 }
 
 static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,

@@ -26,7 +26,6 @@
 #include "src/render/accum.h"
 #include "src/render/kernel_setup.h"
 #include "src/render/record_grid.h"
-#include "src/render/record_grid_device.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/sh.h"
 #include "vsd/lighting.h"
@@ -472,24 +471,14 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     return VSD_OK;
 }
 
-static vsd_sample_result shgrid_sample(const void *kernel, int x, int y, float jx, float jy)
-{
-    return vsd_records_pixel((const vsd_krecord_grid *)kernel, x, y, jx, jy);
-}
-
 static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                                 char *err, size_t errlen)
 {
     shgrid_state *s = state;
     vsd_krecord_grid g;
-    /* default: a whole voxel. The records are interpolated anyway; against half a voxel
-     * VolumeDir moved 3.65% -> 3.65% on smoke128 and 36.41% -> 36.46% on cloud256
-     * (docs/tte.md), and the view costs half. */
-    ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
-    ctx->kd.march_stop = (float)s->opt.early_termination;
     kernel_grid(s, &ctx->kd, s->kind, &g);
-    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, shgrid_sample, vsd_record_grid_device_view, &g,
-                                        "ray marching", samples, err, errlen);
+    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, samples,
+                                  err, errlen);
 }
 
 static void shgrid_destroy(void *state)

@@ -31,4 +31,14 @@ void vsd_record_grid_free(vsd_record_grid *g);
 struct vsd_krecord_grid;
 vsd_status vsd_record_grid_bake(const struct vsd_krecord_grid *g, float **out, char *err, size_t errlen);
 
+/* The view pass of every record-grid method, on the CPU tiles or the CUDA device of ctx:
+ * n x n rays per pixel through the shared march with a step of `step` world units (0 = the
+ * smallest voxel: the records are interpolated anyway, and against half a voxel VolumeDir
+ * moved at most 0.03 points on smoke128 and cloud256 while the view took half the time,
+ * docs/tte.md), stopping below transmittance `stop`. g->kd must be &ctx->kd. */
+struct vsd_frame_ctx;
+struct vsd_framebuffer;
+vsd_status vsd_record_grid_render(struct vsd_frame_ctx *ctx, struct vsd_framebuffer *fb, const struct vsd_krecord_grid *g,
+                                  int n, double step, double stop, int *samples, char *err, size_t errlen);
+
 #endif
