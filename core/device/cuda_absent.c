@@ -43,47 +43,11 @@ vsd_status vsd_cuda_download(vsd_cuda *c, void *host, const void *dev, size_t by
     return absent(err, errlen);
 }
 
-vsd_status vsd_cuda_reference_round(vsd_cuda *c, const vsd_kernel_data *kd, int s0, int s1, double *accum,
-                                    const vsd_cuda_progress *p, char *err, size_t errlen)
-{
-    (void)c; (void)kd; (void)s0; (void)s1; (void)accum; (void)p;
-    return absent(err, errlen);
-}
-
-vsd_status vsd_cuda_raymarch(vsd_cuda *c, const vsd_kernel_data *kd, int n, double *accum,
+vsd_status vsd_cuda_run_pass(vsd_cuda *c, const struct vsd_device_pass *pass, const void *m,
+                             const vsd_kernel_data *kd, vsd_pass_args a, int items, void *out, size_t out_bytes,
                              const vsd_cuda_progress *p, char *err, size_t errlen)
 {
-    (void)c; (void)kd; (void)n; (void)accum; (void)p;
-    return absent(err, errlen);
-}
-
-vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd,
-                                   int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
-{
-    (void)c; (void)g; (void)kd; (void)lights; (void)out; (void)p;
-    return absent(err, errlen);
-}
-
-vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd, int n,
-                                double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
-{
-    (void)c; (void)g; (void)kd; (void)n; (void)accum; (void)p;
-    return absent(err, errlen);
-}
-
-vsd_status vsd_cuda_constellation_mask(vsd_cuda *c, const struct vsd_kconstellation *kc,
-                                       const vsd_kernel_data *kd, int32_t *first, const vsd_cuda_progress *p,
-                                       char *err, size_t errlen)
-{
-    (void)c; (void)kc; (void)kd; (void)first; (void)p;
-    return absent(err, errlen);
-}
-
-vsd_status vsd_cuda_constellation_light(vsd_cuda *c, const struct vsd_kconstellation *kc,
-                                        const vsd_kernel_data *kd, double *accum, const vsd_cuda_progress *p,
-                                        char *err, size_t errlen)
-{
-    (void)c; (void)kc; (void)kd; (void)accum; (void)p;
+    (void)c; (void)pass; (void)m; (void)kd; (void)a; (void)items; (void)out; (void)out_bytes; (void)p;
     return absent(err, errlen);
 }
 

@@ -1,6 +1,6 @@
 /* kernel_edt.h — the one-dimensional pass of the exact squared Euclidean distance
  * transform (Felzenszwalb & Huttenlocher 2012), shared by the CPU distance map
- * (src/render/distance_map.c) and its CUDA pass (device/cuda/distance_map_kernels.cu), so
+ * (src/render/distance_map.c) and its CUDA pass (device/cuda/distance_map_cuda.cu), so
  * both build the same map. */
 #ifndef VSD_KERNEL_EDT_H
 #define VSD_KERNEL_EDT_H

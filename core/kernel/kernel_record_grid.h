@@ -31,6 +31,7 @@
 #include "kernel_march.h"
 #include "kernel_phase.h"
 #include "src/sh/sh_kernel.h"
+#include "device/device_pass.h"
 
 enum { VSD_RECORDS_SH_SCALAR = 0, VSD_RECORDS_SH_RGB = 1, VSD_RECORDS_BAKED = 2, VSD_RECORDS_LIGHTS = 3 };
 enum { VSD_RECORDS_NEAREST = 0, VSD_RECORDS_TRILINEAR = 1, VSD_RECORDS_LOG_TRILINEAR = 2 };
@@ -231,6 +232,14 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel(const vsd_krecord_grid *g, int32_
         }
     }
     return vsd_march_finish(kd, &acc, d);
+}
+
+/* Stratum s of the n x n strata of pixel (x, y) (device/device_pass.h). */
+VSD_DEVICE vsd_sample_result vsd_records_pass_sample(const vsd_krecord_grid *g, int x, int y, int s, int n)
+{
+    float u, v;
+    vsd_stratum(s, n, &u, &v);
+    return vsd_records_pixel(g, x, y, u, v);
 }
 
 #endif

@@ -13,11 +13,8 @@
  * definitions take the place of the real backend (or of cuda_absent.c). */
 #include "device/cuda/cuda_backend.h"
 #include "kernel/kernel_accum.h"
+#include "device/device_pass.h"
 #include "kernel/kernel_edt.h"
-#include "methods/constellation/constellation_kernel.h"
-#include "methods/shgrid/shgrid_kernel.h"
-#include "methods/reference/reference_kernel.h"
-#include "methods/raymarch/raymarch_kernel.h"
 #include "src/render/distance_map.h"
 #include <stdio.h>
 #include <stdlib.h>
@@ -143,71 +140,44 @@ static const void *put_method(vsd_cuda *c, const void *h, size_t n)
 static int cancelled(const vsd_cuda_progress *p) { return p && p->cancel && *p->cancel; }
 static void prog(const vsd_cuda_progress *p, int y1, int h) { if (p && p->fn) p->fn(p->user, p->stage, p->base + p->span * (float)y1 / (float)h); }
 
-vsd_status vsd_cuda_reference_round(vsd_cuda *c, const vsd_kernel_data *kd, int s0, int s1, double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
+/* The generic device pass (device/device_pass.h), run serially in the CUDA entries'
+ * order: pixel passes add each pixel's samples in order, item passes write their items.
+ * The struct's arrays (the pass's own list) and out must be emulated device memory. */
+static void visit_array(void *user, const void *p, size_t bytes, const char *name)
 {
+    chk((vsd_cuda *)user, p, bytes, name);
+}
+
+vsd_status vsd_cuda_run_pass(vsd_cuda *c, const struct vsd_device_pass *pass, const void *m, const vsd_kernel_data *kd, vsd_pass_args a, int items, void *out, size_t out_bytes, const vsd_cuda_progress *p, char *err, size_t errlen)
+{
+    unsigned char host[4096];
     const vsd_kernel_data *d = put_kd(c, kd);
-    chk(c, accum, (size_t)kd->camera.width * kd->camera.height * VSD_ACC_N * 8, "accum");
-    for (int y = 0; y < kd->camera.height; y++) {
-        if (y % 64 == 0 && cancelled(p)) return vsd_fail(VSD_ERR_CANCELLED, err, errlen, "render cancelled");
-        for (int x = 0; x < kd->camera.width; x++)
-            for (int s = s0; s < s1; s++) { vsd_sample_result r = vsd_reference_sample(d, x, y, (uint32_t)s); vsd_accum_sample(accum + ((size_t)y * kd->camera.width + x) * VSD_ACC_N, &r); }
+    const void *dm = d;
+    if (pass->struct_bytes) {
+        if (pass->struct_bytes > sizeof host) { fprintf(stderr, "emulated CUDA: %s struct too large\n", pass->stage); emulated_cuda_errors++; return VSD_ERR_INTERNAL; }
+        if (pass->arrays) pass->arrays(m, a, visit_array, c);
+        memcpy(host, m, pass->struct_bytes);
+        memcpy(host + pass->kd_offset, &d, sizeof d);
+        dm = put_method(c, host, pass->struct_bytes);
     }
-    prog(p, kd->camera.height, kd->camera.height);
-    return VSD_OK;
-}
-vsd_status vsd_cuda_raymarch(vsd_cuda *c, const vsd_kernel_data *kd, int n, double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
-{
-    const vsd_kernel_data *d = put_kd(c, kd);
-    float inv = 1.0f / (float)n;
-    (void)err; (void)errlen;
-    for (int y = 0; y < kd->camera.height; y++)
-        for (int x = 0; x < kd->camera.width; x++)
-            for (int j = 0; j < n; j++) for (int i = 0; i < n; i++) {
-                vsd_sample_result r = vsd_raymarch_pixel(d, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
-                vsd_accum_sample(accum + ((size_t)y * kd->camera.width + x) * VSD_ACC_N, &r);
-            }
-    prog(p, 1, 1);
-    return VSD_OK;
-}
-static void chk_grid(vsd_cuda *c, const vsd_krecord_grid *g, int view, int lights)
-{
-    size_t rc = (size_t)g->record_count, dc = (size_t)g->dir_count, n2 = (size_t)g->n2, lc = (size_t)g->light_count;
-    if (view) chk(c, g->cell_record, (size_t)g->res[0] * g->res[1] * g->res[2] * 4, "sh.cell_record");
-    if (view) chk(c, g->records, rc * g->stride * 4, "sh.records");
-    chk(c, g->record_pos, view ? 0 : rc * 16, "sh.record_pos");
-    if (!view && !lights) { chk(c, g->dirs, dc * 16, "sh.dirs"); chk(c, g->basis, dc * n2 * 4, "sh.basis"); }
-    if (!view && !lights && g->kind == VSD_RECORDS_SH_RGB) chk(c, g->dir_radiance, dc * 16, "sh.dir_radiance");
-    if (view && g->kind == VSD_RECORDS_SH_SCALAR) chk(c, g->light, 3 * n2 * 4, "sh.light");
-    if (view || lights) chk(c, g->lights, lc * 32, "sh.lights");
-    if (view) chk(c, g->light_trans, rc * lc * 4, "sh.light_trans");
-}
-vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd, int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen)
-{
-    vsd_krecord_grid h = *g; const vsd_krecord_grid *dg;
-    (void)err; (void)errlen;
-    h.kd = put_kd(c, kd); dg = put_method(c, &h, sizeof h);
-    chk_grid(c, g, 0, lights);
-    chk(c, out, (size_t)g->record_count * (lights ? g->light_count : g->stride) * 4, "sh.out");
-    for (int r = 0; r < g->record_count; r++) {
-        if (lights) vsd_shgrid_light_record(dg, r, out + (size_t)r * g->light_count);
-        else vsd_shgrid_record(dg, r, out + (size_t)r * g->stride);
+    chk(c, out, out_bytes, "out");
+    if (pass->pixels) {
+        int w = kd->camera.width, h = kd->camera.height;
+        if ((size_t)w * h * VSD_ACC_N * sizeof(double) > out_bytes) { fprintf(stderr, "emulated CUDA: %s: sums of %zu bytes for %dx%d\n", pass->stage, out_bytes, w, h); emulated_cuda_errors++; }
+        for (int y = 0; y < h; y++) {
+            if (y % pass->band == 0 && cancelled(p)) return vsd_fail(VSD_ERR_CANCELLED, err, errlen, "render cancelled");
+            for (int x = 0; x < w; x++)
+                for (int s = a.first; s < a.first + a.count; s++) {
+                    vsd_sample_result r = pass->sample(dm, x, y, s, a.n);
+                    vsd_accum_sample((double *)out + ((size_t)y * w + x) * VSD_ACC_N, &r);
+                }
+        }
+    } else {
+        for (int i = 0; i < items; i++) {
+            if (i % pass->band == 0 && cancelled(p)) return vsd_fail(VSD_ERR_CANCELLED, err, errlen, "render cancelled");
+            pass->item(dm, i, a.n, out);
+        }
     }
-    prog(p, 1, 1);
-    return VSD_OK;
-}
-vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd, int n, double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
-{
-    vsd_krecord_grid h = *g; const vsd_krecord_grid *dg;
-    float inv = 1.0f / (float)n;
-    (void)err; (void)errlen;
-    h.kd = put_kd(c, kd); dg = put_method(c, &h, sizeof h);
-    chk_grid(c, g, 1, 0);
-    for (int y = 0; y < kd->camera.height; y++)
-        for (int x = 0; x < kd->camera.width; x++)
-            for (int j = 0; j < n; j++) for (int i = 0; i < n; i++) {
-                vsd_sample_result r = vsd_records_pixel(dg, x, y, ((float)i + 0.5f) * inv, ((float)j + 0.5f) * inv);
-                vsd_accum_sample(accum + ((size_t)y * kd->camera.width + x) * VSD_ACC_N, &r);
-            }
     prog(p, 1, 1);
     return VSD_OK;
 }
@@ -235,40 +205,5 @@ vsd_status vsd_cuda_distance_map(vsd_cuda *c, const vsd_kvolume *kv, float thres
     for (i = 0; i < n; i++) skip_host[i] = vsd_edt_skip(d2[i]);
     *occupied = cnt;
     free(vocc); free(occ); free(d2);
-    return VSD_OK;
-}
-static void chk_dm(vsd_cuda *c, const vsd_kdistmap *m, int skip_read, const char *n)
-{
-    size_t cells = (size_t)m->dims[0] * m->dims[1] * m->dims[2], vox = (size_t)(m->dims[0] + 1) * (m->dims[1] + 1) * (m->dims[2] + 1);
-    char w[64];
-    snprintf(w, sizeof w, "%s.skip", n); chk(c, m->skip, 0, w); if (m->skip) chk(c, m->skip, cells, w);
-    snprintf(w, sizeof w, "%s.field", n); if (m->field) chk(c, m->field, vox * 4, w);
-    snprintf(w, sizeof w, "%s.shadow_code", n); if (m->field) chk(c, m->shadow_code, cells, w);
-    (void)skip_read;
-}
-vsd_status vsd_cuda_constellation_mask(vsd_cuda *c, const struct vsd_kconstellation *kc, const vsd_kernel_data *kd, int32_t *first, const vsd_cuda_progress *p, char *err, size_t errlen)
-{
-    vsd_kconstellation h = *kc; const vsd_kconstellation *d; int n2 = kc->pixel_samples * kc->pixel_samples;
-    (void)err; (void)errlen;
-    h.kd = put_kd(c, kd); d = put_method(c, &h, sizeof h);
-    chk_dm(c, &kc->dm_density, 1, "dm_density"); chk_dm(c, &kc->dm_emission, 1, "dm_emission");
-    chk(c, first, (size_t)kd->camera.width * kd->camera.height * n2 * 4, "first(out)");
-    for (int y = 0; y < kd->camera.height; y++) for (int x = 0; x < kd->camera.width; x++) for (int s = 0; s < n2; s++)
-        first[((size_t)y * kd->camera.width + x) * n2 + s] = vsd_cst_first_shell(d, x, y, s);
-    prog(p, 1, 1);
-    return VSD_OK;
-}
-vsd_status vsd_cuda_constellation_light(vsd_cuda *c, const struct vsd_kconstellation *kc, const vsd_kernel_data *kd, double *accum, const vsd_cuda_progress *p, char *err, size_t errlen)
-{
-    vsd_kconstellation h = *kc; const vsd_kconstellation *d; int n2 = kc->pixel_samples * kc->pixel_samples;
-    (void)err; (void)errlen;
-    h.kd = put_kd(c, kd); d = put_method(c, &h, sizeof h);
-    chk_dm(c, &kc->dm_density, 1, "dm_density"); chk_dm(c, &kc->dm_emission, 1, "dm_emission");
-    if (kc->first) chk(c, kc->first, (size_t)kd->camera.width * kd->camera.height * n2 * 4, "first");
-    for (int y = 0; y < kd->camera.height; y++) for (int x = 0; x < kd->camera.width; x++) for (int s = 0; s < n2; s++) {
-        vsd_sample_result r = vsd_cst_sample(d, x, y, s);
-        vsd_accum_sample(accum + ((size_t)y * kd->camera.width + x) * VSD_ACC_N, &r);
-    }
-    prog(p, 1, 1);
     return VSD_OK;
 }

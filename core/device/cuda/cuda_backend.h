@@ -6,12 +6,13 @@
  * it changes, so the daemon's cached renderer re-renders a new camera by uploading nothing
  * but the kernel-data struct that holds the camera.
  *
- * Kernel structs (vsd_kernel_data, vsd_krecord_grid, vsd_kconstellation) are passed as host
- * copies whose array pointers are device pointers (from vsd_cuda_upload/vsd_cuda_scratch);
- * the launchers copy them to the device and fix up the struct-to-struct `kd` pointer.
- * The launched kernels are the same per-pixel / per-record functions the CPU backend
- * runs (core/kernel, core/methods/<name>/<name>_kernel.h), and every sample result is
- * summed with the CPU's accumulation code (kernel/kernel_accum.h), in the CPU's order.
+ * The backend knows no method: a method describes each of its passes with a
+ * vsd_device_pass (device/device_pass.h) and hands vsd_cuda_run_pass its kernel struct as a
+ * host copy whose array pointers are device pointers (from vsd_cuda_upload/scratch); the
+ * backend copies it to the device, fixes up its `kd` pointer and launches the method's
+ * entry (core/methods/<name>/<name>_cuda.cu) over bands. The launched kernels are the same
+ * per-pixel / per-record functions the CPU backend runs, and every sample result is summed
+ * with the CPU's accumulation code (kernel/kernel_accum.h), in the CPU's order.
  *
  * Errors come back as vsd_status with CUDA's own message: VSD_ERR_UNSUPPORTED when no
  * device answers (or this build has no CUDA), VSD_ERR_NOMEM when device memory runs out,
@@ -24,6 +25,7 @@
 #include "vsd/status.h"
 #include "vsd/render.h"
 #include "kernel/kernel_types.h"
+#include "device/device_pass.h"
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -31,19 +33,21 @@ extern "C" {
 typedef struct vsd_cuda vsd_cuda;
 
 /* Resident slots. Frame slots change with the volume frame, lighting slots with the
- * environment or medium, view slots every render (scratch). */
-typedef enum vsd_cuda_slot {
+ * environment or medium, view slots every render (scratch). The backend names only the
+ * scene's slots; from VSD_SLOT_METHOD on, slots belong to the method the renderer runs
+ * (a renderer runs one method, so methods may number theirs alike): the record grid
+ * (src/render/record_grid_device.h) takes the first VSD_RECORD_GRID_SLOTS, and a method
+ * that uses it numbers its own after those. */
+enum vsd_cuda_scene_slot {
     VSD_SLOT_DENSITY_BRICKS, VSD_SLOT_DENSITY_VOXELS, VSD_SLOT_DENSITY_MAX,
     VSD_SLOT_EMISSION_BRICKS, VSD_SLOT_EMISSION_VOXELS, VSD_SLOT_EMISSION_MAX,
     VSD_SLOT_ENV_RGB, VSD_SLOT_ENV_ROWS, VSD_SLOT_ENV_COLS,
     VSD_SLOT_LIGHTS,
     VSD_SLOT_ACCUM,                                   /* view: per-pixel sums (doubles) */
-    VSD_SLOT_CST_DM_DENSITY, VSD_SLOT_CST_DM_EMISSION, VSD_SLOT_CST_FIELD_DENSITY, VSD_SLOT_CST_CODE_DENSITY,
-    VSD_SLOT_CST_FIELD_EMISSION, VSD_SLOT_CST_CODE_EMISSION, VSD_SLOT_CST_FIRST,
-    VSD_SLOT_SH_CELLS, VSD_SLOT_SH_RECORDS, VSD_SLOT_SH_POS, VSD_SLOT_SH_DIRS, VSD_SLOT_SH_BASIS,
-    VSD_SLOT_SH_RADIANCE, VSD_SLOT_SH_LIGHT, VSD_SLOT_SH_LIGHTS, VSD_SLOT_SH_LIGHT_TRANS,
-    VSD_SLOT_COUNT
-} vsd_cuda_slot;
+    VSD_SLOT_METHOD,                                  /* first of the method's slots */
+    VSD_SLOT_COUNT = VSD_SLOT_METHOD + 24
+};
+typedef int vsd_cuda_slot; /* a scene slot above, or VSD_SLOT_METHOD + k */
 
 /* 1 when this build contains the CUDA backend (nvcc was found), else 0. */
 int vsd_cuda_built(void);
@@ -78,35 +82,22 @@ typedef struct vsd_cuda_progress {
     volatile int *cancel;        /* may be NULL */
 } vsd_cuda_progress;
 
-/* Launchers. `accum` is a device buffer of width*height*VSD_ACC_N doubles (src/render/
- * accum.h layout) that the kernels add sample results into. */
-vsd_status vsd_cuda_reference_round(vsd_cuda *c, const vsd_kernel_data *kd, int s0, int s1, double *accum,
-                                    const vsd_cuda_progress *p, char *err, size_t errlen);
-vsd_status vsd_cuda_raymarch(vsd_cuda *c, const vsd_kernel_data *kd, int n, double *accum,
+/* Runs `pass` (device/device_pass.h) over kd's image rows (pixel passes; out is the
+ * device sums, width*height*VSD_ACC_N doubles, src/render/accum.h layout) or over
+ * `items` items (item passes), in bands with progress and cancel between launches. m is
+ * the method's kernel struct (pass->struct_bytes, device arrays inside; NULL when the pass
+ * reads kd only); its kd member is pointed at the device copy of kd. out_bytes is what
+ * the pass may write (the emulation checks it). */
+struct vsd_device_pass;
+vsd_status vsd_cuda_run_pass(vsd_cuda *c, const struct vsd_device_pass *pass, const void *m,
+                             const vsd_kernel_data *kd, vsd_pass_args a, int items, void *out, size_t out_bytes,
                              const vsd_cuda_progress *p, char *err, size_t errlen);
 
-struct vsd_krecord_grid;
-struct vsd_kconstellation;
-/* shgrid: the record pass (one thread per record, into the device array out: the SH
- * records, or with lights != 0 the transmittance toward each extracted light) and the
- * view pass (n x n stratified rays per pixel). */
-vsd_status vsd_cuda_shgrid_records(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd,
-                                   int lights, float *out, const vsd_cuda_progress *p, char *err, size_t errlen);
-vsd_status vsd_cuda_shgrid_view(vsd_cuda *c, const struct vsd_krecord_grid *g, const vsd_kernel_data *kd, int n,
-                                double *accum, const vsd_cuda_progress *p, char *err, size_t errlen);
 /* The distance map of src/render/distance_map.h for the volume kv (device arrays), built
  * on the GPU: skip_host receives the 8*brick_dims cells' leap radii, *occupied the count of
  * occupied cells. */
 vsd_status vsd_cuda_distance_map(vsd_cuda *c, const vsd_kvolume *kv, float threshold, uint8_t *skip_host,
                                  long long *occupied, char *err, size_t errlen);
-/* constellation: the validity mask (into first[width*height*n^2]) and the lighting pass. */
-vsd_status vsd_cuda_constellation_mask(vsd_cuda *c, const struct vsd_kconstellation *kc,
-                                       const vsd_kernel_data *kd, int32_t *first, const vsd_cuda_progress *p,
-                                       char *err, size_t errlen);
-vsd_status vsd_cuda_constellation_light(vsd_cuda *c, const struct vsd_kconstellation *kc,
-                                        const vsd_kernel_data *kd, double *accum, const vsd_cuda_progress *p,
-                                        char *err, size_t errlen);
-
 #ifdef __cplusplus
 }
 #endif

@@ -192,3 +192,32 @@ vsd_status vsd_cuda_finish(vsd_cuda *c, const char *what, char *err, size_t errl
     if (e == cudaSuccess) e = cudaStreamSynchronize(c->stream);
     return e == cudaSuccess ? VSD_OK : vsd_cuda_fail(e, what, err, errlen);
 }
+
+extern "C" vsd_status vsd_cuda_run_pass(vsd_cuda *c, const vsd_device_pass *pass, const void *m,
+                                        const vsd_kernel_data *kd, vsd_pass_args a, int items, void *out,
+                                        size_t out_bytes, const vsd_cuda_progress *p, char *err, size_t errlen)
+{
+    // the method's struct with its kd member pointing at the device kd; kernel structs are
+    // at most a few KiB (vsd_kconstellation is the largest at 1.2 KiB)
+    unsigned char host[4096];
+    const vsd_kernel_data *dkd;
+    const void *dm;
+    (void)out_bytes;
+    if (!pass->cuda)
+        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen, "%s: this build has no CUDA entry for the pass", pass->stage);
+    if (pass->struct_bytes > sizeof host || (pass->struct_bytes && pass->kd_offset + sizeof dkd > pass->struct_bytes))
+        return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "%s: kernel struct of %zu bytes (kd at %zu) does not fit",
+                        pass->stage, pass->struct_bytes, pass->kd_offset);
+    vsd_status st = vsd_cuda_put_kd(c, kd, &dkd, err, errlen);
+    if (st) return st;
+    dm = dkd;
+    if (pass->struct_bytes) {
+        memcpy(host, m, pass->struct_bytes);
+        memcpy(host + pass->kd_offset, &dkd, sizeof dkd);
+        if ((st = vsd_cuda_put_method(c, host, pass->struct_bytes, &dm, err, errlen))) return st;
+    }
+    int width = kd->camera.width;
+    return vsd_cuda_bands(c, pass->pixels ? kd->camera.height : items, pass->band, p, pass->stage, [&](int b0, int b1) {
+        pass->cuda((void *)c->stream, dm, dkd, width, b0, b1, a, out);
+    }, err, errlen);
+}

@@ -43,23 +43,6 @@ vsd_status vsd_cuda_put_kd(vsd_cuda *c, const vsd_kernel_data *kd, const vsd_ker
 vsd_status vsd_cuda_put_method(vsd_cuda *c, const void *host, size_t bytes, const void **dev, char *err,
                                size_t errlen);
 
-// A method's kernel struct (host copy, device arrays) and the scene's kd on the device, the
-// struct's `kd` member pointing at the device kd.
-template <typename T>
-vsd_status vsd_cuda_put_with_kd(vsd_cuda *c, const T *m, const vsd_kernel_data *kd, const T **dm, char *err,
-                                size_t errlen)
-{
-    const vsd_kernel_data *dkd;
-    const void *dev = NULL;
-    vsd_status st = vsd_cuda_put_kd(c, kd, &dkd, err, errlen);
-    if (st) return st;
-    T h = *m;
-    h.kd = dkd;
-    st = vsd_cuda_put_method(c, &h, sizeof h, &dev, err, errlen);
-    *dm = (const T *)dev;
-    return st;
-}
-
 // Waits for the stream and turns a launch or execution error into a status.
 vsd_status vsd_cuda_finish(vsd_cuda *c, const char *what, char *err, size_t errlen);
 

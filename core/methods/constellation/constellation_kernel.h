@@ -321,4 +321,20 @@ VSD_DEVICE vsd_sample_result vsd_cst_sample(const vsd_kconstellation *kc, int32_
     return vsd_cst_shade(kc, o, d, i0 < 0 ? 0 : i0, i1);
 }
 
+/* Validity mask as an item pass (device/device_pass.h): item i is sub-sample i mod n2 of
+ * pixel i div n2 in row-major order, its first shell into ((int32_t *)out)[i]. */
+VSD_DEVICE void vsd_cst_mask_item(const vsd_kconstellation *kc, int i, int n, void *out)
+{
+    int32_t n2 = kc->pixel_samples * kc->pixel_samples, pixel = i / n2;
+    (void)n;
+    ((int32_t *)out)[i] = vsd_cst_first_shell(kc, pixel % kc->kd->camera.width, pixel / kc->kd->camera.width, i % n2);
+}
+
+/* The lighting pass's per-sample function (device/device_pass.h). */
+VSD_DEVICE vsd_sample_result vsd_cst_pass_sample(const vsd_kconstellation *kc, int x, int y, int s, int n)
+{
+    (void)n;
+    return vsd_cst_sample(kc, x, y, s);
+}
+
 #endif

@@ -5,7 +5,6 @@
  * pixel_samples (n, default 1), early_termination (default 1e-3). */
 #include "src/render/method.h"
 #include "src/render/env_lights.h"
-#include "src/render/device_frame.h"
 #include "raymarch_kernel.h"
 #include <stddef.h>
 #include <stdlib.h>
@@ -51,19 +50,16 @@ static vsd_status raymarch_prepare_lighting(void *state, vsd_frame_ctx *ctx, cha
     return VSD_OK;
 }
 
-static vsd_sample_result raymarch_sample(const void *kernel, int x, int y, float jx, float jy)
+static vsd_sample_result raymarch_sample(const void *kd, int x, int y, int s, int n)
 {
-    return vsd_raymarch_pixel((const vsd_kernel_data *)kernel, x, y, jx, jy);
+    return vsd_raymarch_pass_sample((const vsd_kernel_data *)kd, x, y, s, n);
 }
 
-/* The view pass on the GPU: the scene's arrays (with the lights) resident on the device. */
-static vsd_status raymarch_device(const vsd_frame_ctx *ctx, const void *kernel, int n, double *accum,
-                                  const vsd_cuda_progress *progress, char *err, size_t errlen)
-{
-    vsd_kernel_data dkd;
-    vsd_status st = vsd_device_kernel_data(ctx, (const vsd_kernel_data *)kernel, &dkd, err, errlen);
-    return st ? st : vsd_cuda_raymarch(ctx->cuda, &dkd, n, accum, progress, err, errlen);
-}
+/* The view pass, on the CPU or the GPU (raymarch_cuda.cu); it reads only the scene's kd. */
+VSD_CUDA_ENTRY_DECL(vsd_cuda_raymarch_view);
+static const vsd_device_pass raymarch_view_pass = {
+    "ray marching", 1, 64, 0, 0, raymarch_sample, NULL, NULL, VSD_CUDA_ENTRY(vsd_cuda_raymarch_view),
+};
 
 static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                                   char *err, size_t errlen)
@@ -73,8 +69,8 @@ static vsd_status raymarch_render(void *state, vsd_frame_ctx *ctx, vsd_framebuff
     ctx->kd.light_count = s->opt.lights;
     ctx->kd.march_step = vsd_method_march_step(ctx, s->opt.step);
     ctx->kd.march_stop = (float)s->opt.early_termination;
-    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, raymarch_sample, raymarch_device, &ctx->kd,
-                                        "ray marching", samples, err, errlen);
+    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, &raymarch_view_pass, NULL, &ctx->kd, samples,
+                                        err, errlen);
 }
 
 static void raymarch_destroy(void *state)

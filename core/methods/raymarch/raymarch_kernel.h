@@ -14,6 +14,7 @@
 #include "kernel/kernel_phase.h"
 #include "kernel/kernel_camera.h"
 #include "kernel/kernel_march.h"
+#include "device/device_pass.h"
 
 /* Transmittance from p along d to the volume's exit by fixed-step midpoint marching. */
 VSD_DEVICE float vsd_march_transmittance(const vsd_kernel_data *kd, vsd_f3 p, vsd_f3 d)
@@ -56,6 +57,14 @@ VSD_DEVICE vsd_sample_result vsd_raymarch_pixel(const vsd_kernel_data *kd, int32
         }
     }
     return vsd_march_finish(kd, &acc, d);
+}
+
+/* Stratum s of the n x n strata of pixel (x, y) (device/device_pass.h). */
+VSD_DEVICE vsd_sample_result vsd_raymarch_pass_sample(const vsd_kernel_data *kd, int x, int y, int s, int n)
+{
+    float u, v;
+    vsd_stratum(s, n, &u, &v);
+    return vsd_raymarch_pixel(kd, x, y, u, v);
 }
 
 #endif

@@ -48,20 +48,30 @@ static void reference_tile(void *user, int x0, int y0, int x1, int y1)
             }
 }
 
+static vsd_sample_result reference_pass_sample(const void *kd, int x, int y, int s, int n)
+{
+    return vsd_reference_pass_sample((const vsd_kernel_data *)kd, x, y, s, n);
+}
+
+/* A round of samples [first, first + count) of every pixel on the GPU (reference_cuda.cu). */
+VSD_CUDA_ENTRY_DECL(vsd_cuda_reference_round);
+static const vsd_device_pass reference_pass = {
+    "path tracing", 1, 64, 0, 0, reference_pass_sample, NULL, NULL, VSD_CUDA_ENTRY(vsd_cuda_reference_round),
+};
+
 /* The same rounds on the GPU: the device sums each pixel's samples in the CPU's order. */
 static vsd_status reference_device(vsd_frame_ctx *ctx, vsd_accum *acc, int total, int *done, char *err,
                                    size_t errlen)
 {
-    vsd_kernel_data dkd;
-    vsd_cuda_progress progress;
     double *dev = NULL;
     int batch = 1;
-    vsd_status st = vsd_device_kernel_data(ctx, &ctx->kd, &dkd, err, errlen);
-    if (!st) st = vsd_device_accum(ctx, acc->width, acc->height, &dev, err, errlen);
+    vsd_status st = vsd_device_accum(ctx, acc->width, acc->height, &dev, err, errlen);
     while (!st && *done < total) {
         int n = batch < total - *done ? batch : total - *done;
-        vsd_device_progress(ctx, "path tracing", (float)*done / (float)total, (float)n / (float)total, &progress);
-        st = vsd_cuda_reference_round(ctx->cuda, &dkd, *done, *done + n, dev, &progress, err, errlen);
+        vsd_pass_args a = {*done, n, 0};
+        st = vsd_device_run(ctx, &reference_pass, NULL, &ctx->kd, a, 0, dev,
+                            vsd_device_accum_bytes(acc->width, acc->height), (float)*done / (float)total,
+                            (float)n / (float)total, err, errlen);
         if (st) break;
         *done += n;
         if (*done >= 2) batch *= 2;

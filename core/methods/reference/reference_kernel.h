@@ -100,4 +100,11 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample(const vsd_kernel_data *kd, int
     return res;
 }
 
+/* Sample s of pixel (x, y) as a device pass's per-sample function (device/device_pass.h). */
+VSD_DEVICE vsd_sample_result vsd_reference_pass_sample(const vsd_kernel_data *kd, int x, int y, int s, int n)
+{
+    (void)n;
+    return vsd_reference_sample(kd, x, y, (uint32_t)s);
+}
+
 #endif

@@ -1,6 +1,6 @@
 /* shgrid_kernel.h — Delalandre et al. 2013 (../shared/papers/003_…txt): single scattering
  * from a coarse grid of reduced-intensity records, shared by the CPU backend (shgrid.c)
- * and CUDA (device/cuda/shgrid_kernels.cu).
+ * and CUDA (shgrid_cuda.cu).
  *
  * Record pass (§4.2), one record per non-empty cell: from the cell centre, march toward
  * each of M HEALPix directions to the volume's box, T_j = exp(-optical depth), and project
@@ -80,6 +80,15 @@ VSD_DEVICE void vsd_shgrid_light_record(const vsd_krecord_grid *g, int32_t rec, 
         const float *l = g->lights + 8 * (size_t)k;
         out[k] = expf(-vsd_field_integral(&kv, p, f3(l[0], l[1], l[2]), 0.0f, VSD_INF, 0.5f));
     }
+}
+
+/* Record i of the record pass (device/device_pass.h): its SH record into out[stride * i],
+ * or with lights != 0 its transmittance toward each light into out[light_count * i]. */
+VSD_DEVICE void vsd_shgrid_record_item(const vsd_krecord_grid *g, int i, int lights, void *out)
+{
+    float *o = (float *)out;
+    if (lights) vsd_shgrid_light_record(g, i, o + (size_t)i * g->light_count);
+    else vsd_shgrid_record(g, i, o + (size_t)i * g->stride);
 }
 
 #endif

@@ -74,12 +74,17 @@ vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_dat
     return VSD_OK;
 }
 
+size_t vsd_device_accum_bytes(int width, int height)
+{
+    return (size_t)width * (size_t)height * VSD_ACC_N * sizeof(double);
+}
+
 vsd_status vsd_device_accum(const vsd_frame_ctx *ctx, int width, int height, double **dev, char *err,
                             size_t errlen)
 {
     void *d;
-    vsd_status st = vsd_cuda_scratch(ctx->cuda, VSD_SLOT_ACCUM, 0, (size_t)width * height * VSD_ACC_N * sizeof(double),
-                                     1, &d, err, errlen);
+    vsd_status st = vsd_cuda_scratch(ctx->cuda, VSD_SLOT_ACCUM, 0, vsd_device_accum_bytes(width, height), 1, &d, err,
+                                     errlen);
     *dev = d;
     return st;
 }
@@ -90,8 +95,8 @@ vsd_status vsd_device_accum_collect(const vsd_frame_ctx *ctx, const double *dev,
     char ferr[256];
     vsd_status fst;
     if (st != VSD_OK && st != VSD_ERR_CANCELLED) return st;
-    fst = vsd_cuda_download(ctx->cuda, acc->v, dev, (size_t)acc->width * acc->height * VSD_ACC_N * sizeof(double),
-                            ferr, sizeof ferr);
+    fst = vsd_cuda_download(ctx->cuda, acc->v, dev, vsd_device_accum_bytes(acc->width, acc->height), ferr,
+                            sizeof ferr);
     return fst ? vsd_fail(fst, err, errlen, "%s", ferr) : st;
 }
 
@@ -105,4 +110,16 @@ void vsd_device_progress(const vsd_frame_ctx *ctx, const char *stage, float base
     p->base = base;
     p->span = span;
     p->cancel = ctx->cancel;
+}
+
+vsd_status vsd_device_run(const vsd_frame_ctx *ctx, const vsd_device_pass *pass, const void *m,
+                          const vsd_kernel_data *kd, vsd_pass_args a, int items, void *out, size_t out_bytes,
+                          float base, float span, char *err, size_t errlen)
+{
+    vsd_kernel_data dkd;
+    vsd_cuda_progress progress;
+    vsd_status st = vsd_device_kernel_data(ctx, kd, &dkd, err, errlen);
+    if (st) return st;
+    vsd_device_progress(ctx, pass->stage, base, span, &progress);
+    return vsd_cuda_run_pass(ctx->cuda, pass, m, &dkd, a, items, out, out_bytes, &progress, err, errlen);
 }

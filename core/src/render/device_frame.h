@@ -37,6 +37,19 @@ vsd_status vsd_device_accum(const vsd_frame_ctx *ctx, int width, int height, dou
 vsd_status vsd_device_accum_collect(const vsd_frame_ctx *ctx, const double *dev, vsd_accum *acc, vsd_status st,
                                     char *err, size_t errlen);
 
+/* Bytes of the per-pixel sums of a width x height view. */
+size_t vsd_device_accum_bytes(int width, int height);
+
+/* The largest kernel struct a method hands a device pass (the backend copies it per launch). */
+#define VSD_DEVICE_STRUCT_MAX 4096
+
+/* Runs a method's device pass (device/device_pass.h) on ctx->cuda: m is its kernel struct
+ * with device arrays (NULL for a pass reading kd only), kd the host kernel data it reads
+ * (its arrays are made resident here), progress [base, base + span) of the pass's stage. */
+vsd_status vsd_device_run(const vsd_frame_ctx *ctx, const struct vsd_device_pass *pass, const void *m,
+                          const vsd_kernel_data *kd, vsd_pass_args a, int items, void *out, size_t out_bytes,
+                          float base, float span, char *err, size_t errlen);
+
 /* Progress of a device stage: ctx's callback and cancel flag, [base, base + span). */
 void vsd_device_progress(const vsd_frame_ctx *ctx, const char *stage, float base, float span,
                          vsd_cuda_progress *p);

@@ -35,6 +35,9 @@ typedef struct vsd_frame_ctx {
      * env_gen change only with the loaded volumes or environment map themselves. */
     struct vsd_cuda *cuda;
     uint64_t frame_gen, lighting_gen, volume_gen, env_gen;
+    const char *cache_dir;              /* vsd_render_options.cache_dir, NULL = none */
+    char *info;                         /* vsd_render_stats.method_info: render() may fill it */
+    size_t info_len;
 } vsd_frame_ctx;
 
 typedef struct vsd_method {
@@ -52,6 +55,7 @@ extern const vsd_method vsd_method_reference;
 extern const vsd_method vsd_method_raymarch;
 extern const vsd_method vsd_method_shgrid;
 extern const vsd_method vsd_method_constellation;
+extern const vsd_method vsd_method_crm;
 
 const vsd_method *vsd_method_find(const char *name);
 
@@ -71,21 +75,20 @@ void vsd_method_item_job(struct vsd_tile_job *job, const vsd_frame_ctx *ctx, int
 vsd_status vsd_method_parse_options(const vsd_method *m, const vsd_scene *scene, void **options, char *err,
                                     size_t errlen);
 
-/* One ray through pixel (x, y) at sub-pixel position (jx, jy) of a deterministic method;
- * `kernel` is the method's own kernel data. */
-typedef vsd_sample_result (*vsd_pixel_fn)(const void *kernel, int x, int y, float jx, float jy);
+/* A method's kernel struct with its arrays on ctx's device: fills dev (the pass's
+ * struct_bytes) from the host struct `host`, arrays replaced by resident device copies. */
+typedef vsd_status (*vsd_device_struct_fn)(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err,
+                                           size_t errlen);
 
-/* The same view pass on the CUDA device: adds the n x n rays of every pixel into the
- * device sums `accum` (device_frame.h) with the same kernel functions as `fn`. */
-struct vsd_cuda_progress;
-typedef vsd_status (*vsd_device_pass_fn)(const vsd_frame_ctx *ctx, const void *kernel, int n, double *accum,
-                                         const struct vsd_cuda_progress *progress, char *err, size_t errlen);
-
-/* The whole view pass for such a method: n x n stratified rays per pixel on CPU tiles,
- * or through `device_fn` when ctx->cuda is set, resolved into fb; *samples = n * n. */
-vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, vsd_pixel_fn fn,
-                                        vsd_device_pass_fn device_fn, const void *kernel, const char *stage,
-                                        int *samples, char *err, size_t errlen);
+/* The whole view pass of a deterministic method: n x n stratified rays per pixel, each
+ * pass->sample(kernel, x, y, s, n), on CPU tiles, or on ctx->cuda through the same pass
+ * (to_device makes the device struct; NULL when the pass reads kd only and kernel is
+ * &ctx->kd); resolved into fb; *samples = n * n. One loop for every such method, so the
+ * pixel filter (a box, like the reference's) is the same everywhere. */
+struct vsd_device_pass;
+vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n,
+                                        const struct vsd_device_pass *pass, vsd_device_struct_fn to_device,
+                                        const void *kernel, int *samples, char *err, size_t errlen);
 
 /* World-space march step: `option` when > 0, else half the smallest voxel of the density
  * grid (of the emission grid when there is no density). */

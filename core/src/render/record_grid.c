@@ -137,16 +137,11 @@ vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *er
     return VSD_OK;
 }
 
-static vsd_sample_result record_grid_sample(const void *kernel, int x, int y, float jx, float jy)
-{
-    return vsd_records_pixel((const vsd_krecord_grid *)kernel, x, y, jx, jy);
-}
-
 vsd_status vsd_record_grid_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *g, int n,
                                   double step, double stop, int *samples, char *err, size_t errlen)
 {
     ctx->kd.march_step = step > 0 ? (float)step : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_stop = (float)stop;
-    return vsd_method_render_stratified(ctx, fb, n, record_grid_sample, vsd_record_grid_device_view, g,
-                                        "ray marching", samples, err, errlen);
+    return vsd_method_render_stratified(ctx, fb, n, &vsd_record_grid_view_pass, vsd_record_grid_view_struct, g, samples,
+                                        err, errlen);
 }

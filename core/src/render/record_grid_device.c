@@ -1,6 +1,7 @@
 /* The record grid on the CUDA device (record_grid_device.h). */
 #include "record_grid_device.h"
 #include "device_frame.h"
+#include <stddef.h>
 
 /* One array of the grid on the device (NULL stays NULL). At render time the arrays are
  * final for the lighting generation and stay resident; during the prepare stages shgrid.c
@@ -27,19 +28,19 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
     *d = *g;
 #define PUT(field, slot, bytes) \
     do { if ((st = put(ctx, !with_records, slot, g->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
-    PUT(cell_record, VSD_SLOT_SH_CELLS, cells * sizeof(int32_t));
-    PUT(light, VSD_SLOT_SH_LIGHT, 3 * n2 * sizeof(float));
-    PUT(lights, VSD_SLOT_SH_LIGHTS, lights * 8 * sizeof(float));
+    PUT(cell_record, VSD_SLOT_RG_CELLS, cells * sizeof(int32_t));
+    PUT(light, VSD_SLOT_RG_LIGHT, 3 * n2 * sizeof(float));
+    PUT(lights, VSD_SLOT_RG_LIGHTS, lights * 8 * sizeof(float));
     if (with_records) {
         /* the view pass reads the records, not what made them */
-        PUT(records, VSD_SLOT_SH_RECORDS, recs * (size_t)g->stride * sizeof(float));
-        PUT(light_trans, VSD_SLOT_SH_LIGHT_TRANS, recs * lights * sizeof(float));
+        PUT(records, VSD_SLOT_RG_RECORDS, recs * (size_t)g->stride * sizeof(float));
+        PUT(light_trans, VSD_SLOT_RG_LIGHT_TRANS, recs * lights * sizeof(float));
         d->record_pos = d->dirs = d->basis = d->dir_radiance = NULL;
     } else {
-        PUT(record_pos, VSD_SLOT_SH_POS, recs * 4 * sizeof(float));
-        PUT(dirs, VSD_SLOT_SH_DIRS, dirs * 4 * sizeof(float));
-        PUT(basis, VSD_SLOT_SH_BASIS, dirs * n2 * sizeof(float));
-        PUT(dir_radiance, VSD_SLOT_SH_RADIANCE, dirs * 4 * sizeof(float));
+        PUT(record_pos, VSD_SLOT_RG_POS, recs * 4 * sizeof(float));
+        PUT(dirs, VSD_SLOT_RG_DIRS, dirs * 4 * sizeof(float));
+        PUT(basis, VSD_SLOT_RG_BASIS, dirs * n2 * sizeof(float));
+        PUT(dir_radiance, VSD_SLOT_RG_RADIANCE, dirs * 4 * sizeof(float));
         d->records = NULL;
         d->light_trans = NULL;
     }
@@ -47,15 +48,43 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
     return VSD_OK;
 }
 
-vsd_status vsd_record_grid_device_view(const vsd_frame_ctx *ctx, const void *kernel, int n, double *accum,
-                                  const struct vsd_cuda_progress *progress, char *err, size_t errlen)
+void vsd_record_grid_arrays(const vsd_krecord_grid *g, int view, int lights, vsd_pass_array_visit visit, void *user)
 {
-    const vsd_krecord_grid *g = kernel;
-    vsd_krecord_grid d;
-    vsd_kernel_data dkd;
-    vsd_status st;
-    if ((st = vsd_device_kernel_data(ctx, g->kd, &dkd, err, errlen)) ||
-        (st = vsd_record_grid_device(ctx, g, 1, &d, err, errlen)))
-        return st;
-    return vsd_cuda_shgrid_view(ctx->cuda, &d, &dkd, n, accum, progress, err, errlen);
+    size_t rc = (size_t)g->record_count, dc = (size_t)g->dir_count, n2 = (size_t)g->n2, lc = (size_t)g->light_count;
+    if (view) {
+        visit(user, g->cell_record, (size_t)g->res[0] * g->res[1] * g->res[2] * sizeof(int32_t), "records.cell_record");
+        visit(user, g->records, rc * (size_t)g->stride * sizeof(float), "records.records");
+        visit(user, g->light_trans, rc * lc * sizeof(float), "records.light_trans");
+        if (g->kind == VSD_RECORDS_SH_SCALAR) visit(user, g->light, 3 * n2 * sizeof(float), "records.light");
+    } else {
+        visit(user, g->record_pos, rc * 4 * sizeof(float), "records.record_pos");
+        if (!lights) {
+            visit(user, g->dirs, dc * 4 * sizeof(float), "records.dirs");
+            visit(user, g->basis, dc * n2 * sizeof(float), "records.basis");
+            if (g->kind == VSD_RECORDS_SH_RGB) visit(user, g->dir_radiance, dc * 4 * sizeof(float), "records.dir_radiance");
+        }
+    }
+    if (view || lights) visit(user, g->lights, lc * 8 * sizeof(float), "records.lights");
+}
+
+static vsd_sample_result view_sample(const void *g, int x, int y, int s, int n)
+{
+    return vsd_records_pass_sample((const vsd_krecord_grid *)g, x, y, s, n);
+}
+
+static void view_arrays(const void *g, vsd_pass_args a, vsd_pass_array_visit visit, void *user)
+{
+    (void)a;
+    vsd_record_grid_arrays(g, 1, 0, visit, user);
+}
+
+VSD_CUDA_ENTRY_DECL(vsd_cuda_record_grid_view);
+const vsd_device_pass vsd_record_grid_view_pass = {
+    "ray marching", 1, 256, sizeof(vsd_krecord_grid), offsetof(vsd_krecord_grid, kd), view_sample, NULL, view_arrays,
+    VSD_CUDA_ENTRY(vsd_cuda_record_grid_view),
+};
+
+vsd_status vsd_record_grid_view_struct(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err, size_t errlen)
+{
+    return vsd_record_grid_device(ctx, host, 1, dev, err, errlen);
 }

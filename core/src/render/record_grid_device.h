@@ -6,14 +6,28 @@
 #define VSD_RECORD_GRID_DEVICE_H
 #include "method.h"
 #include "kernel/kernel_record_grid.h"
+#include "device/cuda/cuda_backend.h"
+
+/* The grid's resident slots, the first of the method's (cuda_backend.h). */
+enum {
+    VSD_SLOT_RG_CELLS = VSD_SLOT_METHOD, VSD_SLOT_RG_RECORDS, VSD_SLOT_RG_POS, VSD_SLOT_RG_DIRS, VSD_SLOT_RG_BASIS,
+    VSD_SLOT_RG_RADIANCE, VSD_SLOT_RG_LIGHT, VSD_SLOT_RG_LIGHTS, VSD_SLOT_RG_LIGHT_TRANS,
+    VSD_RECORD_GRID_SLOTS = 9
+};
 
 /* d = g with its arrays on the device; with_records = 0 for a record pass, which writes
  * the records (so they are not uploaded) and reads the positions and directions. */
 vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_grid *g, int with_records,
                                   vsd_krecord_grid *d, char *err, size_t errlen);
 
-/* The view pass (a vsd_device_pass_fn; kernel is the host vsd_krecord_grid). */
-vsd_status vsd_record_grid_device_view(const vsd_frame_ctx *ctx, const void *kernel, int n, double *accum,
-                                       const struct vsd_cuda_progress *progress, char *err, size_t errlen);
+/* The device arrays a pass over grid m reads (view != 0: the view pass; lights: a record
+ * pass toward the lights), for the device pass descriptors (device/device_pass.h). */
+void vsd_record_grid_arrays(const vsd_krecord_grid *m, int view, int lights, vsd_pass_array_visit visit, void *user);
+
+/* The view pass: n x n strata per pixel (record_grid_cuda.cu on the GPU), and the
+ * vsd_device_struct_fn that readies a host grid for it. */
+extern const vsd_device_pass vsd_record_grid_view_pass;
+vsd_status vsd_record_grid_view_struct(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err,
+                                       size_t errlen);
 
 #endif

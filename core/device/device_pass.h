@@ -1,0 +1,74 @@
+/* device_pass.h — a pass a method runs on a device, described as data. The CUDA backend
+ * (core/device/cuda) launches any such pass, its host emulation (tests/device_emulation)
+ * runs it serially, and the CPU's stratified view pass (src/render/stratified.c) runs the
+ * same per-sample function on tiles: so the backend knows no method, and a method brings
+ * one descriptor per pass plus a three-line CUDA entry file in its own folder
+ * (core/device/cuda/cuda_pass.cuh, VSD_CUDA_PIXEL_PASS / VSD_CUDA_ITEM_PASS).
+ *
+ * Two shapes:
+ *   pixels  one thread per pixel over bands of image rows; samples [first, first + count)
+ *           of every pixel are added, in that order, into the pixel's VSD_ACC_N double sums
+ *           (kernel/kernel_accum.h) — the CPU's order, so both backends sum alike;
+ *   items   one thread per item (a record, a view sub-sample) writing its own part of out. */
+#ifndef VSD_DEVICE_PASS_H
+#define VSD_DEVICE_PASS_H
+#include <stddef.h>
+#include "kernel/kernel_types.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vsd_pass_args {
+    int first, count; /* pixel passes: the samples of each pixel, [first, first + count) */
+    int n;            /* the method's own parameter: n of the n x n strata, or a mode */
+} vsd_pass_args;
+
+/* One launch over rows (pixel passes) or items [b0, b1) on CUDA stream `stream`; dev_struct
+ * is the method's kernel struct on the device (dev_kd when the pass reads only kd), width
+ * the image width (the device kd is not readable from the host). */
+typedef void (*vsd_cuda_band_fn)(void *stream, const void *dev_struct, const vsd_kernel_data *dev_kd, int width,
+                                 int b0, int b1, vsd_pass_args a, void *out);
+
+/* Called once per device array a pass reads: the emulation checks each lies in device
+ * memory and holds `bytes` (a short upload or a host pointer is a bug it reports). */
+typedef void (*vsd_pass_array_visit)(void *user, const void *ptr, size_t bytes, const char *name);
+
+typedef struct vsd_device_pass {
+    const char *stage;      /* progress stage and error context */
+    int pixels;             /* 1: pixel pass, 0: item pass */
+    int band;               /* rows or items per launch; progress and cancel between launches */
+    size_t struct_bytes;    /* the method's kernel struct, copied per launch (0: kd only) */
+    size_t kd_offset;       /* offsetof(struct, kd): the member that points at the scene's kd */
+    /* The kernel functions of the pass, called with the struct (host or device arrays). */
+    vsd_sample_result (*sample)(const void *m, int x, int y, int s, int n);
+    void (*item)(const void *m, int i, int n, void *out);
+    /* The device arrays the pass reads from m, as handed to the run (its kd member still the
+     * host kd); NULL when the pass reads none but kd's. */
+    void (*arrays)(const void *m, vsd_pass_args a, vsd_pass_array_visit visit, void *user);
+    vsd_cuda_band_fn cuda;  /* VSD_CUDA_ENTRY(name): NULL in a build without CUDA */
+} vsd_device_pass;
+
+/* A method's CUDA entry (defined by VSD_CUDA_*_PASS in its <name>_cuda.cu), referenced
+ * only in builds with CUDA, so a build without nvcc needs no stubs for it. */
+#if defined(VSD_WITH_CUDA) && VSD_WITH_CUDA
+#define VSD_CUDA_ENTRY_DECL(entry) \
+    void entry(void *, const void *, const vsd_kernel_data *, int, int, int, vsd_pass_args, void *)
+#define VSD_CUDA_ENTRY(entry) entry
+#else
+#define VSD_CUDA_ENTRY_DECL(entry) struct vsd_no_cuda_##entry
+#define VSD_CUDA_ENTRY(entry) NULL
+#endif
+
+/* Sample s of the n x n strata of a pixel: the centre of stratum (s mod n, s div n), the
+ * order src/render/stratified.c has always used. */
+VSD_DEVICE void vsd_stratum(int s, int n, float *u, float *v)
+{
+    float inv = 1.0f / (float)n;
+    *u = ((float)(s % n) + 0.5f) * inv;
+    *v = ((float)(s / n) + 0.5f) * inv;
+}
+
+#ifdef __cplusplus
+}
+#endif
+#endif
