@@ -24,6 +24,7 @@ packages=(
   libcjson-dev
   libxxhash-dev
   libchealpix-dev
+  libnlopt-dev libopenblas-dev liblapacke-dev
   nettle-dev
   openimageio-tools
   xvfb xauth

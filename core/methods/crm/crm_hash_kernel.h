@@ -1,0 +1,100 @@
+/* crm_hash_kernel.h — decoding the compressed density residual of compensated ray marching
+ * (Zhou et al. 2008, §5.2): R = D - D~ quantised to 8 bits and stored in a perfect spatial
+ * hash (Lefebvre & Hoppe 2006). Built by crm_residual_hash.c; read by the render kernels,
+ * so this file is the common subset of C11 and CUDA C++.
+ *
+ * The hash (L&H §4): voxel p = (i,j,k) of the S stored voxels goes to hash-table slot
+ *   h(p) = (h0(p) + Phi[h1(p)]) mod m,   h0(p) = p mod m,   h1(p) = p mod r   (per axis),
+ * H is an m^3 table of int8 quantised values, Phi an r^3 table of offsets in [0,m)^3.
+ *
+ * Telling a stored voxel from an absent one: a perfect hash only says where a *stored* key
+ * lives; any other voxel also lands on some slot, holding some other voxel's value. We keep a
+ * 1-bit-per-voxel occupancy mask rather than storing the key in each entry, because
+ *  - the residual is not surface-like: 5-50% of the voxels are stored, and a mask costs
+ *    N/8 bytes against >= 4 bytes per stored key (a packed voxel index), so the mask is
+ *    smaller whenever more than ~1/32 of the voxels are stored, and H stays 1 byte/entry;
+ *  - the ray marcher mostly samples voxels with no residual: the mask rejects them with one
+ *    32-bit load, without touching Phi and H (two dependent, incoherent loads on a GPU);
+ *  - an absent voxel then decodes to exactly 0 by construction, whatever the hash does.
+ *
+ * Offsets are packed 10 bits per axis into one uint32 (m <= 1024, i.e. up to ~1e9 stored
+ * voxels): one aligned load per lookup instead of three byte loads.
+ *
+ * Pointers are host or device addresses, whichever side the view is used on; the builder's
+ * view (vsd_crm_hash_get_view) points to host memory. */
+#ifndef VSD_CRM_HASH_KERNEL_H
+#define VSD_CRM_HASH_KERNEL_H
+#include <stddef.h>
+#include <stdint.h>
+#include <math.h>
+#include "crm_rbf.h" /* VSD_CRM_FN */
+
+/* Largest hash-table side the 10-bit offset packing can address. */
+#define VSD_CRM_HASH_MAX_M 1024
+
+typedef struct vsd_crm_hash_view {
+    const uint32_t *occupancy; /* bit (n & 31) of word n >> 5 set iff voxel n = i + nx*(j + ny*k) is stored */
+    const uint32_t *offsets;   /* [r^3], slot (x + r*(y + r*z)): ox | oy << 10 | oz << 20; NULL when K = 0 */
+    const int8_t *table;       /* [m^3], slot (x + m*(y + m*z)): quantised residual; NULL when K = 0 */
+    size_t n_occupancy;        /* words in occupancy = ceil(nx*ny*nz / 32) */
+    size_t n_offsets;          /* r^3 (0 when K = 0) */
+    size_t n_table;            /* m^3 (0 when K = 0) */
+    int32_t nx, ny, nz;        /* grid size in voxels */
+    int32_t m, r;              /* hash-table and offset-table sides (0 when K = 0) */
+    float step;                /* dequantisation: R = q * step */
+} vsd_crm_hash_view;
+
+/* Dequantised residual of voxel (i,j,k); exactly 0 outside the grid or when not stored. */
+VSD_CRM_FN float vsd_crm_residual(const vsd_crm_hash_view *h, int i, int j, int k)
+{
+    uint32_t n, off;
+    int32_t m, r, x, y, z;
+    if (i < 0 || j < 0 || k < 0 || i >= h->nx || j >= h->ny || k >= h->nz) return 0.0f;
+    n = (uint32_t)i + (uint32_t)h->nx * ((uint32_t)j + (uint32_t)h->ny * (uint32_t)k);
+    if (!((h->occupancy[n >> 5] >> (n & 31u)) & 1u)) return 0.0f;
+    m = h->m;
+    r = h->r;
+    off = h->offsets[((size_t)(k % r) * (size_t)r + (size_t)(j % r)) * (size_t)r + (size_t)(i % r)];
+    /* h0 + offset, both in [0, m): one conditional subtraction instead of a second modulo. */
+    x = i % m + (int32_t)(off & 1023u);
+    y = j % m + (int32_t)((off >> 10) & 1023u);
+    z = k % m + (int32_t)((off >> 20) & 1023u);
+    if (x >= m) x -= m;
+    if (y >= m) y -= m;
+    if (z >= m) z -= m;
+    return (float)h->table[((size_t)z * (size_t)m + (size_t)y) * (size_t)m + (size_t)x] * h->step;
+}
+
+/* Trilinear residual at a point in voxel index space (voxel (i,j,k) at (i+.5, j+.5, k+.5)),
+ * with voxels outside the grid taken as 0, like the density field itself (kernel_volume.h). */
+VSD_CRM_FN float vsd_crm_residual_trilinear(const vsd_crm_hash_view *h, float x, float y, float z)
+{
+    float fx, fy, fz, x0, y0, z0, tx, ty, tz, c00, c10, c01, c11, c0, c1;
+    int i, j, k;
+    /* Beyond half a voxel outside the grid every corner is 0; this also keeps the float to
+     * int conversion below in range and sends NaN coordinates to 0. */
+    if (!(x > -0.5f && y > -0.5f && z > -0.5f && x < (float)h->nx + 0.5f && y < (float)h->ny + 0.5f &&
+          z < (float)h->nz + 0.5f))
+        return 0.0f;
+    fx = x - 0.5f;
+    fy = y - 0.5f;
+    fz = z - 0.5f;
+    x0 = floorf(fx);
+    y0 = floorf(fy);
+    z0 = floorf(fz);
+    tx = fx - x0;
+    ty = fy - y0;
+    tz = fz - z0;
+    i = (int)x0;
+    j = (int)y0;
+    k = (int)z0;
+    c00 = vsd_crm_residual(h, i, j, k) * (1.0f - tx) + vsd_crm_residual(h, i + 1, j, k) * tx;
+    c10 = vsd_crm_residual(h, i, j + 1, k) * (1.0f - tx) + vsd_crm_residual(h, i + 1, j + 1, k) * tx;
+    c01 = vsd_crm_residual(h, i, j, k + 1) * (1.0f - tx) + vsd_crm_residual(h, i + 1, j, k + 1) * tx;
+    c11 = vsd_crm_residual(h, i, j + 1, k + 1) * (1.0f - tx) + vsd_crm_residual(h, i + 1, j + 1, k + 1) * tx;
+    c0 = c00 * (1.0f - ty) + c10 * ty;
+    c1 = c01 * (1.0f - ty) + c11 * ty;
+    return c0 * (1.0f - tz) + c1 * tz;
+}
+
+#endif
