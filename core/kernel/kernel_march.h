@@ -119,9 +119,8 @@ VSD_DEVICE void vsd_march_begin(vsd_march_acc *a)
 
 /* The medium part of a step of length h at point p: adds emission and returns the step's
  * collision probability (0 = nothing to scatter, the caller may skip its lighting). */
-VSD_DEVICE float vsd_march_medium(const vsd_kernel_data *kd, vsd_march_acc *a, vsd_f3 p, float h)
+VSD_DEVICE float vsd_march_medium_sigma(const vsd_kernel_data *kd, vsd_march_acc *a, vsd_f3 p, float h, float sigma)
 {
-    float sigma = vsd_kvolume_at(&kd->density, p);
     float absorbed = 1.0f - expf(-sigma * h);
     if (kd->medium.has_emission) {
         float le = vsd_kvolume_at(&kd->emission, p);
@@ -131,6 +130,13 @@ VSD_DEVICE float vsd_march_medium(const vsd_kernel_data *kd, vsd_march_acc *a, v
     return absorbed;
 }
 
+/* The same with sigma_t taken from the scene's density grid at p. Methods that model the
+ * density themselves (crm's RBFs plus residual) call vsd_march_medium_sigma. */
+VSD_DEVICE float vsd_march_medium(const vsd_kernel_data *kd, vsd_march_acc *a, vsd_f3 p, float h)
+{
+    return vsd_march_medium_sigma(kd, a, p, h, vsd_kvolume_at(&kd->density, p));
+}
+
 /* The scattering part of the step centred at distance t: s is the in-scattered radiance per
  * unit scattering (phase * incident light), `absorbed` what vsd_march_medium returned. */
 VSD_DEVICE void vsd_march_scatter(const vsd_kernel_data *kd, vsd_march_acc *a, vsd_f3 s, float t, float absorbed)
@@ -138,6 +144,18 @@ VSD_DEVICE void vsd_march_scatter(const vsd_kernel_data *kd, vsd_march_acc *a, v
     a->res.direct = f3_add(a->res.direct, f3_scale(f3_mul(kd->medium.albedo, s), a->tr * absorbed));
     a->depth_num += t * a->tr * absorbed;
     a->tr *= 1.0f - absorbed;
+}
+
+/* A step whose source radiances already include the albedo and the phase function, split
+ * into single (VolumeDir) and multiple (VolumeInd) scattering; `shrink` is the step's own
+ * collision probability for the transmittance (equal to `absorbed` unless a method
+ * attenuates with another density than it scatters from, as crm's residual option does). */
+VSD_DEVICE void vsd_march_source(vsd_march_acc *a, vsd_f3 single, vsd_f3 multiple, float t, float absorbed, float shrink)
+{
+    a->res.direct = f3_add(a->res.direct, f3_scale(single, a->tr * absorbed));
+    a->res.indirect = f3_add(a->res.indirect, f3_scale(multiple, a->tr * absorbed));
+    a->depth_num += t * a->tr * shrink;
+    a->tr *= 1.0f - shrink;
 }
 
 /* Transmittance, Depth (mean collision distance) and, on an opaque film, the background. */

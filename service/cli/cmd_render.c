@@ -22,6 +22,7 @@ typedef struct render_args {
     int remote;                  /* --remote[=SOCKET|HOST:PORT] */
     const char *remote_address;  /* "" = default socket */
     const char *token_file;
+    const char *cache_dir;       /* --cache-dir; NULL = the default below */
 } render_args;
 
 typedef struct progress_state {
@@ -60,6 +61,9 @@ static void render_usage(FILE *f)
             "  --remote[=ADDR]      render through a running `vsd serve` (default socket, a socket path,\n"
             "                       or HOST:PORT); uploads only the VDB frames and map it lacks\n"
             "  --token-file FILE    token for --remote=HOST:PORT (else $VSD_TOKEN)\n"
+            "  --cache-dir DIR      where methods keep per-frame work between runs (crm's RBF fits;\n"
+            "                       default $VSD_CACHE_DIR, else $XDG_CACHE_HOME/vsd or ~/.cache/vsd;\n"
+            "                       'none' = no cache)\n"
             "  --quiet              print nothing but errors\n");
 }
 
@@ -164,6 +168,7 @@ static int parse_args(int argc, char **argv, render_args *a)
             else if (strcmp(arg, "--output") == 0 || strcmp(arg, "-o") == 0) ok = add_path_override(a, "output.exr", val);
             else if (strcmp(arg, "--preview") == 0) ok = add_path_override(a, "output.preview_png", val);
             else if (strcmp(arg, "--token-file") == 0) ok = (a->token_file = val) != NULL;
+            else if (strcmp(arg, "--cache-dir") == 0) ok = (a->cache_dir = val) != NULL;
             else {
                 fprintf(stderr, "vsd render: unknown option '%s' (see vsd render --help)\n", arg);
                 return VSD_EXIT_USAGE;
@@ -237,8 +242,21 @@ static int render_frames_remote(const vsd_scene *scene, const render_args *a)
     return vsd_render_remote(a->scene_path, scene, a->overrides, a->override_count, &ro);
 }
 
+/* The per-user cache folder (XDG): methods' work that outlives a run, keyed by content. */
+static const char *cache_dir(const render_args *a, char *buf, size_t len)
+{
+    const char *env;
+    if (a->cache_dir) return strcmp(a->cache_dir, "none") == 0 || !a->cache_dir[0] ? NULL : a->cache_dir;
+    if ((env = getenv("VSD_CACHE_DIR")) && env[0]) return strcmp(env, "none") == 0 ? NULL : env;
+    if ((env = getenv("XDG_CACHE_HOME")) && env[0]) snprintf(buf, len, "%s/vsd", env);
+    else if ((env = getenv("HOME")) && env[0]) snprintf(buf, len, "%s/.cache/vsd", env);
+    else return NULL;
+    return buf;
+}
+
 static int render_frames(const vsd_scene *scene, const render_args *a)
 {
+    char cache[VSD_PATH_LEN];
     progress_state prog = {0};
     vsd_render_options ro = {0};
     vsd_renderer *r = NULL;
@@ -251,6 +269,7 @@ static int render_frames(const vsd_scene *scene, const render_args *a)
     ro.progress = on_progress;
     ro.user = &prog;
     ro.cancel = &g_cancel;
+    ro.cache_dir = cache_dir(a, cache, sizeof cache);
     st = vsd_renderer_create(scene, &ro, &r, err, sizeof err);
     if (st) {
         fprintf(stderr, "vsd render: %s\n", err);
@@ -279,6 +298,7 @@ static int render_frames(const vsd_scene *scene, const render_args *a)
                    path, stats.method, stats.samples, stats.load_seconds, stats.prepare_seconds,
                    stats.render_seconds, stats.threads);
             if (note[0]) printf("  preview: %s\n", note);
+            if (stats.method_info[0]) printf("  %s: %s\n", stats.method, stats.method_info);
             fflush(stdout);
         }
     }

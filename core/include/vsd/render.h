@@ -26,6 +26,8 @@ typedef struct vsd_render_options {
     vsd_progress_fn progress;    /* 0 = silent */
     void *user;
     volatile int *cancel;        /* set non-zero from anywhere to stop: VSD_ERR_CANCELLED */
+    const char *cache_dir;       /* where methods keep per-frame work between runs (crm's RBF
+                                    fits); NULL or "" = nowhere. Copied at create. */
 } vsd_render_options;
 
 typedef struct vsd_render_stats {
@@ -40,6 +42,7 @@ typedef struct vsd_render_stats {
     char device_name[128];       /* the GPU's name on "cuda" */
     char device_note[512];       /* why render.device "auto" uses the CPU, when it tried CUDA */
     unsigned long long device_uploaded_bytes; /* host-to-device copies during this render */
+    char method_info[512];       /* the method's own figures, "key=value ..." (crm: RBFs, fit) */
 } vsd_render_stats;
 
 typedef struct vsd_renderer vsd_renderer;

@@ -18,6 +18,7 @@
 struct vsd_renderer {
     vsd_scene scene;
     vsd_render_options opt;
+    char cache_dir[4096];
     const vsd_method *method;
     void *method_state;
     char volume_key[KEY_LEN];
@@ -85,6 +86,8 @@ vsd_status vsd_renderer_create(const vsd_scene *scene, const vsd_render_options 
     if (!r) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a renderer");
     r->scene = *scene;
     if (opt) r->opt = *opt;
+    if (opt && opt->cache_dir) snprintf(r->cache_dir, sizeof r->cache_dir, "%s", opt->cache_dir);
+    r->opt.cache_dir = NULL;   /* borrowed by the caller; the copy above is what is used */
     st = pick_method(r, err, errlen);
     if (st) {
         vsd_renderer_destroy(r);
@@ -310,6 +313,9 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     ctx.user = r->opt.user;
     ctx.cancel = r->opt.cancel;
     ctx.cuda = cuda;
+    ctx.cache_dir = r->cache_dir[0] ? r->cache_dir : NULL;
+    ctx.info = stats->method_info;
+    ctx.info_len = sizeof stats->method_info;
     stats->threads = ctx.threads;
     vsd_kernel_data_from_scene(&ctx.kd, sc);
     st = vsd_kvolume_setup(&ctx.kd.density, r->density, sc->volume.matrix, sc->medium.density, err, errlen);

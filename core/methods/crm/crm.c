@@ -1,0 +1,463 @@
+/* Method `crm`: Zhou, Ren, Lin, Bao, Guo, Shum 2008, "Real-time smoke rendering using
+ * compensated ray marching" — single and multiple scattering from an RBF model of the
+ * density, with the residual put back in the view march.
+ *
+ * Stages and caches (the paper's split, §4; issue 13 part 6):
+ *   prepare_frame     §5.1-5.2, only when the density grid's *content* changed (a change of
+ *                     medium density re-runs the renderer's frame stage but not this): the
+ *                     RBF fit (crm_fit.c; from/to the disk cache in ctx->cache_dir; frame k+1
+ *                     starts from frame k's RBFs), D~ rasterised on the voxels, the residual
+ *                     R = D - D~ quantised into a perfect hash (crm_residual_hash.c).
+ *   prepare_lighting  §5.3-5.4 for the environment, sigma_t, albedo and phase: the SH
+ *                     projection of the map, single scattering at the RBF centres
+ *                     (crm_single.c), the diffusion solve warm-started from the last one
+ *                     (crm_diffusion.c), and J~ on the node grid (crm_source_grid.c).
+ *   render            §5.5, the compensated march (crm_kernel.h) on CPU tiles or CUDA.
+ * Options: the table below (`vsd methods`). */
+#include "src/render/method.h"
+#include "vsd/sh.h"
+#include "crm_fit.h"
+#include "crm_fit_cache.h"
+#include "crm_residual_hash.h"
+#include "crm_single.h"
+#include "crm_single_direct.h"
+#include "crm_diffusion.h"
+#include "crm_source_grid.h"
+#include "crm_grid_diffusion.h"
+#include "crm_orders.h"
+#include "crm_node_single.h"
+#include "crm_kernel.h"
+#include "crm_device.h"
+#include "src/common/clock.h"
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct crm_options {
+    int rbf_count, fit_iterations, order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
+    int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell;
+    double node_spacing, step, early_termination, error_ratio;
+} crm_options;
+
+static const char *const residual_names[] = {"full", "source", "none", NULL};
+enum { MULTIPLE_ORDERS, MULTIPLE_GRID, MULTIPLE_RBF };
+enum { SINGLE_GRID, SINGLE_DIRECT, SINGLE_SH };
+static const char *const single_names[] = {"grid", "direct", "sh", NULL};
+
+static const char *healpix_count_problem(double v)
+{
+    return vsd_sh_healpix_nside((long)v) ? NULL : "is not a HEALPix pixel count 12 nside^2 (12, 48, 108, 192, 300, ...)";
+}
+static const char *const multiple_names[] = {"orders", "grid", "rbf", NULL};
+
+static const vsd_option_spec crm_option_rows[] = {
+    {"rbf_count", VSD_OPT_INT, 1, VSD_CRM_DIFFUSION_MAX_RBFS, 800, NULL,
+     "RBFs fitted to the first frame (the paper: 1000)", offsetof(crm_options, rbf_count), 0, NULL},
+    {"fit_iterations", VSD_OPT_INT, 10, 100000, 3000, NULL,
+     "bound on the L-BFGS iterations of one frame's RBF fit", offsetof(crm_options, fit_iterations), 0, NULL},
+    {"coherent", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "start each frame's fit from the previous frame's RBFs (delete, refit, insert; §5.1)",
+     offsetof(crm_options, coherent), 0, NULL},
+    {"delete_per_frame", VSD_OPT_INT, 0, 100, 3, NULL, "coherent frames: least significant RBFs deleted first",
+     offsetof(crm_options, delete_per_frame), 0, NULL},
+    {"insert_max", VSD_OPT_INT, 0, 100, 8, NULL, "coherent frames: most RBFs inserted at the error maximum",
+     offsetof(crm_options, insert_max), 0, NULL},
+    {"error_ratio", VSD_OPT_NUMBER, 1.0, 10.0, 1.1, NULL,
+     "coherent frames: insert while the fit error exceeds the first frame's by this factor (paper 1.05-1.2)",
+     offsetof(crm_options, error_ratio), 0, NULL},
+    {"order", VSD_OPT_INT, 1, 4, 4, NULL, "SH order of single scattering (bands; multiple scattering is order 2)",
+     offsetof(crm_options, order), 0, NULL},
+    {"single", VSD_OPT_CHOICE, 0, 0, SINGLE_GRID, single_names,
+     "single scattering: grid (at every medium node, marched), or at the RBF centres: direct (transmittance per "
+     "direction) or sh (the paper's ZH table + exp*)",
+     offsetof(crm_options, single), 0, NULL},
+    {"directions", VSD_OPT_INT, 12, 3072, 108, NULL, "single grid, direct: HEALPix directions of the transmittance (12 nside^2)",
+     offsetof(crm_options, directions), 0, healpix_count_problem},
+    {"multiple", VSD_OPT_CHOICE, 0, 0, MULTIPLE_ORDERS, multiple_names,
+     "multiple scattering: orders (successive orders on a coarse grid), grid (diffusion with a vacuum boundary) or "
+     "rbf (the paper's eq. 13 at the RBF centres)",
+     offsetof(crm_options, multiple), 0, NULL},
+    {"cg_iterations", VSD_OPT_INT, 0, 10000, VSD_CRM_DIFFUSION_MAX_ITER, NULL,
+     "multiple rbf: CG iterations of eq. 13 (early stopping regularises it; the paper: 20-40)",
+     offsetof(crm_options, cg_iterations), 0, NULL},
+    {"orders", VSD_OPT_INT, 1, 64, 12, NULL,
+     "multiple orders: most orders followed before the geometric tail closes the series",
+     offsetof(crm_options, orders), 0, NULL},
+    {"order_directions", VSD_OPT_INT, 12, 768, 48, NULL, "multiple orders: HEALPix directions gathered per cell and order",
+     offsetof(crm_options, order_directions), 0, healpix_count_problem},
+    {"order_cell", VSD_OPT_INT, 1, 8, 2, NULL, "multiple orders: source nodes per cell of the coarse grid",
+     offsetof(crm_options, order_cell), 0, NULL},
+    {"grid_iterations", VSD_OPT_INT, 1, 100000, 2000, NULL,
+     "multiple grid: bound on the CG iterations of the diffusion solve (tolerance 1e-5)",
+     offsetof(crm_options, grid_iterations), 0, NULL},
+    {"residual", VSD_OPT_CHOICE, 0, 0, CRM_RESIDUAL_FULL, residual_names,
+     "density residual in the march: full (extinction and source), source (eq. 8: source only), none",
+     offsetof(crm_options, residual), 0, NULL},
+    {"node_spacing", VSD_OPT_NUMBER, 0, 64, 0, NULL,
+     "voxels between the source-radiance nodes (0 = automatic: largest dimension / 48, at least 2)",
+     offsetof(crm_options, node_spacing), VSD_OPT_ZERO_AUTO, NULL},
+    {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = one voxel)",
+     offsetof(crm_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+    VSD_OPTION_PIXEL_SAMPLES(crm_options),
+    VSD_OPTION_EARLY_TERMINATION(crm_options, "view ray"),
+};
+
+typedef struct crm_state {
+    crm_options opt;
+    vsd_crm_fit_options fit_opt;
+    /* frame (§5.1-5.2) */
+    int32_t dims[3], origin[3];
+    char fit_key[65];             /* content key of the fitted grid: same key, no refit */
+    vsd_crm_rbfs rbfs;
+    double first_rel_error;       /* the sequence's first fit error (coherent insertion rule) */
+    vsd_crm_fit_stats fit;
+    int fit_cached;
+    long long fits_run;           /* fits actually computed (not from memory or disk) */
+    float *dtilde;
+    vsd_crm_hash *hash;
+    double voxel_world;           /* world length of a voxel (mean of the three axes) */
+    float spacing;                /* voxels between source nodes */
+    int32_t node_res[3];
+    float *node_density;          /* [nodes] mean density of each node's cell (grid diffusion) */
+    /* lighting (§5.3-5.4) */
+    vsd_crm_od_table *table;
+    double *j_ss, *j_ms, *l_m0;   /* per centre; l_m0 warm-starts the next solve */
+    int l_m0_count;
+    vsd_crm_diffusion_stats diffusion;
+    double single_seconds;
+    vsd_crm_source_grid nodes;
+    double *phi;                  /* [3 * nodes] grid diffusion fluence, the next solve's warm start */
+    size_t phi_nodes;
+    vsd_crm_grid_diffusion_stats grid;
+    vsd_crm_orders_stats orders;
+} crm_state;
+
+static vsd_status crm_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
+{
+    crm_state *s = calloc(1, sizeof *s);
+    vsd_status st;
+    (void)scene;
+    if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    s->opt = *(const crm_options *)options;
+    vsd_crm_fit_defaults(&s->fit_opt);
+    s->fit_opt.rbf_count = s->opt.rbf_count;
+    s->fit_opt.max_iterations = s->opt.fit_iterations;
+    s->fit_opt.delete_per_frame = s->opt.delete_per_frame;
+    s->fit_opt.insert_max = s->opt.insert_max;
+    s->fit_opt.error_ratio = (float)s->opt.error_ratio;
+    if ((st = vsd_crm_fit_options_check(&s->fit_opt, err, errlen)) ||
+        (st = vsd_crm_od_table_create(s->opt.order, 256, &s->table, err, errlen))) {
+        free(s);
+        return st;
+    }
+    *state = s;
+    return VSD_OK;
+}
+
+static void free_frame(crm_state *s)
+{
+    free(s->dtilde);
+    s->dtilde = NULL;
+    free(s->node_density);
+    s->node_density = NULL;
+    vsd_crm_hash_destroy(s->hash);
+    s->hash = NULL;
+}
+
+/* The density as a dense grid over its bricks (crm space: voxel (i,j,k) = index origin + (i,j,k)). */
+static vsd_status dense_copy(const vsd_volume *vol, int32_t dims[3], int32_t origin[3], float **out, char *err,
+                             size_t errlen)
+{
+    size_t n;
+    int32_t i, j, k, a;
+    float *d;
+    *out = NULL;
+    for (a = 0; a < 3; a++) {
+        dims[a] = 8 * vol->brick_dims[a];
+        origin[a] = vol->origin[a];
+    }
+    n = (size_t)dims[0] * dims[1] * dims[2];
+    if (n == 0) return VSD_OK;
+    if (n > ((size_t)1 << 28))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: a %dx%dx%d density grid is beyond the method's limit of 2^28 voxels",
+                        dims[0], dims[1], dims[2]);
+    if (!(d = malloc(n * sizeof *d)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for a %dx%dx%d density copy", dims[0], dims[1], dims[2]);
+    for (k = 0; k < dims[2]; k++)
+        for (j = 0; j < dims[1]; j++)
+            for (i = 0; i < dims[0]; i++)
+                d[((size_t)k * dims[1] + j) * dims[0] + i] = vsd_volume_voxel(vol, origin[0] + i, origin[1] + j, origin[2] + k);
+    *out = d;
+    return VSD_OK;
+}
+
+/* The node grid's spacing (option, else largest dimension / 48, at least 2 voxels) and the
+ * mean density of each node's cell (the voxels whose nearest node it is). */
+static vsd_status node_density(crm_state *s, const float *d, char *err, size_t errlen)
+{
+    int32_t mx = s->dims[0] > s->dims[1] ? s->dims[0] : s->dims[1], a, i, j, k;
+    size_t count, n;
+    unsigned *hits;
+    mx = mx > s->dims[2] ? mx : s->dims[2];
+    s->spacing = s->opt.node_spacing > 0 ? (float)s->opt.node_spacing : fmaxf(2.0f, (float)mx / 48.0f);
+    for (a = 0; a < 3; a++) s->node_res[a] = (int32_t)ceilf((float)s->dims[a] / s->spacing) + 1;
+    count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2];
+    s->node_density = calloc(count, sizeof *s->node_density);
+    hits = calloc(count, sizeof *hits);
+    if (!s->node_density || !hits) {
+        free(hits);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %zu source nodes", count);
+    }
+    for (k = 0; k < s->dims[2]; k++)
+        for (j = 0; j < s->dims[1]; j++)
+            for (i = 0; i < s->dims[0]; i++) {
+                int32_t ni = (int32_t)lrintf(((float)i + 0.5f) / s->spacing), nj = (int32_t)lrintf(((float)j + 0.5f) / s->spacing);
+                int32_t nk = (int32_t)lrintf(((float)k + 0.5f) / s->spacing);
+                size_t node = ((size_t)nk * s->node_res[1] + nj) * s->node_res[0] + ni;
+                s->node_density[node] += fmaxf(d[((size_t)k * s->dims[1] + j) * s->dims[0] + i], 0.0f);
+                hits[node]++;
+            }
+    for (n = 0; n < count; n++)
+        if (hits[n]) s->node_density[n] /= (float)hits[n];
+    free(hits);
+    return VSD_OK;
+}
+
+static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    crm_state *s = state;
+    vsd_crm_dense dense;
+    vsd_crm_rbfs fitted = {NULL, 0};
+    const vsd_crm_rbfs *previous;
+    char key[65];
+    float *d = NULL, *residual = NULL;
+    size_t n, i;
+    vsd_status st;
+    int32_t dims[3], origin[3];
+    const double *vs = ctx->density->voxel_size;
+    s->voxel_world = (vs[0] + vs[1] + vs[2]) / 3.0;
+    if ((st = dense_copy(ctx->density, dims, origin, &d, err, errlen))) return st;
+    dense.nx = dims[0];
+    dense.ny = dims[1];
+    dense.nz = dims[2];
+    dense.d = d;
+    n = (size_t)dims[0] * dims[1] * dims[2];
+    /* coherence needs the same grid; a sequence whose bounding box changes starts over */
+    previous = s->opt.coherent && s->rbfs.count > 0 && memcmp(dims, s->dims, sizeof dims) == 0 &&
+                       memcmp(origin, s->origin, sizeof origin) == 0
+                   ? &s->rbfs
+                   : NULL;
+    if (n > 0 && (st = vsd_crm_fit_cache_key(&dense, &s->fit_opt, previous, s->first_rel_error, key))) goto done;
+    if (n > 0 && s->fit_key[0] && strcmp(key, s->fit_key) == 0 && s->dtilde) {
+        /* the same grid as last time (a medium change): §5.1-5.2 stand */
+        free(d);
+        return VSD_OK;
+    }
+    free_frame(s);
+    if (n > 0) {
+        int was_cached = 0;
+        st = vsd_crm_fit_cached(ctx->cache_dir, &dense, &s->fit_opt, previous, s->first_rel_error, &fitted, &s->fit,
+                                err, errlen, &was_cached);
+        if (st == VSD_ERR_IO) {
+            /* fitted, but the cache could not be written: render anyway */
+            fprintf(stderr, "vsd: crm: %s\n", err);
+            st = VSD_OK;
+        }
+        if (st) goto done;
+        s->fit_cached = was_cached;
+        if (!was_cached) s->fits_run++;
+        if (!previous) s->first_rel_error = s->fit.rel_error;
+        snprintf(s->fit_key, sizeof s->fit_key, "%s", key);
+    }
+    vsd_crm_rbfs_free(&s->rbfs);
+    s->rbfs = fitted;
+    memcpy(s->dims, dims, sizeof dims);
+    memcpy(s->origin, origin, sizeof origin);
+    if (n == 0) goto done;
+    if (!(s->dtilde = malloc(n * sizeof(float))) || !(residual = malloc(n * sizeof(float)))) {
+        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the %zu-voxel residual", n);
+        goto done;
+    }
+    vsd_crm_rasterise(&s->rbfs, dims[0], dims[1], dims[2], s->dtilde);
+    for (i = 0; i < n; i++) residual[i] = d[i] - s->dtilde[i];
+    if ((st = vsd_crm_hash_build(dims[0], dims[1], dims[2], residual, 0.0f, &s->hash, err, errlen))) goto done;
+    st = node_density(s, d, err, errlen);
+done:
+    if (st) {
+        free_frame(s);
+        s->fit_key[0] = '\0';
+    }
+    free(residual);
+    free(d);
+    return st;
+}
+
+static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    crm_state *s = state;
+    const vsd_scene *sc = ctx->scene;
+    int order = s->opt.order, n2 = order * order, count = s->rbfs.count, c, l, q;
+    double env_sh[3 * 16], albedo[3], ms_albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
+    double g = ctx->kd.medium.anisotropy, *j_ss2 = NULL;
+    vsd_status st;
+    free(s->j_ss);
+    free(s->j_ms);
+    s->j_ss = s->j_ms = NULL;
+    vsd_crm_source_grid_free(&s->nodes);
+    if (count == 0) return VSD_OK;
+    /* world directions into index space (the volume's transform), and into the node grid */
+    for (c = 0; c < 3; c++)
+        for (q = 0; q < 3; q++) {
+            w2i[3 * c + q] = ctx->kd.density.world_to_index.m[4 * c + q];
+            to_node[3 * c + q] = w2i[3 * c + q] / s->spacing;
+        }
+    albedo[0] = ctx->kd.medium.albedo.x;
+    albedo[1] = ctx->kd.medium.albedo.y;
+    albedo[2] = ctx->kd.medium.albedo.z;
+    /* the diffusion system has no vacuum boundary and is singular without absorption
+     * (crm_diffusion.h): albedo 1 is solved as 0.999 */
+    for (c = 0; c < 3; c++) ms_albedo[c] = albedo[c] < 0.999 ? albedo[c] : 0.999;
+    if ((st = vsd_sh_project_env(order, ctx->env, sc->environment.strength, sc->environment.rotation_z, env_sh, err,
+                                 errlen)))
+        return st;
+    s->j_ss = malloc(sizeof(double) * (size_t)count * 3 * n2);
+    s->j_ms = malloc(sizeof(double) * (size_t)count * 12);
+    j_ss2 = malloc(sizeof(double) * (size_t)count * 12);
+    if (s->l_m0_count != count) {
+        free(s->l_m0);
+        s->l_m0 = calloc((size_t)count * 3, sizeof(double));
+        s->l_m0_count = s->l_m0 ? count : 0;
+    }
+    if (!s->j_ss || !s->j_ms || !j_ss2 || !s->l_m0) {
+        free(j_ss2);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the source radiances of %d RBFs", count);
+    }
+    t0 = vsd_clock_seconds();
+    if (s->opt.single == SINGLE_SH)
+        st = vsd_crm_single_scatter(&s->rbfs, sigma, albedo, g, order, env_sh, s->table, s->j_ss, NULL, err, errlen);
+    else if (s->opt.single == SINGLE_DIRECT || s->opt.multiple == MULTIPLE_RBF)
+        /* the RBF-centre form also feeds the paper's diffusion at the centres */
+        st = vsd_crm_single_scatter_direct(&s->rbfs, ctx->kd.density.scale, w2i, albedo, g, order, env_sh,
+                                           s->opt.directions, s->j_ss, err, errlen);
+    else
+        memset(s->j_ss, 0, sizeof(double) * (size_t)count * 3 * n2);
+    s->single_seconds = vsd_clock_seconds() - t0;
+    if (st) goto done;
+    /* the order-2 part of J_ss drives the diffusion (its first four coefficients) */
+    for (l = 0; l < count; l++)
+        for (c = 0; c < 3; c++)
+            for (q = 0; q < 4; q++) j_ss2[((size_t)l * 3 + c) * 4 + q] = q < n2 ? s->j_ss[((size_t)l * 3 + c) * n2 + q] : 0.0;
+    if (s->opt.multiple == MULTIPLE_RBF) {
+        st = vsd_crm_diffusion_solve_ex(&s->rbfs, sigma, ms_albedo, g, j_ss2, s->l_m0, s->j_ms, 1e-4, s->opt.cg_iterations,
+                                        &s->diffusion, err, errlen);
+        if (st) goto done;
+    } else {
+        memset(s->j_ms, 0, sizeof(double) * (size_t)count * 12);
+    }
+    if ((st = vsd_crm_source_grid_build(&s->rbfs, s->j_ss, n2, s->j_ms, s->dims, s->spacing, &s->nodes, err, errlen)))
+        goto done;
+    if (s->opt.multiple != MULTIPLE_RBF || s->opt.single == SINGLE_GRID) {
+        size_t nodes = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
+        float *sigma_t = malloc(nodes * sizeof *sigma_t);
+        if (s->phi_nodes != nodes) {
+            free(s->phi);
+            s->phi = calloc(3 * nodes, sizeof *s->phi);
+            s->phi_nodes = s->phi ? nodes : 0;
+        }
+        if (!sigma_t || !s->phi) {
+            free(sigma_t);
+            st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the diffusion of %zu nodes", nodes);
+            goto done;
+        }
+        for (i = 0; i < nodes; i++) sigma_t[i] = ctx->kd.density.scale * s->node_density[i];
+        if (s->opt.single == SINGLE_GRID) {
+            t0 = vsd_clock_seconds();
+            st = vsd_crm_node_single(s->node_res, to_node, sigma_t, albedo, g, order, env_sh,
+                                     s->opt.directions, s->nodes.nodes, s->nodes.valid, err, errlen);
+            s->single_seconds = vsd_clock_seconds() - t0;
+        }
+        if (!st && s->opt.multiple == MULTIPLE_GRID)
+            st = vsd_crm_grid_diffusion(s->node_res, s->spacing * s->voxel_world, sigma_t, albedo, g, s->nodes.nodes,
+                                        s->nodes.valid, s->phi, 1e-5, s->opt.grid_iterations, &s->grid, err, errlen);
+        else if (!st && s->opt.multiple == MULTIPLE_ORDERS)
+            st = vsd_crm_orders(s->node_res, to_node, sigma_t, albedo, s->nodes.nodes, s->nodes.valid,
+                                s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
+                                &s->orders, err, errlen);
+        free(sigma_t);
+    }
+done:
+    free(j_ss2);
+    return st;
+}
+
+static void crm_info(const crm_state *s, vsd_frame_ctx *ctx)
+{
+    vsd_crm_hash_stats hs;
+    if (!ctx->info || !ctx->info_len) return;
+    memset(&hs, 0, sizeof hs);
+    if (s->hash) hs = vsd_crm_hash_get_stats(s->hash);
+    snprintf(ctx->info, ctx->info_len,
+             "rbfs=%d fit_rel_error=%.5g fit_seconds=%.3f fit_evaluations=%d fit_cached=%d fits_run=%lld "
+             "hash_stored=%zu hash_bytes=%zu hash_seconds=%.3f single_seconds=%.3f cg_iterations=%d "
+             "diffusion_seconds=%.3f grid_iterations=%d grid_seconds=%.3f orders=%d orders_tail=%.3f orders_seconds=%.3f nodes=%dx%dx%d node_seconds=%.3f",
+             s->rbfs.count, s->fit.rel_error, s->fit.seconds, s->fit.evaluations, s->fit_cached, s->fits_run,
+             hs.stored, hs.bytes, hs.build_seconds, s->single_seconds, s->diffusion.iterations, s->diffusion.seconds,
+             s->grid.iterations, s->grid.seconds, s->orders.orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds);
+}
+
+static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
+                             size_t errlen)
+{
+    crm_state *s = state;
+    vsd_kcrm kc;
+    memset(&kc, 0, sizeof kc);
+    kc.kd = &ctx->kd;
+    kc.dtilde = s->dtilde;
+    kc.nodes = s->nodes.nodes;
+    kc.node_valid = s->nodes.valid;
+    if (s->hash) kc.residual = vsd_crm_hash_get_view(s->hash);
+    memcpy(kc.dims, s->dims, sizeof kc.dims);
+    memcpy(kc.origin, s->origin, sizeof kc.origin);
+    memcpy(kc.node_res, s->nodes.res, sizeof kc.node_res);
+    kc.node_spacing = s->nodes.spacing > 0 ? s->nodes.spacing : 1.0f;
+    kc.residual_mode = s->opt.residual;
+    kc.order = s->opt.order;
+    ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
+    ctx->kd.march_stop = (float)s->opt.early_termination;
+    crm_info(s, ctx);
+    if (!s->dtilde || !s->nodes.nodes) {
+        /* nothing fitted (an empty grid): the march still draws emission and background */
+        static const float zero = 0.0f;
+        static const uint8_t none = 0;
+        int32_t one[3] = {1, 1, 1};
+        kc.dtilde = &zero;
+        kc.nodes = &zero;
+        kc.node_valid = &none;
+        memcpy(kc.dims, one, sizeof one);
+        memcpy(kc.node_res, one, sizeof one);
+    }
+    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, &vsd_crm_view_pass, vsd_crm_view_struct, &kc,
+                                        samples, err, errlen);
+}
+
+static void crm_destroy(void *state)
+{
+    crm_state *s = state;
+    if (!s) return;
+    free_frame(s);
+    vsd_crm_rbfs_free(&s->rbfs);
+    vsd_crm_od_table_destroy(s->table);
+    free(s->j_ss);
+    free(s->j_ms);
+    free(s->l_m0);
+    free(s->phi);
+    vsd_crm_source_grid_free(&s->nodes);
+    free(s);
+}
+
+const vsd_method vsd_method_crm = {
+    "crm", VSD_OPTION_TABLE(crm_option_rows, crm_options), crm_create, crm_prepare_frame, crm_prepare_lighting,
+    crm_render, crm_destroy,
+};

@@ -1,0 +1,51 @@
+#include "crm_device.h"
+#include "src/render/device_frame.h"
+#include <stddef.h>
+
+/* crm's resident slots (cuda_backend.h: from VSD_SLOT_METHOD on, the method's own) */
+enum { CRM_SLOT_DTILDE = VSD_SLOT_METHOD, CRM_SLOT_NODES, CRM_SLOT_VALID, CRM_SLOT_OCC, CRM_SLOT_OFFSETS, CRM_SLOT_TABLE };
+
+static size_t voxels(const vsd_kcrm *c) { return (size_t)c->dims[0] * c->dims[1] * c->dims[2]; }
+static size_t nodes(const vsd_kcrm *c) { return (size_t)c->node_res[0] * c->node_res[1] * c->node_res[2]; }
+
+static vsd_sample_result view_sample(const void *m, int x, int y, int s, int n)
+{
+    return vsd_crm_pass_sample((const vsd_kcrm *)m, x, y, s, n);
+}
+
+static void view_arrays(const void *m, vsd_pass_args a, vsd_pass_array_visit visit, void *user)
+{
+    const vsd_kcrm *c = m;
+    (void)a;
+    visit(user, c->dtilde, voxels(c) * sizeof(float), "crm.dtilde");
+    visit(user, c->nodes, nodes(c) * CRM_NODE_FLOATS * sizeof(float), "crm.nodes");
+    visit(user, c->node_valid, nodes(c), "crm.node_valid");
+    visit(user, c->residual.occupancy, c->residual.n_occupancy * sizeof(uint32_t), "crm.residual.occupancy");
+    visit(user, c->residual.offsets, c->residual.n_offsets * sizeof(uint32_t), "crm.residual.offsets");
+    visit(user, c->residual.table, c->residual.n_table, "crm.residual.table");
+}
+
+VSD_CUDA_ENTRY_DECL(vsd_cuda_crm_view);
+const vsd_device_pass vsd_crm_view_pass = {
+    "ray marching", 1, 128, sizeof(vsd_kcrm), offsetof(vsd_kcrm, kd), view_sample, NULL, view_arrays,
+    VSD_CUDA_ENTRY(vsd_cuda_crm_view),
+};
+
+vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err, size_t errlen)
+{
+    const vsd_kcrm *h = host;
+    vsd_kcrm *d = dev;
+    const void *p;
+    vsd_status st;
+    *d = *h;
+#define PUT(field, slot, gen, bytes) \
+    do { if ((st = vsd_device_array(ctx, slot, gen, h->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
+    PUT(dtilde, CRM_SLOT_DTILDE, ctx->frame_gen, voxels(h) * sizeof(float));
+    PUT(nodes, CRM_SLOT_NODES, ctx->lighting_gen, nodes(h) * CRM_NODE_FLOATS * sizeof(float));
+    PUT(node_valid, CRM_SLOT_VALID, ctx->lighting_gen, nodes(h));
+    PUT(residual.occupancy, CRM_SLOT_OCC, ctx->frame_gen, h->residual.n_occupancy * sizeof(uint32_t));
+    PUT(residual.offsets, CRM_SLOT_OFFSETS, ctx->frame_gen, h->residual.n_offsets * sizeof(uint32_t));
+    PUT(residual.table, CRM_SLOT_TABLE, ctx->frame_gen, h->residual.n_table);
+#undef PUT
+    return VSD_OK;
+}

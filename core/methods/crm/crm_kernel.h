@@ -1,0 +1,193 @@
+/* crm_kernel.h — the compensated ray march of Zhou et al. 2008 (§5.5), shared by the CPU
+ * tiles and CUDA (crm_cuda.cu). Common subset of C11 and CUDA C++.
+ *
+ * Per view ray, the shared march (kernel/kernel_march.h: step placement, empty bricks,
+ * early termination, emission) with crm's own medium and source:
+ *   density   D = D~ + R: the RBF model rasterised on the voxel grid (D~, trilinear) plus
+ *             the 8-bit residual decoded from the perfect hash (R, trilinear). Where R < 0
+ *             the medium is thinner than the RBFs say, so the residual both adds extinction
+ *             and, where negative, lets more light through (the paper's "enlightenment").
+ *             residual = CRM_RESIDUAL_SOURCE is the paper's eq. 8 literally: transmittance
+ *             from D~ alone, the source from D~ + R; CRM_RESIDUAL_NONE marches D~ only.
+ *   source    J~(x, w_o) = sum_l w_l B_l(x) J~(c_l, w_o) / D~(x) (eq. 7), precomputed per
+ *             lighting change on a coarse node grid as SH coefficients (order-4 single,
+ *             order-2 multiple scattering, albedo and phase already applied), read per step
+ *             trilinearly between the 8 surrounding nodes after one SH dot product per node
+ *             and ray (the view direction is fixed along a ray; corners are cached per cell).
+ * VolumeDir receives the single-scattering source, VolumeInd the multiple.
+ *
+ * Coordinates: "crm space" is the RBF fit's voxel index space, voxel (i,j,k) of the dense
+ * grid centred at (i + .5, j + .5, k + .5) (crm_rbf.h); world p maps to it through the
+ * density's world_to_index minus the dense grid's origin plus one half. */
+#ifndef VSD_CRM_KERNEL_H
+#define VSD_CRM_KERNEL_H
+#include "kernel/kernel_types.h"
+#include "kernel/kernel_volume.h"
+#include "kernel/kernel_camera.h"
+#include "kernel/kernel_march.h"
+#include "src/sh/sh_kernel.h"
+#include "device/device_pass.h"
+#include "crm_hash_kernel.h"
+
+enum { CRM_RESIDUAL_FULL = 0, CRM_RESIDUAL_SOURCE = 1, CRM_RESIDUAL_NONE = 2 };
+/* SH coefficients per node: order-4 single scattering (16) and order-2 multiple (4), RGB */
+enum { CRM_SS_ORDER = 4, CRM_SS_N = 16, CRM_MS_N = 4, CRM_NODE_FLOATS = 3 * (CRM_SS_N + CRM_MS_N) };
+enum { CRM_NODE_SINGLE = 1, CRM_NODE_MULTIPLE = 2 };
+/* below this a node's single scattering counts as zero in the log interpolation */
+#define CRM_LOG_FLOOR 1e-12f
+
+typedef struct VSD_ALIGN16 vsd_kcrm {
+    const vsd_kernel_data *kd;
+    const float *dtilde;           /* [nx*ny*nz] D~ per voxel (unscaled density) */
+    const float *nodes;            /* [node count * CRM_NODE_FLOATS]: ss R,G,B (16 each), ms R,G,B (4 each) */
+    const uint8_t *node_valid;     /* [node count] CRM_NODE_SINGLE | CRM_NODE_MULTIPLE bits */
+    vsd_crm_hash_view residual;
+    int32_t dims[3];               /* dense grid nx, ny, nz */
+    int32_t origin[3];             /* index coordinate of dense voxel (0,0,0) */
+    int32_t node_res[3];           /* nodes per axis */
+    float node_spacing;            /* voxels between nodes (crm space) */
+    int32_t residual_mode;         /* CRM_RESIDUAL_* */
+    int32_t order;                 /* of the single-scattering SH actually used (<= 4) */
+    float pad_[2];
+} vsd_kcrm;
+
+/* Trilinear D~ at crm-space point q (voxel centres at +0.5); 0 outside the grid. */
+VSD_DEVICE float vsd_crm_dtilde(const vsd_kcrm *c, vsd_f3 q)
+{
+    float x = q.x - 0.5f, y = q.y - 0.5f, z = q.z - 0.5f;
+    float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz, v[8];
+    int32_t i = (int32_t)fx, j = (int32_t)fy, k = (int32_t)fz, a;
+    for (a = 0; a < 8; a++) {
+        int32_t ii = i + (a & 1), jj = j + ((a >> 1) & 1), kk = k + ((a >> 2) & 1);
+        v[a] = (ii < 0 || jj < 0 || kk < 0 || ii >= c->dims[0] || jj >= c->dims[1] || kk >= c->dims[2])
+                   ? 0.0f
+                   : c->dtilde[((size_t)kk * c->dims[1] + jj) * c->dims[0] + ii];
+    }
+    {
+        float c00 = v[0] + (v[1] - v[0]) * tx, c10 = v[2] + (v[3] - v[2]) * tx;
+        float c01 = v[4] + (v[5] - v[4]) * tx, c11 = v[6] + (v[7] - v[6]) * tx;
+        float c0 = c00 + (c10 - c00) * ty, c1 = c01 + (c11 - c01) * ty;
+        return c0 + (c1 - c0) * tz;
+    }
+}
+
+/* Source radiance of one node toward the viewer: y holds the SH basis at -d. */
+VSD_DEVICE void vsd_crm_node_source(const vsd_kcrm *c, int32_t node, const float *y, vsd_f3 *ss, vsd_f3 *ms)
+{
+    const float *n = c->nodes + (size_t)node * CRM_NODE_FLOATS;
+    float s[3], m[3];
+    int32_t ch, i, n2 = c->order * c->order;
+    for (ch = 0; ch < 3; ch++) {
+        float a = 0.0f, b = 0.0f;
+        for (i = 0; i < n2; i++) a += y[i] * n[ch * CRM_SS_N + i];
+        for (i = 0; i < CRM_MS_N; i++) b += y[i] * n[3 * CRM_SS_N + ch * CRM_MS_N + i];
+        /* truncated SH rings below zero; radiance does not */
+        s[ch] = fmaxf(a, 0.0f);
+        m[ch] = fmaxf(b, 0.0f);
+    }
+    *ss = f3(s[0], s[1], s[2]);
+    *ms = f3(m[0], m[1], m[2]);
+}
+
+/* The eight nodes around the current sample, evaluated for this ray once per node cell.
+ * A node's single- and multiple-scattering parts are valid separately (node_valid bits
+ * CRM_NODE_SINGLE, CRM_NODE_MULTIPLE: the RBFs cover the first, the medium the second), and
+ * each is interpolated over its own valid corners. */
+typedef struct vsd_crm_corners {
+    int32_t key[3], filled, valid;
+    vsd_f3 ss[8], ms[8];
+} vsd_crm_corners;
+
+VSD_DEVICE void vsd_crm_source(const vsd_kcrm *c, vsd_f3 q, const float *y, vsd_crm_corners *cc, vsd_f3 *ss, vsd_f3 *ms)
+{
+    float u = q.x / c->node_spacing, v = q.y / c->node_spacing, w = q.z / c->node_spacing, ws = 0.0f, wm = 0.0f;
+    int32_t i0 = (int32_t)floorf(u), j0 = (int32_t)floorf(v), k0 = (int32_t)floorf(w), a;
+    float tx = u - (float)i0, ty = v - (float)j0, tz = w - (float)k0;
+    *ss = *ms = f3s(0.0f);
+    if (!cc->filled || cc->key[0] != i0 || cc->key[1] != j0 || cc->key[2] != k0) {
+        cc->key[0] = i0; cc->key[1] = j0; cc->key[2] = k0;
+        cc->filled = 1;
+        cc->valid = 0;
+        for (a = 0; a < 8; a++) {
+            int32_t i = i0 + (a & 1), j = j0 + ((a >> 1) & 1), k = k0 + ((a >> 2) & 1), node;
+            if (i < 0 || j < 0 || k < 0 || i >= c->node_res[0] || j >= c->node_res[1] || k >= c->node_res[2]) continue;
+            node = (k * c->node_res[1] + j) * c->node_res[0] + i;
+            if (!c->node_valid[node]) continue;
+            vsd_crm_node_source(c, node, y, &cc->ss[a], &cc->ms[a]);
+            /* single scattering falls exponentially into the medium: interpolate its log
+             * (the weighted geometric mean), as shgrid's records do */
+            cc->ss[a] = f3(logf(fmaxf(cc->ss[a].x, CRM_LOG_FLOOR)), logf(fmaxf(cc->ss[a].y, CRM_LOG_FLOOR)),
+                           logf(fmaxf(cc->ss[a].z, CRM_LOG_FLOOR)));
+            cc->valid |= (int32_t)c->node_valid[node] << (2 * a);
+        }
+    }
+    for (a = 0; a < 8; a++) {
+        float wt = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
+        int32_t bits = (cc->valid >> (2 * a)) & 3;
+        if (wt <= 0.0f) continue;
+        if (bits & CRM_NODE_SINGLE) {
+            *ss = f3_add(*ss, f3_scale(cc->ss[a], wt));
+            ws += wt;
+        }
+        if (bits & CRM_NODE_MULTIPLE) {
+            *ms = f3_add(*ms, f3_scale(cc->ms[a], wt));
+            wm += wt;
+        }
+    }
+    if (ws > 0.0f) {
+        *ss = f3_scale(*ss, 1.0f / ws);
+        *ss = f3(expf(ss->x), expf(ss->y), expf(ss->z));
+    }
+    if (wm > 0.0f) *ms = f3_scale(*ms, 1.0f / wm);
+}
+
+/* One view ray through pixel (px, py) at sub-pixel (jx, jy). */
+VSD_DEVICE vsd_sample_result vsd_crm_pixel(const vsd_kcrm *c, int32_t px, int32_t py, float jx, float jy)
+{
+    const vsd_kernel_data *kd = c->kd;
+    vsd_march_acc acc;
+    vsd_crm_corners cc;
+    vsd_f3 o, d;
+    float t0, t1, y[CRM_SS_N];
+    int32_t a;
+    vsd_march_begin(&acc);
+    cc.filled = 0;
+    cc.valid = 0;
+    cc.key[0] = cc.key[1] = cc.key[2] = 0;
+    for (a = 0; a < 8; a++) cc.ss[a] = cc.ms[a] = f3s(0.0f);
+    vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
+    /* J~ is a function of the direction toward the viewer */
+    vsd_sh_eval_f(c->order, f3(-d.x, -d.y, -d.z), y);
+    if (vsd_march_extent(kd, o, d, &t0, &t1)) {
+        vsd_march_walk walk;
+        float tm, hs;
+        vsd_march_walk_begin(&walk, kd, o, d, t0, t1);
+        while (vsd_march_walk_next(&walk, kd, acc.tr, &tm, &hs)) {
+            vsd_f3 p = f3_madd(o, d, tm), ix = vsd_affine_point(&kd->density.world_to_index, p);
+            vsd_f3 q = f3(ix.x - (float)c->origin[0] + 0.5f, ix.y - (float)c->origin[1] + 0.5f,
+                          ix.z - (float)c->origin[2] + 0.5f);
+            float dt = vsd_crm_dtilde(c, q), full = dt, absorbed, shrink;
+            if (c->residual_mode != CRM_RESIDUAL_NONE) full += vsd_crm_residual_trilinear(&c->residual, q.x, q.y, q.z);
+            full = fmaxf(full, 0.0f);
+            absorbed = vsd_march_medium_sigma(kd, &acc, p, hs, kd->density.scale * full);
+            shrink = c->residual_mode == CRM_RESIDUAL_SOURCE ? 1.0f - expf(-kd->density.scale * fmaxf(dt, 0.0f) * hs)
+                                                              : absorbed;
+            if (absorbed > 0.0f || shrink > 0.0f) {
+                vsd_f3 ss, ms;
+                vsd_crm_source(c, q, y, &cc, &ss, &ms);
+                vsd_march_source(&acc, ss, ms, tm, absorbed, shrink);
+            }
+        }
+    }
+    return vsd_march_finish(kd, &acc, d);
+}
+
+/* Stratum s of the n x n strata of pixel (x, y) (device/device_pass.h). */
+VSD_DEVICE vsd_sample_result vsd_crm_pass_sample(const vsd_kcrm *c, int x, int y, int s, int n)
+{
+    float u, v;
+    vsd_stratum(s, n, &u, &v);
+    return vsd_crm_pixel(c, x, y, u, v);
+}
+
+#endif

@@ -1,0 +1,215 @@
+#include "crm_orders.h"
+#include "crm_kernel.h"
+#include "vsd/sh.h"
+#include "src/common/clock.h"
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PI_D 3.14159265358979323846
+#define MAX_THREADS 8
+
+typedef struct coarse_grid {
+    int32_t res[3];
+    size_t n;
+    float *sigma;       /* [n] world units */
+    float *j;           /* [n * 3] current order's source */
+    float *next;        /* [n * 3] the next order */
+    double to_cell[9];  /* world direction -> coarse-grid displacement per world unit */
+} coarse_grid;
+
+typedef struct order_job {
+    const coarse_grid *g;
+    const double *dirs;
+    int m;
+    double albedo[3];
+    size_t begin, end;
+} order_job;
+
+/* Trilinear sigma and J at coarse-index point (x, y, z), 0 outside: J as the ratio of the
+ * interpolated sigma J to the interpolated sigma, so empty neighbours (J = 0 there, since J
+ * is per unit extinction) do not dim the medium's edge. */
+static void sample(const coarse_grid *g, double x, double y, double z, double *sigma, double j[3])
+{
+    double fx = floor(x), fy = floor(y), fz = floor(z), tx = x - fx, ty = y - fy, tz = z - fz;
+    int32_t i = (int32_t)fx, k = (int32_t)fz, jj = (int32_t)fy, a, c;
+    *sigma = 0.0;
+    j[0] = j[1] = j[2] = 0.0;
+    for (a = 0; a < 8; a++) {
+        int32_t ii = i + (a & 1), jy = jj + ((a >> 1) & 1), kk = k + ((a >> 2) & 1);
+        double w = ((a & 1) ? tx : 1.0 - tx) * (((a >> 1) & 1) ? ty : 1.0 - ty) * (((a >> 2) & 1) ? tz : 1.0 - tz);
+        size_t n;
+        if (ii < 0 || jy < 0 || kk < 0 || ii >= g->res[0] || jy >= g->res[1] || kk >= g->res[2] || w <= 0.0) continue;
+        n = ((size_t)kk * g->res[1] + jy) * g->res[0] + ii;
+        *sigma += w * g->sigma[n];
+        for (c = 0; c < 3; c++) j[c] += w * g->sigma[n] * g->j[3 * n + c];
+    }
+    for (c = 0; c < 3; c++) j[c] = *sigma > 0.0 ? j[c] / *sigma : 0.0;
+}
+
+static void *run_order(void *arg)
+{
+    const order_job *job = arg;
+    const coarse_grid *g = job->g;
+    size_t n;
+    for (n = job->begin; n < job->end; n++) {
+        double x0 = (double)(n % g->res[0]), y0 = (double)((n / g->res[0]) % g->res[1]);
+        double z0 = (double)(n / ((size_t)g->res[0] * g->res[1])), acc[3] = {0.0, 0.0, 0.0};
+        int d, c;
+        if (!(g->sigma[n] > 0.0f)) {
+            g->next[3 * n] = g->next[3 * n + 1] = g->next[3 * n + 2] = 0.0f;
+            continue;
+        }
+        for (d = 0; d < job->m; d++) {
+            const double *w = job->dirs + 3 * (size_t)d;
+            double tau = 1.0, s, v[3], len;
+            int ax;
+            /* the world direction in the grid (the volume's transform); a cell step is 1/len long */
+            for (ax = 0; ax < 3; ax++)
+                v[ax] = g->to_cell[3 * ax] * w[0] + g->to_cell[3 * ax + 1] * w[1] + g->to_cell[3 * ax + 2] * w[2];
+            len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            if (!(len > 0.0)) continue;
+            for (ax = 0; ax < 3; ax++) v[ax] /= len;
+            /* one cell per step, sampled at the step's middle, until the grid or the light ends */
+            for (s = 0.5; tau > 1e-3; s += 1.0) {
+                double x = x0 + s * v[0], y = y0 + s * v[1], z = z0 + s * v[2], sigma, j[3], a;
+                if (x < -1.0 || y < -1.0 || z < -1.0 || x > g->res[0] || y > g->res[1] || z > g->res[2]) break;
+                sample(g, x, y, z, &sigma, j);
+                a = 1.0 - exp(-sigma / len);
+                for (c = 0; c < 3; c++) acc[c] += tau * a * j[c];
+                tau *= 1.0 - a;
+            }
+        }
+        for (c = 0; c < 3; c++) g->next[3 * n + c] = (float)(job->albedo[c] * acc[c] / (double)job->m);
+    }
+    return NULL;
+}
+
+vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t, const double albedo[3],
+                          float *nodes, uint8_t *valid, int coarse, int directions, int max_orders, double tolerance,
+                          int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen)
+{
+    double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
+    double prev_sum = 0.0, last_sum = 0.0, tail_sum = 0.0;
+    long nside = vsd_sh_healpix_nside(directions);
+    float *ms = NULL;
+    coarse_grid g;
+    order_job jobs[MAX_THREADS];
+    pthread_t tid[MAX_THREADS];
+    size_t fine = (size_t)node_res[0] * node_res[1] * node_res[2], i;
+    vsd_status st = VSD_OK;
+    int a, k, t, c;
+    memset(stats, 0, sizeof *stats);
+    memset(&g, 0, sizeof g);
+    if (coarse < 1 || !nside || max_orders < 1 || !(tolerance >= 0.0))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                        "crm orders: coarse %d, %d directions (12 nside^2), %d orders or tolerance %g out of range", coarse,
+                        directions, max_orders, tolerance);
+    for (a = 0; a < 3; a++) g.res[a] = (node_res[a] - 1 + coarse - 1) / coarse + 1;
+    g.n = (size_t)g.res[0] * g.res[1] * g.res[2];
+    for (a = 0; a < 9; a++) g.to_cell[a] = to_node[a] / coarse;
+    g.sigma = calloc(g.n, sizeof *g.sigma);
+    g.j = calloc(g.n * 3, sizeof *g.j);
+    g.next = calloc(g.n * 3, sizeof *g.next);
+    ms = calloc(g.n * 3, sizeof *ms);
+    wsum = calloc(g.n, sizeof *wsum);
+    dirs = malloc(sizeof *dirs * 3 * (size_t)directions);
+    if (!g.sigma || !g.j || !g.next || !ms || !wsum || !dirs) {
+        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", g.res[0], g.res[1], g.res[2]);
+        goto done;
+    }
+    if ((st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) goto done;
+    /* coarse cells: mean sigma of their fine nodes, J_1 weighted by sigma (J is per unit
+     * extinction, so empty nodes must not dilute it) */
+    for (i = 0; i < fine; i++) {
+        int32_t x = (int32_t)(i % node_res[0]), y = (int32_t)((i / node_res[0]) % node_res[1]);
+        int32_t z = (int32_t)(i / ((size_t)node_res[0] * node_res[1]));
+        size_t n = ((size_t)((z + coarse / 2) / coarse) * g.res[1] + (y + coarse / 2) / coarse) * g.res[0] +
+                   (x + coarse / 2) / coarse;
+        double s = sigma_t[i];
+        if (n >= g.n) continue;
+        g.sigma[n] += (float)s;
+        wsum[n] += 1.0;
+        if (valid[i] & CRM_NODE_SINGLE)
+            for (c = 0; c < 3; c++)
+                g.j[3 * n + c] += (float)(s * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N] / (2.0 * sqrt(PI_D)));
+    }
+    for (i = 0; i < g.n; i++) {
+        for (c = 0; c < 3; c++) g.j[3 * i + c] = g.sigma[i] > 0.0f ? g.j[3 * i + c] / g.sigma[i] : 0.0f;
+        g.sigma[i] = wsum[i] > 0.0 ? (float)(g.sigma[i] / wsum[i]) : 0.0f;
+    }
+    if (threads < 1) threads = 1;
+    if (threads > MAX_THREADS) threads = MAX_THREADS;
+    for (k = 0; k < max_orders; k++) {
+        double sum = 0.0;
+        for (t = 0; t < threads; t++) {
+            jobs[t].g = &g;
+            jobs[t].dirs = dirs;
+            jobs[t].m = directions;
+            for (c = 0; c < 3; c++) jobs[t].albedo[c] = albedo[c];
+            jobs[t].begin = g.n * (size_t)t / (size_t)threads;
+            jobs[t].end = g.n * (size_t)(t + 1) / (size_t)threads;
+        }
+        for (t = 1; t < threads; t++)
+            if (pthread_create(&tid[t], NULL, run_order, &jobs[t]) != 0) {
+                run_order(&jobs[t]);
+                jobs[t].end = jobs[t].begin;
+                tid[t] = 0;
+            }
+        run_order(&jobs[0]);
+        for (t = 1; t < threads; t++)
+            if (tid[t]) pthread_join(tid[t], NULL);
+        for (i = 0; i < 3 * g.n; i++) {
+            ms[i] += g.next[i];
+            sum += g.next[i];
+        }
+        prev_sum = last_sum;
+        last_sum = sum;
+        stats->orders = k + 1;
+        {
+            float *swap = g.j;
+            g.j = g.next;
+            g.next = swap;
+        }
+        if (k > 0 && sum <= tolerance * (tail_sum += sum, tail_sum)) break;
+        if (k == 0) tail_sum = sum;
+    }
+    /* close the series with the geometric tail of the last two orders */
+    if (stats->orders >= 2 && prev_sum > 0.0) {
+        double r = last_sum / prev_sum, f;
+        if (r > 0.95) r = 0.95;
+        f = r / (1.0 - r);
+        for (i = 0; i < 3 * g.n; i++) ms[i] += (float)(f * g.j[i]);
+        stats->tail = tail_sum > 0.0 ? f * last_sum / (tail_sum + f * last_sum) : 0.0;
+    }
+    /* back to the fine nodes, trilinearly, band 0 only */
+    for (i = 0; i < fine; i++) {
+        float *out = nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;
+        double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
+        double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse, sigma, j[3];
+        memset(out, 0, sizeof(float) * 3 * CRM_MS_N);
+        if (!(sigma_t[i] > 0.0f)) {
+            valid[i] &= (uint8_t)~CRM_NODE_MULTIPLE;
+            continue;
+        }
+        {
+            float *keep = g.j;
+            g.j = ms;
+            sample(&g, x, y, z, &sigma, j);
+            g.j = keep;
+        }
+        for (c = 0; c < 3; c++) out[c * CRM_MS_N] = (float)(j[c] * 2.0 * sqrt(PI_D));
+        valid[i] |= CRM_NODE_MULTIPLE;
+    }
+    for (a = 0; a < 3; a++) stats->res[a] = g.res[a];
+done:
+    free(g.sigma);
+    free(g.j);
+    free(g.next);
+    free(ms);
+    free(wsum);
+    free(dirs);
+    stats->seconds = vsd_clock_seconds() - t0;
+    return st;
+}

@@ -1,0 +1,39 @@
+/* crm_orders.h — multiple scattering by successive orders on a coarse grid: the option
+ * `multiple: "orders"` (default), beside the diffusion variants (crm_grid_diffusion.h
+ * "grid", the paper's eq. 13 at the RBF centres "rbf").
+ *
+ * Why: both diffusion variants assume many scattering events; at our smoke's albedo (0.85)
+ * and thickness they give a third of the reference's VolumeInd (docs/methods/crm.md). Here
+ * the scattered light is followed order by order, as a path tracer would, on a grid a few
+ * voxels apart (multiple scattering is smooth):
+ *     J_1       the isotropic part of the single-scattering source (band 0 of J_ss)
+ *     L_k(x,w)  = integral over s of tau(x, x + s w) sigma_t(x + s w) J_k(x + s w) ds
+ *     J_k+1(x)  = albedo * mean over M HEALPix directions w of L_k(x, w)
+ * each march stepping one cell with the cell's sigma_t and J taken trilinearly, stopping
+ * where the transmittance is below 1e-3 or the ray leaves the grid. Orders are added until
+ * one adds less than `tolerance` of the sum, or `max_orders`; the rest is closed with the
+ * geometric tail of the last two orders' ratio (below albedo < 1, so it converges). Phase:
+ * each order beyond the first is taken isotropic (HG's g matters little after two
+ * bounces). J_ms = sum over k >= 2 of J_k is written, band 0 only, into the fine nodes. */
+#ifndef VSD_CRM_ORDERS_H
+#define VSD_CRM_ORDERS_H
+#include <stdint.h>
+#include "vsd/status.h"
+
+typedef struct vsd_crm_orders_stats {
+    int orders;          /* orders computed (k = 2 .. orders + 1) */
+    double tail;         /* fraction of J_ms that came from the geometric tail */
+    int32_t res[3];      /* coarse grid */
+    double seconds;
+} vsd_crm_orders_stats;
+
+/* node_res/to_node: the fine node grid (crm_source_grid.h) and the world-direction to
+ * node-displacement matrix (crm_node_single.h); sigma_t:
+ * per fine node (world units); nodes, valid: the source grid, whose single-scattering band 0
+ * is J_1 and whose multiple-scattering part (and CRM_NODE_MULTIPLE bit) is overwritten.
+ * coarse: fine nodes per coarse cell (>= 1); directions: HEALPix count (12 nside^2). */
+vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t, const double albedo[3],
+                          float *nodes, uint8_t *valid, int coarse, int directions, int max_orders, double tolerance,
+                          int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen);
+
+#endif
