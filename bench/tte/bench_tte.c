@@ -8,7 +8,8 @@
  *   frame     the next VDB frame of the sequence (n/a for single-file scenes)
  * and the error of a render at the evaluation film (--eval-width x --eval-height, default
  * 320x180) against the scene's converged reference at that film: relative RMSE over 4x4
- * blocks (vsd_block_rel_rmse) of Combined RGB and of VolumeDir.
+ * blocks (vsd_block_rel_rmse) of Combined RGB, VolumeDir and VolumeInd; a method's
+ * method_info (crm: RBFs, fit, hash, stage times) goes to stderr.
  *
  * For `reference`, one row per sample count of --spp-list (default 16,64,256,1024): the
  * error at the evaluation film, and the time of the view pass there scaled to the timing
@@ -22,7 +23,7 @@
  * beside it: errors below about twice that are not resolved.
  *
  * Output: a markdown table on stdout, and with --csv FILE one line per point
- * (scene,method,spp,cold,camera,lighting,frame,err_combined,err_voldir) for
+ * (scene,method,spp,cold,camera,lighting,frame,err_combined,err_voldir,err_volind) for
  * bench/tte/plot_tte.py, which draws the log-log plot of error against camera-change time.
  * A render past --time-limit seconds (default 600) is cancelled and shown as "> limit".
  * --set key=value (up to 8) overrides a scene field for the methods' renders, not for the
@@ -148,24 +149,23 @@ static unsigned long long file_fnv(const char *path)
 
 static int read_reference(const char *exr, int w, int h, reference *ref)
 {
-    static const char *const comb[4] = {"ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Combined.B",
-                                        "ViewLayer.Combined.A"};
-    static const char *const vdir[3] = {"ViewLayer.VolumeDir.R", "ViewLayer.VolumeDir.G", "ViewLayer.VolumeDir.B"};
+    static const struct { int pass, channels; const char *name; } passes[] = {
+        {VSD_PASS_COMBINED, 4, "Combined"}, {VSD_PASS_VOLUME_DIR, 3, "VolumeDir"}, {VSD_PASS_VOLUME_IND, 3, "VolumeInd"}};
+    static const char rgba[] = "RGBA";
     vsd_exr_image *img = NULL;
-    char err[512], noise[64];
-    int c, i, ok;
+    char err[512], noise[64], name[64];
+    int c, i, k, ok;
     if (vsd_exr_read(exr, &img, err, sizeof err) != VSD_OK) return 0;
     ok = img->width == w && img->height == h &&
          vsd_exr_read_attr(exr, "vsd/bench_ref_noise", noise, sizeof noise, err, sizeof err) == VSD_OK;
-    ref->pass[VSD_PASS_COMBINED] = malloc(sizeof(float) * 4 * (size_t)w * h);
-    ref->pass[VSD_PASS_VOLUME_DIR] = malloc(sizeof(float) * 3 * (size_t)w * h);
-    ok = ok && ref->pass[VSD_PASS_COMBINED] && ref->pass[VSD_PASS_VOLUME_DIR];
-    for (c = 0; c < 4 && ok; c++) {
-        const float *p = vsd_exr_channel(img, comb[c]), *q = c < 3 ? vsd_exr_channel(img, vdir[c]) : NULL;
-        if (!p || (c < 3 && !q)) ok = 0;
-        for (i = 0; ok && i < w * h; i++) {
-            ref->pass[VSD_PASS_COMBINED][4 * i + c] = p[i];
-            if (c < 3) ref->pass[VSD_PASS_VOLUME_DIR][3 * i + c] = q[i];
+    for (k = 0; k < 3 && ok; k++) {
+        float *dst = ref->pass[passes[k].pass] = malloc(sizeof(float) * passes[k].channels * (size_t)w * h);
+        ok = dst != NULL;
+        for (c = 0; c < passes[k].channels && ok; c++) {
+            const float *p;
+            snprintf(name, sizeof name, "ViewLayer.%s.%c", passes[k].name, rgba[c]);
+            if (!(p = vsd_exr_channel(img, name))) ok = 0;
+            for (i = 0; ok && i < w * h; i++) dst[passes[k].channels * i + c] = p[i];
         }
     }
     if (ok) ref->noise = atof(noise);
@@ -230,7 +230,7 @@ static void free_reference(reference *ref)
 
 typedef struct row {
     int spp;
-    double cold, camera, lighting, frame, err_comb, err_vdir;
+    double cold, camera, lighting, frame, err_comb, err_vdir, err_vind;
 } row;
 
 /* the next frame of the scene's VDB sequence that exists on disk, 0 when none */
@@ -282,6 +282,8 @@ static void measure_method(const tte_opts *o, const char *scene, const char *met
         render_timed(o, &sc, &r, sc.frames.start, &fb, &st) >= 0) {
         out->err_comb = block_error(fb, ref->pass[VSD_PASS_COMBINED], VSD_PASS_COMBINED, o->eval_w, o->eval_h);
         out->err_vdir = block_error(fb, ref->pass[VSD_PASS_VOLUME_DIR], VSD_PASS_VOLUME_DIR, o->eval_w, o->eval_h);
+        out->err_vind = block_error(fb, ref->pass[VSD_PASS_VOLUME_IND], VSD_PASS_VOLUME_IND, o->eval_w, o->eval_h);
+        if (st.method_info[0]) fprintf(stderr, "[%s] %s: %s\n", scene, method, st.method_info);
     }
     vsd_renderer_destroy(r);
     vsd_framebuffer_destroy(fb);
@@ -296,7 +298,7 @@ static void measure_reference(const tte_opts *o, const char *scene, int spp, con
     double scale = ((double)o->width * o->height) / ((double)o->eval_w * o->eval_h);
     memset(out, 0, sizeof *out);
     out->spp = spp;
-    out->cold = out->camera = out->lighting = out->frame = out->err_comb = out->err_vdir = NAN;
+    out->cold = out->camera = out->lighting = out->frame = out->err_comb = out->err_vdir = out->err_vind = NAN;
     if (load(o, scene, "reference", o->eval_w, o->eval_h, spp, 7, &sc) &&
         render_timed(o, &sc, &r, sc.frames.start, &fb, &st) >= 0) {
         /* a path tracer redoes everything for every edit: each is one full render */
@@ -304,6 +306,7 @@ static void measure_reference(const tte_opts *o, const char *scene, int spp, con
         out->cold = (st.load_seconds + st.prepare_seconds) + out->camera;
         out->err_comb = block_error(fb, ref->pass[VSD_PASS_COMBINED], VSD_PASS_COMBINED, o->eval_w, o->eval_h);
         out->err_vdir = block_error(fb, ref->pass[VSD_PASS_VOLUME_DIR], VSD_PASS_VOLUME_DIR, o->eval_w, o->eval_h);
+        out->err_vind = block_error(fb, ref->pass[VSD_PASS_VOLUME_IND], VSD_PASS_VOLUME_IND, o->eval_w, o->eval_h);
     } else {
         out->camera = out->lighting = out->frame = out->cold = -1.0;   /* past the limit: "> limit" */
     }
@@ -326,12 +329,12 @@ static void print_row(const tte_opts *o, FILE *csv, const char *scene, const cha
     cell(c[1], 32, rw->camera, o->time_limit);
     cell(c[2], 32, rw->lighting, o->time_limit);
     cell(c[3], 32, rw->frame, o->time_limit);
-    printf("| %s | %s | %d | %s | %s%s | %s | %s | %.2f%% | %.2f%% |\n", scene, method, rw->spp, c[0], c[1],
-           scaled ? " (scaled)" : "", c[2], c[3], 100.0 * rw->err_comb, 100.0 * rw->err_vdir);
+    printf("| %s | %s | %d | %s | %s%s | %s | %s | %.2f%% | %.2f%% | %.2f%% |\n", scene, method, rw->spp, c[0], c[1],
+           scaled ? " (scaled)" : "", c[2], c[3], 100.0 * rw->err_comb, 100.0 * rw->err_vdir, 100.0 * rw->err_vind);
     fflush(stdout);
     if (csv) {
-        fprintf(csv, "%s,%s,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", scene, method, rw->spp, rw->cold, rw->camera,
-                rw->lighting, rw->frame, rw->err_comb, rw->err_vdir);
+        fprintf(csv, "%s,%s,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", scene, method, rw->spp, rw->cold, rw->camera,
+                rw->lighting, rw->frame, rw->err_comb, rw->err_vdir, rw->err_vind);
         fflush(csv);
     }
 }
@@ -384,12 +387,12 @@ int main(int argc, char **argv)
     memset(&o, 0, sizeof o);
     if (!parse(argc, argv, &o)) return 2;
     if (o.csv && !(csv = fopen(o.csv, "w"))) return fprintf(stderr, "bench_tte: cannot write %s\n", o.csv), 1;
-    if (csv) fprintf(csv, "scene,method,spp,cold,camera,lighting,frame,err_combined,err_voldir\n");
+    if (csv) fprintf(csv, "scene,method,spp,cold,camera,lighting,frame,err_combined,err_voldir,err_volind\n");
     printf("timing film %dx%d, error at %dx%d against a %d-spp reference (4x4 blocks), %d threads (0 = all), "
            "vsd %s\n\n",
            o.width, o.height, o.eval_w, o.eval_h, o.ref_spp, o.threads, vsd_version());
     printf("| scene | method | spp | cold s | camera change s | lighting change s | new frame s | Combined err | "
-           "VolumeDir err |\n|---|---|---|---|---|---|---|---|---|\n");
+           "VolumeDir err | VolumeInd err |\n|---|---|---|---|---|---|---|---|---|---|\n");
     snprintf(scenes, sizeof scenes, "%s", o.scenes);
     for (sv = strtok_r(scenes, ",", &sp); sv; sv = strtok_r(NULL, ",", &sp)) {
         reference ref;
