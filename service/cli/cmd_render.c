@@ -242,16 +242,11 @@ static int render_frames_remote(const vsd_scene *scene, const render_args *a)
     return vsd_render_remote(a->scene_path, scene, a->overrides, a->override_count, &ro);
 }
 
-/* The per-user cache folder (XDG): methods' work that outlives a run, keyed by content. */
+/* --cache-dir, or the per-user default (vsd_default_cache_dir); "none" = no cache. */
 static const char *cache_dir(const render_args *a, char *buf, size_t len)
 {
-    const char *env;
     if (a->cache_dir) return strcmp(a->cache_dir, "none") == 0 || !a->cache_dir[0] ? NULL : a->cache_dir;
-    if ((env = getenv("VSD_CACHE_DIR")) && env[0]) return strcmp(env, "none") == 0 ? NULL : env;
-    if ((env = getenv("XDG_CACHE_HOME")) && env[0]) snprintf(buf, len, "%s/vsd", env);
-    else if ((env = getenv("HOME")) && env[0]) snprintf(buf, len, "%s/.cache/vsd", env);
-    else return NULL;
-    return buf;
+    return vsd_default_cache_dir(buf, len);
 }
 
 static int render_frames(const vsd_scene *scene, const render_args *a)

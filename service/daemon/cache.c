@@ -582,6 +582,7 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
     ro.progress = vsdd_slot_progress;
     ro.user = s;
     ro.cancel = &s->cancel;
+    ro.cache_dir = g_daemon.cfg.method_cache[0] ? g_daemon.cfg.method_cache : NULL;
     st = vsd_renderer_create(scene, &ro, &s->r, msg, msglen);
     if (st) {
         free(s);

@@ -28,6 +28,7 @@ typedef struct vsdd_config {
     int allow_count;
     char cache_parent[VSD_PATH_LEN];
     char cache_dir[VSD_PATH_LEN];  /* private folder made at start, removed at exit */
+    char method_cache[VSD_PATH_LEN]; /* methods' work kept between runs (crm fits); "" = none */
     uint64_t cache_bytes;
     int workers, threads, queue_max, max_connections;
     uint64_t max_message;          /* binary part of one frame (a PUT blob) */

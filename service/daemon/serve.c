@@ -70,6 +70,8 @@ static void serve_usage(FILE *f)
             "  --allow-path DIR       RENDER may name files under DIR (repeatable; default: blobs only)\n"
             "  --cache-mb N           memory budget of all caches (default 2048)\n"
             "  --cache-dir DIR        where blob files live (default $TMPDIR or /tmp)\n"
+            "  --method-cache DIR     where methods keep work between runs, e.g. crm's RBF fits (default\n"
+            "                         $VSD_CACHE_DIR, else $XDG_CACHE_HOME/vsd or ~/.cache/vsd; 'none' = off)\n"
             "  --workers N            jobs rendered at once (default 1)\n"
             "  --threads N            CPU threads per job (default: all cores / workers)\n"
             "  --queue N              jobs that may wait; more are refused with BUSY (default 16)\n"
@@ -135,6 +137,7 @@ static int parse_args(int argc, char **argv, char *ready_file, size_t ready_len)
     else snprintf(c->socket_path, sizeof c->socket_path, "/tmp/vsd-%ld.sock", (long)getuid());
     snprintf(c->cache_parent, sizeof c->cache_parent, "%s", tmp && tmp[0] ? tmp : "/tmp");
     c->cache_bytes = 2048ull << 20;
+    if (!vsd_default_cache_dir(c->method_cache, sizeof c->method_cache)) c->method_cache[0] = '\0';
     c->workers = 1;
     c->queue_max = 16;
     c->max_connections = 64;
@@ -183,6 +186,8 @@ static int parse_args(int argc, char **argv, char *ready_file, size_t ready_len)
             if (parse_u64(a, val, 1, 1ull << 24, &v)) return 2;
             c->cache_bytes = v << 20;
         } else if (!strcmp(a, "--cache-dir")) snprintf(c->cache_parent, sizeof c->cache_parent, "%s", val);
+        else if (!strcmp(a, "--method-cache"))
+            snprintf(c->method_cache, sizeof c->method_cache, "%s", strcmp(val, "none") ? val : "");
         else if (!strcmp(a, "--workers")) {
             if (parse_u64(a, val, 1, 256, &v)) return 2;
             c->workers = (int)v;

@@ -47,6 +47,10 @@ typedef struct vsd_render_stats {
 
 typedef struct vsd_renderer vsd_renderer;
 
+/* The per-user folder for vsd_render_options.cache_dir: $VSD_CACHE_DIR ("none" = no
+ * cache), else $XDG_CACHE_HOME/vsd, else $HOME/.cache/vsd. Written into buf; NULL = none. */
+const char *vsd_default_cache_dir(char *buf, size_t len);
+
 /* Does a CUDA device answer? VSD_OK with its name (what render.device "auto" would use),
  * else the reason in err. Opens and closes a device context: call it once, not per frame. */
 vsd_status vsd_render_cuda_probe(char *name, size_t namelen, char *err, size_t errlen);

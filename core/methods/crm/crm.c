@@ -109,7 +109,8 @@ typedef struct crm_state {
     vsd_crm_fit_options fit_opt;
     /* frame (§5.1-5.2) */
     int32_t dims[3], origin[3];
-    char fit_key[65];             /* content key of the fitted grid: same key, no refit */
+    char fit_key[65];             /* content key of the fitted grid (fit options, no previous
+                                     fit): same key, no refit */
     vsd_crm_rbfs rbfs;
     double first_rel_error;       /* the sequence's first fit error (coherent insertion rule) */
     vsd_crm_fit_stats fit;
@@ -249,7 +250,9 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
                        memcmp(origin, s->origin, sizeof origin) == 0
                    ? &s->rbfs
                    : NULL;
-    if (n > 0 && (st = vsd_crm_fit_cache_key(&dense, &s->fit_opt, previous, s->first_rel_error, key))) goto done;
+    /* the grid's content alone (no previous fit): a medium edit re-runs this stage with the
+     * same grid, and must find it already fitted whatever the coherence chain says */
+    if (n > 0 && (st = vsd_crm_fit_cache_key(&dense, &s->fit_opt, NULL, 0.0, key))) goto done;
     if (n > 0 && s->fit_key[0] && strcmp(key, s->fit_key) == 0 && s->dtilde) {
         /* the same grid as last time (a medium change): §5.1-5.2 stand */
         free(d);

@@ -65,6 +65,40 @@ VSD_CRM_FN float vsd_crm_residual(const vsd_crm_hash_view *h, int i, int j, int 
     return (float)h->table[((size_t)z * (size_t)m + (size_t)y) * (size_t)m + (size_t)x] * h->step;
 }
 
+/* The residuals of the 8 voxels (i + a%2, j + (a/2)%2, k + a/4), a = 0..7, into c[a]: the
+ * view march's per-step lookup. Each axis's two coordinates are reduced mod m and mod r
+ * once (integer division is the lookup's main cost), not once per corner. */
+VSD_CRM_FN void vsd_crm_residual_cell(const vsd_crm_hash_view *h, int i, int j, int k, float c[8])
+{
+    int32_t p[3][2], in[3][2], pm[3][2], pr[3][2], ax, b, a;
+    p[0][0] = i; p[1][0] = j; p[2][0] = k;
+    for (ax = 0; ax < 3; ax++) {
+        int32_t n = ax == 0 ? h->nx : ax == 1 ? h->ny : h->nz;
+        p[ax][1] = p[ax][0] + 1;
+        for (b = 0; b < 2; b++) {
+            in[ax][b] = p[ax][b] >= 0 && p[ax][b] < n;
+            pm[ax][b] = in[ax][b] && h->m > 0 ? p[ax][b] % h->m : 0;
+            pr[ax][b] = in[ax][b] && h->r > 0 ? p[ax][b] % h->r : 0;
+        }
+    }
+    for (a = 0; a < 8; a++) {
+        int32_t bx = a & 1, by = (a >> 1) & 1, bz = (a >> 2) & 1, x, y, z;
+        uint32_t n, off;
+        c[a] = 0.0f;
+        if (!in[0][bx] || !in[1][by] || !in[2][bz]) continue;
+        n = (uint32_t)p[0][bx] + (uint32_t)h->nx * ((uint32_t)p[1][by] + (uint32_t)h->ny * (uint32_t)p[2][bz]);
+        if (!((h->occupancy[n >> 5] >> (n & 31u)) & 1u)) continue;
+        off = h->offsets[((size_t)pr[2][bz] * (size_t)h->r + (size_t)pr[1][by]) * (size_t)h->r + (size_t)pr[0][bx]];
+        x = pm[0][bx] + (int32_t)(off & 1023u);
+        y = pm[1][by] + (int32_t)((off >> 10) & 1023u);
+        z = pm[2][bz] + (int32_t)((off >> 20) & 1023u);
+        if (x >= h->m) x -= h->m;
+        if (y >= h->m) y -= h->m;
+        if (z >= h->m) z -= h->m;
+        c[a] = (float)h->table[((size_t)z * (size_t)h->m + (size_t)y) * (size_t)h->m + (size_t)x] * h->step;
+    }
+}
+
 /* Trilinear residual at a point in voxel index space (voxel (i,j,k) at (i+.5, j+.5, k+.5)),
  * with voxels outside the grid taken as 0, like the density field itself (kernel_volume.h). */
 VSD_CRM_FN float vsd_crm_residual_trilinear(const vsd_crm_hash_view *h, float x, float y, float z)

@@ -26,6 +26,7 @@
 #include "kernel/kernel_camera.h"
 #include "kernel/kernel_march.h"
 #include "src/sh/sh_kernel.h"
+#include "kernel/kernel_record_grid.h" /* vsd_records_dot */
 #include "device/device_pass.h"
 #include "crm_hash_kernel.h"
 
@@ -35,6 +36,7 @@ enum { CRM_SS_ORDER = 4, CRM_SS_N = 16, CRM_MS_N = 4, CRM_NODE_FLOATS = 3 * (CRM
 enum { CRM_NODE_SINGLE = 1, CRM_NODE_MULTIPLE = 2 };
 /* below this a node's single scattering counts as zero in the log interpolation */
 #define CRM_LOG_FLOOR 1e-12f
+#define CRM_LOG_ZERO (-27.0f) /* log(2e-12): a blend of floors only */
 
 typedef struct VSD_ALIGN16 vsd_kcrm {
     const vsd_kernel_data *kd;
@@ -51,24 +53,33 @@ typedef struct VSD_ALIGN16 vsd_kcrm {
     float pad_[2];
 } vsd_kcrm;
 
-/* Trilinear D~ at crm-space point q (voxel centres at +0.5); 0 outside the grid. */
-VSD_DEVICE float vsd_crm_dtilde(const vsd_kcrm *c, vsd_f3 q)
+/* The medium at crm-space point q (voxel centres at +0.5), 0 outside the grid: *dt = D~ and
+ * the return value D~ + R (R omitted with CRM_RESIDUAL_NONE), both trilinear over the same
+ * 8 voxels, read in one pass. */
+VSD_DEVICE float vsd_crm_density(const vsd_kcrm *c, vsd_f3 q, float *dt)
 {
-    float x = q.x - 0.5f, y = q.y - 0.5f, z = q.z - 0.5f;
-    float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz, v[8];
-    int32_t i = (int32_t)fx, j = (int32_t)fy, k = (int32_t)fz, a;
+    float x = q.x - 0.5f, y = q.y - 0.5f, z = q.z - 0.5f, v[8], r[8];
+    float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz, out[2];
+    int32_t i = (int32_t)fx, j = (int32_t)fy, k = (int32_t)fz, a, pass;
     for (a = 0; a < 8; a++) {
         int32_t ii = i + (a & 1), jj = j + ((a >> 1) & 1), kk = k + ((a >> 2) & 1);
         v[a] = (ii < 0 || jj < 0 || kk < 0 || ii >= c->dims[0] || jj >= c->dims[1] || kk >= c->dims[2])
                    ? 0.0f
                    : c->dtilde[((size_t)kk * c->dims[1] + jj) * c->dims[0] + ii];
     }
-    {
-        float c00 = v[0] + (v[1] - v[0]) * tx, c10 = v[2] + (v[3] - v[2]) * tx;
-        float c01 = v[4] + (v[5] - v[4]) * tx, c11 = v[6] + (v[7] - v[6]) * tx;
-        float c0 = c00 + (c10 - c00) * ty, c1 = c01 + (c11 - c01) * ty;
-        return c0 + (c1 - c0) * tz;
+    if (c->residual_mode != CRM_RESIDUAL_NONE) vsd_crm_residual_cell(&c->residual, i, j, k, r);
+    else
+        for (a = 0; a < 8; a++) r[a] = 0.0f;
+    for (pass = 0; pass < 2; pass++) {
+        float w[8], c00, c10, c01, c11, c0, c1;
+        for (a = 0; a < 8; a++) w[a] = pass ? v[a] + r[a] : v[a];
+        c00 = w[0] + (w[1] - w[0]) * tx; c10 = w[2] + (w[3] - w[2]) * tx;
+        c01 = w[4] + (w[5] - w[4]) * tx; c11 = w[6] + (w[7] - w[6]) * tx;
+        c0 = c00 + (c10 - c00) * ty; c1 = c01 + (c11 - c01) * ty;
+        out[pass] = c0 + (c1 - c0) * tz;
     }
+    *dt = out[0];
+    return out[1];
 }
 
 /* Source radiance of one node toward the viewer: y holds the SH basis at -d. */
@@ -76,14 +87,14 @@ VSD_DEVICE void vsd_crm_node_source(const vsd_kcrm *c, int32_t node, const float
 {
     const float *n = c->nodes + (size_t)node * CRM_NODE_FLOATS;
     float s[3], m[3];
-    int32_t ch, i, n2 = c->order * c->order;
+    int32_t ch, n2 = c->order * c->order;
     for (ch = 0; ch < 3; ch++) {
-        float a = 0.0f, b = 0.0f;
-        for (i = 0; i < n2; i++) a += y[i] * n[ch * CRM_SS_N + i];
-        for (i = 0; i < CRM_MS_N; i++) b += y[i] * n[3 * CRM_SS_N + ch * CRM_MS_N + i];
+        /* four-lane sums: the dot products are this pass's hot loop (perf: a serial sum was
+         * a third of the view's time, bound by the add latency) */
+        float a = vsd_records_dot(y, n + ch * CRM_SS_N, n2), b = vsd_records_dot(y, n + 3 * CRM_SS_N + ch * CRM_MS_N, CRM_MS_N);
         /* truncated SH rings below zero; radiance does not */
-        s[ch] = fmaxf(a, 0.0f);
-        m[ch] = fmaxf(b, 0.0f);
+        s[ch] = a > 0.0f ? a : 0.0f;
+        m[ch] = b > 0.0f ? b : 0.0f;
     }
     *ss = f3(s[0], s[1], s[2]);
     *ms = f3(m[0], m[1], m[2]);
@@ -105,19 +116,36 @@ VSD_DEVICE void vsd_crm_source(const vsd_kcrm *c, vsd_f3 q, const float *y, vsd_
     float tx = u - (float)i0, ty = v - (float)j0, tz = w - (float)k0;
     *ss = *ms = f3s(0.0f);
     if (!cc->filled || cc->key[0] != i0 || cc->key[1] != j0 || cc->key[2] != k0) {
+        /* a ray moving into a neighbouring cell shares 4 (or 2, or 1) corners with the last
+         * one: those are copied, not re-evaluated (the same values) */
+        int32_t di = i0 - cc->key[0], dj = j0 - cc->key[1], dk = k0 - cc->key[2], had = cc->filled, old_valid = cc->valid;
+        vsd_f3 old_ss[8], old_ms[8];
+        for (a = 0; a < 8; a++) {
+            old_ss[a] = cc->ss[a];
+            old_ms[a] = cc->ms[a];
+        }
         cc->key[0] = i0; cc->key[1] = j0; cc->key[2] = k0;
         cc->filled = 1;
         cc->valid = 0;
         for (a = 0; a < 8; a++) {
             int32_t i = i0 + (a & 1), j = j0 + ((a >> 1) & 1), k = k0 + ((a >> 2) & 1), node;
+            int32_t ox = (a & 1) + di, oy = ((a >> 1) & 1) + dj, oz = ((a >> 2) & 1) + dk;
+            if (had && ox >= 0 && ox <= 1 && oy >= 0 && oy <= 1 && oz >= 0 && oz <= 1) {
+                int32_t b = ox | (oy << 1) | (oz << 2);
+                cc->ss[a] = old_ss[b];
+                cc->ms[a] = old_ms[b];
+                cc->valid |= ((old_valid >> (2 * b)) & 3) << (2 * a);
+                continue;
+            }
             if (i < 0 || j < 0 || k < 0 || i >= c->node_res[0] || j >= c->node_res[1] || k >= c->node_res[2]) continue;
             node = (k * c->node_res[1] + j) * c->node_res[0] + i;
             if (!c->node_valid[node]) continue;
             vsd_crm_node_source(c, node, y, &cc->ss[a], &cc->ms[a]);
             /* single scattering falls exponentially into the medium: interpolate its log
              * (the weighted geometric mean), as shgrid's records do */
-            cc->ss[a] = f3(logf(fmaxf(cc->ss[a].x, CRM_LOG_FLOOR)), logf(fmaxf(cc->ss[a].y, CRM_LOG_FLOOR)),
-                           logf(fmaxf(cc->ss[a].z, CRM_LOG_FLOOR)));
+            cc->ss[a] = f3(logf(cc->ss[a].x > CRM_LOG_FLOOR ? cc->ss[a].x : CRM_LOG_FLOOR),
+                           logf(cc->ss[a].y > CRM_LOG_FLOOR ? cc->ss[a].y : CRM_LOG_FLOOR),
+                           logf(cc->ss[a].z > CRM_LOG_FLOOR ? cc->ss[a].z : CRM_LOG_FLOOR));
             cc->valid |= (int32_t)c->node_valid[node] << (2 * a);
         }
     }
@@ -136,7 +164,9 @@ VSD_DEVICE void vsd_crm_source(const vsd_kcrm *c, vsd_f3 q, const float *y, vsd_
     }
     if (ws > 0.0f) {
         *ss = f3_scale(*ss, 1.0f / ws);
-        *ss = f3(expf(ss->x), expf(ss->y), expf(ss->z));
+        /* corners all at the floor mean no light, not the floor's 1e-12 */
+        *ss = f3(ss->x > CRM_LOG_ZERO ? expf(ss->x) : 0.0f, ss->y > CRM_LOG_ZERO ? expf(ss->y) : 0.0f,
+                 ss->z > CRM_LOG_ZERO ? expf(ss->z) : 0.0f);
     }
     if (wm > 0.0f) *ms = f3_scale(*ms, 1.0f / wm);
 }
@@ -166,11 +196,10 @@ VSD_DEVICE vsd_sample_result vsd_crm_pixel(const vsd_kcrm *c, int32_t px, int32_
             vsd_f3 p = f3_madd(o, d, tm), ix = vsd_affine_point(&kd->density.world_to_index, p);
             vsd_f3 q = f3(ix.x - (float)c->origin[0] + 0.5f, ix.y - (float)c->origin[1] + 0.5f,
                           ix.z - (float)c->origin[2] + 0.5f);
-            float dt = vsd_crm_dtilde(c, q), full = dt, absorbed, shrink;
-            if (c->residual_mode != CRM_RESIDUAL_NONE) full += vsd_crm_residual_trilinear(&c->residual, q.x, q.y, q.z);
-            full = fmaxf(full, 0.0f);
+            float dt, full = vsd_crm_density(c, q, &dt), absorbed, shrink;
+            full = full > 0.0f ? full : 0.0f;
             absorbed = vsd_march_medium_sigma(kd, &acc, p, hs, kd->density.scale * full);
-            shrink = c->residual_mode == CRM_RESIDUAL_SOURCE ? 1.0f - expf(-kd->density.scale * fmaxf(dt, 0.0f) * hs)
+            shrink = c->residual_mode == CRM_RESIDUAL_SOURCE ? 1.0f - expf(-kd->density.scale * (dt > 0.0f ? dt : 0.0f) * hs)
                                                               : absorbed;
             if (absorbed > 0.0f || shrink > 0.0f) {
                 vsd_f3 ss, ms;

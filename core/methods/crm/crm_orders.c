@@ -17,6 +17,10 @@ typedef struct coarse_grid {
     float *j;           /* [n * 3] current order's source */
     float *next;        /* [n * 3] the next order */
     double to_cell[9];  /* world direction -> coarse-grid displacement per world unit */
+    /* (sigma, sigma J) per cell with a zero border (1 cell below, 2 above per axis), rebuilt
+     * per order, so the marches read 8 corners without bounds tests */
+    float *pad;
+    size_t sx, sy;
 } coarse_grid;
 
 typedef struct order_job {
@@ -27,25 +31,35 @@ typedef struct order_job {
     size_t begin, end;
 } order_job;
 
-/* Trilinear sigma and J at coarse-index point (x, y, z), 0 outside: J as the ratio of the
- * interpolated sigma J to the interpolated sigma, so empty neighbours (J = 0 there, since J
- * is per unit extinction) do not dim the medium's edge. */
-static void sample(const coarse_grid *g, double x, double y, double z, double *sigma, double j[3])
+static void fill_pad(coarse_grid *g)
 {
-    double fx = floor(x), fy = floor(y), fz = floor(z), tx = x - fx, ty = y - fy, tz = z - fz;
-    int32_t i = (int32_t)fx, k = (int32_t)fz, jj = (int32_t)fy, a, c;
-    *sigma = 0.0;
-    j[0] = j[1] = j[2] = 0.0;
-    for (a = 0; a < 8; a++) {
-        int32_t ii = i + (a & 1), jy = jj + ((a >> 1) & 1), kk = k + ((a >> 2) & 1);
-        double w = ((a & 1) ? tx : 1.0 - tx) * (((a >> 1) & 1) ? ty : 1.0 - ty) * (((a >> 2) & 1) ? tz : 1.0 - tz);
-        size_t n;
-        if (ii < 0 || jy < 0 || kk < 0 || ii >= g->res[0] || jy >= g->res[1] || kk >= g->res[2] || w <= 0.0) continue;
-        n = ((size_t)kk * g->res[1] + jy) * g->res[0] + ii;
-        *sigma += w * g->sigma[n];
-        for (c = 0; c < 3; c++) j[c] += w * g->sigma[n] * g->j[3 * n + c];
+    int32_t i, j, k, c;
+    for (k = 0; k < g->res[2]; k++)
+        for (j = 0; j < g->res[1]; j++)
+            for (i = 0; i < g->res[0]; i++) {
+                size_t n = ((size_t)k * g->res[1] + j) * g->res[0] + i;
+                float *p = g->pad + 4 * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
+                p[0] = g->sigma[n];
+                for (c = 0; c < 3; c++) p[1 + c] = g->sigma[n] * g->j[3 * n + c];
+            }
+}
+
+/* Trilinear sigma and sigma J at coarse-index point (x, y, z) in [-1, res], 0 outside: J is
+ * taken as the ratio by the caller, so empty neighbours (J = 0 there, since J is per unit
+ * extinction) do not dim the medium's edge. */
+static void sample(const coarse_grid *g, float x, float y, float z, float out[4])
+{
+    float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz;
+    size_t b = (size_t)((int32_t)fz + 1) * g->sy + (size_t)((int32_t)fy + 1) * g->sx + (size_t)((int32_t)fx + 1);
+    const float *c000 = g->pad + 4 * b, *c100 = c000 + 4, *c010 = c000 + 4 * g->sx, *c110 = c010 + 4;
+    const float *c001 = c000 + 4 * g->sy, *c101 = c001 + 4, *c011 = c001 + 4 * g->sx, *c111 = c011 + 4;
+    int q;
+    for (q = 0; q < 4; q++) {
+        float a0 = c000[q] + (c100[q] - c000[q]) * tx, a1 = c010[q] + (c110[q] - c010[q]) * tx;
+        float b0 = c001[q] + (c101[q] - c001[q]) * tx, b1 = c011[q] + (c111[q] - c011[q]) * tx;
+        float a = a0 + (a1 - a0) * ty, bb = b0 + (b1 - b0) * ty;
+        out[q] = a + (bb - a) * tz;
     }
-    for (c = 0; c < 3; c++) j[c] = *sigma > 0.0 ? j[c] / *sigma : 0.0;
 }
 
 static void *run_order(void *arg)
@@ -63,7 +77,7 @@ static void *run_order(void *arg)
         }
         for (d = 0; d < job->m; d++) {
             const double *w = job->dirs + 3 * (size_t)d;
-            double tau = 1.0, s, v[3], len;
+            double v[3], len;
             int ax;
             /* the world direction in the grid (the volume's transform); a cell step is 1/len long */
             for (ax = 0; ax < 3; ax++)
@@ -72,13 +86,21 @@ static void *run_order(void *arg)
             if (!(len > 0.0)) continue;
             for (ax = 0; ax < 3; ax++) v[ax] /= len;
             /* one cell per step, sampled at the step's middle, until the grid or the light ends */
-            for (s = 0.5; tau > 1e-3; s += 1.0) {
-                double x = x0 + s * v[0], y = y0 + s * v[1], z = z0 + s * v[2], sigma, j[3], a;
-                if (x < -1.0 || y < -1.0 || z < -1.0 || x > g->res[0] || y > g->res[1] || z > g->res[2]) break;
-                sample(g, x, y, z, &sigma, j);
-                a = 1.0 - exp(-sigma / len);
-                for (c = 0; c < 3; c++) acc[c] += tau * a * j[c];
-                tau *= 1.0 - a;
+            {
+                float ux = (float)v[0], uy = (float)v[1], uz = (float)v[2], inv = (float)(1.0 / len), t = 1.0f, s;
+                float px = (float)x0, py = (float)y0, pz = (float)z0, sum[3] = {0.0f, 0.0f, 0.0f};
+                for (s = 0.5f; t > 1e-3f; s += 1.0f) {
+                    float x = px + s * ux, y = py + s * uy, z = pz + s * uz, smp[4], a;
+                    if (x < -1.0f || y < -1.0f || z < -1.0f || x > (float)g->res[0] || y > (float)g->res[1] ||
+                        z > (float)g->res[2])
+                        break;
+                    sample(g, x, y, z, smp);
+                    if (!(smp[0] > 0.0f)) continue;
+                    a = 1.0f - expf(-smp[0] * inv);
+                    for (c = 0; c < 3; c++) sum[c] += t * a * (smp[1 + c] / smp[0]);
+                    t *= 1.0f - a;
+                }
+                for (c = 0; c < 3; c++) acc[c] += sum[c];
             }
         }
         for (c = 0; c < 3; c++) g->next[3 * n + c] = (float)(job->albedo[c] * acc[c] / (double)job->m);
@@ -112,10 +134,13 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     g.sigma = calloc(g.n, sizeof *g.sigma);
     g.j = calloc(g.n * 3, sizeof *g.j);
     g.next = calloc(g.n * 3, sizeof *g.next);
+    g.sx = (size_t)g.res[0] + 3;
+    g.sy = g.sx * ((size_t)g.res[1] + 3);
+    g.pad = calloc(4 * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
     ms = calloc(g.n * 3, sizeof *ms);
     wsum = calloc(g.n, sizeof *wsum);
     dirs = malloc(sizeof *dirs * 3 * (size_t)directions);
-    if (!g.sigma || !g.j || !g.next || !ms || !wsum || !dirs) {
+    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs) {
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", g.res[0], g.res[1], g.res[2]);
         goto done;
     }
@@ -143,6 +168,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     if (threads > MAX_THREADS) threads = MAX_THREADS;
     for (k = 0; k < max_orders; k++) {
         double sum = 0.0;
+        fill_pad(&g);
         for (t = 0; t < threads; t++) {
             jobs[t].g = &g;
             jobs[t].dirs = dirs;
@@ -183,22 +209,21 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         for (i = 0; i < 3 * g.n; i++) ms[i] += (float)(f * g.j[i]);
         stats->tail = tail_sum > 0.0 ? f * last_sum / (tail_sum + f * last_sum) : 0.0;
     }
-    /* back to the fine nodes, trilinearly, band 0 only */
+    /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), band 0 only */
+    memcpy(g.j, ms, sizeof(float) * 3 * g.n);
+    fill_pad(&g);
     for (i = 0; i < fine; i++) {
         float *out = nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;
         double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
-        double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse, sigma, j[3];
+        double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse, j[3];
+        float smp[4];
         memset(out, 0, sizeof(float) * 3 * CRM_MS_N);
         if (!(sigma_t[i] > 0.0f)) {
             valid[i] &= (uint8_t)~CRM_NODE_MULTIPLE;
             continue;
         }
-        {
-            float *keep = g.j;
-            g.j = ms;
-            sample(&g, x, y, z, &sigma, j);
-            g.j = keep;
-        }
+        sample(&g, (float)x, (float)y, (float)z, smp);
+        for (c = 0; c < 3; c++) j[c] = smp[0] > 0.0f ? smp[1 + c] / smp[0] : 0.0;
         for (c = 0; c < 3; c++) out[c * CRM_MS_N] = (float)(j[c] * 2.0 * sqrt(PI_D));
         valid[i] |= CRM_NODE_MULTIPLE;
     }
@@ -207,6 +232,7 @@ done:
     free(g.sigma);
     free(g.j);
     free(g.next);
+    free(g.pad);
     free(ms);
     free(wsum);
     free(dirs);
