@@ -343,7 +343,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     else if (s->opt.single == SINGLE_DIRECT || s->opt.multiple == MULTIPLE_RBF)
         /* the RBF-centre form also feeds the paper's diffusion at the centres */
         st = vsd_crm_single_scatter_direct(&s->rbfs, ctx->kd.density.scale, w2i, albedo, g, order, env_sh,
-                                           s->opt.directions, s->j_ss, err, errlen);
+                                           s->opt.directions, ctx->threads, s->j_ss, err, errlen);
     else
         memset(s->j_ss, 0, sizeof(double) * (size_t)count * 3 * n2);
     s->single_seconds = vsd_clock_seconds() - t0;
@@ -377,8 +377,8 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         for (i = 0; i < nodes; i++) sigma_t[i] = ctx->kd.density.scale * s->node_density[i];
         if (s->opt.single == SINGLE_GRID) {
             t0 = vsd_clock_seconds();
-            st = vsd_crm_node_single(s->node_res, to_node, sigma_t, albedo, g, order, env_sh,
-                                     s->opt.directions, s->nodes.nodes, s->nodes.valid, err, errlen);
+            st = vsd_crm_node_single(s->node_res, to_node, sigma_t, albedo, g, order, env_sh, s->opt.directions,
+                                     ctx->threads, s->nodes.nodes, s->nodes.valid, err, errlen);
             s->single_seconds = vsd_clock_seconds() - t0;
         }
         if (!st && s->opt.multiple == MULTIPLE_GRID)

@@ -68,8 +68,8 @@ static double march(const void *user, const double p[3], const double w[3])
 }
 
 vsd_status vsd_crm_node_single(const int32_t res[3], const double to_node[9], const float *sigma_t, const double albedo[3], double g,
-                               int order, const double *env_sh, int directions, float *nodes, uint8_t *valid,
-                               char *err, size_t errlen)
+                               int order, const double *env_sh, int directions, int threads, float *nodes,
+                               uint8_t *valid, char *err, size_t errlen)
 {
     node_depth depth;
     size_t n = (size_t)res[0] * res[1] * res[2], i, m = 0;
@@ -100,8 +100,8 @@ vsd_status vsd_crm_node_single(const int32_t res[3], const double to_node[9], co
         points[3 * m + 2] = (double)(i / ((size_t)res[0] * res[1]));
         m++;
     }
-    if ((st = vsd_crm_single_scatter_points((int)m, points, march, &depth, albedo, g, order, env_sh, directions, j, err,
-                                            errlen)))
+    if ((st = vsd_crm_single_scatter_points((int)m, points, march, &depth, albedo, g, order, env_sh, directions, threads,
+                                            j, err, errlen)))
         goto done;
     for (i = 0; i < m; i++) {
         float *ss = nodes + (size_t)which[i] * CRM_NODE_FLOATS;

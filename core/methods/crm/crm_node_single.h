@@ -19,11 +19,11 @@
 
 /* res: the node grid; to_node: world direction to node-grid displacement per world unit
  * (the volume's world-to-index matrix over the node spacing, row-major); sigma_t: per node
- * (world units); writes the
+ * (world units); threads: CPU threads (0 = all); writes the
  * single-scattering part of every node with sigma_t > 0 and its CRM_NODE_SINGLE bit (cleared
  * elsewhere). env_sh: 3 * order^2. */
 vsd_status vsd_crm_node_single(const int32_t res[3], const double to_node[9], const float *sigma_t, const double albedo[3], double g,
-                               int order, const double *env_sh, int directions, float *nodes, uint8_t *valid,
-                               char *err, size_t errlen);
+                               int order, const double *env_sh, int directions, int threads, float *nodes,
+                               uint8_t *valid, char *err, size_t errlen);
 
 #endif

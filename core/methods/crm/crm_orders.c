@@ -3,12 +3,11 @@
 #include "vsd/sh.h"
 #include "src/common/clock.h"
 #include <math.h>
-#include <pthread.h>
+#include "device/cpu/cpu_tiles.h"
 #include <stdlib.h>
 #include <string.h>
 
 #define PI_D 3.14159265358979323846
-#define MAX_THREADS 8
 
 typedef struct coarse_grid {
     int32_t res[3];
@@ -28,7 +27,6 @@ typedef struct order_job {
     const double *dirs;
     int m;
     double albedo[3];
-    size_t begin, end;
 } order_job;
 
 static void fill_pad(coarse_grid *g)
@@ -62,12 +60,15 @@ static void sample(const coarse_grid *g, float x, float y, float z, float out[4]
     }
 }
 
-static void *run_order(void *arg)
+/* Cells [n0, n1) of one order, as the x range of a count x 1 job of the CPU backend's pool. */
+static void run_order(void *arg, int n0, int y0, int n1, int y1)
 {
     const order_job *job = arg;
     const coarse_grid *g = job->g;
     size_t n;
-    for (n = job->begin; n < job->end; n++) {
+    (void)y0;
+    (void)y1;
+    for (n = (size_t)n0; n < (size_t)n1; n++) {
         double x0 = (double)(n % g->res[0]), y0 = (double)((n / g->res[0]) % g->res[1]);
         double z0 = (double)(n / ((size_t)g->res[0] * g->res[1])), acc[3] = {0.0, 0.0, 0.0};
         int d, c;
@@ -105,7 +106,6 @@ static void *run_order(void *arg)
         }
         for (c = 0; c < 3; c++) g->next[3 * n + c] = (float)(job->albedo[c] * acc[c] / (double)job->m);
     }
-    return NULL;
 }
 
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t, const double albedo[3],
@@ -117,11 +117,11 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     long nside = vsd_sh_healpix_nside(directions);
     float *ms = NULL;
     coarse_grid g;
-    order_job jobs[MAX_THREADS];
-    pthread_t tid[MAX_THREADS];
+    order_job job;
+    vsd_tile_job tiles;
     size_t fine = (size_t)node_res[0] * node_res[1] * node_res[2], i;
     vsd_status st = VSD_OK;
-    int a, k, t, c;
+    int a, k, c;
     memset(stats, 0, sizeof *stats);
     memset(&g, 0, sizeof g);
     if (coarse < 1 || !nside || max_orders < 1 || !(tolerance >= 0.0))
@@ -164,28 +164,25 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         for (c = 0; c < 3; c++) g.j[3 * i + c] = g.sigma[i] > 0.0f ? g.j[3 * i + c] / g.sigma[i] : 0.0f;
         g.sigma[i] = wsum[i] > 0.0 ? (float)(g.sigma[i] / wsum[i]) : 0.0f;
     }
-    if (threads < 1) threads = 1;
-    if (threads > MAX_THREADS) threads = MAX_THREADS;
+    if (g.n > 0x7fffffff) {
+        st = vsd_fail(VSD_ERR_INVALID, err, errlen, "crm orders: %zu cells", g.n);
+        goto done;
+    }
+    job.g = &g;
+    job.dirs = dirs;
+    job.m = directions;
+    for (c = 0; c < 3; c++) job.albedo[c] = albedo[c];
+    memset(&tiles, 0, sizeof tiles);
+    tiles.width = (int)g.n;
+    tiles.height = 1;
+    tiles.threads = threads;
+    tiles.fn = run_order;
+    tiles.user = &job;
+    tiles.stage = "crm multiple scattering";
     for (k = 0; k < max_orders; k++) {
         double sum = 0.0;
         fill_pad(&g);
-        for (t = 0; t < threads; t++) {
-            jobs[t].g = &g;
-            jobs[t].dirs = dirs;
-            jobs[t].m = directions;
-            for (c = 0; c < 3; c++) jobs[t].albedo[c] = albedo[c];
-            jobs[t].begin = g.n * (size_t)t / (size_t)threads;
-            jobs[t].end = g.n * (size_t)(t + 1) / (size_t)threads;
-        }
-        for (t = 1; t < threads; t++)
-            if (pthread_create(&tid[t], NULL, run_order, &jobs[t]) != 0) {
-                run_order(&jobs[t]);
-                jobs[t].end = jobs[t].begin;
-                tid[t] = 0;
-            }
-        run_order(&jobs[0]);
-        for (t = 1; t < threads; t++)
-            if (tid[t]) pthread_join(tid[t], NULL);
+        if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
         for (i = 0; i < 3 * g.n; i++) {
             ms[i] += g.next[i];
             sum += g.next[i];

@@ -1,13 +1,11 @@
 #include "crm_single_direct.h"
 #include "vsd/sh.h"
 #include <math.h>
-#include <pthread.h>
+#include "device/cpu/cpu_tiles.h"
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #define PI_D 3.14159265358979323846
-#define MAX_THREADS 8
 
 typedef struct direct_job {
     const double *points;
@@ -19,7 +17,6 @@ typedef struct direct_job {
     const double *basis;      /* [m * n2] */
     const double *radiance;   /* [m * 3] L_in per direction (the SH reconstruction) */
     double *j_ss;
-    int begin, end;
 } direct_job;
 
 /* Optical depth (unscaled) of RBF b along the ray from p toward unit w, to infinity. */
@@ -53,13 +50,17 @@ static double rbf_optical_depth(const void *user, const double p[3], const doubl
     return r->sigma * od / len;
 }
 
-static void *run(void *arg)
+/* Points [l0, l1): the CPU backend's thread pool hands out ranges as the x of a count x 1
+ * "image" (vsd_cpu_run_tiles). */
+static void run(void *arg, int l0, int y0, int l1, int y1)
 {
     const direct_job *j = arg;
     const int n2 = j->n2;
     double f[3][16], tau;
     int l, d, c, i, band, m;
-    for (l = j->begin; l < j->end; l++) {
+    (void)y0;
+    (void)y1;
+    for (l = l0; l < l1; l++) {
         const double *p = j->points + 3 * (size_t)l;
         double *out = j->j_ss + (size_t)l * 3 * n2;
         memset(f, 0, sizeof f);
@@ -81,12 +82,11 @@ static void *run(void *arg)
                 }
         }
     }
-    return NULL;
 }
 
 vsd_status vsd_crm_single_scatter_direct(const vsd_crm_rbfs *rbfs, double sigma, const double w2i[9],
                                          const double albedo[3], double g, int order, const double *env_sh,
-                                         int directions, double *j_ss, char *err, size_t errlen)
+                                         int directions, int threads, double *j_ss, char *err, size_t errlen)
 {
     rbf_depth depth;
     double *points;
@@ -106,21 +106,21 @@ vsd_status vsd_crm_single_scatter_direct(const vsd_crm_rbfs *rbfs, double sigma,
         points[3 * l + 2] = rbfs->rbf[l].c[2];
     }
     st = vsd_crm_single_scatter_points(rbfs->count, points, rbf_optical_depth, &depth, albedo, g, order, env_sh,
-                                       directions, j_ss, err, errlen);
+                                       directions, threads, j_ss, err, errlen);
     free(points);
     return st;
 }
 
 vsd_status vsd_crm_single_scatter_points(int count, const double *points, vsd_crm_depth_fn optical_depth,
                                          const void *user, const double albedo[3], double g, int order,
-                                         const double *env_sh, int directions, double *j_ss, char *err,
-                                         size_t errlen)
+                                         const double *env_sh, int directions, int threads, double *j_ss,
+                                         char *err, size_t errlen)
 {
-    long nside = vsd_sh_healpix_nside(directions), cpus = sysconf(_SC_NPROCESSORS_ONLN);
-    int n2 = order * order, m = directions, t, threads, d, c, i;
+    long nside = vsd_sh_healpix_nside(directions);
+    int n2 = order * order, m = directions, d, c, i;
     double *dirs = NULL, *basis = NULL, *radiance = NULL, hg[16];
-    direct_job jobs[MAX_THREADS];
-    pthread_t tid[MAX_THREADS];
+    direct_job job;
+    vsd_tile_job tiles;
     vsd_status st;
     if (order < 1 || order > 4 || !nside || !(fabs(g) < 1.0))
         return vsd_fail(VSD_ERR_INVALID, err, errlen,
@@ -146,36 +146,26 @@ vsd_status vsd_crm_single_scatter_points(int count, const double *points, vsd_cr
         }
     }
     vsd_sh_hg_zh(order, g, hg);
-    threads = (int)(cpus < 1 ? 1 : cpus > MAX_THREADS ? MAX_THREADS : cpus);
-    if (threads > count) threads = count;
-    for (t = 0; t < threads; t++) {
-        direct_job *j = &jobs[t];
-        j->points = points;
-        j->depth = optical_depth;
-        j->user = user;
-        j->albedo = albedo;
-        j->hg = hg;
-        j->order = order;
-        j->n2 = n2;
-        j->m = m;
-        j->dirs = dirs;
-        j->basis = basis;
-        j->radiance = radiance;
-        j->j_ss = j_ss;
-        j->begin = (int)((long)count * t / threads);
-        j->end = (int)((long)count * (t + 1) / threads);
-    }
-    for (t = 1; t < threads; t++)
-        if (pthread_create(&tid[t], NULL, run, &jobs[t]) != 0) {
-            /* run what could not get a thread here */
-            run(&jobs[t]);
-            jobs[t].begin = jobs[t].end;
-            tid[t] = 0;
-        }
-    run(&jobs[0]);
-    for (t = 1; t < threads; t++)
-        if (tid[t]) pthread_join(tid[t], NULL);
-    st = VSD_OK;
+    job.points = points;
+    job.depth = optical_depth;
+    job.user = user;
+    job.albedo = albedo;
+    job.hg = hg;
+    job.order = order;
+    job.n2 = n2;
+    job.m = m;
+    job.dirs = dirs;
+    job.basis = basis;
+    job.radiance = radiance;
+    job.j_ss = j_ss;
+    memset(&tiles, 0, sizeof tiles);
+    tiles.width = count;
+    tiles.height = 1;
+    tiles.threads = threads;
+    tiles.fn = run;
+    tiles.user = &job;
+    tiles.stage = "crm single scattering";
+    st = vsd_cpu_run_tiles(&tiles);
 done:
     free(dirs);
     free(basis);

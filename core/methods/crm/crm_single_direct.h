@@ -12,7 +12,8 @@
  * whose 3r support the ray misses are skipped), tau = exp(-sigma sum T_h), and
  * L_in(w) tau(w) is projected onto order-n SH with weight 4pi/M, then convolved with HG as
  * in the paper (eq. 11). L_in is the environment's own order-n SH (the paper's lighting),
- * unclamped (so the band-limited map keeps its mean). Cost O(count^2 M), on the online CPUs. Same layouts and conventions as
+ * unclamped (so the band-limited map keeps its mean). Cost O(count^2 M), on `threads` CPU
+ * threads (0 = all; the CPU backend's pool). Same layouts and conventions as
  * vsd_crm_single_scatter. */
 #ifndef VSD_CRM_SINGLE_DIRECT_H
 #define VSD_CRM_SINGLE_DIRECT_H
@@ -23,7 +24,7 @@
  * (linear part, row-major), which carries world directions into the RBFs' index space. */
 vsd_status vsd_crm_single_scatter_direct(const vsd_crm_rbfs *rbfs, double sigma, const double w2i[9],
                                          const double albedo[3], double g, int order, const double *env_sh,
-                                         int directions, double *j_ss, char *err, size_t errlen);
+                                         int directions, int threads, double *j_ss, char *err, size_t errlen);
 
 /* The same at any points: optical_depth(user, p, w) is the optical depth (sigma included)
  * from point p toward unit direction w; j_ss: count * 3 * order^2. Used by the RBF form
@@ -31,7 +32,7 @@ vsd_status vsd_crm_single_scatter_direct(const vsd_crm_rbfs *rbfs, double sigma,
 typedef double (*vsd_crm_depth_fn)(const void *user, const double p[3], const double w[3]);
 vsd_status vsd_crm_single_scatter_points(int count, const double *points, vsd_crm_depth_fn optical_depth,
                                          const void *user, const double albedo[3], double g, int order,
-                                         const double *env_sh, int directions, double *j_ss, char *err,
-                                         size_t errlen);
+                                         const double *env_sh, int directions, int threads, double *j_ss,
+                                         char *err, size_t errlen);
 
 #endif
