@@ -35,6 +35,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* rbf_count 0: one RBF per this many non-zero voxels, within [MIN, MAX] (800 at 128^3 smoke;
+ * a 22^3 puff gets 35 instead of 800 RBFs crowding its 3456 voxels, which cost a minute of
+ * fitting and left nothing for the residual to do) */
+#define CRM_AUTO_VOXELS_PER_RBF 100
+#define CRM_AUTO_RBFS_MIN 16
+#define CRM_AUTO_RBFS_MAX 800
+
 typedef struct crm_options {
     int rbf_count, fit_iterations, order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
     int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell;
@@ -53,8 +60,9 @@ static const char *healpix_count_problem(double v)
 static const char *const multiple_names[] = {"orders", "grid", "rbf", NULL};
 
 static const vsd_option_spec crm_option_rows[] = {
-    {"rbf_count", VSD_OPT_INT, 1, VSD_CRM_DIFFUSION_MAX_RBFS, 800, NULL,
-     "RBFs fitted to the first frame (the paper: 1000)", offsetof(crm_options, rbf_count), 0, NULL},
+    {"rbf_count", VSD_OPT_INT, 1, VSD_CRM_DIFFUSION_MAX_RBFS, 0, NULL,
+     "RBFs fitted to the first frame (0 = one per 100 non-zero voxels, 16..800; the paper: 1000)",
+     offsetof(crm_options, rbf_count), VSD_OPT_ZERO_AUTO, NULL},
     {"fit_iterations", VSD_OPT_INT, 10, 100000, 3000, NULL,
      "bound on the L-BFGS iterations of one frame's RBF fit", offsetof(crm_options, fit_iterations), 0, NULL},
     {"coherent", VSD_OPT_BOOL, 0, 1, 1, NULL,
@@ -96,7 +104,7 @@ static const vsd_option_spec crm_option_rows[] = {
      "density residual in the march: full (extinction and source), source (eq. 8: source only), none",
      offsetof(crm_options, residual), 0, NULL},
     {"node_spacing", VSD_OPT_NUMBER, 0, 64, 0, NULL,
-     "voxels between the source-radiance nodes (0 = automatic: largest dimension / 48, at least 2)",
+     "voxels between the source-radiance nodes (0 = automatic: largest dimension / 48, at least 1)",
      offsetof(crm_options, node_spacing), VSD_OPT_ZERO_AUTO, NULL},
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = one voxel)",
      offsetof(crm_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
@@ -143,7 +151,7 @@ static vsd_status crm_create(void **state, const vsd_scene *scene, const void *o
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
     s->opt = *(const crm_options *)options;
     vsd_crm_fit_defaults(&s->fit_opt);
-    s->fit_opt.rbf_count = s->opt.rbf_count;
+    s->fit_opt.rbf_count = s->opt.rbf_count > 0 ? s->opt.rbf_count : CRM_AUTO_RBFS_MAX;
     s->fit_opt.max_iterations = s->opt.fit_iterations;
     s->fit_opt.delete_per_frame = s->opt.delete_per_frame;
     s->fit_opt.insert_max = s->opt.insert_max;
@@ -194,35 +202,49 @@ static vsd_status dense_copy(const vsd_volume *vol, int32_t dims[3], int32_t ori
     return VSD_OK;
 }
 
-/* The node grid's spacing (option, else largest dimension / 48, at least 2 voxels) and the
- * mean density of each node's cell (the voxels whose nearest node it is). */
+/* Trilinear density at crm-space point (x, y, z), voxel centres at +0.5, 0 outside. */
+static float dense_at(const float *d, const int32_t dims[3], float x, float y, float z)
+{
+    float fx, fy, fz, tx, ty, tz, v = 0.0f;
+    int32_t i, j, k, a;
+    x -= 0.5f; y -= 0.5f; z -= 0.5f;
+    fx = floorf(x); fy = floorf(y); fz = floorf(z);
+    tx = x - fx; ty = y - fy; tz = z - fz;
+    i = (int32_t)fx; j = (int32_t)fy; k = (int32_t)fz;
+    for (a = 0; a < 8; a++) {
+        int32_t ii = i + (a & 1), jj = j + ((a >> 1) & 1), kk = k + ((a >> 2) & 1);
+        float w = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
+        if (ii < 0 || jj < 0 || kk < 0 || ii >= dims[0] || jj >= dims[1] || kk >= dims[2]) continue;
+        v += w * d[((size_t)kk * dims[1] + jj) * dims[0] + ii];
+    }
+    return v;
+}
+
+/* The node grid's spacing (option, else largest dimension / 48, at least 1 voxel) and the
+ * mean density of each node's cell: 3 x 3 x 3 trilinear samples over the cube of side
+ * `spacing` around the node (a box filter that neither aliases at spacing 1, where nodes sit
+ * between voxel centres, nor blurs much at larger spacings). */
 static vsd_status node_density(crm_state *s, const float *d, char *err, size_t errlen)
 {
-    int32_t mx = s->dims[0] > s->dims[1] ? s->dims[0] : s->dims[1], a, i, j, k;
+    int32_t mx = s->dims[0] > s->dims[1] ? s->dims[0] : s->dims[1], a, i, j, k, u, v, w;
     size_t count, n;
-    unsigned *hits;
     mx = mx > s->dims[2] ? mx : s->dims[2];
-    s->spacing = s->opt.node_spacing > 0 ? (float)s->opt.node_spacing : fmaxf(2.0f, (float)mx / 48.0f);
+    s->spacing = s->opt.node_spacing > 0 ? (float)s->opt.node_spacing : fmaxf(1.0f, (float)mx / 48.0f);
     for (a = 0; a < 3; a++) s->node_res[a] = (int32_t)ceilf((float)s->dims[a] / s->spacing) + 1;
     count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2];
-    s->node_density = calloc(count, sizeof *s->node_density);
-    hits = calloc(count, sizeof *hits);
-    if (!s->node_density || !hits) {
-        free(hits);
+    if (!(s->node_density = calloc(count, sizeof *s->node_density)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %zu source nodes", count);
-    }
-    for (k = 0; k < s->dims[2]; k++)
-        for (j = 0; j < s->dims[1]; j++)
-            for (i = 0; i < s->dims[0]; i++) {
-                int32_t ni = (int32_t)lrintf(((float)i + 0.5f) / s->spacing), nj = (int32_t)lrintf(((float)j + 0.5f) / s->spacing);
-                int32_t nk = (int32_t)lrintf(((float)k + 0.5f) / s->spacing);
-                size_t node = ((size_t)nk * s->node_res[1] + nj) * s->node_res[0] + ni;
-                s->node_density[node] += fmaxf(d[((size_t)k * s->dims[1] + j) * s->dims[0] + i], 0.0f);
-                hits[node]++;
+    for (n = 0, k = 0; k < s->node_res[2]; k++)
+        for (j = 0; j < s->node_res[1]; j++)
+            for (i = 0; i < s->node_res[0]; i++, n++) {
+                float sum = 0.0f, third = s->spacing / 3.0f;
+                for (w = -1; w <= 1; w++)
+                    for (v = -1; v <= 1; v++)
+                        for (u = -1; u <= 1; u++)
+                            sum += dense_at(d, s->dims, (float)i * s->spacing + (float)u * third,
+                                            (float)j * s->spacing + (float)v * third, (float)k * s->spacing + (float)w * third);
+                s->node_density[n] = sum > 0.0f ? sum / 27.0f : 0.0f;
             }
-    for (n = 0; n < count; n++)
-        if (hits[n]) s->node_density[n] /= (float)hits[n];
-    free(hits);
     return VSD_OK;
 }
 
@@ -250,6 +272,13 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
                        memcmp(origin, s->origin, sizeof origin) == 0
                    ? &s->rbfs
                    : NULL;
+    if (s->opt.rbf_count == 0 && n > 0) {
+        size_t nonzero = 0, auto_n;
+        for (i = 0; i < n; i++) nonzero += d[i] != 0.0f;
+        auto_n = nonzero / CRM_AUTO_VOXELS_PER_RBF;
+        s->fit_opt.rbf_count = (int)(auto_n < CRM_AUTO_RBFS_MIN ? CRM_AUTO_RBFS_MIN
+                                     : auto_n > CRM_AUTO_RBFS_MAX ? CRM_AUTO_RBFS_MAX : auto_n);
+    }
     /* the grid's content alone (no previous fit): a medium edit re-runs this stage with the
      * same grid, and must find it already fitted whatever the coherence chain says */
     if (n > 0 && (st = vsd_crm_fit_cache_key(&dense, &s->fit_opt, NULL, 0.0, key))) goto done;
