@@ -29,6 +29,7 @@
 #include "crm_kernel.h"
 #include "crm_device.h"
 #include "src/common/clock.h"
+#include "kernel/kernel_volume.h"
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -326,6 +327,54 @@ done:
     return st;
 }
 
+/* The emitted radiance per unit length (world units, RGB) at every node: the emission
+ * grid, box-filtered like the density (3 x 3 x 3 samples over the node's cell) and scaled
+ * by the medium's emission colour and strength. Nodes are in the density's index space,
+ * so each sample goes to world space (the inverse of the density's world-to-index map)
+ * and from there into the emission grid, which may have a transform of its own. */
+static vsd_status node_emission(const crm_state *s, const vsd_frame_ctx *ctx, float **out, char *err, size_t errlen)
+{
+    const float *m = ctx->kd.density.world_to_index.m;
+    double a[9], inv[9], det;
+    size_t count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], n;
+    float *e;
+    int32_t i, j, k, u, v, w, r, c;
+    *out = NULL;
+    for (r = 0; r < 3; r++)
+        for (c = 0; c < 3; c++) a[3 * r + c] = m[4 * r + c];
+    det = a[0] * (a[4] * a[8] - a[5] * a[7]) - a[1] * (a[3] * a[8] - a[5] * a[6]) + a[2] * (a[3] * a[7] - a[4] * a[6]);
+    if (!(fabs(det) > 0.0)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "crm: the density's transform is singular");
+    inv[0] = (a[4] * a[8] - a[5] * a[7]) / det; inv[1] = (a[2] * a[7] - a[1] * a[8]) / det; inv[2] = (a[1] * a[5] - a[2] * a[4]) / det;
+    inv[3] = (a[5] * a[6] - a[3] * a[8]) / det; inv[4] = (a[0] * a[8] - a[2] * a[6]) / det; inv[5] = (a[2] * a[3] - a[0] * a[5]) / det;
+    inv[6] = (a[3] * a[7] - a[4] * a[6]) / det; inv[7] = (a[1] * a[6] - a[0] * a[7]) / det; inv[8] = (a[0] * a[4] - a[1] * a[3]) / det;
+    if (!(e = calloc(count * 3, sizeof *e)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the emission of %zu nodes", count);
+    for (n = 0, k = 0; k < s->node_res[2]; k++)
+        for (j = 0; j < s->node_res[1]; j++)
+            for (i = 0; i < s->node_res[0]; i++, n++) {
+                float sum = 0.0f, third = s->spacing / 3.0f;
+                for (w = -1; w <= 1; w++)
+                    for (v = -1; v <= 1; v++)
+                        for (u = -1; u <= 1; u++) {
+                            /* crm space -> density index -> world */
+                            double q[3] = {(float)i * s->spacing + (float)u * third - 0.5f + (float)s->origin[0],
+                                           (float)j * s->spacing + (float)v * third - 0.5f + (float)s->origin[1],
+                                           (float)k * s->spacing + (float)w * third - 0.5f + (float)s->origin[2]};
+                            double d[3] = {q[0] - m[3], q[1] - m[7], q[2] - m[11]};
+                            vsd_f3 p = f3((float)(inv[0] * d[0] + inv[1] * d[1] + inv[2] * d[2]),
+                                          (float)(inv[3] * d[0] + inv[4] * d[1] + inv[5] * d[2]),
+                                          (float)(inv[6] * d[0] + inv[7] * d[1] + inv[8] * d[2]));
+                            sum += vsd_kvolume_at(&ctx->kd.emission, p);
+                        }
+                sum = sum > 0.0f ? sum / 27.0f : 0.0f;
+                e[3 * n] = ctx->kd.medium.emission.x * sum;
+                e[3 * n + 1] = ctx->kd.medium.emission.y * sum;
+                e[3 * n + 2] = ctx->kd.medium.emission.z * sum;
+            }
+    *out = e;
+    return VSD_OK;
+}
+
 static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     crm_state *s = state;
@@ -413,10 +462,15 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         if (!st && s->opt.multiple == MULTIPLE_GRID)
             st = vsd_crm_grid_diffusion(s->node_res, s->spacing * s->voxel_world, sigma_t, albedo, g, s->nodes.nodes,
                                         s->nodes.valid, s->phi, 1e-5, s->opt.grid_iterations, &s->grid, err, errlen);
-        else if (!st && s->opt.multiple == MULTIPLE_ORDERS)
-            st = vsd_crm_orders(s->node_res, to_node, sigma_t, albedo, s->nodes.nodes, s->nodes.valid,
-                                s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
-                                &s->orders, err, errlen);
+        else if (!st && s->opt.multiple == MULTIPLE_ORDERS) {
+            float *emission = NULL;
+            if (ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
+            if (!st)
+                st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, albedo, s->nodes.nodes, s->nodes.valid,
+                                    s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
+                                    &s->orders, err, errlen);
+            free(emission);
+        }
         free(sigma_t);
     }
 done:

@@ -14,6 +14,7 @@ typedef struct coarse_grid {
     size_t n;
     float *sigma;       /* [n] world units */
     float *j;           /* [n * 3] current order's source */
+    float *emit;        /* [n * 3] emission per unit length (world), or NULL */
     float *next;        /* [n * 3] the next order */
     double to_cell[9];  /* world direction -> coarse-grid displacement per world unit */
     /* (sigma, sigma J) per cell with a zero border (1 cell below, 2 above per axis), rebuilt
@@ -29,7 +30,9 @@ typedef struct order_job {
     double albedo[3];
 } order_job;
 
-static void fill_pad(coarse_grid *g)
+/* with_emission: the first order, whose light also comes from the medium's own emission
+ * (the march reads sigma J + emission per unit length as its source) */
+static void fill_pad(coarse_grid *g, int with_emission)
 {
     int32_t i, j, k, c;
     for (k = 0; k < g->res[2]; k++)
@@ -38,13 +41,14 @@ static void fill_pad(coarse_grid *g)
                 size_t n = ((size_t)k * g->res[1] + j) * g->res[0] + i;
                 float *p = g->pad + 4 * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
                 p[0] = g->sigma[n];
-                for (c = 0; c < 3; c++) p[1 + c] = g->sigma[n] * g->j[3 * n + c];
+                for (c = 0; c < 3; c++)
+                    p[1 + c] = g->sigma[n] * g->j[3 * n + c] + (with_emission && g->emit ? g->emit[3 * n + c] : 0.0f);
             }
 }
 
-/* Trilinear sigma and sigma J at coarse-index point (x, y, z) in [-1, res], 0 outside: J is
- * taken as the ratio by the caller, so empty neighbours (J = 0 there, since J is per unit
- * extinction) do not dim the medium's edge. */
+/* Trilinear sigma and source per unit length (sigma J, plus emission on the first order) at
+ * coarse-index point (x, y, z) in [-1, res], 0 outside: the march divides by sigma, so empty
+ * neighbours (J = 0 there, since J is per unit extinction) do not dim the medium's edge. */
 static void sample(const coarse_grid *g, float x, float y, float z, float out[4])
 {
     float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz;
@@ -96,8 +100,13 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
                         z > (float)g->res[2])
                         break;
                     sample(g, x, y, z, smp);
-                    if (!(smp[0] > 0.0f)) continue;
+                    if (!(smp[0] > 0.0f)) {
+                        /* an empty stretch: only emission (first order) adds, over its length */
+                        for (c = 0; c < 3; c++) sum[c] += t * smp[1 + c] * inv;
+                        continue;
+                    }
                     a = 1.0f - expf(-smp[0] * inv);
+                    /* the source per unit length over the step's optical path a / sigma */
                     for (c = 0; c < 3; c++) sum[c] += t * a * (smp[1 + c] / smp[0]);
                     t *= 1.0f - a;
                 }
@@ -108,8 +117,9 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
     }
 }
 
-vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t, const double albedo[3],
-                          float *nodes, uint8_t *valid, int coarse, int directions, int max_orders, double tolerance,
+vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
+                          const float *emission, const double albedo[3], float *nodes, uint8_t *valid, int coarse,
+                          int directions, int max_orders, double tolerance,
                           int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen)
 {
     double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
@@ -134,13 +144,14 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     g.sigma = calloc(g.n, sizeof *g.sigma);
     g.j = calloc(g.n * 3, sizeof *g.j);
     g.next = calloc(g.n * 3, sizeof *g.next);
+    g.emit = emission ? calloc(g.n * 3, sizeof *g.emit) : NULL;
     g.sx = (size_t)g.res[0] + 3;
     g.sy = g.sx * ((size_t)g.res[1] + 3);
     g.pad = calloc(4 * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
     ms = calloc(g.n * 3, sizeof *ms);
     wsum = calloc(g.n, sizeof *wsum);
     dirs = malloc(sizeof *dirs * 3 * (size_t)directions);
-    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs) {
+    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs || (emission && !g.emit)) {
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", g.res[0], g.res[1], g.res[2]);
         goto done;
     }
@@ -156,6 +167,8 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         if (n >= g.n) continue;
         g.sigma[n] += (float)s;
         wsum[n] += 1.0;
+        if (emission)
+            for (c = 0; c < 3; c++) g.emit[3 * n + c] += emission[3 * i + c];
         if (valid[i] & CRM_NODE_SINGLE)
             for (c = 0; c < 3; c++)
                 g.j[3 * n + c] += (float)(s * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N] / (2.0 * sqrt(PI_D)));
@@ -163,6 +176,8 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     for (i = 0; i < g.n; i++) {
         for (c = 0; c < 3; c++) g.j[3 * i + c] = g.sigma[i] > 0.0f ? g.j[3 * i + c] / g.sigma[i] : 0.0f;
         g.sigma[i] = wsum[i] > 0.0 ? (float)(g.sigma[i] / wsum[i]) : 0.0f;
+        if (g.emit)
+            for (c = 0; c < 3; c++) g.emit[3 * i + c] = wsum[i] > 0.0 ? (float)(g.emit[3 * i + c] / wsum[i]) : 0.0f;
     }
     if (g.n > 0x7fffffff) {
         st = vsd_fail(VSD_ERR_INVALID, err, errlen, "crm orders: %zu cells", g.n);
@@ -181,7 +196,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     tiles.stage = "crm multiple scattering";
     for (k = 0; k < max_orders; k++) {
         double sum = 0.0;
-        fill_pad(&g);
+        fill_pad(&g, k == 0);
         if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
         for (i = 0; i < 3 * g.n; i++) {
             ms[i] += g.next[i];
@@ -208,7 +223,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     }
     /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), band 0 only */
     memcpy(g.j, ms, sizeof(float) * 3 * g.n);
-    fill_pad(&g);
+    fill_pad(&g, 0);
     for (i = 0; i < fine; i++) {
         float *out = nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;
         double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
@@ -229,6 +244,7 @@ done:
     free(g.sigma);
     free(g.j);
     free(g.next);
+    free(g.emit);
     free(g.pad);
     free(ms);
     free(wsum);

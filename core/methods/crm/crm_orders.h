@@ -31,9 +31,11 @@ typedef struct vsd_crm_orders_stats {
  * node-displacement matrix (crm_node_single.h); sigma_t:
  * per fine node (world units); nodes, valid: the source grid, whose single-scattering band 0
  * is J_1 and whose multiple-scattering part (and CRM_NODE_MULTIPLE bit) is overwritten.
- * coarse: fine nodes per coarse cell (>= 1); directions: HEALPix count (12 nside^2). */
-vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t, const double albedo[3],
-                          float *nodes, uint8_t *valid, int coarse, int directions, int max_orders, double tolerance,
+ * emission: per fine node, 3 floats, the emitted radiance per unit length (world units), or
+ * NULL; coarse: fine nodes per coarse cell (>= 1); directions: HEALPix count (12 nside^2). */
+vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
+                          const float *emission, const double albedo[3], float *nodes, uint8_t *valid, int coarse,
+                          int directions, int max_orders, double tolerance,
                           int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen);
 
 #endif
