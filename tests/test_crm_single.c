@@ -17,17 +17,8 @@
 #define PI 3.14159265358979323846
 
 static unsigned long long rng_state = 987654321;
-static double urand(void)
-{
-    rng_state = rng_state * 6364136223846793005ull + 1442695040888963407ull;
-    return (double)(rng_state >> 11) * (1.0 / 9007199254740992.0);
-}
-
-static void random_dir(double d[3])
-{
-    double z = 2 * urand() - 1, phi = 2 * PI * urand(), s = sqrt(1 - z * z);
-    d[0] = s * cos(phi); d[1] = s * sin(phi); d[2] = z;
-}
+static double urand(void) { return test_urand(&rng_state); }
+static void random_dir(double d[3]) { test_random_dir(&rng_state, d); }
 
 /* Optical depth (per unit sigma) of a set of RBFs from p outwards along unit w: Simpson's
  * rule over each RBF's chord through its 3r support sphere — independent of the erf form

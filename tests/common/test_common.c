@@ -20,6 +20,20 @@ const char *test_tmp(const char *rel)
     return buf;
 }
 
+double test_urand(unsigned long long *state)
+{
+    *state = *state * 6364136223846793005ull + 1442695040888963407ull;
+    return (double)(*state >> 11) * (1.0 / 9007199254740992.0);
+}
+
+void test_random_dir(unsigned long long *state, double d[3])
+{
+    double z = 2 * test_urand(state) - 1, phi = 2 * 3.14159265358979323846 * test_urand(state), s = sqrt(1 - z * z);
+    d[0] = s * cos(phi);
+    d[1] = s * sin(phi);
+    d[2] = z;
+}
+
 int test_finish(const char *name)
 {
     if (vsd_test_failures) {

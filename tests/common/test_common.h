@@ -26,6 +26,11 @@ extern int vsd_test_failures;
 const char *test_data(const char *rel);
 /* Path under the build's test-tmp folder (static buffer, valid until the next call). */
 const char *test_tmp(const char *rel);
+/* Reproducible randomness for tests: a uniform number in [0, 1) from a 64-bit LCG whose
+ * state the caller keeps (and seeds), and a uniformly distributed unit direction. */
+double test_urand(unsigned long long *state);
+void test_random_dir(unsigned long long *state, double d[3]);
+
 /* Return the exit status: 0 when no CHECK failed. Prints a summary. */
 int test_finish(const char *name);
 
