@@ -138,6 +138,8 @@ typedef struct crm_state {
     vsd_crm_diffusion_stats diffusion;
     double single_seconds;
     vsd_crm_source_grid nodes;
+    float *view_nodes;            /* [nodes * CRM_VIEW_FLOATS] the CPU's per-view node pass */
+    size_t view_count;
     double *phi;                  /* [3 * nodes] grid diffusion fluence, the next solve's warm start */
     size_t phi_nodes;
     vsd_crm_grid_diffusion_stats grid;
@@ -332,14 +334,14 @@ done:
  * by the medium's emission colour and strength. Nodes are in the density's index space,
  * so each sample goes to world space (the inverse of the density's world-to-index map)
  * and from there into the emission grid, which may have a transform of its own. */
-static vsd_status node_emission(const crm_state *s, const vsd_frame_ctx *ctx, float **out, char *err, size_t errlen)
+/* Node coordinates to world: node (a,b,c) sits at crm-space spacing * (a,b,c), i.e. density
+ * index spacing * (a,b,c) - 0.5 + origin, taken to world by the inverse of the density's
+ * world-to-index map. */
+static vsd_status node_to_world(const crm_state *s, const vsd_frame_ctx *ctx, vsd_affine *out, char *err, size_t errlen)
 {
     const float *m = ctx->kd.density.world_to_index.m;
-    double a[9], inv[9], det;
-    size_t count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], n;
-    float *e;
-    int32_t i, j, k, u, v, w, r, c;
-    *out = NULL;
+    double a[9], inv[9], det, t[3];
+    int r, c;
     for (r = 0; r < 3; r++)
         for (c = 0; c < 3; c++) a[3 * r + c] = m[4 * r + c];
     det = a[0] * (a[4] * a[8] - a[5] * a[7]) - a[1] * (a[3] * a[8] - a[5] * a[6]) + a[2] * (a[3] * a[7] - a[4] * a[6]);
@@ -347,23 +349,38 @@ static vsd_status node_emission(const crm_state *s, const vsd_frame_ctx *ctx, fl
     inv[0] = (a[4] * a[8] - a[5] * a[7]) / det; inv[1] = (a[2] * a[7] - a[1] * a[8]) / det; inv[2] = (a[1] * a[5] - a[2] * a[4]) / det;
     inv[3] = (a[5] * a[6] - a[3] * a[8]) / det; inv[4] = (a[0] * a[8] - a[2] * a[6]) / det; inv[5] = (a[2] * a[3] - a[0] * a[5]) / det;
     inv[6] = (a[3] * a[7] - a[4] * a[6]) / det; inv[7] = (a[1] * a[6] - a[0] * a[7]) / det; inv[8] = (a[0] * a[4] - a[1] * a[3]) / det;
+    for (r = 0; r < 3; r++) t[r] = (double)s->origin[r] - 0.5 - m[4 * r + 3];
+    for (r = 0; r < 3; r++) {
+        for (c = 0; c < 3; c++) out->m[4 * r + c] = (float)(inv[3 * r + c] * s->spacing);
+        out->m[4 * r + 3] = (float)(inv[3 * r] * t[0] + inv[3 * r + 1] * t[1] + inv[3 * r + 2] * t[2]);
+    }
+    return VSD_OK;
+}
+
+/* The emitted radiance per unit length (world units, RGB) at every node: the emission
+ * grid, box-filtered like the density (3 x 3 x 3 samples over the node's cell) and scaled
+ * by the medium's emission colour and strength; the samples go to world space and from
+ * there into the emission grid, which may have a transform of its own. */
+static vsd_status node_emission(const crm_state *s, const vsd_frame_ctx *ctx, float **out, char *err, size_t errlen)
+{
+    vsd_affine n2w;
+    size_t count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], n;
+    float *e;
+    int32_t i, j, k, u, v, w;
+    vsd_status st;
+    *out = NULL;
+    if ((st = node_to_world(s, ctx, &n2w, err, errlen))) return st;
     if (!(e = calloc(count * 3, sizeof *e)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the emission of %zu nodes", count);
     for (n = 0, k = 0; k < s->node_res[2]; k++)
         for (j = 0; j < s->node_res[1]; j++)
             for (i = 0; i < s->node_res[0]; i++, n++) {
-                float sum = 0.0f, third = s->spacing / 3.0f;
+                float sum = 0.0f;
                 for (w = -1; w <= 1; w++)
                     for (v = -1; v <= 1; v++)
                         for (u = -1; u <= 1; u++) {
-                            /* crm space -> density index -> world */
-                            double q[3] = {(float)i * s->spacing + (float)u * third - 0.5f + (float)s->origin[0],
-                                           (float)j * s->spacing + (float)v * third - 0.5f + (float)s->origin[1],
-                                           (float)k * s->spacing + (float)w * third - 0.5f + (float)s->origin[2]};
-                            double d[3] = {q[0] - m[3], q[1] - m[7], q[2] - m[11]};
-                            vsd_f3 p = f3((float)(inv[0] * d[0] + inv[1] * d[1] + inv[2] * d[2]),
-                                          (float)(inv[3] * d[0] + inv[4] * d[1] + inv[5] * d[2]),
-                                          (float)(inv[6] * d[0] + inv[7] * d[1] + inv[8] * d[2]));
+                            vsd_f3 p = vsd_affine_point(&n2w, f3((float)i + (float)u / 3.0f, (float)j + (float)v / 3.0f,
+                                                                  (float)k + (float)w / 3.0f));
                             sum += vsd_kvolume_at(&ctx->kd.emission, p);
                         }
                 sum = sum > 0.0f ? sum / 27.0f : 0.0f;
@@ -513,14 +530,34 @@ static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_stop = (float)s->opt.early_termination;
     crm_info(s, ctx);
+    if (s->dtilde && s->nodes.nodes) {
+        size_t count = (size_t)kc.node_res[0] * kc.node_res[1] * kc.node_res[2];
+        vsd_status st = node_to_world(s, ctx, &kc.node_to_world, err, errlen);
+        if (st) return st;
+        if (!ctx->cuda) {
+            /* the per-view node pass (the paper's volume pass) on the CPU threads; on the
+             * device it runs with the view (crm_device.c) */
+            if (s->view_count != count) {
+                free(s->view_nodes);
+                s->view_nodes = malloc(count * CRM_VIEW_FLOATS * sizeof(float));
+                s->view_count = s->view_nodes ? count : 0;
+                if (!s->view_nodes) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %zu view nodes", count);
+            }
+            kc.view_nodes = s->view_nodes;
+            if ((st = vsd_crm_view_nodes_cpu(ctx, &kc)))
+                return st == VSD_ERR_CANCELLED ? vsd_fail(st, err, errlen, "render cancelled") : st;
+        }
+    }
     if (!s->dtilde || !s->nodes.nodes) {
         /* nothing fitted (an empty grid): the march still draws emission and background */
         static const float zero = 0.0f;
         static const uint8_t none = 0;
+        static float no_view[CRM_VIEW_FLOATS];
         int32_t one[3] = {1, 1, 1};
         kc.dtilde = &zero;
         kc.nodes = &zero;
         kc.node_valid = &none;
+        kc.view_nodes = no_view;
         memcpy(kc.dims, one, sizeof one);
         memcpy(kc.node_res, one, sizeof one);
     }
@@ -539,6 +576,7 @@ static void crm_destroy(void *state)
     free(s->j_ms);
     free(s->l_m0);
     free(s->phi);
+    free(s->view_nodes);
     vsd_crm_source_grid_free(&s->nodes);
     free(s);
 }

@@ -1,9 +1,13 @@
 #include "crm_device.h"
 #include "src/render/device_frame.h"
+#include "device/cpu/cpu_tiles.h"
 #include <stddef.h>
 
 /* crm's resident slots (cuda_backend.h: from VSD_SLOT_METHOD on, the method's own) */
-enum { CRM_SLOT_DTILDE = VSD_SLOT_METHOD, CRM_SLOT_NODES, CRM_SLOT_VALID, CRM_SLOT_OCC, CRM_SLOT_OFFSETS, CRM_SLOT_TABLE };
+enum {
+    CRM_SLOT_DTILDE = VSD_SLOT_METHOD, CRM_SLOT_NODES, CRM_SLOT_VALID, CRM_SLOT_OCC, CRM_SLOT_OFFSETS, CRM_SLOT_TABLE,
+    CRM_SLOT_VIEW_NODES
+};
 
 static size_t voxels(const vsd_kcrm *c) { return (size_t)c->dims[0] * c->dims[1] * c->dims[2]; }
 static size_t nodes(const vsd_kcrm *c) { return (size_t)c->node_res[0] * c->node_res[1] * c->node_res[2]; }
@@ -23,6 +27,42 @@ static void view_arrays(const void *m, vsd_pass_args a, vsd_pass_array_visit vis
     visit(user, c->residual.occupancy, c->residual.n_occupancy * sizeof(uint32_t), "crm.residual.occupancy");
     visit(user, c->residual.offsets, c->residual.n_offsets * sizeof(uint32_t), "crm.residual.offsets");
     visit(user, c->residual.table, c->residual.n_table, "crm.residual.table");
+    visit(user, c->view_nodes, nodes(c) * CRM_VIEW_FLOATS * sizeof(float), "crm.view_nodes");
+}
+
+static void node_item(const void *m, int i, int n, void *out)
+{
+    vsd_crm_view_node((const vsd_kcrm *)m, i, n, out);
+}
+
+static void node_arrays(const void *m, vsd_pass_args a, vsd_pass_array_visit visit, void *user)
+{
+    const vsd_kcrm *c = m;
+    (void)a;
+    visit(user, c->nodes, nodes(c) * CRM_NODE_FLOATS * sizeof(float), "crm.nodes");
+    visit(user, c->node_valid, nodes(c), "crm.node_valid");
+}
+
+VSD_CUDA_ENTRY_DECL(vsd_cuda_crm_view_nodes);
+static const vsd_device_pass crm_node_pass = {
+    "crm view nodes", 0, 1 << 16, sizeof(vsd_kcrm), offsetof(vsd_kcrm, kd), NULL, node_item, node_arrays,
+    VSD_CUDA_ENTRY(vsd_cuda_crm_view_nodes),
+};
+
+/* The node pass on the CPU threads, into the host struct's view_nodes. */
+static void node_tile(void *user, int i0, int y0, int i1, int y1)
+{
+    int i;
+    (void)y0;
+    (void)y1;
+    for (i = i0; i < i1; i++) vsd_crm_view_node((const vsd_kcrm *)user, i, 0, ((const vsd_kcrm *)user)->view_nodes);
+}
+
+vsd_status vsd_crm_view_nodes_cpu(vsd_frame_ctx *ctx, const vsd_kcrm *c)
+{
+    vsd_tile_job job;
+    vsd_method_item_job(&job, ctx, (int)nodes(c), node_tile, (void *)c, "crm view nodes");
+    return vsd_cpu_run_tiles(&job);
 }
 
 VSD_CUDA_ENTRY_DECL(vsd_cuda_crm_view);
@@ -47,5 +87,16 @@ vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void 
     PUT(residual.offsets, CRM_SLOT_OFFSETS, ctx->frame_gen, h->residual.n_offsets * sizeof(uint32_t));
     PUT(residual.table, CRM_SLOT_TABLE, ctx->frame_gen, h->residual.n_table);
 #undef PUT
+    {
+        /* the node pass for this view, on the device into a scratch slot the view then reads:
+         * a new camera copies nothing but the structs */
+        size_t bytes = nodes(h) * CRM_VIEW_FLOATS * sizeof(float);
+        vsd_pass_args a = {0, 0, 0};
+        void *view;
+        if ((st = vsd_cuda_scratch(ctx->cuda, CRM_SLOT_VIEW_NODES, 0, bytes, 0, &view, err, errlen))) return st;
+        d->view_nodes = view;
+        if ((st = vsd_device_run(ctx, &crm_node_pass, d, h->kd, a, (int)nodes(h), view, bytes, 0.0f, 0.0f, err, errlen)))
+            return st;
+    }
     return VSD_OK;
 }

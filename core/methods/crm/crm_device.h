@@ -9,6 +9,9 @@
 #include "crm_kernel.h"
 
 extern const vsd_device_pass vsd_crm_view_pass;
+/* The per-view node pass on the CPU threads into c->view_nodes (host); on the device it runs
+ * inside vsd_crm_view_struct. */
+vsd_status vsd_crm_view_nodes_cpu(vsd_frame_ctx *ctx, const vsd_kcrm *c);
 vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err, size_t errlen);
 
 #endif

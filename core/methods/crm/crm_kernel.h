@@ -11,9 +11,10 @@
  *             from D~ alone, the source from D~ + R; CRM_RESIDUAL_NONE marches D~ only.
  *   source    J~(x, w_o) = sum_l w_l B_l(x) J~(c_l, w_o) / D~(x) (eq. 7), precomputed per
  *             lighting change on a coarse node grid as SH coefficients (order-4 single,
- *             order-2 multiple scattering, albedo and phase already applied), read per step
- *             trilinearly between the 8 surrounding nodes after one SH dot product per node
- *             and ray (the view direction is fixed along a ray; corners are cached per cell).
+ *             order-2 multiple scattering, albedo and phase already applied); per view, the
+ *             node pass (the paper's volume pass, vsd_crm_view_node) evaluates each node's
+ *             SH toward the eye once, and the march reads the 8 surrounding nodes' values
+ *             trilinearly (corners cached per cell).
  * VolumeDir receives the single-scattering source, VolumeInd the multiple.
  *
  * Coordinates: "crm space" is the RBF fit's voxel index space, voxel (i,j,k) of the dense
@@ -34,6 +35,7 @@ enum { CRM_RESIDUAL_FULL = 0, CRM_RESIDUAL_SOURCE = 1, CRM_RESIDUAL_NONE = 2 };
 /* SH coefficients per node: order-4 single scattering (16) and order-2 multiple (4), RGB */
 enum { CRM_SS_ORDER = 4, CRM_SS_N = 16, CRM_MS_N = 4, CRM_NODE_FLOATS = 3 * (CRM_SS_N + CRM_MS_N) };
 enum { CRM_NODE_SINGLE = 1, CRM_NODE_MULTIPLE = 2 };
+enum { CRM_VIEW_FLOATS = 6 };
 /* below this a node's single scattering counts as zero in the log interpolation */
 #define CRM_LOG_FLOOR 1e-12f
 #define CRM_LOG_ZERO (-27.0f) /* log(2e-12): a blend of floors only */
@@ -43,6 +45,10 @@ typedef struct VSD_ALIGN16 vsd_kcrm {
     const float *dtilde;           /* [nx*ny*nz] D~ per voxel (unscaled density) */
     const float *nodes;            /* [node count * CRM_NODE_FLOATS]: ss R,G,B (16 each), ms R,G,B (4 each) */
     const uint8_t *node_valid;     /* [node count] CRM_NODE_SINGLE | CRM_NODE_MULTIPLE bits */
+    /* [node count * CRM_VIEW_FLOATS], per view: each node's source toward the eye (log of the
+     * single-scattering RGB, then the multiple-scattering RGB), written by the node pass */
+    float *view_nodes;
+    vsd_affine node_to_world;      /* node coordinates -> world */
     vsd_crm_hash_view residual;
     int32_t dims[3];               /* dense grid nx, ny, nz */
     int32_t origin[3];             /* index coordinate of dense voxel (0,0,0) */
@@ -100,6 +106,44 @@ VSD_DEVICE void vsd_crm_node_source(const vsd_kcrm *c, int32_t node, const float
     *ms = f3(m[0], m[1], m[2]);
 }
 
+/* The paper's volume pass (§5.5), on the nodes: each node's source radiance toward the eye
+ * for this view, the SH evaluated once per node and view instead of once per ray and cell.
+ * The direction is the node's own toward the camera (the camera's backward axis when
+ * orthographic); a ray through a cell sees its nodes from within a fraction of a degree
+ * of that (node spacing over distance). Item i = node i. */
+VSD_DEVICE void vsd_crm_view_node(const vsd_kcrm *c, int i, int n, void *out)
+{
+    const float *m = c->kd->camera.cam_to_world.m;
+    float *o = (float *)out + (size_t)i * CRM_VIEW_FLOATS, y[CRM_SS_N];
+    vsd_f3 ss, ms, w;
+    int32_t x, yy, z;
+    (void)n;
+    if (!c->node_valid[i]) {
+        o[0] = o[1] = o[2] = logf(CRM_LOG_FLOOR);
+        o[3] = o[4] = o[5] = 0.0f;
+        return;
+    }
+    x = i % c->node_res[0];
+    yy = (i / c->node_res[0]) % c->node_res[1];
+    z = i / (c->node_res[0] * c->node_res[1]);
+    if (c->kd->camera.orthographic) {
+        w = f3_normalize(f3(m[2], m[6], m[10]));
+    } else {
+        vsd_f3 p = vsd_affine_point(&c->node_to_world, f3((float)x, (float)yy, (float)z));
+        w = f3_normalize(f3_sub(f3(m[3], m[7], m[11]), p));
+    }
+    vsd_sh_eval_f(c->order, w, y);
+    vsd_crm_node_source(c, i, y, &ss, &ms);
+    /* single scattering falls exponentially into the medium: the view blends its log (the
+     * weighted geometric mean), as shgrid's records do */
+    o[0] = logf(ss.x > CRM_LOG_FLOOR ? ss.x : CRM_LOG_FLOOR);
+    o[1] = logf(ss.y > CRM_LOG_FLOOR ? ss.y : CRM_LOG_FLOOR);
+    o[2] = logf(ss.z > CRM_LOG_FLOOR ? ss.z : CRM_LOG_FLOOR);
+    o[3] = ms.x;
+    o[4] = ms.y;
+    o[5] = ms.z;
+}
+
 /* The eight nodes around the current sample, evaluated for this ray once per node cell.
  * A node's single- and multiple-scattering parts are valid separately (node_valid bits
  * CRM_NODE_SINGLE, CRM_NODE_MULTIPLE: the RBFs cover the first, the medium the second), and
@@ -109,7 +153,7 @@ typedef struct vsd_crm_corners {
     vsd_f3 ss[8], ms[8];
 } vsd_crm_corners;
 
-VSD_DEVICE void vsd_crm_source(const vsd_kcrm *c, vsd_f3 q, const float *y, vsd_crm_corners *cc, vsd_f3 *ss, vsd_f3 *ms)
+VSD_DEVICE void vsd_crm_source(const vsd_kcrm *c, vsd_f3 q, vsd_crm_corners *cc, vsd_f3 *ss, vsd_f3 *ms)
 {
     float u = q.x / c->node_spacing, v = q.y / c->node_spacing, w = q.z / c->node_spacing, ws = 0.0f, wm = 0.0f;
     int32_t i0 = (int32_t)floorf(u), j0 = (int32_t)floorf(v), k0 = (int32_t)floorf(w), a;
@@ -140,12 +184,11 @@ VSD_DEVICE void vsd_crm_source(const vsd_kcrm *c, vsd_f3 q, const float *y, vsd_
             if (i < 0 || j < 0 || k < 0 || i >= c->node_res[0] || j >= c->node_res[1] || k >= c->node_res[2]) continue;
             node = (k * c->node_res[1] + j) * c->node_res[0] + i;
             if (!c->node_valid[node]) continue;
-            vsd_crm_node_source(c, node, y, &cc->ss[a], &cc->ms[a]);
-            /* single scattering falls exponentially into the medium: interpolate its log
-             * (the weighted geometric mean), as shgrid's records do */
-            cc->ss[a] = f3(logf(cc->ss[a].x > CRM_LOG_FLOOR ? cc->ss[a].x : CRM_LOG_FLOOR),
-                           logf(cc->ss[a].y > CRM_LOG_FLOOR ? cc->ss[a].y : CRM_LOG_FLOOR),
-                           logf(cc->ss[a].z > CRM_LOG_FLOOR ? cc->ss[a].z : CRM_LOG_FLOOR));
+            {
+                const float *v = c->view_nodes + (size_t)node * CRM_VIEW_FLOATS;
+                cc->ss[a] = f3(v[0], v[1], v[2]);
+                cc->ms[a] = f3(v[3], v[4], v[5]);
+            }
             cc->valid |= (int32_t)c->node_valid[node] << (2 * a);
         }
     }
@@ -178,7 +221,7 @@ VSD_DEVICE vsd_sample_result vsd_crm_pixel(const vsd_kcrm *c, int32_t px, int32_
     vsd_march_acc acc;
     vsd_crm_corners cc;
     vsd_f3 o, d;
-    float t0, t1, y[CRM_SS_N];
+    float t0, t1;
     int32_t a;
     vsd_march_begin(&acc);
     cc.filled = 0;
@@ -186,8 +229,6 @@ VSD_DEVICE vsd_sample_result vsd_crm_pixel(const vsd_kcrm *c, int32_t px, int32_
     cc.key[0] = cc.key[1] = cc.key[2] = 0;
     for (a = 0; a < 8; a++) cc.ss[a] = cc.ms[a] = f3s(0.0f);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
-    /* J~ is a function of the direction toward the viewer */
-    vsd_sh_eval_f(c->order, f3(-d.x, -d.y, -d.z), y);
     if (vsd_march_extent(kd, o, d, &t0, &t1)) {
         vsd_march_walk walk;
         float tm, hs;
@@ -203,7 +244,7 @@ VSD_DEVICE vsd_sample_result vsd_crm_pixel(const vsd_kcrm *c, int32_t px, int32_
                                                               : absorbed;
             if (absorbed > 0.0f || shrink > 0.0f) {
                 vsd_f3 ss, ms;
-                vsd_crm_source(c, q, y, &cc, &ss, &ms);
+                vsd_crm_source(c, q, &cc, &ss, &ms);
                 vsd_march_source(&acc, ss, ms, tm, absorbed, shrink);
             }
         }
