@@ -45,11 +45,13 @@
 
 typedef struct crm_options {
     int rbf_count, fit_iterations, order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
-    int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell;
+    int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell, decode;
     double node_spacing, step, early_termination, error_ratio;
 } crm_options;
 
 static const char *const residual_names[] = {"full", "source", "none", NULL};
+enum { DECODE_FRAME, DECODE_VIEW };
+static const char *const decode_names[] = {"frame", "view", NULL};
 enum { MULTIPLE_ORDERS, MULTIPLE_GRID, MULTIPLE_RBF };
 enum { SINGLE_GRID, SINGLE_DIRECT, SINGLE_SH };
 static const char *const single_names[] = {"grid", "direct", "sh", NULL};
@@ -104,6 +106,10 @@ static const vsd_option_spec crm_option_rows[] = {
     {"residual", VSD_OPT_CHOICE, 0, 0, CRM_RESIDUAL_FULL, residual_names,
      "density residual in the march: full (extinction and source), source (eq. 8: source only), none",
      offsetof(crm_options, residual), 0, NULL},
+    {"decode", VSD_OPT_CHOICE, 0, 0, DECODE_FRAME, decode_names,
+     "where the residual hash is decoded: frame (once per frame into D~ + R, the paper's volume pass) or view (per "
+     "march step in the view kernel)",
+     offsetof(crm_options, decode), 0, NULL},
     {"node_spacing", VSD_OPT_NUMBER, 0, 64, 0, NULL,
      "voxels between the source-radiance nodes (0 = automatic: largest dimension / 48, at least 1)",
      offsetof(crm_options, node_spacing), VSD_OPT_ZERO_AUTO, NULL},
@@ -126,6 +132,7 @@ typedef struct crm_state {
     int fit_cached;
     long long fits_run;           /* fits actually computed (not from memory or disk) */
     float *dtilde;
+    float *dfull;                 /* D~ + R decoded from the hash (decode "frame") */
     vsd_crm_hash *hash;
     double voxel_world;           /* world length of a voxel (mean of the three axes) */
     float spacing;                /* voxels between source nodes */
@@ -172,6 +179,8 @@ static void free_frame(crm_state *s)
 {
     free(s->dtilde);
     s->dtilde = NULL;
+    free(s->dfull);
+    s->dfull = NULL;
     free(s->node_density);
     s->node_density = NULL;
     vsd_crm_hash_destroy(s->hash);
@@ -318,6 +327,19 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     vsd_crm_rasterise(&s->rbfs, dims[0], dims[1], dims[2], s->dtilde);
     for (i = 0; i < n; i++) residual[i] = d[i] - s->dtilde[i];
     if ((st = vsd_crm_hash_build(dims[0], dims[1], dims[2], residual, 0.0f, &s->hash, err, errlen))) goto done;
+    if (s->opt.decode == DECODE_FRAME) {
+        /* the paper's volume pass: D = D~ + R decoded from the hash once per frame, so the
+         * view reads one grid instead of decoding 8 voxels per step (30% of its time) */
+        vsd_crm_hash_view hv = vsd_crm_hash_get_view(s->hash);
+        int32_t x, y, z;
+        if (!(s->dfull = malloc(n * sizeof(float)))) {
+            st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the decoded %zu-voxel density", n);
+            goto done;
+        }
+        for (i = 0, z = 0; z < dims[2]; z++)
+            for (y = 0; y < dims[1]; y++)
+                for (x = 0; x < dims[0]; x++, i++) s->dfull[i] = s->dtilde[i] + vsd_crm_residual(&hv, x, y, z);
+    }
     st = node_density(s, d, err, errlen);
 done:
     if (st) {
@@ -518,6 +540,7 @@ static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     memset(&kc, 0, sizeof kc);
     kc.kd = &ctx->kd;
     kc.dtilde = s->dtilde;
+    kc.dfull = s->dfull;
     kc.nodes = s->nodes.nodes;
     kc.node_valid = s->nodes.valid;
     if (s->hash) kc.residual = vsd_crm_hash_get_view(s->hash);
@@ -555,6 +578,7 @@ static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
         static float no_view[CRM_VIEW_FLOATS];
         int32_t one[3] = {1, 1, 1};
         kc.dtilde = &zero;
+        kc.dfull = NULL;
         kc.nodes = &zero;
         kc.node_valid = &none;
         kc.view_nodes = no_view;

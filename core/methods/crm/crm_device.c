@@ -6,7 +6,7 @@
 /* crm's resident slots (cuda_backend.h: from VSD_SLOT_METHOD on, the method's own) */
 enum {
     CRM_SLOT_DTILDE = VSD_SLOT_METHOD, CRM_SLOT_NODES, CRM_SLOT_VALID, CRM_SLOT_OCC, CRM_SLOT_OFFSETS, CRM_SLOT_TABLE,
-    CRM_SLOT_VIEW_NODES
+    CRM_SLOT_VIEW_NODES, CRM_SLOT_DFULL
 };
 
 static size_t voxels(const vsd_kcrm *c) { return (size_t)c->dims[0] * c->dims[1] * c->dims[2]; }
@@ -22,11 +22,15 @@ static void view_arrays(const void *m, vsd_pass_args a, vsd_pass_array_visit vis
     const vsd_kcrm *c = m;
     (void)a;
     visit(user, c->dtilde, voxels(c) * sizeof(float), "crm.dtilde");
+    if (c->dfull) visit(user, c->dfull, voxels(c) * sizeof(float), "crm.dfull");
     visit(user, c->nodes, nodes(c) * CRM_NODE_FLOATS * sizeof(float), "crm.nodes");
     visit(user, c->node_valid, nodes(c), "crm.node_valid");
-    visit(user, c->residual.occupancy, c->residual.n_occupancy * sizeof(uint32_t), "crm.residual.occupancy");
-    visit(user, c->residual.offsets, c->residual.n_offsets * sizeof(uint32_t), "crm.residual.offsets");
-    visit(user, c->residual.table, c->residual.n_table, "crm.residual.table");
+    if (!c->dfull) {
+        /* decoded in the view: the hash itself */
+        visit(user, c->residual.occupancy, c->residual.n_occupancy * sizeof(uint32_t), "crm.residual.occupancy");
+        visit(user, c->residual.offsets, c->residual.n_offsets * sizeof(uint32_t), "crm.residual.offsets");
+        visit(user, c->residual.table, c->residual.n_table, "crm.residual.table");
+    }
     visit(user, c->view_nodes, nodes(c) * CRM_VIEW_FLOATS * sizeof(float), "crm.view_nodes");
 }
 
@@ -81,11 +85,17 @@ vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void 
 #define PUT(field, slot, gen, bytes) \
     do { if ((st = vsd_device_array(ctx, slot, gen, h->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
     PUT(dtilde, CRM_SLOT_DTILDE, ctx->frame_gen, voxels(h) * sizeof(float));
+    if (h->dfull) PUT(dfull, CRM_SLOT_DFULL, ctx->frame_gen, voxels(h) * sizeof(float));
     PUT(nodes, CRM_SLOT_NODES, ctx->lighting_gen, nodes(h) * CRM_NODE_FLOATS * sizeof(float));
     PUT(node_valid, CRM_SLOT_VALID, ctx->lighting_gen, nodes(h));
-    PUT(residual.occupancy, CRM_SLOT_OCC, ctx->frame_gen, h->residual.n_occupancy * sizeof(uint32_t));
-    PUT(residual.offsets, CRM_SLOT_OFFSETS, ctx->frame_gen, h->residual.n_offsets * sizeof(uint32_t));
-    PUT(residual.table, CRM_SLOT_TABLE, ctx->frame_gen, h->residual.n_table);
+    if (!h->dfull) {
+        PUT(residual.occupancy, CRM_SLOT_OCC, ctx->frame_gen, h->residual.n_occupancy * sizeof(uint32_t));
+        PUT(residual.offsets, CRM_SLOT_OFFSETS, ctx->frame_gen, h->residual.n_offsets * sizeof(uint32_t));
+        PUT(residual.table, CRM_SLOT_TABLE, ctx->frame_gen, h->residual.n_table);
+    } else {
+        d->residual.occupancy = d->residual.offsets = NULL;
+        d->residual.table = NULL;
+    }
 #undef PUT
     {
         /* the node pass for this view, on the device into a scratch slot the view then reads:

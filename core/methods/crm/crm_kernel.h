@@ -43,6 +43,8 @@ enum { CRM_VIEW_FLOATS = 6 };
 typedef struct VSD_ALIGN16 vsd_kcrm {
     const vsd_kernel_data *kd;
     const float *dtilde;           /* [nx*ny*nz] D~ per voxel (unscaled density) */
+    const float *dfull;            /* [nx*ny*nz] D~ + R decoded per frame (decode "frame"), or NULL:
+                                      the view decodes the hash itself (decode "view") */
     const float *nodes;            /* [node count * CRM_NODE_FLOATS]: ss R,G,B (16 each), ms R,G,B (4 each) */
     const uint8_t *node_valid;     /* [node count] CRM_NODE_SINGLE | CRM_NODE_MULTIPLE bits */
     /* [node count * CRM_VIEW_FLOATS], per view: each node's source toward the eye (log of the
@@ -66,23 +68,32 @@ VSD_DEVICE float vsd_crm_density(const vsd_kcrm *c, vsd_f3 q, float *dt)
 {
     float x = q.x - 0.5f, y = q.y - 0.5f, z = q.z - 0.5f, v[8], r[8];
     float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz, out[2];
-    int32_t i = (int32_t)fx, j = (int32_t)fy, k = (int32_t)fz, a, pass;
+    int32_t i = (int32_t)fx, j = (int32_t)fy, k = (int32_t)fz, a, pass, full = c->residual_mode != CRM_RESIDUAL_NONE;
+    /* decoded per frame: D~ + R is a grid of its own, and only eq. 8's mode needs D~ too */
+    const float *first = full && c->dfull ? c->dfull : c->dtilde;
     for (a = 0; a < 8; a++) {
         int32_t ii = i + (a & 1), jj = j + ((a >> 1) & 1), kk = k + ((a >> 2) & 1);
-        v[a] = (ii < 0 || jj < 0 || kk < 0 || ii >= c->dims[0] || jj >= c->dims[1] || kk >= c->dims[2])
-                   ? 0.0f
-                   : c->dtilde[((size_t)kk * c->dims[1] + jj) * c->dims[0] + ii];
+        int32_t in = !(ii < 0 || jj < 0 || kk < 0 || ii >= c->dims[0] || jj >= c->dims[1] || kk >= c->dims[2]);
+        size_t at = in ? ((size_t)kk * c->dims[1] + jj) * c->dims[0] + ii : 0;
+        v[a] = in ? first[at] : 0.0f;
+        r[a] = in && c->dfull && c->residual_mode == CRM_RESIDUAL_SOURCE ? c->dtilde[at] : 0.0f;
     }
-    if (c->residual_mode != CRM_RESIDUAL_NONE) vsd_crm_residual_cell(&c->residual, i, j, k, r);
-    else
-        for (a = 0; a < 8; a++) r[a] = 0.0f;
+    if (full && !c->dfull) vsd_crm_residual_cell(&c->residual, i, j, k, r);
     for (pass = 0; pass < 2; pass++) {
         float w[8], c00, c10, c01, c11, c0, c1;
-        for (a = 0; a < 8; a++) w[a] = pass ? v[a] + r[a] : v[a];
+        for (a = 0; a < 8; a++)
+            /* pass 0: D~, pass 1: D~ + R, from whichever grids this mode has */
+            w[a] = !full ? v[a] : c->dfull ? (pass ? v[a] : (c->residual_mode == CRM_RESIDUAL_SOURCE ? r[a] : v[a]))
+                                           : (pass ? v[a] + r[a] : v[a]);
         c00 = w[0] + (w[1] - w[0]) * tx; c10 = w[2] + (w[3] - w[2]) * tx;
         c01 = w[4] + (w[5] - w[4]) * tx; c11 = w[6] + (w[7] - w[6]) * tx;
         c0 = c00 + (c10 - c00) * ty; c1 = c01 + (c11 - c01) * ty;
         out[pass] = c0 + (c1 - c0) * tz;
+        if (c->residual_mode != CRM_RESIDUAL_SOURCE && (c->dfull || !full)) {
+            /* one grid: D~ is only read by eq. 8's mode */
+            out[1] = out[0];
+            break;
+        }
     }
     *dt = out[0];
     return out[1];
