@@ -68,6 +68,16 @@ VSD_DEVICE void vsd_stratum(int s, int n, float *u, float *v)
     *v = ((float)(s / n) + 0.5f) * inv;
 }
 
+/* The per-sample function of a stratified view pass over a kernel `pixel(m, x, y, u, v)`:
+ * sample s of pixel (x, y) is the centre of stratum s of its n x n strata. */
+#define VSD_STRATIFIED_SAMPLE(name, T, pixel)                                                \
+    VSD_DEVICE vsd_sample_result name(const T *m, int x, int y, int s, int n)               \
+    {                                                                                        \
+        float u, v;                                                                          \
+        vsd_stratum(s, n, &u, &v);                                                           \
+        return pixel(m, x, y, u, v);                                                         \
+    }
+
 #ifdef __cplusplus
 }
 #endif

@@ -235,11 +235,6 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel(const vsd_krecord_grid *g, int32_
 }
 
 /* Stratum s of the n x n strata of pixel (x, y) (device/device_pass.h). */
-VSD_DEVICE vsd_sample_result vsd_records_pass_sample(const vsd_krecord_grid *g, int x, int y, int s, int n)
-{
-    float u, v;
-    vsd_stratum(s, n, &u, &v);
-    return vsd_records_pixel(g, x, y, u, v);
-}
+VSD_STRATIFIED_SAMPLE(vsd_records_pass_sample, vsd_krecord_grid, vsd_records_pixel)
 
 #endif

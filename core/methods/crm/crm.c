@@ -214,22 +214,13 @@ static vsd_status dense_copy(const vsd_volume *vol, int32_t dims[3], int32_t ori
     return VSD_OK;
 }
 
-/* Trilinear density at crm-space point (x, y, z), voxel centres at +0.5, 0 outside. */
+/* Trilinear density at crm-space point (x, y, z), 0 outside (the view kernel's blend). */
 static float dense_at(const float *d, const int32_t dims[3], float x, float y, float z)
 {
-    float fx, fy, fz, tx, ty, tz, v = 0.0f;
-    int32_t i, j, k, a;
-    x -= 0.5f; y -= 0.5f; z -= 0.5f;
-    fx = floorf(x); fy = floorf(y); fz = floorf(z);
-    tx = x - fx; ty = y - fy; tz = z - fz;
-    i = (int32_t)fx; j = (int32_t)fy; k = (int32_t)fz;
-    for (a = 0; a < 8; a++) {
-        int32_t ii = i + (a & 1), jj = j + ((a >> 1) & 1), kk = k + ((a >> 2) & 1);
-        float w = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
-        if (ii < 0 || jj < 0 || kk < 0 || ii >= dims[0] || jj >= dims[1] || kk >= dims[2]) continue;
-        v += w * d[((size_t)kk * dims[1] + jj) * dims[0] + ii];
-    }
-    return v;
+    int32_t ijk[3];
+    float w[8];
+    vsd_crm_cell(f3(x, y, z), ijk, w);
+    return vsd_crm_blend(d, dims, ijk, w);
 }
 
 /* The node grid's spacing (option, else largest dimension / 48, at least 1 voxel) and the
@@ -414,13 +405,43 @@ static vsd_status node_emission(const crm_state *s, const vsd_frame_ctx *ctx, fl
     return VSD_OK;
 }
 
+/* The paper's diffusion at the RBF centres (multiple "rbf"), driven by the order-2 part of
+ * J_ss (its first four coefficients), warm-started from the last solve. */
+static vsd_status rbf_diffusion(crm_state *s, double sigma, const double albedo[3], double g, char *err,
+                                size_t errlen)
+{
+    int count = s->rbfs.count, n2 = s->opt.order * s->opt.order, l, c, q;
+    double ms_albedo[3], *j_ss2;
+    vsd_status st;
+    /* the system has no vacuum boundary and is singular without absorption
+     * (crm_diffusion.h): albedo 1 is solved as 0.999 */
+    for (c = 0; c < 3; c++) ms_albedo[c] = albedo[c] < 0.999 ? albedo[c] : 0.999;
+    if (s->l_m0_count != count) {
+        free(s->l_m0);
+        s->l_m0 = calloc((size_t)count * 3, sizeof(double));
+        s->l_m0_count = s->l_m0 ? count : 0;
+    }
+    if (!s->l_m0 || !(j_ss2 = malloc(sizeof(double) * (size_t)count * 12)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the diffusion of %d RBFs", count);
+    for (l = 0; l < count; l++)
+        for (c = 0; c < 3; c++)
+            for (q = 0; q < 4; q++) j_ss2[((size_t)l * 3 + c) * 4 + q] = q < n2 ? s->j_ss[((size_t)l * 3 + c) * n2 + q] : 0.0;
+    st = vsd_crm_diffusion_solve_ex(&s->rbfs, sigma, ms_albedo, g, j_ss2, s->l_m0, s->j_ms, 1e-4, s->opt.cg_iterations,
+                                    &s->diffusion, err, errlen);
+    free(j_ss2);
+    return st;
+}
+
 static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     crm_state *s = state;
     const vsd_scene *sc = ctx->scene;
-    int order = s->opt.order, n2 = order * order, count = s->rbfs.count, c, l, q;
-    double env_sh[3 * 16], albedo[3], ms_albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
-    double g = ctx->kd.medium.anisotropy, *j_ss2 = NULL;
+    int order = s->opt.order, n2 = order * order, count = s->rbfs.count, c, q;
+    double env_sh[3 * 16], albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
+    double g = ctx->kd.medium.anisotropy;
+    /* lighting at the RBF centres: the paper's forms, and what its diffusion reads */
+    int centres = s->opt.single != SINGLE_GRID || s->opt.multiple == MULTIPLE_RBF;
+    const vsd_crm_rbfs no_rbfs = {NULL, 0};
     vsd_status st;
     free(s->j_ss);
     free(s->j_ms);
@@ -436,61 +457,33 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     albedo[0] = ctx->kd.medium.albedo.x;
     albedo[1] = ctx->kd.medium.albedo.y;
     albedo[2] = ctx->kd.medium.albedo.z;
-    /* the diffusion system has no vacuum boundary and is singular without absorption
-     * (crm_diffusion.h): albedo 1 is solved as 0.999 */
-    for (c = 0; c < 3; c++) ms_albedo[c] = albedo[c] < 0.999 ? albedo[c] : 0.999;
     if ((st = vsd_sh_project_env(order, ctx->env, sc->environment.strength, sc->environment.rotation_z, env_sh, err,
                                  errlen)))
         return st;
-    s->j_ss = malloc(sizeof(double) * (size_t)count * 3 * n2);
-    s->j_ms = malloc(sizeof(double) * (size_t)count * 12);
-    j_ss2 = malloc(sizeof(double) * (size_t)count * 12);
-    if (s->l_m0_count != count) {
-        free(s->l_m0);
-        s->l_m0 = calloc((size_t)count * 3, sizeof(double));
-        s->l_m0_count = s->l_m0 ? count : 0;
+    if (centres) {
+        s->j_ss = malloc(sizeof(double) * (size_t)count * 3 * n2);
+        s->j_ms = calloc((size_t)count * 12, sizeof(double));
+        if (!s->j_ss || !s->j_ms)
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the source radiances of %d RBFs", count);
+        t0 = vsd_clock_seconds();
+        if (s->opt.single == SINGLE_SH)
+            st = vsd_crm_single_scatter(&s->rbfs, sigma, albedo, g, order, env_sh, s->table, s->j_ss, NULL, err, errlen);
+        else
+            /* `direct`, or the input of the paper's diffusion at the centres */
+            st = vsd_crm_single_scatter_direct(&s->rbfs, ctx->kd.density.scale, w2i, albedo, g, order, env_sh,
+                                               s->opt.directions, ctx->threads, s->j_ss, err, errlen);
+        s->single_seconds = vsd_clock_seconds() - t0;
+        if (!st && s->opt.multiple == MULTIPLE_RBF) st = rbf_diffusion(s, sigma, albedo, g, err, errlen);
+        if (st) return st;
     }
-    if (!s->j_ss || !s->j_ms || !j_ss2 || !s->l_m0) {
-        free(j_ss2);
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the source radiances of %d RBFs", count);
-    }
-    t0 = vsd_clock_seconds();
-    if (s->opt.single == SINGLE_SH)
-        st = vsd_crm_single_scatter(&s->rbfs, sigma, albedo, g, order, env_sh, s->table, s->j_ss, NULL, err, errlen);
-    else if (s->opt.single == SINGLE_DIRECT || s->opt.multiple == MULTIPLE_RBF)
-        /* the RBF-centre form also feeds the paper's diffusion at the centres */
-        st = vsd_crm_single_scatter_direct(&s->rbfs, ctx->kd.density.scale, w2i, albedo, g, order, env_sh,
-                                           s->opt.directions, ctx->threads, s->j_ss, err, errlen);
-    else
-        memset(s->j_ss, 0, sizeof(double) * (size_t)count * 3 * n2);
-    s->single_seconds = vsd_clock_seconds() - t0;
-    if (st) goto done;
-    /* the order-2 part of J_ss drives the diffusion (its first four coefficients) */
-    for (l = 0; l < count; l++)
-        for (c = 0; c < 3; c++)
-            for (q = 0; q < 4; q++) j_ss2[((size_t)l * 3 + c) * 4 + q] = q < n2 ? s->j_ss[((size_t)l * 3 + c) * n2 + q] : 0.0;
-    if (s->opt.multiple == MULTIPLE_RBF) {
-        st = vsd_crm_diffusion_solve_ex(&s->rbfs, sigma, ms_albedo, g, j_ss2, s->l_m0, s->j_ms, 1e-4, s->opt.cg_iterations,
-                                        &s->diffusion, err, errlen);
-        if (st) goto done;
-    } else {
-        memset(s->j_ms, 0, sizeof(double) * (size_t)count * 12);
-    }
-    if ((st = vsd_crm_source_grid_build(&s->rbfs, s->j_ss, n2, s->j_ms, s->dims, s->spacing, &s->nodes, err, errlen)))
-        goto done;
+    /* eq. 7 from the centres when they were lit; else empty nodes for the grid stages */
+    if ((st = vsd_crm_source_grid_build(centres ? &s->rbfs : &no_rbfs, s->j_ss, n2, s->j_ms, s->dims, s->spacing,
+                                        &s->nodes, err, errlen)))
+        return st;
     if (s->opt.multiple != MULTIPLE_RBF || s->opt.single == SINGLE_GRID) {
         size_t nodes = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
         float *sigma_t = malloc(nodes * sizeof *sigma_t);
-        if (s->phi_nodes != nodes) {
-            free(s->phi);
-            s->phi = calloc(3 * nodes, sizeof *s->phi);
-            s->phi_nodes = s->phi ? nodes : 0;
-        }
-        if (!sigma_t || !s->phi) {
-            free(sigma_t);
-            st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the diffusion of %zu nodes", nodes);
-            goto done;
-        }
+        if (!sigma_t) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the extinction of %zu nodes", nodes);
         for (i = 0; i < nodes; i++) sigma_t[i] = ctx->kd.density.scale * s->node_density[i];
         if (s->opt.single == SINGLE_GRID) {
             t0 = vsd_clock_seconds();
@@ -498,10 +491,18 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                                      ctx->threads, s->nodes.nodes, s->nodes.valid, err, errlen);
             s->single_seconds = vsd_clock_seconds() - t0;
         }
-        if (!st && s->opt.multiple == MULTIPLE_GRID)
-            st = vsd_crm_grid_diffusion(s->node_res, s->spacing * s->voxel_world, sigma_t, albedo, g, s->nodes.nodes,
-                                        s->nodes.valid, s->phi, 1e-5, s->opt.grid_iterations, &s->grid, err, errlen);
-        else if (!st && s->opt.multiple == MULTIPLE_ORDERS) {
+        if (!st && s->opt.multiple == MULTIPLE_GRID) {
+            /* the fluence of the last solve warm-starts this one */
+            if (s->phi_nodes != nodes) {
+                free(s->phi);
+                s->phi = calloc(3 * nodes, sizeof *s->phi);
+                s->phi_nodes = s->phi ? nodes : 0;
+            }
+            st = s->phi ? vsd_crm_grid_diffusion(s->node_res, s->spacing * s->voxel_world, sigma_t, albedo, g,
+                                                 s->nodes.nodes, s->nodes.valid, s->phi, 1e-5, s->opt.grid_iterations,
+                                                 &s->grid, err, errlen)
+                        : vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the diffusion of %zu nodes", nodes);
+        } else if (!st && s->opt.multiple == MULTIPLE_ORDERS) {
             float *emission = NULL;
             if (ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
             if (!st)
@@ -512,8 +513,6 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         }
         free(sigma_t);
     }
-done:
-    free(j_ss2);
     return st;
 }
 

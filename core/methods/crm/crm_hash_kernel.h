@@ -103,29 +103,23 @@ VSD_CRM_FN void vsd_crm_residual_cell(const vsd_crm_hash_view *h, int i, int j, 
  * with voxels outside the grid taken as 0, like the density field itself (kernel_volume.h). */
 VSD_CRM_FN float vsd_crm_residual_trilinear(const vsd_crm_hash_view *h, float x, float y, float z)
 {
-    float fx, fy, fz, x0, y0, z0, tx, ty, tz, c00, c10, c01, c11, c0, c1;
-    int i, j, k;
+    float fx, fy, fz, tx, ty, tz, c[8], c00, c10, c01, c11, c0, c1;
     /* Beyond half a voxel outside the grid every corner is 0; this also keeps the float to
      * int conversion below in range and sends NaN coordinates to 0. */
     if (!(x > -0.5f && y > -0.5f && z > -0.5f && x < (float)h->nx + 0.5f && y < (float)h->ny + 0.5f &&
           z < (float)h->nz + 0.5f))
         return 0.0f;
-    fx = x - 0.5f;
-    fy = y - 0.5f;
-    fz = z - 0.5f;
-    x0 = floorf(fx);
-    y0 = floorf(fy);
-    z0 = floorf(fz);
-    tx = fx - x0;
-    ty = fy - y0;
-    tz = fz - z0;
-    i = (int)x0;
-    j = (int)y0;
-    k = (int)z0;
-    c00 = vsd_crm_residual(h, i, j, k) * (1.0f - tx) + vsd_crm_residual(h, i + 1, j, k) * tx;
-    c10 = vsd_crm_residual(h, i, j + 1, k) * (1.0f - tx) + vsd_crm_residual(h, i + 1, j + 1, k) * tx;
-    c01 = vsd_crm_residual(h, i, j, k + 1) * (1.0f - tx) + vsd_crm_residual(h, i + 1, j, k + 1) * tx;
-    c11 = vsd_crm_residual(h, i, j + 1, k + 1) * (1.0f - tx) + vsd_crm_residual(h, i + 1, j + 1, k + 1) * tx;
+    fx = floorf(x - 0.5f);
+    fy = floorf(y - 0.5f);
+    fz = floorf(z - 0.5f);
+    tx = x - 0.5f - fx;
+    ty = y - 0.5f - fy;
+    tz = z - 0.5f - fz;
+    vsd_crm_residual_cell(h, (int)fx, (int)fy, (int)fz, c);
+    c00 = c[0] * (1.0f - tx) + c[1] * tx;
+    c10 = c[2] * (1.0f - tx) + c[3] * tx;
+    c01 = c[4] * (1.0f - tx) + c[5] * tx;
+    c11 = c[6] * (1.0f - tx) + c[7] * tx;
     c0 = c00 * (1.0f - ty) + c10 * ty;
     c1 = c01 * (1.0f - ty) + c11 * ty;
     return c0 * (1.0f - tz) + c1 * tz;

@@ -61,42 +61,54 @@ typedef struct VSD_ALIGN16 vsd_kcrm {
     float pad_[2];
 } vsd_kcrm;
 
-/* The medium at crm-space point q (voxel centres at +0.5), 0 outside the grid: *dt = D~ and
- * the return value D~ + R (R omitted with CRM_RESIDUAL_NONE), both trilinear over the same
- * 8 voxels, read in one pass. */
+/* Trilinear weights of the 8 voxels around crm-space point q (voxel centres at +0.5) and
+ * the lower corner's voxel. */
+VSD_DEVICE void vsd_crm_cell(vsd_f3 q, int32_t ijk[3], float w[8])
+{
+    float x = q.x - 0.5f, y = q.y - 0.5f, z = q.z - 0.5f, fx = floorf(x), fy = floorf(y), fz = floorf(z);
+    float tx = x - fx, ty = y - fy, tz = z - fz;
+    int32_t a;
+    ijk[0] = (int32_t)fx;
+    ijk[1] = (int32_t)fy;
+    ijk[2] = (int32_t)fz;
+    for (a = 0; a < 8; a++)
+        w[a] = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
+}
+
+/* sum_a w[a] grid[voxel a], voxels outside the grid counting 0. */
+VSD_DEVICE float vsd_crm_blend(const float *grid, const int32_t dims[3], const int32_t ijk[3], const float w[8])
+{
+    float v = 0.0f;
+    int32_t a;
+    for (a = 0; a < 8; a++) {
+        int32_t ii = ijk[0] + (a & 1), jj = ijk[1] + ((a >> 1) & 1), kk = ijk[2] + ((a >> 2) & 1);
+        if (ii < 0 || jj < 0 || kk < 0 || ii >= dims[0] || jj >= dims[1] || kk >= dims[2]) continue;
+        v += w[a] * grid[((size_t)kk * dims[1] + jj) * dims[0] + ii];
+    }
+    return v;
+}
+
+/* The medium at crm-space point q, 0 outside the grid: returns D~ + R (D~ alone with
+ * CRM_RESIDUAL_NONE) and sets *dt = D~ for eq. 8's mode (CRM_RESIDUAL_SOURCE; otherwise *dt
+ * is the return value). D~ + R comes from the per-frame decoded grid, or, without one
+ * (decode "view"), from D~ plus the 8 voxels decoded from the hash. */
 VSD_DEVICE float vsd_crm_density(const vsd_kcrm *c, vsd_f3 q, float *dt)
 {
-    float x = q.x - 0.5f, y = q.y - 0.5f, z = q.z - 0.5f, v[8], r[8];
-    float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz, out[2];
-    int32_t i = (int32_t)fx, j = (int32_t)fy, k = (int32_t)fz, a, pass, full = c->residual_mode != CRM_RESIDUAL_NONE;
-    /* decoded per frame: D~ + R is a grid of its own, and only eq. 8's mode needs D~ too */
-    const float *first = full && c->dfull ? c->dfull : c->dtilde;
-    for (a = 0; a < 8; a++) {
-        int32_t ii = i + (a & 1), jj = j + ((a >> 1) & 1), kk = k + ((a >> 2) & 1);
-        int32_t in = !(ii < 0 || jj < 0 || kk < 0 || ii >= c->dims[0] || jj >= c->dims[1] || kk >= c->dims[2]);
-        size_t at = in ? ((size_t)kk * c->dims[1] + jj) * c->dims[0] + ii : 0;
-        v[a] = in ? first[at] : 0.0f;
-        r[a] = in && c->dfull && c->residual_mode == CRM_RESIDUAL_SOURCE ? c->dtilde[at] : 0.0f;
+    int32_t ijk[3], a;
+    float w[8], full;
+    vsd_crm_cell(q, ijk, w);
+    if (c->residual_mode == CRM_RESIDUAL_NONE) return *dt = vsd_crm_blend(c->dtilde, c->dims, ijk, w);
+    if (c->dfull) {
+        full = vsd_crm_blend(c->dfull, c->dims, ijk, w);
+        *dt = c->residual_mode == CRM_RESIDUAL_SOURCE ? vsd_crm_blend(c->dtilde, c->dims, ijk, w) : full;
+    } else {
+        float r[8];
+        vsd_crm_residual_cell(&c->residual, ijk[0], ijk[1], ijk[2], r);
+        *dt = vsd_crm_blend(c->dtilde, c->dims, ijk, w);
+        full = *dt;
+        for (a = 0; a < 8; a++) full += w[a] * r[a];
     }
-    if (full && !c->dfull) vsd_crm_residual_cell(&c->residual, i, j, k, r);
-    for (pass = 0; pass < 2; pass++) {
-        float w[8], c00, c10, c01, c11, c0, c1;
-        for (a = 0; a < 8; a++)
-            /* pass 0: D~, pass 1: D~ + R, from whichever grids this mode has */
-            w[a] = !full ? v[a] : c->dfull ? (pass ? v[a] : (c->residual_mode == CRM_RESIDUAL_SOURCE ? r[a] : v[a]))
-                                           : (pass ? v[a] + r[a] : v[a]);
-        c00 = w[0] + (w[1] - w[0]) * tx; c10 = w[2] + (w[3] - w[2]) * tx;
-        c01 = w[4] + (w[5] - w[4]) * tx; c11 = w[6] + (w[7] - w[6]) * tx;
-        c0 = c00 + (c10 - c00) * ty; c1 = c01 + (c11 - c01) * ty;
-        out[pass] = c0 + (c1 - c0) * tz;
-        if (c->residual_mode != CRM_RESIDUAL_SOURCE && (c->dfull || !full)) {
-            /* one grid: D~ is only read by eq. 8's mode */
-            out[1] = out[0];
-            break;
-        }
-    }
-    *dt = out[0];
-    return out[1];
+    return full;
 }
 
 /* Source radiance of one node toward the viewer: y holds the SH basis at -d. */
@@ -264,11 +276,6 @@ VSD_DEVICE vsd_sample_result vsd_crm_pixel(const vsd_kcrm *c, int32_t px, int32_
 }
 
 /* Stratum s of the n x n strata of pixel (x, y) (device/device_pass.h). */
-VSD_DEVICE vsd_sample_result vsd_crm_pass_sample(const vsd_kcrm *c, int x, int y, int s, int n)
-{
-    float u, v;
-    vsd_stratum(s, n, &u, &v);
-    return vsd_crm_pixel(c, x, y, u, v);
-}
+VSD_STRATIFIED_SAMPLE(vsd_crm_pass_sample, vsd_kcrm, vsd_crm_pixel)
 
 #endif

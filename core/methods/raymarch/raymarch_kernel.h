@@ -60,11 +60,6 @@ VSD_DEVICE vsd_sample_result vsd_raymarch_pixel(const vsd_kernel_data *kd, int32
 }
 
 /* Stratum s of the n x n strata of pixel (x, y) (device/device_pass.h). */
-VSD_DEVICE vsd_sample_result vsd_raymarch_pass_sample(const vsd_kernel_data *kd, int x, int y, int s, int n)
-{
-    float u, v;
-    vsd_stratum(s, n, &u, &v);
-    return vsd_raymarch_pixel(kd, x, y, u, v);
-}
+VSD_STRATIFIED_SAMPLE(vsd_raymarch_pass_sample, vsd_kernel_data, vsd_raymarch_pixel)
 
 #endif
