@@ -447,7 +447,7 @@ static void keep_copy(const vsd_framebuffer *fb, vsd_framebuffer **keep)
 /* Give the renderer the edited scene and render frame 24: no fit is run for it (fits_run
  * stays where it was) and the image changes (so the edit was seen). */
 static void edit_and_render(vsd_renderer *r, const vsd_scene *sc, const char *what, vsd_framebuffer **fb,
-                            vsd_framebuffer **before, double *fits)
+                            vsd_framebuffer **before, double *fits, double *marches, int expect_march)
 {
     vsd_render_stats st;
     char err[1024] = "";
@@ -458,6 +458,12 @@ static void edit_and_render(vsd_renderer *r, const vsd_scene *sc, const char *wh
     CHECK_MSG(now == *fits, "%s refitted the unchanged grid (fits_run %g -> %g): %s", what, *fits, now,
               st.method_info);
     *fits = now;
+    /* the nodes' transmittance toward the sky is kept unless the density or a smaller
+     * density scale needs it marched again (crm_node_single.h); counted, not timed */
+    now = info(&st, "transmittance_marches");
+    CHECK_MSG(now == *marches + expect_march, "%s: transmittance marched %g times, expected %g: %s", what,
+              now - *marches, (double)expect_march, st.method_info);
+    *marches = now;
     CHECK_MSG(max_rel_diff(*fb, *before, VSD_PASS_COMBINED) > 1e-2, "%s did not change the image", what);
     keep_copy(*fb, before);
 }
@@ -470,13 +476,14 @@ static void test_edits(void)
     vsd_renderer *r;
     vsd_framebuffer *fb = NULL, *prev = NULL, *fresh = NULL;
     vsd_render_stats st;
-    double t0 = vsd_clock_seconds(), fits = 1;
+    double t0 = vsd_clock_seconds(), fits = 1, marches = 1;
     if (!load_file_scene(SMOKE, ov, 7, &sc)) return;
     r = make_renderer(&sc, NULL);   /* no disk cache: every fit is counted */
     if (!r) return;
     if (!render(r, 24, &fb, &st)) goto done;
     CHECK_NEAR(info(&st, "fits_run"), 1, 0);
     CHECK_NEAR(info(&st, "fit_cached"), 0, 0);
+    CHECK_NEAR(info(&st, "transmittance_marches"), 1, 0);
     keep_copy(fb, &prev);
     /* the same scene again: the same image, bit for bit */
     if (render(r, 24, &fb, &st)) {
@@ -484,16 +491,33 @@ static void test_edits(void)
         CHECK_NEAR(info(&st, "fits_run"), 1, 0);
     }
     sc.camera.matrix[3] += 0.2;   /* camera moved along x */
-    edit_and_render(r, &sc, "camera change", &fb, &prev, &fits);
+    edit_and_render(r, &sc, "camera change", &fb, &prev, &fits, &marches, 0);
     sc.environment.rotation_z = 1.3f;   /* the sunset's sun moves */
-    edit_and_render(r, &sc, "environment rotation", &fb, &prev, &fits);
-    /* the renderer's frame stage runs again on a density change; the grid is the same */
+    edit_and_render(r, &sc, "environment rotation", &fb, &prev, &fits, &marches, 0);
+    /* the renderer's frame stage runs again on a density change; the grid is the same. A
+     * smaller scale than the marches stopped for marches again; a larger one reuses them */
+    sc.medium.density = 5.0f;   /* the scene's is 8 */
+    edit_and_render(r, &sc, "medium.density decrease", &fb, &prev, &fits, &marches, 1);
     sc.medium.density = 12.0f;
-    edit_and_render(r, &sc, "medium.density change", &fb, &prev, &fits);
+    edit_and_render(r, &sc, "medium.density increase", &fb, &prev, &fits, &marches, 0);
+    fresh = render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
+    if (fresh) {
+        /* the kept marches (run for density 5) went on past where a fresh one stops
+         * (optical depth 7 at density 12), so the two differ by at most the light beyond
+         * e^-7 < 1e-3 */
+        double d = max_rel_diff(prev, fresh, VSD_PASS_COMBINED);
+        printf("[4] density increase, kept transmittance vs fresh renderer: Combined max rel. diff %.3g\n", d);
+        CHECK_MSG(d <= 1e-3, "kept transmittance differs from a fresh march: %g", d);
+        vsd_framebuffer_destroy(fresh);
+        fresh = NULL;
+    }
+    /* back to the scale the marches ran for: reused, and exact again (checked below) */
+    sc.medium.density = 5.0f;
+    edit_and_render(r, &sc, "medium.density back", &fb, &prev, &fits, &marches, 0);
     sc.medium.albedo[0] = 0.9f;
     sc.medium.albedo[1] = 0.7f;
     sc.medium.albedo[2] = 0.5f;
-    edit_and_render(r, &sc, "medium.albedo change", &fb, &prev, &fits);
+    edit_and_render(r, &sc, "medium.albedo change", &fb, &prev, &fits, &marches, 0);
     CHECK_MSG(fits == 1, "%g fits for one grid across camera, environment and medium edits", fits);
     /* what the edited renderer shows is what a fresh renderer shows for the edited scene
      * (the fresh one fits anew: without a cache folder nothing is shared; measured 0 when

@@ -138,12 +138,16 @@ typedef struct crm_state {
     float spacing;                /* voxels between source nodes */
     int32_t node_res[3];
     float *node_density;          /* [nodes] mean density of each node's cell (grid diffusion) */
+    vsd_crm_node_depths depths;   /* the nodes' transmittance toward the sky, kept across
+                                     lighting and medium edits (crm_node_single.h) */
     /* lighting (§5.3-5.4) */
     vsd_crm_od_table *table;
     double *j_ss, *j_ms, *l_m0;   /* per centre; l_m0 warm-starts the next solve */
     int l_m0_count;
     vsd_crm_diffusion_stats diffusion;
     double single_seconds;
+    double transmittance_seconds; /* of single_seconds: the marches (0 when reused) */
+    long long transmittance_marches; /* times the node transmittance was marched, not reused */
     vsd_crm_source_grid nodes;
     float *view_nodes;            /* [nodes * CRM_VIEW_FLOATS] the CPU's per-view node pass */
     size_t view_count;
@@ -183,6 +187,7 @@ static void free_frame(crm_state *s)
     s->dfull = NULL;
     free(s->node_density);
     s->node_density = NULL;
+    vsd_crm_node_depths_free(&s->depths);
     vsd_crm_hash_destroy(s->hash);
     s->hash = NULL;
 }
@@ -486,9 +491,15 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         if (!sigma_t) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the extinction of %zu nodes", nodes);
         for (i = 0; i < nodes; i++) sigma_t[i] = ctx->kd.density.scale * s->node_density[i];
         if (s->opt.single == SINGLE_GRID) {
+            int marched;
             t0 = vsd_clock_seconds();
-            st = vsd_crm_node_single(s->node_res, to_node, sigma_t, albedo, g, order, env_sh, s->opt.directions,
-                                     ctx->threads, s->nodes.nodes, s->nodes.valid, err, errlen);
+            st = vsd_crm_node_depths_update(&s->depths, s->node_res, to_node, s->node_density, ctx->kd.density.scale,
+                                            s->opt.directions, ctx->threads, &marched, err, errlen);
+            s->transmittance_seconds = marched ? vsd_clock_seconds() - t0 : 0.0;
+            s->transmittance_marches += marched;
+            if (!st)
+                st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, albedo, g, order, env_sh, ctx->threads,
+                                         s->nodes.nodes, s->nodes.valid, err, errlen);
             s->single_seconds = vsd_clock_seconds() - t0;
         }
         if (!st && s->opt.multiple == MULTIPLE_GRID) {
@@ -524,10 +535,10 @@ static void crm_info(const crm_state *s, vsd_frame_ctx *ctx)
     if (s->hash) hs = vsd_crm_hash_get_stats(s->hash);
     snprintf(ctx->info, ctx->info_len,
              "rbfs=%d fit_rel_error=%.5g fit_seconds=%.3f fit_evaluations=%d fit_cached=%d fits_run=%lld "
-             "hash_stored=%zu hash_bytes=%zu hash_seconds=%.3f single_seconds=%.3f cg_iterations=%d "
+             "hash_stored=%zu hash_bytes=%zu hash_seconds=%.3f single_seconds=%.3f transmittance_seconds=%.3f transmittance_marches=%lld cg_iterations=%d "
              "diffusion_seconds=%.3f grid_iterations=%d grid_seconds=%.3f orders=%d orders_tail=%.3f orders_seconds=%.3f nodes=%dx%dx%d node_seconds=%.3f",
              s->rbfs.count, s->fit.rel_error, s->fit.seconds, s->fit.evaluations, s->fit_cached, s->fits_run,
-             hs.stored, hs.bytes, hs.build_seconds, s->single_seconds, s->diffusion.iterations, s->diffusion.seconds,
+             hs.stored, hs.bytes, hs.build_seconds, s->single_seconds, s->transmittance_seconds, s->transmittance_marches, s->diffusion.iterations, s->diffusion.seconds,
              s->grid.iterations, s->grid.seconds, s->orders.orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds);
 }
 

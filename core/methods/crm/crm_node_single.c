@@ -8,13 +8,14 @@
 typedef struct node_depth {
     int32_t res[3];
     double to_node[9];      /* world direction -> node-grid displacement per world unit */
-    /* sigma_t on the nodes with a zero border (1 node below, 2 above per axis), so a march
+    float stop;             /* optical depth (grid units) past which the light counts as gone */
+    /* density on the nodes with a zero border (1 node below, 2 above per axis), so a march
      * inside [-1, res] reads its 8 corners without bounds tests */
     float *pad;
     size_t sx, sy;          /* strides of pad */
 } node_depth;
 
-static vsd_status pad_grid(node_depth *g, const float *sigma, char *err, size_t errlen)
+static vsd_status pad_grid(node_depth *g, const float *density, char *err, size_t errlen)
 {
     int32_t i, j, k;
     g->sx = (size_t)g->res[0] + 3;
@@ -25,12 +26,12 @@ static vsd_status pad_grid(node_depth *g, const float *sigma, char *err, size_t 
         for (j = 0; j < g->res[1]; j++)
             for (i = 0; i < g->res[0]; i++)
                 g->pad[(size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1)] =
-                    sigma[((size_t)k * g->res[1] + j) * g->res[0] + i];
+                    density[((size_t)k * g->res[1] + j) * g->res[0] + i];
     return VSD_OK;
 }
 
-/* trilinear sigma_t at node coordinates (x, y, z) in [-1, res]: 0 outside the grid */
-static float sigma_at(const node_depth *g, float x, float y, float z)
+/* trilinear density at node coordinates (x, y, z) in [-1, res]: 0 outside the grid */
+static float density_at(const node_depth *g, float x, float y, float z)
 {
     float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz;
     const float *c = g->pad + (size_t)((int32_t)fz + 1) * g->sy + (size_t)((int32_t)fy + 1) * g->sx + (size_t)((int32_t)fx + 1);
@@ -42,78 +43,110 @@ static float sigma_at(const node_depth *g, float x, float y, float z)
 }
 
 /* One node per step from p (node coordinates) toward world direction w, midpoints, until
- * the grid ends or the light is gone (optical depth 7: transmittance below 1e-3). The
- * direction is carried into the grid by the volume's transform, so rotated or stretched
- * volumes see the map the right way round; a node step is 1/|v| world units long. */
+ * the grid ends or the optical depth passes g->stop. The direction is carried into the grid
+ * by the volume's transform, so rotated or stretched volumes see the map the right way
+ * round; a node step is 1/|v| world units long. Returns the optical depth of the density
+ * (world units, unscaled). */
 static double march(const void *user, const double p[3], const double w[3])
 {
     const node_depth *g = user;
     double v[3], len;
-    float od = 0.0f, step, px, py, pz, ux, uy, uz, s;
+    float od = 0.0f, stop, px, py, pz, ux, uy, uz, s;
     int a;
     for (a = 0; a < 3; a++) v[a] = g->to_node[3 * a] * w[0] + g->to_node[3 * a + 1] * w[1] + g->to_node[3 * a + 2] * w[2];
     len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     if (!(len > 0.0)) return 0.0;
     /* optical depth is summed in node units and scaled once: a node step is 1/len long */
-    step = (float)(7.0 * len);
+    stop = (float)(g->stop * len);
     px = (float)p[0]; py = (float)p[1]; pz = (float)p[2];
     ux = (float)(v[0] / len); uy = (float)(v[1] / len); uz = (float)(v[2] / len);
-    for (s = 0.5f; od < step; s += 1.0f) {
+    for (s = 0.5f; od < stop; s += 1.0f) {
         float x = px + s * ux, y = py + s * uy, z = pz + s * uz;
         if (x < -1.0f || y < -1.0f || z < -1.0f || x > (float)g->res[0] || y > (float)g->res[1] || z > (float)g->res[2])
             break;
-        od += sigma_at(g, x, y, z);
+        od += density_at(g, x, y, z);
     }
     return od / len;
 }
 
-vsd_status vsd_crm_node_single(const int32_t res[3], const double to_node[9], const float *sigma_t, const double albedo[3], double g,
-                               int order, const double *env_sh, int directions, int threads, float *nodes,
-                               uint8_t *valid, char *err, size_t errlen)
+void vsd_crm_node_depths_free(vsd_crm_node_depths *c)
+{
+    free(c->which);
+    free(c->od);
+    memset(c, 0, sizeof *c);
+}
+
+vsd_status vsd_crm_node_depths_update(vsd_crm_node_depths *c, const int32_t res[3], const double to_node[9],
+                                      const float *density, float scale, int directions, int threads, int *marched,
+                                      char *err, size_t errlen)
 {
     node_depth depth;
     size_t n = (size_t)res[0] * res[1] * res[2], i, m = 0;
-    int32_t *which = NULL;
-    double *points = NULL, *j = NULL;
-    int n2 = order * order, c, q;
+    double *points = NULL;
     vsd_status st;
+    *marched = 0;
+    /* a march stopped at optical depth 7 / c->scale has, at any scale >= c->scale, reached
+     * transmittance e^-7 < 1e-3 where it stopped: the cut still means "no light" */
+    if (c->od && c->directions == directions && memcmp(c->res, res, sizeof c->res) == 0 &&
+        memcmp(c->to_node, to_node, sizeof c->to_node) == 0 && scale >= c->scale)
+        return VSD_OK;
+    vsd_crm_node_depths_free(c);
     memcpy(depth.res, res, sizeof depth.res);
     memcpy(depth.to_node, to_node, sizeof depth.to_node);
+    depth.stop = scale > 0.0f ? 7.0f / scale : VSD_INF;
     depth.pad = NULL;
-    if ((st = pad_grid(&depth, sigma_t, err, errlen))) return st;
-    for (i = 0; i < n; i++) m += sigma_t[i] > 0.0f;
-    which = malloc((m ? m : 1) * sizeof *which);
-    points = calloc((m ? m : 1) * 3, sizeof *points);
-    j = malloc((m ? m : 1) * 3 * (size_t)n2 * sizeof *j);
-    if (!which || !points || !j) {
-        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the single scattering of %zu nodes", m);
+    if ((st = pad_grid(&depth, density, err, errlen))) return st;
+    for (i = 0; i < n; i++) m += density[i] > 0.0f;
+    c->which = malloc((m ? m : 1) * sizeof *c->which);
+    c->od = malloc((m ? m : 1) * (size_t)directions * sizeof *c->od);
+    points = malloc((m ? m : 1) * 3 * sizeof *points);
+    if (!c->which || !c->od || !points) {
+        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the transmittance of %zu nodes x %d directions", m,
+                      directions);
         goto done;
     }
     for (i = 0, m = 0; i < n; i++) {
-        if (!(sigma_t[i] > 0.0f)) {
-            valid[i] &= (uint8_t)~CRM_NODE_SINGLE;
-            continue;
-        }
-        which[m] = (int32_t)i;
+        if (!(density[i] > 0.0f)) continue;
+        c->which[m] = (int32_t)i;
         points[3 * m] = (double)(i % res[0]);
         points[3 * m + 1] = (double)((i / res[0]) % res[1]);
         points[3 * m + 2] = (double)(i / ((size_t)res[0] * res[1]));
         m++;
     }
-    if ((st = vsd_crm_single_scatter_points((int)m, points, march, &depth, albedo, g, order, env_sh, directions, threads,
-                                            j, err, errlen)))
-        goto done;
-    for (i = 0; i < m; i++) {
-        float *ss = nodes + (size_t)which[i] * CRM_NODE_FLOATS;
-        for (c = 0; c < 3; c++) {
-            for (q = 0; q < CRM_SS_N; q++) ss[c * CRM_SS_N + q] = q < n2 ? (float)j[(i * 3 + c) * (size_t)n2 + q] : 0.0f;
-        }
-        valid[which[i]] |= CRM_NODE_SINGLE;
-    }
+    if ((st = vsd_crm_optical_depths((int)m, points, march, &depth, directions, threads, c->od, err, errlen))) goto done;
+    memcpy(c->res, res, sizeof c->res);
+    memcpy(c->to_node, to_node, sizeof c->to_node);
+    c->directions = directions;
+    c->scale = scale;
+    c->count = m;
+    *marched = 1;
 done:
+    if (st) vsd_crm_node_depths_free(c);
     free(depth.pad);
-    free(which);
     free(points);
+    return st;
+}
+
+vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const double albedo[3], double g, int order,
+                               const double *env_sh, int threads, float *nodes, uint8_t *valid, char *err,
+                               size_t errlen)
+{
+    size_t n = (size_t)c->res[0] * c->res[1] * c->res[2], i;
+    double *j;
+    int n2 = order * order, ch, q;
+    vsd_status st;
+    for (i = 0; i < n; i++) valid[i] &= (uint8_t)~CRM_NODE_SINGLE;
+    if (c->count == 0) return VSD_OK;
+    if (!(j = malloc(c->count * 3 * (size_t)n2 * sizeof *j)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the single scattering of %zu nodes", c->count);
+    if (!(st = vsd_crm_single_from_depths((int)c->count, c->od, scale, albedo, g, order, env_sh, c->directions, threads,
+                                          j, err, errlen)))
+        for (i = 0; i < c->count; i++) {
+            float *ss = nodes + (size_t)c->which[i] * CRM_NODE_FLOATS;
+            for (ch = 0; ch < 3; ch++)
+                for (q = 0; q < CRM_SS_N; q++) ss[ch * CRM_SS_N + q] = q < n2 ? (float)j[(i * 3 + ch) * (size_t)n2 + q] : 0.0f;
+            valid[c->which[i]] |= CRM_NODE_SINGLE;
+        }
     free(j);
     return st;
 }

@@ -7,17 +7,31 @@
 
 #define PI_D 3.14159265358979323846
 
-typedef struct direct_job {
+/* The light side of single scattering, shared by every point: per direction d, the
+ * order-n SH basis at d times the environment's radiance L_in(d) times the quadrature weight
+ * 4pi/M, RGB-major ([d][c * n2 + i]), so a point's projection is one weighted row sum. */
+typedef struct sky_weights {
+    int order, n2, m;
+    float *w;                 /* [m * 3 * n2] */
+    double hg[16];            /* HG's zonal coefficients */
+} sky_weights;
+
+typedef struct depth_job {
     const double *points;
     vsd_crm_depth_fn depth;
     const void *user;
-    const double *albedo, *hg;
-    int order, n2, m;
     const double *dirs;       /* [m * 3] */
-    const double *basis;      /* [m * n2] */
-    const double *radiance;   /* [m * 3] L_in per direction (the SH reconstruction) */
+    int m;
+    float *od;
+} depth_job;
+
+typedef struct project_job {
+    const sky_weights *sky;
+    const float *od;
+    float scale;
+    const double *albedo;
     double *j_ss;
-} direct_job;
+} project_job;
 
 /* Optical depth (unscaled) of RBF b along the ray from p toward unit w, to infinity. */
 static double line_depth(const vsd_crm_rbf *b, const double p[3], const double w[3])
@@ -52,36 +66,140 @@ static double rbf_optical_depth(const void *user, const double p[3], const doubl
 
 /* Points [l0, l1): the CPU backend's thread pool hands out ranges as the x of a count x 1
  * "image" (vsd_cpu_run_tiles). */
-static void run(void *arg, int l0, int y0, int l1, int y1)
+static void run_depths(void *arg, int l0, int y0, int l1, int y1)
 {
-    const direct_job *j = arg;
-    const int n2 = j->n2;
-    double f[3][16], tau;
+    const depth_job *j = arg;
+    int l, d;
+    (void)y0;
+    (void)y1;
+    for (l = l0; l < l1; l++)
+        for (d = 0; d < j->m; d++)
+            j->od[(size_t)l * j->m + d] = (float)j->depth(j->user, j->points + 3 * (size_t)l, j->dirs + 3 * (size_t)d);
+}
+
+static void run_project(void *arg, int l0, int y0, int l1, int y1)
+{
+    const project_job *j = arg;
+    const sky_weights *sky = j->sky;
+    const int n2 = sky->n2, row = 3 * n2;
+    float f[3 * 16];
+    double g[16];
     int l, d, c, i, band, m;
     (void)y0;
     (void)y1;
     for (l = l0; l < l1; l++) {
-        const double *p = j->points + 3 * (size_t)l;
-        double *out = j->j_ss + (size_t)l * 3 * n2;
+        const float *od = j->od + (size_t)l * sky->m;
+        double *out = j->j_ss + (size_t)l * row;
         memset(f, 0, sizeof f);
-        for (d = 0; d < j->m; d++) {
-            const double *w = j->dirs + 3 * (size_t)d, *y = j->basis + (size_t)d * n2;
-            tau = exp(-j->depth(j->user, p, w)) * 4.0 * PI_D / (double)j->m;
-            for (c = 0; c < 3; c++) {
-                double v = j->radiance[3 * (size_t)d + c] * tau;
-                for (i = 0; i < n2; i++) f[c][i] += v * y[i];
-            }
+        for (d = 0; d < sky->m; d++) {
+            const float *w = sky->w + (size_t)d * row;
+            float tau = expf(-j->scale * od[d]);
+            /* the hot loop: 48 contiguous floats per direction, vectorised */
+            for (i = 0; i < row; i++) f[i] += tau * w[i];
         }
         for (c = 0; c < 3; c++) {
-            vsd_sh_convolve_zh(j->order, f[c], j->hg, f[c]);
+            for (i = 0; i < n2; i++) g[i] = f[c * n2 + i];
+            vsd_sh_convolve_zh(sky->order, g, sky->hg, g);
             /* as vsd_crm_single_scatter: J_ss(w_o) is the convolution at -w_o */
-            for (band = 0; band < j->order; band++)
+            for (band = 0; band < sky->order; band++)
                 for (m = -band; m <= band; m++) {
                     int idx = band * (band + 1) + m;
-                    out[(size_t)c * n2 + idx] = ((band & 1) ? -j->albedo[c] : j->albedo[c]) * f[c][idx];
+                    out[(size_t)c * n2 + idx] = ((band & 1) ? -j->albedo[c] : j->albedo[c]) * g[idx];
                 }
         }
     }
+}
+
+static vsd_status run_points(int count, int threads, vsd_tile_fn fn, void *user, const char *stage)
+{
+    vsd_tile_job tiles;
+    memset(&tiles, 0, sizeof tiles);
+    tiles.width = count;
+    tiles.height = 1;
+    tiles.threads = threads;
+    tiles.fn = fn;
+    tiles.user = user;
+    tiles.stage = stage;
+    return vsd_cpu_run_tiles(&tiles);
+}
+
+static vsd_status check_sky(int order, int directions, double g, char *err, size_t errlen)
+{
+    if (order < 1 || order > 4 || !vsd_sh_healpix_nside(directions) || !(fabs(g) < 1.0))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                        "crm single scattering: order %d (1..4), %d directions (12 nside^2) or g %g out of range", order,
+                        directions, g);
+    return VSD_OK;
+}
+
+vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth_fn optical_depth, const void *user,
+                                  int directions, int threads, float *od, char *err, size_t errlen)
+{
+    long nside = vsd_sh_healpix_nside(directions);
+    depth_job job;
+    double *dirs;
+    vsd_status st;
+    if (!nside)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "crm optical depths: %d directions is not 12 nside^2", directions);
+    if (count == 0) return VSD_OK;
+    if (!(dirs = malloc(sizeof(double) * 3 * (size_t)directions)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm optical depths: no memory for %d directions", directions);
+    if (!(st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) {
+        job.points = points;
+        job.depth = optical_depth;
+        job.user = user;
+        job.dirs = dirs;
+        job.m = directions;
+        job.od = od;
+        st = run_points(count, threads, run_depths, &job, "crm transmittance");
+    }
+    free(dirs);
+    return st;
+}
+
+vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3], double g,
+                                      int order, const double *env_sh, int directions, int threads, double *j_ss,
+                                      char *err, size_t errlen)
+{
+    long nside = vsd_sh_healpix_nside(directions);
+    int n2 = order * order, m = directions, d, c, i;
+    double *dirs = NULL, y[16];
+    sky_weights sky;
+    project_job job;
+    vsd_status st;
+    if ((st = check_sky(order, directions, g, err, errlen))) return st;
+    if (count == 0) return VSD_OK;
+    dirs = malloc(sizeof(double) * 3 * (size_t)m);
+    sky.w = malloc(sizeof(float) * 3 * (size_t)n2 * m);
+    if (!dirs || !sky.w) {
+        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm single scattering: no memory for %d directions", m);
+        goto done;
+    }
+    if ((st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) goto done;
+    for (d = 0; d < m; d++) {
+        vsd_sh_eval(order, dirs + 3 * (size_t)d, y);
+        for (c = 0; c < 3; c++) {
+            double v = 0.0;
+            for (i = 0; i < n2; i++) v += env_sh[c * n2 + i] * y[i];
+            /* not clamped: the SH reconstruction rings below zero where the map is dark, and
+             * clamping there would add light (+10% VolumeDir on smoke128's forest map) */
+            for (i = 0; i < n2; i++) sky.w[((size_t)d * 3 + c) * n2 + i] = (float)(v * y[i] * 4.0 * PI_D / (double)m);
+        }
+    }
+    sky.order = order;
+    sky.n2 = n2;
+    sky.m = m;
+    vsd_sh_hg_zh(order, g, sky.hg);
+    job.sky = &sky;
+    job.od = od;
+    job.scale = scale;
+    job.albedo = albedo;
+    job.j_ss = j_ss;
+    st = run_points(count, threads, run_project, &job, "crm single scattering");
+done:
+    free(dirs);
+    free(sky.w);
+    return st;
 }
 
 vsd_status vsd_crm_single_scatter_direct(const vsd_crm_rbfs *rbfs, double sigma, const double w2i[9],
@@ -116,59 +234,16 @@ vsd_status vsd_crm_single_scatter_points(int count, const double *points, vsd_cr
                                          const double *env_sh, int directions, int threads, double *j_ss,
                                          char *err, size_t errlen)
 {
-    long nside = vsd_sh_healpix_nside(directions);
-    int n2 = order * order, m = directions, d, c, i;
-    double *dirs = NULL, *basis = NULL, *radiance = NULL, hg[16];
-    direct_job job;
-    vsd_tile_job tiles;
+    float *od;
     vsd_status st;
-    if (order < 1 || order > 4 || !nside || !(fabs(g) < 1.0))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen,
-                        "crm single scattering: order %d (1..4), %d directions (12 nside^2) or g %g out of range", order,
-                        directions, g);
+    if ((st = check_sky(order, directions, g, err, errlen))) return st;
     if (count == 0) return VSD_OK;
-    dirs = malloc(sizeof(double) * 3 * (size_t)m);
-    basis = malloc(sizeof(double) * (size_t)n2 * m);
-    radiance = malloc(sizeof(double) * 3 * (size_t)m);
-    if (!dirs || !basis || !radiance) {
-        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm direct single scattering: no memory for %d directions", m);
-        goto done;
-    }
-    if ((st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) goto done;
-    for (d = 0; d < m; d++) {
-        vsd_sh_eval(order, dirs + 3 * (size_t)d, basis + (size_t)d * n2);
-        for (c = 0; c < 3; c++) {
-            double v = 0.0;
-            for (i = 0; i < n2; i++) v += env_sh[c * n2 + i] * basis[(size_t)d * n2 + i];
-            /* not clamped: the SH reconstruction rings below zero where the map is dark, and
-             * clamping there would add light (+10% VolumeDir on smoke128's forest map) */
-            radiance[3 * (size_t)d + c] = v;
-        }
-    }
-    vsd_sh_hg_zh(order, g, hg);
-    job.points = points;
-    job.depth = optical_depth;
-    job.user = user;
-    job.albedo = albedo;
-    job.hg = hg;
-    job.order = order;
-    job.n2 = n2;
-    job.m = m;
-    job.dirs = dirs;
-    job.basis = basis;
-    job.radiance = radiance;
-    job.j_ss = j_ss;
-    memset(&tiles, 0, sizeof tiles);
-    tiles.width = count;
-    tiles.height = 1;
-    tiles.threads = threads;
-    tiles.fn = run;
-    tiles.user = &job;
-    tiles.stage = "crm single scattering";
-    st = vsd_cpu_run_tiles(&tiles);
-done:
-    free(dirs);
-    free(basis);
-    free(radiance);
+    if (!(od = malloc(sizeof(float) * (size_t)count * directions)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm single scattering: no memory for %d x %d optical depths", count,
+                        directions);
+    if (!(st = vsd_crm_optical_depths(count, points, optical_depth, user, directions, threads, od, err, errlen)))
+        st = vsd_crm_single_from_depths(count, od, 1.0f, albedo, g, order, env_sh, directions, threads, j_ss, err,
+                                        errlen);
+    free(od);
     return st;
 }

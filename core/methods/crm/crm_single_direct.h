@@ -30,6 +30,16 @@ vsd_status vsd_crm_single_scatter_direct(const vsd_crm_rbfs *rbfs, double sigma,
  * from point p toward unit direction w; j_ss: count * 3 * order^2. Used by the RBF form
  * above and by the node-grid single scattering (`single: "grid"`, crm.c). */
 typedef double (*vsd_crm_depth_fn)(const void *user, const double p[3], const double w[3]);
+/* The two halves of it, for callers that keep the transmittance between lighting changes
+ * (crm_node_single.h): od[p * directions + d], the optical depth from point p toward
+ * HEALPix direction d (RING order) as optical_depth gives it; then the projection of
+ * L_in exp(-scale od) with HG and the albedo, for any scale of the extinction. */
+vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth_fn optical_depth, const void *user,
+                                  int directions, int threads, float *od, char *err, size_t errlen);
+vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3], double g,
+                                      int order, const double *env_sh, int directions, int threads, double *j_ss,
+                                      char *err, size_t errlen);
+
 vsd_status vsd_crm_single_scatter_points(int count, const double *points, vsd_crm_depth_fn optical_depth,
                                          const void *user, const double albedo[3], double g, int order,
                                          const double *env_sh, int directions, int threads, double *j_ss,
