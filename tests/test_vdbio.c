@@ -601,8 +601,54 @@ static void test_load_time(void)
     CHECK_MSG(best < 5000.0, "loading took %.0f ms", best);   /* loose: sanitizer builds too */
 }
 
+/* A half-float infinity written over voxel data of a real file (gaffer_smoke.vdb stores half
+ * floats without Blosc, so its leaf values are plain bytes near the end): the load is refused
+ * with an error naming the file, the grid and a voxel. Two bytes at a time from the end
+ * until one lands on a voxel value (the last bytes may be metadata or a mask). */
+static void test_non_finite_file(void)
+{
+    const char *src = test_data("external/gaffer_smoke.vdb");
+    FILE *f = fopen(src, "rb");
+    long size = 0;
+    unsigned char *buf = NULL;
+    int found = 0;
+    char path[1024];
+    snprintf(path, sizeof path, "%s", test_tmp("gaffer_inf.vdb"));
+    if (f && fseek(f, 0, SEEK_END) == 0 && (size = ftell(f)) > 0 && fseek(f, 0, SEEK_SET) == 0 &&
+        (buf = malloc((size_t)size)) && fread(buf, 1, (size_t)size, f) == (size_t)size) {
+        for (long off = size - 4096; off > size / 2 && !found; off -= 4094) {
+            unsigned char keep[2] = {buf[off], buf[off + 1]};
+            vsd_volume *vol = NULL;
+            char err[2048] = "";
+            FILE *o = fopen(path, "wb");
+            buf[off] = 0x00;
+            buf[off + 1] = 0x7C;   /* +Inf as an IEEE half, little-endian */
+            CHECK(o && fwrite(buf, 1, (size_t)size, o) == (size_t)size);
+            if (o) fclose(o);
+            const vsd_status st = vsd_vdb_load(path, by_name("density"), &vol, err, sizeof err);
+            if (st == VSD_ERR_FORMAT && strstr(err, "NaN or infinite")) {
+                found = 1;
+                CHECK_CONTAINS(err, path);
+                CHECK_CONTAINS(err, "grid 'density'");
+                CHECK_CONTAINS(err, "= inf");
+                CHECK(vol == NULL);
+            } else {
+                CHECK_MSG(st == VSD_OK || st == VSD_ERR_FORMAT, "offset %ld: status %d: %s", off, (int)st, err);
+                vsd_volume_destroy(vol);
+            }
+            buf[off] = keep[0];
+            buf[off + 1] = keep[1];
+        }
+    }
+    CHECK_MSG(found, "no 2-byte position near the end of %s decoded to an infinite voxel", src);
+    if (f) fclose(f);
+    free(buf);
+    remove(path);
+}
+
 int main(void)
 {
+    test_non_finite_file();
     test_smoke64();
     test_arnold_grids();
     test_external();

@@ -304,6 +304,32 @@ static void test_empty(void)
     vsd_volume_destroy(NULL);
 }
 
+/* NaN and Inf voxels are refused, naming the voxel: a NaN majorant would stall or poison
+ * delta tracking (issue 16). */
+static void test_non_finite(void)
+{
+    const int32_t dims[3] = {4, 4, 4}, org[3] = {10, 20, 30};
+    float v[64] = {0};
+    char err[512] = "";
+    vsd_volume *vol = NULL;
+    v[1 + 4 * 2 + 16 * 3] = NAN;   /* voxel (1, 2, 3) of the array: index (11, 22, 33) */
+    v[5] = 0.5f;
+    CHECK(vsd_volume_create_dense(v, dims, org, NULL, &vol, err, sizeof err) == VSD_ERR_FORMAT);
+    CHECK(vol == NULL);
+    CHECK_CONTAINS(err, "NaN or infinite");
+    CHECK_CONTAINS(err, "(11, 22, 33)");
+    CHECK_CONTAINS(err, "1 voxel that is");
+    v[1 + 4 * 2 + 16 * 3] = 1.0f;
+    v[63] = -INFINITY;
+    v[62] = INFINITY;
+    CHECK(vsd_volume_create_dense(v, dims, org, NULL, &vol, err, sizeof err) == VSD_ERR_FORMAT);
+    CHECK_CONTAINS(err, "2 voxels that are");
+    CHECK_CONTAINS(err, "(12, 23, 33) = inf");
+    v[62] = v[63] = 3.0e38f;   /* huge but finite: a volume (the trackers cap such majorants) */
+    CHECK(vsd_volume_create_dense(v, dims, org, NULL, &vol, err, sizeof err) == VSD_OK);
+    vsd_volume_destroy(vol);
+}
+
 static void test_errors(void)
 {
     vsd_volume *vol = (vsd_volume *)1;
@@ -330,5 +356,6 @@ int main(void)
     test_world_bounds();
     test_empty();
     test_errors();
+    test_non_finite();
     return test_finish("test_volume");
 }

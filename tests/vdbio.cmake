@@ -16,3 +16,7 @@ add_test(NAME cli_info_missing_status
 set_tests_properties(cli_info_missing_status PROPERTIES LABELS "io;cli")
 add_test(NAME cli_info_usage_status COMMAND sh -c "\"$0\" info; test $? -eq 2" $<TARGET_FILE:vsd>)
 set_tests_properties(cli_info_usage_status PROPERTIES LABELS "io;cli")
+
+# Byte-mutated copies of two shared VDBs rendered at 16x9, 1 spp: an image or a named error
+# for each, none slower than 5 s (issue 16's mutation experiment, seeded and committed).
+vsd_add_test(test_hostile_vdb SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_hostile_vdb.c LABELS data slow)

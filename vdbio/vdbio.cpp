@@ -671,7 +671,13 @@ vsd_status vsd_vdb_load(const char *path, vsd_grid_select sel, vsd_volume **out,
             return fail(err, errlen, VSD_ERR_TYPE,
                         p + ": grid '" + g.name + "' has value type " + vt +
                             "; vsd loads scalar float grids (float, half or double)");
-        *out = load_grid(p, g);
+        vsd_volume *vol = load_grid(p, g);
+        const vsd_status st = vsd_volume_check_finite(vol, err, errlen);
+        if (st != VSD_OK) {
+            vsd_volume_destroy(vol);
+            return st;
+        }
+        *out = vol;
         return VSD_OK;
     } catch (...) {
         return map_exception(p, err, errlen);

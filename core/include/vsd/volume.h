@@ -51,6 +51,11 @@ vsd_status vsd_volume_create_empty(const double index_to_world[16], vsd_volume *
                                    char *err, size_t errlen);
 
 /* Recompute brick_min/brick_max/value_min/value_max from the voxels (loaders call this). */
+/* VSD_ERR_FORMAT when a stored voxel is NaN or infinite, with a message naming the file, the
+ * grid, the count and the first such voxel's index and value. Every loader calls it (a NaN
+ * majorant would make delta tracking run without bound or poison the image), and so does
+ * vsd_volume_create_dense. */
+vsd_status vsd_volume_check_finite(const vsd_volume *vol, char *err, size_t errlen);
 void vsd_volume_update_ranges(vsd_volume *vol);
 
 /* Voxel value at integer index coordinate (0 outside stored bricks). */

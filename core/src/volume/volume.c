@@ -170,6 +170,38 @@ static vsd_status fill_from_dense(vsd_volume *vol, const float *values, const in
     return VSD_OK;
 }
 
+vsd_status vsd_volume_check_finite(const vsd_volume *vol, char *err, size_t errlen)
+{
+    const int32_t *bd = vol->brick_dims;
+    const int64_t cells = (int64_t)bd[0] * bd[1] * bd[2];
+    uint64_t bad = 0;
+    int32_t first[3] = {0, 0, 0};
+    float value = 0.0f;
+    for (int64_t c = 0; c < cells; ++c) {
+        const int32_t slot = vol->brick_slots[c];
+        if (slot < 0) continue;
+        const float *v = vol->voxels + (size_t)slot * VSD_BRICK_VOXELS;
+        for (int q = 0; q < VSD_BRICK_VOXELS; ++q) {
+            if (isfinite(v[q])) continue;
+            if (bad++ == 0) {
+                const int32_t bx = (int32_t)(c % bd[0]), by = (int32_t)((c / bd[0]) % bd[1]);
+                const int32_t bz = (int32_t)(c / ((int64_t)bd[0] * bd[1]));
+                first[0] = vol->origin[0] + 8 * bx + (q & 7);
+                first[1] = vol->origin[1] + 8 * by + ((q >> 3) & 7);
+                first[2] = vol->origin[2] + 8 * bz + (q >> 6);
+                value = v[q];
+            }
+        }
+    }
+    if (bad == 0) return VSD_OK;
+    return vsd_fail(VSD_ERR_FORMAT, err, errlen,
+                    "%s: grid '%s' has %llu voxel%s that %s NaN or infinite, the first at index (%d, %d, %d) = %g; "
+                    "vsd renders finite densities only (fix the grid where it was written)",
+                    vol->file[0] ? vol->file : "(in memory)", vol->grid_name[0] ? vol->grid_name : "(unnamed)",
+                    (unsigned long long)bad, bad == 1 ? "" : "s", bad == 1 ? "is" : "are", first[0], first[1], first[2],
+                    (double)value);
+}
+
 vsd_status vsd_volume_create_dense(const float *values, const int32_t dims[3],
                                    const int32_t index_min[3], const double index_to_world[16],
                                    vsd_volume **out, char *err, size_t errlen)
@@ -213,6 +245,7 @@ vsd_status vsd_volume_create_dense(const float *values, const int32_t dims[3],
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "%s: brick grid too large", who);
     }
     vsd_status st = fill_from_dense(vol, values, dims, dense_org, err, errlen);
+    if (st == VSD_OK) st = vsd_volume_check_finite(vol, err, errlen);
     if (st != VSD_OK) {
         vsd_volume_destroy(vol);
         return st;
