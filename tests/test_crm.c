@@ -16,6 +16,7 @@
  * Every part prints what it measured; the tolerances below quote those measurements. */
 #define _POSIX_C_SOURCE 200809L
 #include "test_common.h"
+#include "test_render_util.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include "vsd/volume.h"
@@ -70,137 +71,18 @@
 
 /* ------------------------------------------------------------------------ helpers */
 
-/* Value of `key` in a "key=value key=value" string; 0 when absent (and a failed CHECK). */
-static int info_value(const char *info, const char *key, double *v)
-{
-    size_t n = strlen(key);
-    const char *p = info;
-    while ((p = strstr(p, key)) != NULL) {
-        if ((p == info || p[-1] == ' ') && p[n] == '=') {
-            *v = strtod(p + n + 1, NULL);
-            return 1;
-        }
-        p += n;
-    }
-    CHECK_MSG(0, "method_info has no %s: \"%s\"", key, info);
-    *v = -1;
-    return 0;
-}
 
-static double info(const vsd_render_stats *s, const char *key)
-{
-    double v = -1;
-    info_value(s->method_info, key, &v);
-    return v;
-}
 
-static int load_file_scene(const char *rel, const char *const *ov, int nov, vsd_scene *sc)
-{
-    char err[1024];
-    vsd_status st = vsd_scene_load(test_data(rel), ov, nov, sc, err, sizeof err);
-    CHECK_MSG(st == VSD_OK, "%s: %s", rel, err);
-    return st == VSD_OK;
-}
 
-static int parse_scene(const char *json, const char *const *ov, int nov, vsd_scene *sc)
-{
-    char err[1024];
-    vsd_status st = vsd_scene_parse(json, "", ov, nov, sc, err, sizeof err);
-    CHECK_MSG(st == VSD_OK, "scene: %s", err);
-    return st == VSD_OK;
-}
 
-static vsd_renderer *make_renderer(const vsd_scene *sc, const char *cache_dir)
-{
-    vsd_render_options o;
-    vsd_renderer *r = NULL;
-    char err[1024] = "";
-    memset(&o, 0, sizeof o);
-    o.cache_dir = cache_dir;
-    CHECK_MSG(vsd_renderer_create(sc, &o, &r, err, sizeof err) == VSD_OK, "create: %s", err);
-    return r;
-}
 
-static int render(vsd_renderer *r, int frame, vsd_framebuffer **fb, vsd_render_stats *stats)
-{
-    char err[1024] = "";
-    vsd_status st = r ? vsd_renderer_render(r, frame, fb, stats, err, sizeof err) : VSD_ERR_INVALID;
-    CHECK_MSG(st == VSD_OK, "render frame %d: %s", frame, err);
-    return st == VSD_OK;
-}
 
-/* One render by a fresh renderer (in-memory volume / environment when given). */
-static vsd_framebuffer *render_fresh(const vsd_scene *sc, const char *cache_dir, const vsd_volume *vol,
-                                     const vsd_env *env, int frame, vsd_render_stats *stats)
-{
-    vsd_renderer *r = make_renderer(sc, cache_dir);
-    vsd_framebuffer *fb = NULL;
-    if (!r) return NULL;
-    if (vol) vsd_renderer_use_volumes(r, vol, NULL);
-    if (env) vsd_renderer_use_env(r, env);
-    if (!render(r, frame, &fb, stats)) {
-        vsd_framebuffer_destroy(fb);
-        fb = NULL;
-    }
-    vsd_renderer_destroy(r);
-    return fb;
-}
 
-/* Relative RMSE of pass p of a against b after 4x4 block averages, as `vsd compare`. */
-static double rel_err(const vsd_framebuffer *a, const vsd_framebuffer *b, vsd_pass p)
-{
-    double e = 1e9;
-    int ch = vsd_pass_channels(p);
-    char err[256] = "";
-    CHECK_MSG(vsd_block_rel_rmse(a->pass[p], b->pass[p], b->width, b->height, ch, ch, 4, &e, err, sizeof err) ==
-                  VSD_OK, "%s: %s", vsd_pass_name(p), err);
-    return e;
-}
 
-/* Same metric on raw planes (for images assembled by the test). */
-static double rel_err_planes(const float *a, const float *b, int w, int h, int ch)
-{
-    double e = 1e9;
-    CHECK(vsd_block_rel_rmse(a, b, w, h, ch, ch, 4, &e, NULL, 0) == VSD_OK);
-    return e;
-}
 
-static size_t pass_floats(const vsd_framebuffer *fb, vsd_pass p)
-{
-    return (size_t)fb->width * fb->height * vsd_pass_channels(p);
-}
 
-/* Every pass bit for bit. */
-static int identical(const vsd_framebuffer *a, const vsd_framebuffer *b)
-{
-    int p;
-    if (!a || !b || a->width != b->width || a->height != b->height) return 0;
-    for (p = 0; p < VSD_PASS_COUNT; p++)
-        if (memcmp(a->pass[p], b->pass[p], pass_floats(a, (vsd_pass)p) * sizeof(float)) != 0) return 0;
-    return 1;
-}
 
-/* max |a - b| / max |b| over pass p. */
-static double max_rel_diff(const vsd_framebuffer *a, const vsd_framebuffer *b, vsd_pass p)
-{
-    double md = 0, mx = 0;
-    size_t i, n = pass_floats(b, p);
-    for (i = 0; i < n; i++) {
-        md = fmax(md, fabs((double)a->pass[p][i] - b->pass[p][i]));
-        mx = fmax(mx, fabs((double)b->pass[p][i]));
-    }
-    return mx > 0 ? md / mx : md;
-}
 
-/* Sum of the green channel of an RGB (or RGBA) pass. */
-static double pass_sum(const vsd_framebuffer *fb, vsd_pass p)
-{
-    int ch = vsd_pass_channels(p);
-    size_t i, n = (size_t)fb->width * fb->height;
-    double s = 0;
-    for (i = 0; i < n; i++) s += fb->pass[p][i * ch + 1];
-    return s;
-}
 
 /* Remove the files of a flat folder and the folder; a missing folder is fine. */
 static void remove_dir(const char *dir)
@@ -254,52 +136,7 @@ static int damage_files(const char *dir, char how, long *bytes)
 }
 
 
-/* Combined (transparent film, no emission) is VolumeDir + VolumeInd per pixel: the
- * negative controls below rely on it, and it is a contract of the passes. */
-static void check_pass_sum(const char *what, const vsd_framebuffer *fb)
-{
-    size_t i, n = (size_t)fb->width * fb->height;
-    double md = 0, mx = 0;
-    for (i = 0; i < n; i++) {
-        int c;
-        for (c = 0; c < 3; c++) {
-            double sum = (double)fb->pass[VSD_PASS_VOLUME_DIR][3 * i + c] + fb->pass[VSD_PASS_VOLUME_IND][3 * i + c];
-            md = fmax(md, fabs(fb->pass[VSD_PASS_COMBINED][4 * i + c] - sum));
-            mx = fmax(mx, fabs(sum));
-        }
-    }
-    CHECK_MSG(md <= 1e-6 * mx, "%s: Combined differs from VolumeDir + VolumeInd by %g (max %g)", what, md, mx);
-}
 
-/* Negative controls made from crm's own passes, scored like crm against the reference's
- * Combined: multiple scattering removed (Combined - VolumeInd), halved (Combined -
- * VolumeInd / 2) and albedo 0 (no scattered light, crm's alpha kept). Each must fail `tol`. */
-static void check_controls(const char *what, const vsd_framebuffer *crm, const vsd_framebuffer *ref, double tol)
-{
-    static const float keep_ind[3] = {0.0f, 0.5f, -1.0f};   /* -1: no scattered light at all */
-    size_t n = (size_t)crm->width * crm->height, i;
-    float *img = malloc(n * 4 * sizeof(float));
-    double e[3] = {0, 0, 0};
-    int k;
-    CHECK(img != NULL);
-    if (!img) return;
-    for (k = 0; k < 3; k++) {
-        for (i = 0; i < n; i++) {
-            int c;
-            for (c = 0; c < 3; c++)
-                img[4 * i + c] = keep_ind[k] < 0 ? 0.0f
-                                                 : crm->pass[VSD_PASS_COMBINED][4 * i + c] -
-                                                       (1.0f - keep_ind[k]) * crm->pass[VSD_PASS_VOLUME_IND][3 * i + c];
-            img[4 * i + 3] = crm->pass[VSD_PASS_COMBINED][4 * i + 3];
-        }
-        e[k] = rel_err_planes(img, ref->pass[VSD_PASS_COMBINED], crm->width, crm->height, 4);
-    }
-    free(img);
-    printf("    %s controls, Combined rel. RMSE: no multiple %.4f, half multiple %.4f, albedo 0 %.4f (tolerance %.3f)\n",
-           what, e[0], e[1], e[2], tol);
-    CHECK_MSG(e[0] > tol && e[1] > tol && e[2] > tol, "%s: a control passes the Combined tolerance %.3f: %.4f %.4f %.4f",
-              what, tol, e[0], e[1], e[2]);
-}
 
 /* -------------------------------------------- 1 + 3: real data, and the fit cache */
 
@@ -318,17 +155,17 @@ static void test_real_data_and_cache(void)
     vsd_framebuffer *ref = NULL, *ref2 = NULL, *crm = NULL, *again = NULL;
     vsd_render_stats s1, s2, s3;
     double t0 = vsd_clock_seconds();
-    if (!load_file_scene(SMOKE, ref_ov, 7, &ref_sc) || !load_file_scene(SMOKE, ref2_ov, 7, &ref2_sc) ||
-        !load_file_scene(SMOKE, crm_ov, 8, &crm_sc))
+    if (!test_load_scene(SMOKE, ref_ov, 7, &ref_sc) || !test_load_scene(SMOKE, ref2_ov, 7, &ref2_sc) ||
+        !test_load_scene(SMOKE, crm_ov, 8, &crm_sc))
         return;
     snprintf(cache_dir, sizeof cache_dir, "%s", test_tmp("crm_fit_cache"));
     remove_dir(cache_dir);
     cache = cache_dir;
 
-    ref = render_fresh(&ref_sc, NULL, NULL, NULL, 24, NULL);
-    ref2 = render_fresh(&ref2_sc, NULL, NULL, NULL, 24, NULL);
+    ref = test_render_fresh(&ref_sc, NULL, NULL, NULL, 24, NULL);
+    ref2 = test_render_fresh(&ref2_sc, NULL, NULL, NULL, 24, NULL);
     /* the crm render under test is also the cache's first renderer (part 3) */
-    crm = render_fresh(&crm_sc, cache, NULL, NULL, 24, &s1);
+    crm = test_render_fresh(&crm_sc, cache, NULL, NULL, 24, &s1);
     if (!ref || !ref2 || !crm) goto done;
     printf("[1] reference 2 x 1024 spp + crm at %dx%d: %.1fs\n", W, H, vsd_clock_seconds() - t0);
     printf("    crm info: %s\n", s1.method_info);
@@ -337,29 +174,29 @@ static void test_real_data_and_cache(void)
         double noise[3], e[3], ref_share, crm_share;
         int k;
         for (k = 0; k < 3; k++) {
-            noise[k] = rel_err(ref2, ref, passes[k]);
-            e[k] = rel_err(crm, ref, passes[k]);
+            noise[k] = test_rel_err(ref2, ref, passes[k]);
+            e[k] = test_rel_err(crm, ref, passes[k]);
         }
-        ref_share = pass_sum(ref, VSD_PASS_VOLUME_IND) / pass_sum(ref, VSD_PASS_VOLUME_DIR);
-        crm_share = pass_sum(crm, VSD_PASS_VOLUME_IND) / pass_sum(crm, VSD_PASS_VOLUME_DIR);
+        ref_share = test_pass_sum(ref, VSD_PASS_VOLUME_IND) / test_pass_sum(ref, VSD_PASS_VOLUME_DIR);
+        crm_share = test_pass_sum(crm, VSD_PASS_VOLUME_IND) / test_pass_sum(crm, VSD_PASS_VOLUME_DIR);
         printf("    noise (seed 7 vs seed 1): Combined %.4f VolumeDir %.4f VolumeInd %.4f\n", noise[0], noise[1],
                noise[2]);
         printf("    crm vs reference:         Combined %.4f VolumeDir %.4f VolumeInd %.4f; Transmittance %.4f\n", e[0],
-               e[1], e[2], rel_err(crm, ref, VSD_PASS_TRANSMITTANCE));
+               e[1], e[2], test_rel_err(crm, ref, VSD_PASS_TRANSMITTANCE));
         printf("    VolumeInd / VolumeDir: reference %.3f, crm %.3f; crm / reference totals: VolumeDir %.3f, VolumeInd %.3f\n",
-               ref_share, crm_share, pass_sum(crm, VSD_PASS_VOLUME_DIR) / pass_sum(ref, VSD_PASS_VOLUME_DIR),
-               pass_sum(crm, VSD_PASS_VOLUME_IND) / pass_sum(ref, VSD_PASS_VOLUME_IND));
+               ref_share, crm_share, test_pass_sum(crm, VSD_PASS_VOLUME_DIR) / test_pass_sum(ref, VSD_PASS_VOLUME_DIR),
+               test_pass_sum(crm, VSD_PASS_VOLUME_IND) / test_pass_sum(ref, VSD_PASS_VOLUME_IND));
         /* tolerances and the measurements behind them: TOL_* at the top */
         CHECK_MSG(e[0] < TOL_COMBINED, "Combined rel. RMSE %.4f >= %.3f", e[0], TOL_COMBINED);
         CHECK_MSG(e[1] < TOL_DIR, "VolumeDir rel. RMSE %.4f >= %.3f", e[1], TOL_DIR);
         CHECK_MSG(e[2] < TOL_IND, "VolumeInd rel. RMSE %.4f >= %.3f", e[2], TOL_IND);
-        CHECK_MSG(rel_err(crm, ref, VSD_PASS_TRANSMITTANCE) < 0.01, "Transmittance");
+        CHECK_MSG(test_rel_err(crm, ref, VSD_PASS_TRANSMITTANCE) < 0.01, "Transmittance");
         /* the tolerances sit well above the reference's own noise ... */
         CHECK_MSG(TOL_COMBINED > 3 * noise[0] && TOL_DIR > 3 * noise[1] && TOL_IND > 3 * noise[2],
                   "noise floor too close to the tolerances: %.4f %.4f %.4f", noise[0], noise[1], noise[2]);
         /* ... and below what broken lighting gives */
-        check_pass_sum("smoke64", crm);
-        check_controls("smoke64", crm, ref, TOL_COMBINED);
+        test_check_pass_sum("smoke64", crm);
+        test_check_controls("smoke64", crm, ref, TOL_COMBINED);
         /* multiple scattering is really there: VolumeInd carries about the reference's
          * share of the scattered light */
         CHECK_MSG(crm_share > 0.5, "VolumeInd is only %.3f of VolumeDir", crm_share);
@@ -374,48 +211,48 @@ static void test_real_data_and_cache(void)
         long bytes = 0, bytes_after = 0;
         int files;
         double t1 = vsd_clock_seconds();
-        CHECK_NEAR(info(&s1, "fits_run"), 1, 0);
-        CHECK_NEAR(info(&s1, "fit_cached"), 0, 0);
-        CHECK(info(&s1, "fit_evaluations") > 0);
-        CHECK_NEAR(info(&s1, "rbfs"), 200, 0);
+        CHECK_NEAR(test_info(&s1, "fits_run"), 1, 0);
+        CHECK_NEAR(test_info(&s1, "fit_cached"), 0, 0);
+        CHECK(test_info(&s1, "fit_evaluations") > 0);
+        CHECK_NEAR(test_info(&s1, "rbfs"), 200, 0);
         files = damage_files(cache, 0, &bytes);
         CHECK_MSG(files == 1 && bytes > 0, "cache after the first fit: %d files, %ld bytes", files, bytes);
         /* a second renderer (new object) on the same folder loads the fit */
-        again = render_fresh(&crm_sc, cache, NULL, NULL, 24, &s2);
+        again = test_render_fresh(&crm_sc, cache, NULL, NULL, 24, &s2);
         CHECK(again != NULL);
-        CHECK_NEAR(info(&s2, "fit_cached"), 1, 0);
-        CHECK_NEAR(info(&s2, "fit_evaluations"), 0, 0);
-        CHECK_NEAR(info(&s2, "fits_run"), 0, 0);
-        CHECK_NEAR(info(&s2, "rbfs"), 200, 0);
-        CHECK_NEAR(info(&s2, "fit_rel_error"), info(&s1, "fit_rel_error"), 1e-4 * info(&s1, "fit_rel_error"));
-        CHECK_MSG(identical(again, crm), "cached fit: image differs (Combined max rel. diff %g)",
-                  again ? max_rel_diff(again, crm, VSD_PASS_COMBINED) : -1.0);
+        CHECK_NEAR(test_info(&s2, "fit_cached"), 1, 0);
+        CHECK_NEAR(test_info(&s2, "fit_evaluations"), 0, 0);
+        CHECK_NEAR(test_info(&s2, "fits_run"), 0, 0);
+        CHECK_NEAR(test_info(&s2, "rbfs"), 200, 0);
+        CHECK_NEAR(test_info(&s2, "fit_rel_error"), test_info(&s1, "fit_rel_error"), 1e-4 * test_info(&s1, "fit_rel_error"));
+        CHECK_MSG(test_identical(again, crm), "cached fit: image differs (Combined max rel. diff %g)",
+                  again ? test_max_rel_diff(again, crm, VSD_PASS_COMBINED) : -1.0);
         /* truncated files do not load: a third renderer refits, overwrites, same image */
         CHECK(damage_files(cache, 't', &bytes) == 1);
-        fb3 = render_fresh(&crm_sc, cache, NULL, NULL, 24, &s3);
-        CHECK_NEAR(info(&s3, "fit_cached"), 0, 0);
-        CHECK_NEAR(info(&s3, "fits_run"), 1, 0);
-        CHECK(info(&s3, "fit_evaluations") > 0);
-        CHECK_MSG(identical(fb3, crm), "refit after truncation: image differs (Combined max rel. diff %g)",
-                  fb3 ? max_rel_diff(fb3, crm, VSD_PASS_COMBINED) : -1.0);
+        fb3 = test_render_fresh(&crm_sc, cache, NULL, NULL, 24, &s3);
+        CHECK_NEAR(test_info(&s3, "fit_cached"), 0, 0);
+        CHECK_NEAR(test_info(&s3, "fits_run"), 1, 0);
+        CHECK(test_info(&s3, "fit_evaluations") > 0);
+        CHECK_MSG(test_identical(fb3, crm), "refit after truncation: image differs (Combined max rel. diff %g)",
+                  fb3 ? test_max_rel_diff(fb3, crm, VSD_PASS_COMBINED) : -1.0);
         files = damage_files(cache, 0, &bytes_after);
         CHECK_MSG(files == 1 && bytes_after == bytes, "cache after the refit: %d files, %ld bytes (was %ld)", files,
                   bytes_after, bytes);
         /* the rewritten file loads again */
-        fb4 = render_fresh(&crm_sc, cache, NULL, NULL, 24, &s4);
-        CHECK_NEAR(info(&s4, "fit_cached"), 1, 0);
-        CHECK_NEAR(info(&s4, "fits_run"), 0, 0);
-        CHECK(identical(fb4, crm));
+        fb4 = test_render_fresh(&crm_sc, cache, NULL, NULL, 24, &s4);
+        CHECK_NEAR(test_info(&s4, "fit_cached"), 1, 0);
+        CHECK_NEAR(test_info(&s4, "fits_run"), 0, 0);
+        CHECK(test_identical(fb4, crm));
         /* one flipped byte in the RBFs fails the checksum: refit, same image */
         CHECK(damage_files(cache, 'f', &bytes) == 1);
-        fb5 = render_fresh(&crm_sc, cache, NULL, NULL, 24, &s5);
-        CHECK_NEAR(info(&s5, "fit_cached"), 0, 0);
-        CHECK_NEAR(info(&s5, "fits_run"), 1, 0);
-        CHECK(identical(fb5, crm));
+        fb5 = test_render_fresh(&crm_sc, cache, NULL, NULL, 24, &s5);
+        CHECK_NEAR(test_info(&s5, "fit_cached"), 0, 0);
+        CHECK_NEAR(test_info(&s5, "fits_run"), 1, 0);
+        CHECK(test_identical(fb5, crm));
         printf("[3] cache file %ld bytes; second renderer fit_cached=%g fit_evaluations=%g fits_run=%g; after truncation "
                "fit_cached=%g fits_run=%g; after a flipped byte fit_cached=%g fits_run=%g; %.1fs\n",
-               bytes, info(&s2, "fit_cached"), info(&s2, "fit_evaluations"), info(&s2, "fits_run"),
-               info(&s3, "fit_cached"), info(&s3, "fits_run"), info(&s5, "fit_cached"), info(&s5, "fits_run"),
+               bytes, test_info(&s2, "fit_cached"), test_info(&s2, "fit_evaluations"), test_info(&s2, "fits_run"),
+               test_info(&s3, "fit_cached"), test_info(&s3, "fits_run"), test_info(&s5, "fit_cached"), test_info(&s5, "fits_run"),
                vsd_clock_seconds() - t1);
         vsd_framebuffer_destroy(fb3);
         vsd_framebuffer_destroy(fb4);
@@ -441,7 +278,7 @@ static void keep_copy(const vsd_framebuffer *fb, vsd_framebuffer **keep)
         if (!*keep) return;
     }
     for (p = 0; p < VSD_PASS_COUNT; p++)
-        memcpy((*keep)->pass[p], fb->pass[p], pass_floats(fb, (vsd_pass)p) * sizeof(float));
+        memcpy((*keep)->pass[p], fb->pass[p], test_pass_floats(fb, (vsd_pass)p) * sizeof(float));
 }
 
 /* Give the renderer the edited scene and render frame 24: no fit is run for it (fits_run
@@ -453,18 +290,18 @@ static void edit_and_render(vsd_renderer *r, const vsd_scene *sc, const char *wh
     char err[1024] = "";
     double now;
     CHECK_MSG(vsd_renderer_set_scene(r, sc, err, sizeof err) == VSD_OK, "%s: %s", what, err);
-    if (!render(r, 24, fb, &st)) return;
-    now = info(&st, "fits_run");
+    if (!test_render(r, 24, fb, &st)) return;
+    now = test_info(&st, "fits_run");
     CHECK_MSG(now == *fits, "%s refitted the unchanged grid (fits_run %g -> %g): %s", what, *fits, now,
               st.method_info);
     *fits = now;
     /* the nodes' transmittance toward the sky is kept unless the density or a smaller
      * density scale needs it marched again (crm_node_single.h); counted, not timed */
-    now = info(&st, "transmittance_marches");
+    now = test_info(&st, "transmittance_marches");
     CHECK_MSG(now == *marches + expect_march, "%s: transmittance marched %g times, expected %g: %s", what,
               now - *marches, (double)expect_march, st.method_info);
     *marches = now;
-    CHECK_MSG(max_rel_diff(*fb, *before, VSD_PASS_COMBINED) > 1e-2, "%s did not change the image", what);
+    CHECK_MSG(test_max_rel_diff(*fb, *before, VSD_PASS_COMBINED) > 1e-2, "%s did not change the image", what);
     keep_copy(*fb, before);
 }
 
@@ -477,18 +314,18 @@ static void test_edits(void)
     vsd_framebuffer *fb = NULL, *prev = NULL, *fresh = NULL;
     vsd_render_stats st;
     double t0 = vsd_clock_seconds(), fits = 1, marches = 1;
-    if (!load_file_scene(SMOKE, ov, 7, &sc)) return;
-    r = make_renderer(&sc, NULL);   /* no disk cache: every fit is counted */
+    if (!test_load_scene(SMOKE, ov, 7, &sc)) return;
+    r = test_make_renderer(&sc, NULL);   /* no disk cache: every fit is counted */
     if (!r) return;
-    if (!render(r, 24, &fb, &st)) goto done;
-    CHECK_NEAR(info(&st, "fits_run"), 1, 0);
-    CHECK_NEAR(info(&st, "fit_cached"), 0, 0);
-    CHECK_NEAR(info(&st, "transmittance_marches"), 1, 0);
+    if (!test_render(r, 24, &fb, &st)) goto done;
+    CHECK_NEAR(test_info(&st, "fits_run"), 1, 0);
+    CHECK_NEAR(test_info(&st, "fit_cached"), 0, 0);
+    CHECK_NEAR(test_info(&st, "transmittance_marches"), 1, 0);
     keep_copy(fb, &prev);
     /* the same scene again: the same image, bit for bit */
-    if (render(r, 24, &fb, &st)) {
-        CHECK_MSG(identical(fb, prev), "an unchanged scene rendered twice differs");
-        CHECK_NEAR(info(&st, "fits_run"), 1, 0);
+    if (test_render(r, 24, &fb, &st)) {
+        CHECK_MSG(test_identical(fb, prev), "an unchanged scene rendered twice differs");
+        CHECK_NEAR(test_info(&st, "fits_run"), 1, 0);
     }
     sc.camera.matrix[3] += 0.2;   /* camera moved along x */
     edit_and_render(r, &sc, "camera change", &fb, &prev, &fits, &marches, 0);
@@ -500,12 +337,12 @@ static void test_edits(void)
     edit_and_render(r, &sc, "medium.density decrease", &fb, &prev, &fits, &marches, 1);
     sc.medium.density = 12.0f;
     edit_and_render(r, &sc, "medium.density increase", &fb, &prev, &fits, &marches, 0);
-    fresh = render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
+    fresh = test_render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
     if (fresh) {
         /* the kept marches (run for density 5) went on past where a fresh one stops
          * (optical depth 7 at density 12), so the two differ by at most the light beyond
          * e^-7 < 1e-3 */
-        double d = max_rel_diff(prev, fresh, VSD_PASS_COMBINED);
+        double d = test_max_rel_diff(prev, fresh, VSD_PASS_COMBINED);
         printf("[4] density increase, kept transmittance vs fresh renderer: Combined max rel. diff %.3g\n", d);
         CHECK_MSG(d <= 1e-3, "kept transmittance differs from a fresh march: %g", d);
         vsd_framebuffer_destroy(fresh);
@@ -522,17 +359,17 @@ static void test_edits(void)
     /* what the edited renderer shows is what a fresh renderer shows for the edited scene
      * (the fresh one fits anew: without a cache folder nothing is shared; measured 0 when
      * the fit is reused, 0.0036 when the density change refits) */
-    fresh = render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
+    fresh = test_render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
     if (fresh) {
-        double d = max_rel_diff(prev, fresh, VSD_PASS_COMBINED);
+        double d = test_max_rel_diff(prev, fresh, VSD_PASS_COMBINED);
         printf("[4] edited renderer vs fresh renderer: Combined max rel. diff %.3g\n", d);
         CHECK_MSG(d <= 1e-5, "edited renderer differs from a fresh one: %g", d);
     }
     /* a new frame fits (coherently, from frame 24's RBFs) */
-    if (render(r, 25, &fb, &st)) {
-        CHECK_MSG(info(&st, "fits_run") == fits + 1, "frame 25 (fits_run was %g): %s", fits, st.method_info);
-        CHECK_NEAR(info(&st, "fit_cached"), 0, 0);
-        CHECK(info(&st, "fit_evaluations") > 0);
+    if (test_render(r, 25, &fb, &st)) {
+        CHECK_MSG(test_info(&st, "fits_run") == fits + 1, "frame 25 (fits_run was %g): %s", fits, st.method_info);
+        CHECK_NEAR(test_info(&st, "fit_cached"), 0, 0);
+        CHECK(test_info(&st, "fit_evaluations") > 0);
     }
     printf("[4] edits: %.1fs; frame 25: %s\n", vsd_clock_seconds() - t0, st.method_info);
 done:
@@ -544,71 +381,40 @@ done:
 
 /* ------------------------------------------ 2: homogeneous ball, uniform environment */
 
-/* 32^3 voxels over [0,2]^3 (voxel 1/16), a ball of density 1 of radius 12 voxels (0.75)
- * around the grid's centre; medium density 4, so the optical radius is 3, albedo 0.9, g 0:
- * a few scattering orders matter. */
-static vsd_volume *ball_volume(void)
-{
-    const int n = 32;
-    int32_t dims[3] = {32, 32, 32}, lo[3] = {0, 0, 0};
-    double m[16] = {1.0 / 16, 0, 0, 0, 0, 1.0 / 16, 0, 0, 0, 0, 1.0 / 16, 0, 0, 0, 0, 1};
-    float *v = calloc((size_t)n * n * n, sizeof(float));
-    vsd_volume *vol = NULL;
-    int x, y, z;
-    if (!v) return NULL;
-    for (z = 0; z < n; z++)
-        for (y = 0; y < n; y++)
-            for (x = 0; x < n; x++) {
-                double dx = x - 15.5, dy = y - 15.5, dz = z - 15.5;
-                if (dx * dx + dy * dy + dz * dz <= 12.0 * 12.0) v[((size_t)z * n + y) * n + x] = 1.0f;
-            }
-    CHECK(vsd_volume_create_dense(v, dims, lo, m, &vol, NULL, 0) == VSD_OK);
-    free(v);
-    return vol;
-}
-
-static const char *const ball_json =
-    "{\"version\":1,\"volume\":{\"file\":\"memory.vdb\"},"
-    "\"medium\":{\"density\":4.0,\"albedo\":[0.9,0.9,0.9],\"anisotropy\":0},"
-    "\"environment\":{\"color\":[1,1,1]},"
-    "\"camera\":{\"type\":\"orthographic\",\"ortho_scale\":1.8,\"position\":[0.96875,-4,0.96875],"
-    "\"look_at\":[0.96875,0.96875,0.96875],\"up\":[0,0,1]},"
-    "\"film\":{\"width\":32,\"height\":32},\"render\":{\"method\":\"crm\"}}";
-
 static void test_ball(void)
 {
     const char *ref_ov[] = {"render.method=reference", "render.samples=2048", "render.seed=1"};
     const char *ref2_ov[] = {"render.method=reference", "render.samples=2048", "render.seed=5"};
     const char *crm_ov[] = {CRM_FAST, CRM_AREA};
-    vsd_volume *vol = ball_volume();
+    vsd_volume *vol = test_ball_volume();
     vsd_scene ref_sc, ref2_sc, crm_sc;
     vsd_framebuffer *ref = NULL, *ref2 = NULL, *crm = NULL;
     vsd_renderer *r = NULL;
     vsd_render_stats st;
     double t0 = vsd_clock_seconds();
-    if (!vol || !parse_scene(ball_json, ref_ov, 3, &ref_sc) || !parse_scene(ball_json, ref2_ov, 3, &ref2_sc) ||
-        !parse_scene(ball_json, crm_ov, 3, &crm_sc))
+    if (!vol || !test_parse_scene(test_ball_json, ref_ov, 3, &ref_sc) || !test_parse_scene(test_ball_json, ref2_ov, 3, &ref2_sc) ||
+        !test_parse_scene(test_ball_json, crm_ov, 3, &crm_sc))
         goto done;
-    ref = render_fresh(&ref_sc, NULL, vol, NULL, 1, NULL);
-    ref2 = render_fresh(&ref2_sc, NULL, vol, NULL, 1, NULL);
-    r = make_renderer(&crm_sc, NULL);
+    ref = test_render_fresh(&ref_sc, NULL, vol, NULL, 1, NULL);
+    ref2 = test_render_fresh(&ref2_sc, NULL, vol, NULL, 1, NULL);
+    r = test_make_renderer(&crm_sc, NULL);
     if (!r || !ref || !ref2) goto done;
     vsd_renderer_use_volumes(r, vol, NULL);
-    if (!render(r, 1, &crm, &st)) goto done;
+    if (!test_render(r, 1, &crm, &st)) goto done;
     printf("    ball crm info: %s\n", st.method_info);
     {
         static const vsd_pass passes[3] = {VSD_PASS_COMBINED, VSD_PASS_VOLUME_DIR, VSD_PASS_VOLUME_IND};
         double noise[3], e[3];
         int k;
         for (k = 0; k < 3; k++) {
-            noise[k] = rel_err(ref2, ref, passes[k]);
-            e[k] = rel_err(crm, ref, passes[k]);
+            noise[k] = test_rel_err(ref2, ref, passes[k]);
+            e[k] = test_rel_err(crm, ref, passes[k]);
         }
         printf("[2] ball: noise Combined %.4f VolumeDir %.4f VolumeInd %.4f; crm Combined %.4f VolumeDir %.4f "
                "VolumeInd %.4f; VolumeInd/VolumeDir reference %.3f crm %.3f\n",
                noise[0], noise[1], noise[2], e[0], e[1], e[2],
-               pass_sum(ref, VSD_PASS_VOLUME_IND) / pass_sum(ref, VSD_PASS_VOLUME_DIR),
-               pass_sum(crm, VSD_PASS_VOLUME_IND) / pass_sum(crm, VSD_PASS_VOLUME_DIR));
+               test_pass_sum(ref, VSD_PASS_VOLUME_IND) / test_pass_sum(ref, VSD_PASS_VOLUME_DIR),
+               test_pass_sum(crm, VSD_PASS_VOLUME_IND) / test_pass_sum(crm, VSD_PASS_VOLUME_DIR));
         CHECK_MSG(e[0] < BALL_TOL_COMBINED, "ball Combined %.4f", e[0]);
         CHECK_MSG(e[1] < BALL_TOL_DIR, "ball VolumeDir %.4f", e[1]);
         CHECK_MSG(e[2] < BALL_TOL_IND, "ball VolumeInd %.4f", e[2]);
@@ -617,17 +423,17 @@ static void test_ball(void)
         {
             /* albedo 0.9 at optical radius 3: more light scattered several times than once
              * (measured VolumeInd / VolumeDir 1.386 reference, 1.424 crm) */
-            double rs = pass_sum(ref, VSD_PASS_VOLUME_IND) / pass_sum(ref, VSD_PASS_VOLUME_DIR);
-            double cs = pass_sum(crm, VSD_PASS_VOLUME_IND) / pass_sum(crm, VSD_PASS_VOLUME_DIR);
+            double rs = test_pass_sum(ref, VSD_PASS_VOLUME_IND) / test_pass_sum(ref, VSD_PASS_VOLUME_DIR);
+            double cs = test_pass_sum(crm, VSD_PASS_VOLUME_IND) / test_pass_sum(crm, VSD_PASS_VOLUME_DIR);
             CHECK_MSG(cs > 0.8 * rs && cs < 1.25 * rs, "ball VolumeInd/VolumeDir: crm %.3f, reference %.3f", cs, rs);
         }
         printf("    ball Transmittance: crm %.4f, noise %.4f; crm / reference totals: VolumeDir %.3f, VolumeInd %.3f\n",
-               rel_err(crm, ref, VSD_PASS_TRANSMITTANCE), rel_err(ref2, ref, VSD_PASS_TRANSMITTANCE),
-               pass_sum(crm, VSD_PASS_VOLUME_DIR) / pass_sum(ref, VSD_PASS_VOLUME_DIR),
-               pass_sum(crm, VSD_PASS_VOLUME_IND) / pass_sum(ref, VSD_PASS_VOLUME_IND));
-        CHECK_MSG(rel_err(crm, ref, VSD_PASS_TRANSMITTANCE) < 0.01, "ball Transmittance");
-        check_pass_sum("ball", crm);
-        check_controls("ball", crm, ref, BALL_TOL_COMBINED);
+               test_rel_err(crm, ref, VSD_PASS_TRANSMITTANCE), test_rel_err(ref2, ref, VSD_PASS_TRANSMITTANCE),
+               test_pass_sum(crm, VSD_PASS_VOLUME_DIR) / test_pass_sum(ref, VSD_PASS_VOLUME_DIR),
+               test_pass_sum(crm, VSD_PASS_VOLUME_IND) / test_pass_sum(ref, VSD_PASS_VOLUME_IND));
+        CHECK_MSG(test_rel_err(crm, ref, VSD_PASS_TRANSMITTANCE) < 0.01, "ball Transmittance");
+        test_check_pass_sum("ball", crm);
+        test_check_controls("ball", crm, ref, BALL_TOL_COMBINED);
     }
     /* a uniform environment has no direction: rotating it changes nothing (here the
      * lighting stage runs again in the same renderer, and no refit) */
@@ -636,20 +442,20 @@ static void test_ball(void)
         char err[1024];
         crm_sc.environment.rotation_z = 2.1f;
         CHECK(vsd_renderer_set_scene(r, &crm_sc, err, sizeof err) == VSD_OK);
-        if (render(r, 1, &rot, &st)) {
-            double d = fmax(max_rel_diff(rot, crm, VSD_PASS_COMBINED),
-                            fmax(max_rel_diff(rot, crm, VSD_PASS_VOLUME_DIR), max_rel_diff(rot, crm, VSD_PASS_VOLUME_IND)));
+        if (test_render(r, 1, &rot, &st)) {
+            double d = fmax(test_max_rel_diff(rot, crm, VSD_PASS_COMBINED),
+                            fmax(test_max_rel_diff(rot, crm, VSD_PASS_VOLUME_DIR), test_max_rel_diff(rot, crm, VSD_PASS_VOLUME_IND)));
             printf("[2] ball: environment rotated by 2.1 rad: max rel. diff %.3g; %.1fs\n", d, vsd_clock_seconds() - t0);
             CHECK_MSG(d < 1e-5, "rotating a uniform environment changed crm's image by %g", d);
-            CHECK_NEAR(info(&st, "fits_run"), 1, 0);
+            CHECK_NEAR(test_info(&st, "fits_run"), 1, 0);
         }
         /* albedo 0, same renderer: no scattered light at all, the same extinction (the
          * transmittance bit for bit), and still no refit */
         crm_sc.medium.albedo[0] = crm_sc.medium.albedo[1] = crm_sc.medium.albedo[2] = 0.0f;
         CHECK(vsd_renderer_set_scene(r, &crm_sc, err, sizeof err) == VSD_OK);
-        if (render(r, 1, &rot, &st)) {
+        if (test_render(r, 1, &rot, &st)) {
             double mx = 0;
-            size_t i, n = pass_floats(rot, VSD_PASS_VOLUME_DIR);
+            size_t i, n = test_pass_floats(rot, VSD_PASS_VOLUME_DIR);
             for (i = 0; i < n; i++)
                 mx = fmax(mx, fabs(rot->pass[VSD_PASS_VOLUME_DIR][i]) + fabs(rot->pass[VSD_PASS_VOLUME_IND][i]));
             printf("[2] ball at albedo 0: largest VolumeDir + VolumeInd %g\n", mx);
@@ -657,8 +463,8 @@ static void test_ball(void)
              * single scattering where every node is dark; measured 1e-12) */
             CHECK_MSG(mx < 1e-9, "albedo 0: scattered light %g", mx);
             CHECK(memcmp(rot->pass[VSD_PASS_TRANSMITTANCE], crm->pass[VSD_PASS_TRANSMITTANCE],
-                         pass_floats(rot, VSD_PASS_TRANSMITTANCE) * sizeof(float)) == 0);
-            CHECK_NEAR(info(&st, "fits_run"), 1, 0);
+                         test_pass_floats(rot, VSD_PASS_TRANSMITTANCE) * sizeof(float)) == 0);
+            CHECK_NEAR(test_info(&st, "fits_run"), 1, 0);
         }
         vsd_framebuffer_destroy(rot);
     }
@@ -687,7 +493,7 @@ static void test_options(void)
         vsd_renderer *r = NULL;
         char err[1024] = "";
         vsd_status st;
-        if (!parse_scene("{\"version\":1,\"volume\":{\"file\":\"x.vdb\"}}", ov, 2, &sc)) continue;
+        if (!test_parse_scene("{\"version\":1,\"volume\":{\"file\":\"x.vdb\"}}", ov, 2, &sc)) continue;
         st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
         CHECK_MSG(st != VSD_OK && r == NULL, "%s accepted", bad[i]);
         CHECK_CONTAINS(err, msg[i]);
@@ -699,8 +505,8 @@ static void test_options(void)
         vsd_scene sc, sc2;
         vsd_renderer *r = NULL;
         char err[1024] = "";
-        if (parse_scene("{\"version\":1,\"volume\":{\"file\":\"x.vdb\"}}", ok, 1, &sc) &&
-            parse_scene("{\"version\":1,\"volume\":{\"file\":\"x.vdb\"}}", nope, 2, &sc2)) {
+        if (test_parse_scene("{\"version\":1,\"volume\":{\"file\":\"x.vdb\"}}", ok, 1, &sc) &&
+            test_parse_scene("{\"version\":1,\"volume\":{\"file\":\"x.vdb\"}}", nope, 2, &sc2)) {
             CHECK(vsd_renderer_create(&sc, NULL, &r, err, sizeof err) == VSD_OK);
             if (r) {
                 CHECK(vsd_renderer_set_scene(r, &sc2, err, sizeof err) != VSD_OK);
@@ -728,12 +534,12 @@ static void test_empty(void)
                        "\"film\":{\"width\":16,\"height\":16}}";
     CHECK(v && vsd_volume_create_dense(v, dims, lo, m, &vol, NULL, 0) == VSD_OK);
     free(v);
-    if (!vol || !parse_scene(json, ov, 1, &sc)) {
+    if (!vol || !test_parse_scene(json, ov, 1, &sc)) {
         vsd_volume_destroy(vol);
         return;
     }
     remove_dir(test_tmp("crm_empty_cache"));
-    fb = render_fresh(&sc, test_tmp("crm_empty_cache"), vol, NULL, 1, &st);
+    fb = test_render_fresh(&sc, test_tmp("crm_empty_cache"), vol, NULL, 1, &st);
     if (fb) {
         int i, n = 16 * 16 * 3;
         double tmin = 1, dmax = 0, imax = 0, amax = 0;
@@ -749,8 +555,8 @@ static void test_empty(void)
         CHECK(dmax == 0.0);
         CHECK(imax == 0.0);
         CHECK(amax == 0.0);
-        CHECK_NEAR(info(&st, "fits_run"), 0, 0);
-        CHECK_NEAR(info(&st, "rbfs"), 0, 0);
+        CHECK_NEAR(test_info(&st, "fits_run"), 0, 0);
+        CHECK_NEAR(test_info(&st, "rbfs"), 0, 0);
         {
             long bytes = 0;
             CHECK_MSG(damage_files(test_tmp("crm_empty_cache"), 0, &bytes) == 0, "an empty grid wrote a fit to the cache");

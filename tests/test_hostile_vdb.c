@@ -52,7 +52,8 @@ static int write_all(const char *path, const unsigned char *buf, long size)
  * image that is opaque where the volume is (the trackers' event cap, kernel_volume.h). */
 static void test_absurd_values(void)
 {
-    static const char *const methods[] = {"reference", "raymarch", "shgrid", "constellation", "crm"};
+    static const char *const methods[] = {"reference", "raymarch", "shgrid", "constellation", "crm", "lbl"};
+    const int method_count = (int)(sizeof methods / sizeof methods[0]);
     const float values[2] = {1.0e6f, 3.0e38f};
     const int32_t dims[3] = {16, 16, 16}, org[3] = {0, 0, 0};
     const double to_world[16] = {0.125, 0, 0, 0, 0, 0.125, 0, 0, 0, 0, 0.125, 0, 0, 0, 0, 1};
@@ -63,7 +64,7 @@ static void test_absurd_values(void)
         char err[1024] = "";
         for (k = 0; k < 16 * 16 * 16; k++) dense[k] = values[v];
         CHECK_MSG(vsd_volume_create_dense(dense, dims, org, to_world, &vol, err, sizeof err) == VSD_OK, "%s", err);
-        for (m = 0; vol && m < 5; m++) {
+        for (m = 0; vol && m < method_count; m++) {
             char method[64];
             const char *ov[] = {"frames.start=1", "frames.end=1", "film.width=16", "film.height=9", method,
                                 "render.samples=1", "render.device=cpu", "medium.density=8"};

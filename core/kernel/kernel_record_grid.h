@@ -14,7 +14,9 @@
  *              a camera change reads 8 RGB triples and redoes none of the lighting
  *   LIGHTS     nothing but the directional lights' term below
  * plus, with light_count > 0, the transmittance T_k toward each directional light, whose
- * term sum_k phase(d . w_k) T_k E_k is added (phase times E per ray: d is fixed along it).
+ * term sum_k phase(d . w_k) T_k E_k is added (phase times E per ray: d is fixed along it),
+ * and optionally (records_ms) each record's multiply-scattered in-scattered radiance per
+ * unit sigma_s, RGB, isotropic (lbl's diffused light): it goes to VolumeInd, trilinear.
  *
  * The view pass marches the ray with the shared march (kernel_march.h) and looks the
  * records up at the nearest cell (Delalandre's paper) or trilinearly between the eight
@@ -50,6 +52,7 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     const float *light;           /* [3 * n2] environment SH (factored form) */
     const float *lights;          /* [light_count * 8] extracted lights: world dir xyz, 0, E rgb, 0 */
     const float *light_trans;     /* [record_count * light_count] T from each record toward each light */
+    const float *records_ms;      /* [record_count * 3] multiple scattering (VolumeInd), or NULL */
     vsd_affine world_to_grid;
     int32_t res[3];
     int32_t order, n2, stride;    /* stride = n2 (scalar) or 3 n2 (RGB) */
@@ -61,6 +64,7 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     int32_t light_count;          /* 0..VSD_RECORDS_MAX_LIGHTS; 0 = the paper's pure SH form */
     float pad_[2];
 } vsd_krecord_grid;
+VSD_STATIC_ASSERT(sizeof(vsd_krecord_grid) % 16 == 0, "vsd_krecord_grid must stay 16-byte aligned");
 
 /* sum_i a[i] b[i] over n terms in four interleaved partial sums (lane i % 4), added
  * pairwise at the end: a fixed order the compiler can keep in one SIMD register (gcc's SLP
@@ -127,6 +131,7 @@ typedef struct vsd_records_corners {
     int32_t filled;   /* 0 until the first lookup */
     int32_t valid;    /* bit a: corner a holds a record */
     vsd_f3 v[8];
+    vsd_f3 m[8];      /* records_ms at the corners (linear values) */
 } vsd_records_corners;
 
 /* A ray moving into a neighbouring cell shares 4 (or 2, or 1) corners with the last one:
@@ -136,8 +141,11 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
 {
     int32_t a, logi = g->interp == VSD_RECORDS_LOG_TRILINEAR;
     int32_t di = i0 - c->key[0], dj = j0 - c->key[1], dk = k0 - c->key[2], had = c->filled, old_valid = c->valid;
-    vsd_f3 old[8];
-    for (a = 0; a < 8; a++) old[a] = c->v[a];
+    vsd_f3 old[8], old_m[8];
+    for (a = 0; a < 8; a++) {
+        old[a] = c->v[a];
+        old_m[a] = c->m[a];
+    }
     c->key[0] = i0; c->key[1] = j0; c->key[2] = k0;
     c->filled = 1;
     c->valid = 0;
@@ -149,6 +157,7 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
         if (had && ox >= 0 && ox <= 1 && oy >= 0 && oy <= 1 && oz >= 0 && oz <= 1) {
             int32_t b = ox | (oy << 1) | (oz << 2);
             c->v[a] = old[b];
+            c->m[a] = old_m[b];
             if (old_valid & (1 << b)) c->valid |= 1 << a;
             continue;
         }
@@ -159,36 +168,46 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
         if (logi) v = f3(logf(fmaxf(v.x, VSD_RECORDS_LOG_FLOOR)), logf(fmaxf(v.y, VSD_RECORDS_LOG_FLOOR)),
                          logf(fmaxf(v.z, VSD_RECORDS_LOG_FLOOR)));
         c->v[a] = v;
+        if (g->records_ms) {
+            const float *m = g->records_ms + 3 * (size_t)rec;
+            c->m[a] = f3(m[0], m[1], m[2]);
+        }
         c->valid |= 1 << a;
     }
 }
 
 /* In-scattered radiance at world point p: nearest cell, or trilinear between the records
- * at the eight surrounding cell centres (weights renormalised over non-empty cells). */
+ * at the eight surrounding cell centres (weights renormalised over non-empty cells); *ms
+ * gets the records_ms term the same way (linearly), or 0 without it. */
 VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, const float *w, const float *ph,
-                                       vsd_records_corners *c)
+                                       vsd_records_corners *c, vsd_f3 *ms)
 {
     vsd_f3 q = vsd_affine_point(&g->world_to_grid, p);
+    *ms = f3s(0.0f);
     if (g->interp == VSD_RECORDS_NEAREST) {
         int32_t i = (int32_t)floorf(q.x), j = (int32_t)floorf(q.y), k = (int32_t)floorf(q.z), rec;
         if (i < 0 || j < 0 || k < 0 || i >= g->res[0] || j >= g->res[1] || k >= g->res[2]) return f3s(0.0f);
         rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
-        return rec < 0 ? f3s(0.0f) : vsd_records_radiance(g, rec, w, ph);
+        if (rec < 0) return f3s(0.0f);
+        if (g->records_ms) *ms = f3(g->records_ms[3 * rec], g->records_ms[3 * rec + 1], g->records_ms[3 * rec + 2]);
+        return vsd_records_radiance(g, rec, w, ph);
     } else {
         float fx = q.x - 0.5f, fy = q.y - 0.5f, fz = q.z - 0.5f;
         int32_t i0 = (int32_t)floorf(fx), j0 = (int32_t)floorf(fy), k0 = (int32_t)floorf(fz), a;
         float tx = fx - (float)i0, ty = fy - (float)j0, tz = fz - (float)k0, wsum = 0.0f;
-        vsd_f3 s = f3s(0.0f);
+        vsd_f3 s = f3s(0.0f), m = f3s(0.0f);
         if (!c->filled || c->key[0] != i0 || c->key[1] != j0 || c->key[2] != k0)
             vsd_records_fill_corners(g, i0, j0, k0, w, ph, c);
         for (a = 0; a < 8; a++) {
             float wt = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
             if (!(c->valid & (1 << a)) || wt <= 0.0f) continue;
             s = f3_add(s, f3_scale(c->v[a], wt));
+            if (g->records_ms) m = f3_add(m, f3_scale(c->m[a], wt));
             wsum += wt;
         }
         if (!(wsum > 0.0f)) return f3s(0.0f);
         s = f3_scale(s, 1.0f / wsum);
+        if (g->records_ms) *ms = f3_scale(m, 1.0f / wsum);
         /* log-trilinear: the weighted geometric mean, exact where S falls exponentially */
         return g->interp == VSD_RECORDS_LOG_TRILINEAR ? f3(expf(s.x), expf(s.y), expf(s.z)) : s;
     }
@@ -228,7 +247,14 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel(const vsd_krecord_grid *g, int32_
             vsd_f3 p = f3_madd(o, d, tm);
             /* §4.5: emission accumulates along the same march */
             float absorbed = vsd_march_medium(kd, &acc, p, hs);
-            if (absorbed > 0.0f) vsd_march_scatter(kd, &acc, vsd_records_inscatter(g, p, w, ph, &corners), tm, absorbed);
+            if (absorbed > 0.0f) {
+                vsd_f3 ms, ss = vsd_records_inscatter(g, p, w, ph, &corners, &ms);
+                if (g->records_ms)
+                    vsd_march_source(&acc, f3_mul(kd->medium.albedo, ss), f3_mul(kd->medium.albedo, ms), tm, absorbed,
+                                     absorbed);
+                else
+                    vsd_march_scatter(kd, &acc, ss, tm, absorbed);
+            }
         }
     }
     return vsd_march_finish(kd, &acc, d);

@@ -11,7 +11,7 @@ METHODS = [
     ("constellation", "Constellation", "Navarro 2009: light constellation, distance map"),
     ("shgrid", "SH Grid", "Delalandre 2013: spherical-harmonics record grid"),
     ("crm", "CRM", "Zhou 2008: compensated ray marching of RBF densities"),
-    ("lbl", "LBL", "Bernabei 2012: lattice-Boltzmann lighting, refraction"),
+    ("lbl", "LBL", "Bernabei 2012: light marching, lattice-Boltzmann multiple scattering"),
 ]
 DEVICES = [("auto", "Auto", "CUDA when a GPU is present, else CPU"),
            ("cpu", "CPU", "CPU threads"), ("cuda", "CUDA", "NVIDIA GPU")]

@@ -2,6 +2,7 @@
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 typedef struct pool_state {
@@ -68,4 +69,17 @@ vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job)
     pthread_mutex_destroy(&ps.lock);
     if (job->cancel && *job->cancel) return VSD_ERR_CANCELLED;
     return VSD_OK;
+}
+
+vsd_status vsd_cpu_run_items(int count, int threads, vsd_tile_fn fn, void *user, const char *stage)
+{
+    vsd_tile_job job;
+    memset(&job, 0, sizeof job);
+    job.width = count;
+    job.height = 1;
+    job.threads = threads;
+    job.fn = fn;
+    job.user = user;
+    job.stage = stage;
+    return vsd_cpu_run_tiles(&job);
 }

@@ -26,6 +26,10 @@ typedef struct vsd_tile_job {
 /* Runs every tile; VSD_ERR_CANCELLED when *cancel became non-zero. */
 vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job);
 
+/* fn over items [0, count) in ranges, as the x range of a count x 1 image (no progress,
+ * no cancel): the form the lighting stages of the methods use. */
+vsd_status vsd_cpu_run_items(int count, int threads, vsd_tile_fn fn, void *user, const char *stage);
+
 /* The thread count a request for `threads` (0 = all) resolves to. */
 int vsd_cpu_thread_count(int threads);
 

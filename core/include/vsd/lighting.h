@@ -15,6 +15,7 @@
  * vsd_constellation_free() releases. */
 #ifndef VSD_LIGHTING_H
 #define VSD_LIGHTING_H
+#include <stdint.h>
 #include "vsd/status.h"
 #include "vsd/env.h"
 #ifdef __cplusplus
@@ -44,6 +45,10 @@ vsd_status vsd_constellation_build(const vsd_env *env, int n, vsd_lights_method 
                                    vsd_light_constellation *out, char *err, size_t errlen);
 void vsd_constellation_free(vsd_light_constellation *c);
 
+/* A 64-bit hash of the map's size and texel bits: a constellation is reused only for
+ * identical content (an address alone could be reused by a new map). */
+uint64_t vsd_env_content_hash(const vsd_env *env);
+
 /* The map's integral over the sphere, RGB (exact texel solid angles, strength 1). */
 void vsd_env_integral(const vsd_env *env, double rgb[3]);
 
@@ -56,6 +61,24 @@ void vsd_env_texel_direction(const vsd_env *env, int col, int row, float dir[3])
  * the weight is power * strength. out holds 8 * c->count floats. */
 void vsd_constellation_kernel_lights(const vsd_light_constellation *c, float strength, float rotation_z,
                                      float *out);
+
+/* A constellation kept across lighting changes (the methods that use one: constellation,
+ * lbl): rebuilt only when the map's content (vsd_env_content_hash), the light count or the
+ * method changes; the kernel lights (`lights`, `count` of them, 8 floats each) re-derived
+ * for the strength and rotation on every update. Zero-initialise; free with
+ * vsd_constellation_cache_free. */
+typedef struct vsd_constellation_cache {
+    vsd_light_constellation cons;
+    uint64_t key;
+    int n, method, valid;
+    float *lights;
+    int count;
+} vsd_constellation_cache;
+
+vsd_status vsd_constellation_cache_update(vsd_constellation_cache *c, const vsd_env *env, int n,
+                                          vsd_lights_method method, float strength, float rotation_z, char *err,
+                                          size_t errlen);
+void vsd_constellation_cache_free(vsd_constellation_cache *c);
 
 #ifdef __cplusplus
 }

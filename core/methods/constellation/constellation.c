@@ -79,11 +79,7 @@ typedef struct cst_state {
     cst_options opt;
     vsd_distance_map dm_density, dm_emission;
     vsd_dense_grid field;       /* dense copy of the density grid for the shadow rays */
-    vsd_light_constellation cons;
-    uint64_t cons_key;          /* hash of the map content the constellation came from */
-    int cons_valid;
-    float *lights;              /* kernel layout, rotated and scaled */
-    int light_count;
+    vsd_constellation_cache cc;   /* the constellation and its kernel lights, rotated and scaled */
     /* shadows = grid: records over the density's box, each light's transmittance from
      * each record (per lighting change), or for an isotropic phase the baked RGB */
     vsd_record_grid rg;
@@ -156,38 +152,16 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
                                 s->opt.distance_map ? (float)s->opt.threshold : 0.0f, &s->field, err, errlen);
 }
 
-/* 64-bit FNV-1a-style mix over the map's size and texel bits: the constellation is reused
- * only for identical content (an address alone could be reused by a new map). */
-static uint64_t env_hash(const vsd_env *env)
-{
-    uint64_t h = 1469598103934665603ull ^ ((uint64_t)env->width << 32 | (uint32_t)env->height);
-    const uint32_t *p = (const uint32_t *)(const void *)env->rgb;
-    size_t i, n = (size_t)env->width * env->height * 3;
-    for (i = 0; i < n; i++) h = (h ^ p[i]) * 1099511628211ull;
-    return h;
-}
-
 /* Per lighting change: rebuild the constellation only when the map itself changed; a new
  * rotation or strength just re-derives the kernel lights (no recomputation, §3). */
 static vsd_status cst_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     cst_state *s = state;
     const vsd_scene *sc = ctx->scene;
-    uint64_t key = env_hash(ctx->env);
-    if (!s->cons_valid || key != s->cons_key) {
-        vsd_status st;
-        vsd_constellation_free(&s->cons);
-        s->cons_valid = 0;
-        st = vsd_constellation_build(ctx->env, s->opt.lights, (vsd_lights_method)s->opt.lights_method, &s->cons, err, errlen);
-        if (st) return st;
-        s->cons_key = key;
-        s->cons_valid = 1;
-    }
-    free(s->lights);
-    s->lights = malloc(sizeof(float) * 8 * (size_t)(s->cons.count > 0 ? s->cons.count : 1));
-    if (!s->lights) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d lights", s->cons.count);
-    vsd_constellation_kernel_lights(&s->cons, sc->environment.strength, sc->environment.rotation_z, s->lights);
-    s->light_count = s->cons.count;
+    vsd_status st = vsd_constellation_cache_update(&s->cc, ctx->env, s->opt.lights,
+                                                   (vsd_lights_method)s->opt.lights_method, sc->environment.strength,
+                                                   sc->environment.rotation_z, err, errlen);
+    if (st) return st;
     if (s->opt.shadows == SHADOWS_GRID) return light_shadow_records(s, ctx, err, errlen);
     return VSD_OK;
 }
@@ -242,8 +216,8 @@ static void kdistmap_from(vsd_kdistmap *k, const vsd_distance_map *dm, const vsd
 /* The method's kernel data for this frame (ctx->kd gets the lights and the march step). */
 static void kernel_setup(cst_state *s, vsd_frame_ctx *ctx, vsd_kconstellation *kc)
 {
-    ctx->kd.lights = s->lights;
-    ctx->kd.light_count = s->light_count;
+    ctx->kd.lights = s->cc.lights;
+    ctx->kd.light_count = s->cc.count;
     memset(kc, 0, sizeof *kc);
     kc->kd = &ctx->kd;
     kc->slice = vsd_method_march_step(ctx, s->opt.slice);
@@ -278,9 +252,9 @@ static void records_view(const cst_state *s, const vsd_kernel_data *kd, vsd_krec
         g->stride = 3;
     } else {
         g->kind = VSD_RECORDS_LIGHTS;
-        g->lights = s->lights;
+        g->lights = s->cc.lights;
         g->light_trans = s->light_trans;
-        g->light_count = s->light_count;
+        g->light_count = s->cc.count;
     }
 }
 
@@ -315,10 +289,10 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
     free(s->light_trans);
     free(s->baked);
     s->light_trans = s->baked = NULL;
-    if (s->rg.count == 0 || s->light_count == 0) return VSD_OK;
-    s->light_trans = malloc(sizeof(float) * (size_t)s->rg.count * (size_t)s->light_count);
+    if (s->rg.count == 0 || s->cc.count == 0) return VSD_OK;
+    s->light_trans = malloc(sizeof(float) * (size_t)s->rg.count * (size_t)s->cc.count);
     if (!s->light_trans)
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d x %d cached shadows", s->rg.count, s->light_count);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d x %d cached shadows", s->rg.count, s->cc.count);
     kernel_setup(s, ctx, &kc);
     job.kc = &kc;
     job.rg = &s->rg;
@@ -341,8 +315,8 @@ static vsd_status render_cached(cst_state *s, vsd_frame_ctx *ctx, vsd_framebuffe
                                 size_t errlen)
 {
     vsd_krecord_grid g;
-    ctx->kd.lights = s->lights;
-    ctx->kd.light_count = s->light_count;
+    ctx->kd.lights = s->cc.lights;
+    ctx->kd.light_count = s->cc.count;
     records_view(s, &ctx->kd, &g);
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, samples,
                                   err, errlen);
@@ -411,8 +385,7 @@ static void cst_destroy(void *state)
     vsd_distance_map_free(&s->dm_emission);
     vsd_dense_grid_free(&s->field);
     free_shadow_records(s);
-    vsd_constellation_free(&s->cons);
-    free(s->lights);
+    vsd_constellation_cache_free(&s->cc);
     free(s);
 }
 

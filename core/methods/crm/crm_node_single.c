@@ -1,6 +1,7 @@
 #include "crm_node_single.h"
 #include "crm_single_direct.h"
 #include "crm_kernel.h"
+#include "src/render/padded_grid.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,38 +10,8 @@ typedef struct node_depth {
     int32_t res[3];
     double to_node[9];      /* world direction -> node-grid displacement per world unit */
     float stop;             /* optical depth (grid units) past which the light counts as gone */
-    /* density on the nodes with a zero border (1 node below, 2 above per axis), so a march
-     * inside [-1, res] reads its 8 corners without bounds tests */
-    float *pad;
-    size_t sx, sy;          /* strides of pad */
+    vsd_padded_grid pad;    /* the density on the nodes */
 } node_depth;
-
-static vsd_status pad_grid(node_depth *g, const float *density, char *err, size_t errlen)
-{
-    int32_t i, j, k;
-    g->sx = (size_t)g->res[0] + 3;
-    g->sy = g->sx * ((size_t)g->res[1] + 3);
-    if (!(g->pad = calloc(g->sy * ((size_t)g->res[2] + 3), sizeof *g->pad)))
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the padded node grid");
-    for (k = 0; k < g->res[2]; k++)
-        for (j = 0; j < g->res[1]; j++)
-            for (i = 0; i < g->res[0]; i++)
-                g->pad[(size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1)] =
-                    density[((size_t)k * g->res[1] + j) * g->res[0] + i];
-    return VSD_OK;
-}
-
-/* trilinear density at node coordinates (x, y, z) in [-1, res]: 0 outside the grid */
-static float density_at(const node_depth *g, float x, float y, float z)
-{
-    float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz;
-    const float *c = g->pad + (size_t)((int32_t)fz + 1) * g->sy + (size_t)((int32_t)fy + 1) * g->sx + (size_t)((int32_t)fx + 1);
-    float c00 = c[0] + (c[1] - c[0]) * tx, c10 = c[g->sx] + (c[g->sx + 1] - c[g->sx]) * tx;
-    float c01 = c[g->sy] + (c[g->sy + 1] - c[g->sy]) * tx;
-    float c11 = c[g->sy + g->sx] + (c[g->sy + g->sx + 1] - c[g->sy + g->sx]) * tx;
-    float c0 = c00 + (c10 - c00) * ty, c1 = c01 + (c11 - c01) * ty;
-    return c0 + (c1 - c0) * tz;
-}
 
 /* One node per step from p (node coordinates) toward world direction w, midpoints, until
  * the grid ends or the optical depth passes g->stop. The direction is carried into the grid
@@ -64,7 +35,7 @@ static double march(const void *user, const double p[3], const double w[3])
         float x = px + s * ux, y = py + s * uy, z = pz + s * uz;
         if (x < -1.0f || y < -1.0f || z < -1.0f || x > (float)g->res[0] || y > (float)g->res[1] || z > (float)g->res[2])
             break;
-        od += density_at(g, x, y, z);
+        od += vsd_padded_at(&g->pad, x, y, z);
     }
     return od / len;
 }
@@ -94,8 +65,8 @@ vsd_status vsd_crm_node_depths_update(vsd_crm_node_depths *c, const int32_t res[
     memcpy(depth.res, res, sizeof depth.res);
     memcpy(depth.to_node, to_node, sizeof depth.to_node);
     depth.stop = scale > 0.0f ? 7.0f / scale : VSD_INF;
-    depth.pad = NULL;
-    if ((st = pad_grid(&depth, density, err, errlen))) return st;
+    if (!vsd_padded_grid_build(&depth.pad, res, density))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the padded node grid");
     for (i = 0; i < n; i++) m += density[i] > 0.0f;
     c->which = malloc((m ? m : 1) * sizeof *c->which);
     c->od = malloc((m ? m : 1) * (size_t)directions * sizeof *c->od);
@@ -122,7 +93,7 @@ vsd_status vsd_crm_node_depths_update(vsd_crm_node_depths *c, const int32_t res[
     *marched = 1;
 done:
     if (st) vsd_crm_node_depths_free(c);
-    free(depth.pad);
+    vsd_padded_grid_free(&depth.pad);
     free(points);
     return st;
 }

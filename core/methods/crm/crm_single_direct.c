@@ -110,19 +110,6 @@ static void run_project(void *arg, int l0, int y0, int l1, int y1)
     }
 }
 
-static vsd_status run_points(int count, int threads, vsd_tile_fn fn, void *user, const char *stage)
-{
-    vsd_tile_job tiles;
-    memset(&tiles, 0, sizeof tiles);
-    tiles.width = count;
-    tiles.height = 1;
-    tiles.threads = threads;
-    tiles.fn = fn;
-    tiles.user = user;
-    tiles.stage = stage;
-    return vsd_cpu_run_tiles(&tiles);
-}
-
 static vsd_status check_sky(int order, int directions, double g, char *err, size_t errlen)
 {
     if (order < 1 || order > 4 || !vsd_sh_healpix_nside(directions) || !(fabs(g) < 1.0))
@@ -151,7 +138,7 @@ vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth
         job.dirs = dirs;
         job.m = directions;
         job.od = od;
-        st = run_points(count, threads, run_depths, &job, "crm transmittance");
+        st = vsd_cpu_run_items(count, threads, run_depths, &job, "crm transmittance");
     }
     free(dirs);
     return st;
@@ -195,7 +182,7 @@ vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, c
     job.scale = scale;
     job.albedo = albedo;
     job.j_ss = j_ss;
-    st = run_points(count, threads, run_project, &job, "crm single scattering");
+    st = vsd_cpu_run_items(count, threads, run_project, &job, "crm single scattering");
 done:
     free(dirs);
     free(sky.w);

@@ -5,9 +5,11 @@
 #include "src/render/accum.h"
 #include "src/render/device_frame.h"
 #include "device/cpu/cpu_tiles.h"
+#include "src/render/refraction.h"
 #include "reference_kernel.h"
 #include <stddef.h>
 #include <stdlib.h>
+#include <string.h>
 
 typedef struct reference_options {
     int max_bounces;
@@ -19,19 +21,43 @@ static const vsd_option_spec reference_option_rows[] = {
      offsetof(reference_options, max_bounces), 0, NULL},
 };
 
+typedef struct reference_state {
+    reference_options opt;
+    vsd_refraction_field refraction;   /* medium.ior != 1: the bent rays' n field */
+} reference_state;
+
 static vsd_status reference_create(void **state, const vsd_scene *scene, const void *options, char *err,
                                    size_t errlen)
 {
-    reference_options *o = malloc(sizeof *o);
+    reference_state *s = calloc(1, sizeof *s);
     (void)scene;
-    if (!o) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
-    *o = *(const reference_options *)options;
-    *state = o;
+    if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    s->opt = *(const reference_options *)options;
+    *state = s;
     return VSD_OK;
+}
+
+/* The refractive-index field of the frame when the medium refracts (n = 1 leaves it empty
+ * and the path tracer's rays straight: the same code and images as without refraction). */
+static vsd_status reference_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    reference_state *s = state;
+    vsd_refraction_free(&s->refraction);
+    if (ctx->scene->medium.ior == 1.0f) return VSD_OK;
+    return vsd_refraction_build(&ctx->kd.density, ctx->scene->medium.ior, 1.0f, 128, &s->refraction, err, errlen);
+}
+
+static void reference_destroy(void *state)
+{
+    reference_state *s = state;
+    if (!s) return;
+    vsd_refraction_free(&s->refraction);
+    free(s);
 }
 
 typedef struct reference_round {
     const vsd_kernel_data *kd;
+    const vsd_krefract *refract;   /* NULL: straight rays */
     vsd_accum *acc;
     int s0, s1;
 } reference_round;
@@ -43,7 +69,7 @@ static void reference_tile(void *user, int x0, int y0, int x1, int y1)
     for (y = y0; y < y1; y++)
         for (x = x0; x < x1; x++)
             for (s = r->s0; s < r->s1; s++) {
-                vsd_sample_result res = vsd_reference_sample(r->kd, x, y, (uint32_t)s);
+                vsd_sample_result res = vsd_reference_sample_bent(r->kd, r->refract, x, y, (uint32_t)s);
                 vsd_accum_add(r->acc, x, y, &res);
             }
 }
@@ -84,15 +110,17 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
                                    char *err, size_t errlen)
 {
     const vsd_scene *sc = ctx->scene;
+    const reference_state *rs = state;
     vsd_accum acc;
     reference_round round;
     vsd_tile_job job;
     vsd_status st;
     int total = sc->render.samples, done = 0, batch = 1;
-    ctx->kd.max_bounces = ((const reference_options *)state)->max_bounces;
+    ctx->kd.max_bounces = rs->opt.max_bounces;
     st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
     if (st) return st;
-    if (ctx->cuda) {
+    /* bent rays have no device pass yet: a refracting medium renders on the CPU threads */
+    if (ctx->cuda && !rs->refraction.k.ng) {
         st = reference_device(ctx, &acc, total, &done, err, errlen);
         if (!st || st == VSD_ERR_CANCELLED) {
             if (st) vsd_fail(st, err, errlen, "render cancelled after %d samples", done);
@@ -103,6 +131,7 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
         return st;
     }
     round.kd = &ctx->kd;
+    round.refract = rs->refraction.k.ng ? &rs->refraction.k : NULL;
     round.acc = &acc;
     vsd_method_tile_job(&job, ctx, fb, reference_tile, &round, "path tracing");
     while (done < total) {
@@ -124,6 +153,6 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
 }
 
 const vsd_method vsd_method_reference = {
-    "reference", VSD_OPTION_TABLE(reference_option_rows, reference_options), reference_create, NULL, NULL,
-    reference_render, free,
+    "reference", VSD_OPTION_TABLE(reference_option_rows, reference_options), reference_create, reference_prepare_frame,
+    NULL, reference_render, reference_destroy,
 };

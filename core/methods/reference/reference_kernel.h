@@ -19,6 +19,7 @@
 #include "kernel/kernel_env.h"
 #include "kernel/kernel_phase.h"
 #include "kernel/kernel_camera.h"
+#include "kernel/kernel_refract.h"
 
 VSD_DEVICE float vsd_power_heuristic(float a, float b)
 {
@@ -41,7 +42,90 @@ VSD_DEVICE vsd_f3 vsd_segment_emission(const vsd_kernel_data *kd, vsd_f3 o, vsd_
     return f3_scale(kd->medium.emission, integral);
 }
 
-VSD_DEVICE vsd_sample_result vsd_reference_sample(const vsd_kernel_data *kd, int32_t px, int32_t py, uint32_t sample)
+/* Refraction (r != NULL: medium.ior != 1, kernel_refract.h): every ray — camera,
+ * scattered, shadow — follows the bent path in straight steps of r->step, each tracked like
+ * a straight ray over its length (delta and ratio tracking are memoryless, so chaining
+ * them is unbiased); outside the index grid rays are straight. Directions sampled at a
+ * vertex (phase, environment) are the rays' starting directions, so MIS compares the pdfs
+ * there, and an escaping ray sees the map along the direction it leaves with. */
+
+/* Delta tracking along the bent ray from *o, *d: on a collision returns the arc length to
+ * it and leaves *o, *d there; on escape VSD_INF with *d the exit direction. The emission of
+ * each straight piece (track-length estimator) is added to *emit. */
+VSD_DEVICE float vsd_bent_delta_track(const vsd_kernel_data *kd, const vsd_krefract *r, vsd_f3 *o, vsd_f3 *d,
+                                      vsd_rng *rng, vsd_f3 *emit)
+{
+    float travelled = 0.0f, t0, t1, t;
+    int32_t steps = 0;
+    for (;;) {
+        if (steps >= r->max_steps || !vsd_refract_clip(r, *o, *d, &t0, &t1)) {
+            /* straight from here on: n = 1 (or the ray has bent for long enough) */
+            t = vsd_delta_track(&kd->density, *o, *d, VSD_INF, rng);
+            *emit = f3_add(*emit, vsd_segment_emission(kd, *o, *d, t, rng));
+            if (t >= VSD_INF) return VSD_INF;
+            *o = f3_madd(*o, *d, t);
+            return travelled + t;
+        }
+        if (t0 > 0.0f) { /* straight up to the grid */
+            t = vsd_delta_track(&kd->density, *o, *d, t0, rng);
+            *emit = f3_add(*emit, vsd_segment_emission(kd, *o, *d, vsd_minf(t, t0), rng));
+            if (t < t0) {
+                *o = f3_madd(*o, *d, t);
+                return travelled + t;
+            }
+            *o = f3_madd(*o, *d, t0);
+            travelled += t0;
+        }
+        { /* in the grid: steps of h until it is left */
+            vsd_f3 g, v = f3_scale(*d, vsd_refract_eval(r, *o, &g));
+            float h = r->step;
+            while (steps < r->max_steps && vsd_refract_clip(r, *o, *d, &t0, &t1) && t0 <= 0.0f) {
+                t = vsd_delta_track(&kd->density, *o, *d, h, rng);
+                *emit = f3_add(*emit, vsd_segment_emission(kd, *o, *d, vsd_minf(t, h), rng));
+                if (t < h) {
+                    *o = f3_madd(*o, *d, t);
+                    return travelled + t;
+                }
+                travelled += h;
+                vsd_refract_step(r, o, &v, d, h);
+                steps++;
+            }
+        }
+    }
+}
+
+/* Ratio-tracked transmittance along the bent ray from o, d; *exit gets the direction it
+ * leaves the grid with (d when it never bends). */
+VSD_DEVICE float vsd_bent_ratio_track(const vsd_kernel_data *kd, const vsd_krefract *r, vsd_f3 o, vsd_f3 d,
+                                      vsd_rng *rng, vsd_f3 *exit)
+{
+    float tr = 1.0f, t0, t1;
+    int32_t steps = 0;
+    while (tr > 0.0f) {
+        if (steps >= r->max_steps || !vsd_refract_clip(r, o, d, &t0, &t1)) {
+            tr *= vsd_ratio_track(&kd->density, o, d, VSD_INF, rng);
+            break;
+        }
+        if (t0 > 0.0f) {
+            tr *= vsd_ratio_track(&kd->density, o, d, t0, rng);
+            o = f3_madd(o, d, t0);
+        }
+        {
+            vsd_f3 g, v = f3_scale(d, vsd_refract_eval(r, o, &g));
+            float h = r->step;
+            while (tr > 0.0f && steps < r->max_steps && vsd_refract_clip(r, o, d, &t0, &t1) && t0 <= 0.0f) {
+                tr *= vsd_ratio_track(&kd->density, o, d, h, rng);
+                vsd_refract_step(r, &o, &v, &d, h);
+                steps++;
+            }
+        }
+    }
+    *exit = d;
+    return tr;
+}
+
+VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd, const vsd_krefract *r, int32_t px,
+                                                      int32_t py, uint32_t sample)
 {
     vsd_sample_result res;
     vsd_rng rng = vsd_rng_init((uint32_t)kd->seed, (uint32_t)(py * kd->camera.width + px), sample);
@@ -52,11 +136,22 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample(const vsd_kernel_data *kd, int
     res.direct = res.indirect = res.emit = res.background = f3s(0.0f);
     res.depth = VSD_INF;
     vsd_camera_ray(&kd->camera, px, py, vsd_rng_float(&rng), vsd_rng_float(&rng), &o, &d);
-    res.transmittance = vsd_ratio_track(&kd->density, o, d, VSD_INF, &rng);
+    if (r) {
+        vsd_f3 exit;
+        res.transmittance = vsd_bent_ratio_track(kd, r, o, d, &rng, &exit);
+    } else {
+        res.transmittance = vsd_ratio_track(&kd->density, o, d, VSD_INF, &rng);
+    }
 
     for (;;) {
-        float t = vsd_delta_track(&kd->density, o, d, VSD_INF, &rng);
-        vsd_f3 e = vsd_segment_emission(kd, o, d, t, &rng);
+        vsd_f3 d_start = d, e = f3s(0.0f);
+        float t;
+        if (r) {
+            t = vsd_bent_delta_track(kd, r, &o, &d, &rng, &e);
+        } else {
+            t = vsd_delta_track(&kd->density, o, d, VSD_INF, &rng);
+            e = vsd_segment_emission(kd, o, d, t, &rng);
+        }
         if (bounce == 0) res.emit = f3_add(res.emit, e);
         else res.indirect = f3_add(res.indirect, f3_mul(throughput, e));
 
@@ -65,13 +160,14 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample(const vsd_kernel_data *kd, int
             if (bounce == 0) {
                 if (!kd->transparent) res.background = env;
             } else {
-                float w = vsd_power_heuristic(last_phase_pdf, vsd_env_pdf(&kd->env, d));
+                /* pdfs over the direction sampled at the vertex: the start of a bent ray */
+                float w = vsd_power_heuristic(last_phase_pdf, vsd_env_pdf(&kd->env, d_start));
                 vsd_add_path_light(&res, bounce, f3_scale(f3_mul(throughput, env), w));
             }
             break;
         }
         if (bounce == 0) res.depth = t;
-        o = f3_madd(o, d, t);
+        if (!r) o = f3_madd(o, d, t);   /* a bent track leaves o at the collision */
         throughput = f3_mul(throughput, kd->medium.albedo);
         bounce++;
 
@@ -81,7 +177,15 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample(const vsd_kernel_data *kd, int
             vsd_f3 wl = vsd_env_sample(&kd->env, vsd_rng_float(&rng), vsd_rng_float(&rng), &le, &pdf_l);
             if (pdf_l > 0.0f) {
                 float ph = vsd_hg_eval(f3_dot(d, wl), g);
-                float tr = vsd_ratio_track(&kd->density, o, wl, VSD_INF, &rng);
+                float tr;
+                if (r) {
+                    vsd_f3 exit;
+                    tr = vsd_bent_ratio_track(kd, r, o, wl, &rng, &exit);
+                    /* the light arriving along wl left the map at the bent ray's exit */
+                    le = vsd_env_eval(&kd->env, exit);
+                } else {
+                    tr = vsd_ratio_track(&kd->density, o, wl, VSD_INF, &rng);
+                }
                 /* at the last vertex no phase-sampled path follows, so NEE takes the full weight */
                 float w = (bounce >= kd->max_bounces) ? 1.0f : vsd_power_heuristic(pdf_l, ph);
                 if (tr > 0.0f)
@@ -98,6 +202,11 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample(const vsd_kernel_data *kd, int
         }
     }
     return res;
+}
+
+VSD_DEVICE vsd_sample_result vsd_reference_sample(const vsd_kernel_data *kd, int32_t px, int32_t py, uint32_t sample)
+{
+    return vsd_reference_sample_bent(kd, 0, px, py, sample);
 }
 
 /* Sample s of pixel (x, y) as a device pass's per-sample function (device/device_pass.h). */

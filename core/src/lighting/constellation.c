@@ -313,6 +313,16 @@ static int compact(vsd_env_light *l, int n)
     return m;
 }
 
+/* 64-bit FNV-1a-style mix over the size and the texel bits */
+uint64_t vsd_env_content_hash(const vsd_env *env)
+{
+    uint64_t h = 1469598103934665603ull ^ ((uint64_t)env->width << 32 | (uint32_t)env->height);
+    const uint32_t *p = (const uint32_t *)(const void *)env->rgb;
+    size_t i, n = (size_t)env->width * env->height * 3;
+    for (i = 0; i < n; i++) h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+
 vsd_status vsd_constellation_build(const vsd_env *env, int n, vsd_lights_method method,
                                    vsd_light_constellation *out, char *err, size_t errlen)
 {
@@ -394,4 +404,35 @@ void vsd_constellation_kernel_lights(const vsd_light_constellation *c, float str
         o[6] = l->power[2] * strength;
         o[7] = 0.0f;
     }
+}
+
+vsd_status vsd_constellation_cache_update(vsd_constellation_cache *c, const vsd_env *env, int n,
+                                          vsd_lights_method method, float strength, float rotation_z, char *err,
+                                          size_t errlen)
+{
+    uint64_t key = vsd_env_content_hash(env);
+    if (!c->valid || key != c->key || n != c->n || (int)method != c->method) {
+        vsd_status st;
+        vsd_constellation_free(&c->cons);
+        c->valid = 0;
+        if ((st = vsd_constellation_build(env, n, method, &c->cons, err, errlen))) return st;
+        c->key = key;
+        c->n = n;
+        c->method = (int)method;
+        c->valid = 1;
+    }
+    free(c->lights);
+    c->count = 0;
+    if (!(c->lights = malloc(sizeof(float) * 8 * (size_t)(c->cons.count > 0 ? c->cons.count : 1))))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d lights", c->cons.count);
+    vsd_constellation_kernel_lights(&c->cons, strength, rotation_z, c->lights);
+    c->count = c->cons.count;
+    return VSD_OK;
+}
+
+void vsd_constellation_cache_free(vsd_constellation_cache *c)
+{
+    vsd_constellation_free(&c->cons);
+    free(c->lights);
+    memset(c, 0, sizeof *c);
 }

@@ -56,6 +56,7 @@ extern const vsd_method vsd_method_raymarch;
 extern const vsd_method vsd_method_shgrid;
 extern const vsd_method vsd_method_constellation;
 extern const vsd_method vsd_method_crm;
+extern const vsd_method vsd_method_lbl;
 
 const vsd_method *vsd_method_find(const char *name);
 

@@ -7,7 +7,7 @@
 #include <cjson/cJSON.h>
 
 static const vsd_method *const registry[] = { &vsd_method_reference, &vsd_method_raymarch, &vsd_method_shgrid,
-                                                &vsd_method_constellation, &vsd_method_crm };
+                                                &vsd_method_constellation, &vsd_method_crm, &vsd_method_lbl };
 #define REGISTRY_COUNT (sizeof registry / sizeof registry[0])
 
 const char *const *vsd_method_names(void)

@@ -11,8 +11,8 @@
 /* The grid's resident slots, the first of the method's (cuda_backend.h). */
 enum {
     VSD_SLOT_RG_CELLS = VSD_SLOT_METHOD, VSD_SLOT_RG_RECORDS, VSD_SLOT_RG_POS, VSD_SLOT_RG_DIRS, VSD_SLOT_RG_BASIS,
-    VSD_SLOT_RG_RADIANCE, VSD_SLOT_RG_LIGHT, VSD_SLOT_RG_LIGHTS, VSD_SLOT_RG_LIGHT_TRANS,
-    VSD_RECORD_GRID_SLOTS = 9
+    VSD_SLOT_RG_RADIANCE, VSD_SLOT_RG_LIGHT, VSD_SLOT_RG_LIGHTS, VSD_SLOT_RG_LIGHT_TRANS, VSD_SLOT_RG_RECORDS_MS,
+    VSD_RECORD_GRID_SLOTS = 10
 };
 
 /* d = g with its arrays on the device; with_records = 0 for a record pass, which writes

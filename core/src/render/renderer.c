@@ -207,7 +207,7 @@ static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key
     const vsd_scene *sc = &r->scene;
     const double *m = sc->volume.matrix;
     const float *a = sc->medium.albedo, *e = sc->medium.emission_color;
-    int n = snprintf(frame_key, KEY_LEN, "%s|%g|", r->volume_key, sc->medium.density);
+    int n = snprintf(frame_key, KEY_LEN, "%s|%g|%g|", r->volume_key, sc->medium.density, sc->medium.ior);
     int i;
     for (i = 0; i < 16 && n < KEY_LEN - 32; i++) n += snprintf(frame_key + n, KEY_LEN - n, "%.9g,", m[i]);
     snprintf(lighting_key, KEY_LEN, "%.3000s|%.900s|%g|%g|%g,%g,%g|%g|%g,%g,%g,%g", frame_key, r->env_key,

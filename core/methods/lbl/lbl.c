@@ -1,0 +1,353 @@
+/* Method `lbl` (Bernabei, Hakke-Patil, Banterle, Di Benedetto, Ganovelli, Pattanaik,
+ * Scopigno 2012): light marching from the light sources plus lattice-Boltzmann diffusion
+ * for the multiple scattering, on one grid of cells over the density's box.
+ *   prepare_frame     the cell grid (src/render/record_grid.h: a record at the centre of
+ *                     every non-empty cell) and each cell's sigma_t (the mean of 27
+ *                     samples of the density): the paper's material volume (§III-A);
+ *   prepare_lighting  the environment as directional lights (the light constellation,
+ *                     vsd/lighting.h, rebuilt only when the map's content changes); the
+ *                     marching pass (§III-B, lbl_march.h): each light's transmittance at
+ *                     every cell; the first-scattered light deposited per cell; the
+ *                     diffusion pass (§III-C, lbl_lattice.h) to convergence, warm-started
+ *                     from the last solve;
+ *   render            the view pass (§III-D) on the record grid's shared view march:
+ *                     VolumeDir from the lights' term, sum_k HG(d . w_k) T_k E_k (the
+ *                     direct deposit, with the phase function: our media are not
+ *                     isotropic), VolumeInd from the diffused fluence (phi / 4pi,
+ *                     isotropic), plus Emit, Transmittance and Depth from the march.
+ * Not built yet (issue 14): refraction (the material volume's n and grad n, bent light
+ * and view rays, `reference` on bent rays), the paper's 4^3 blocks with interface
+ * buffers and the D3Q18 lattice, overlapping march and diffusion, and a device path for
+ * the lighting stages (the view already runs on CUDA through the record grid).
+ * docs/methods/lbl.md has the measurements. */
+#include "src/render/method.h"
+#include "src/render/record_grid.h"
+#include "src/render/kernel_setup.h"
+#include "kernel/kernel_record_grid.h"
+#include "vsd/lighting.h"
+#include "src/common/clock.h"
+#include "lbl_march.h"
+#include "lbl_lattice.h"
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PI_D 3.14159265358979323846
+
+typedef struct lbl_options {
+    int lights, cells, max_steps, interp, pixel_samples, view_bake;
+    double ray_spacing, light_step, tolerance, slice, early_termination;
+} lbl_options;
+
+/* in VSD_RECORDS_NEAREST.. order */
+static const char *const lbl_interp_names[] = {"nearest", "trilinear", "log", NULL};
+
+static const vsd_option_spec lbl_option_rows[] = {
+    {"lights", VSD_OPT_INT, 1, VSD_RECORDS_MAX_LIGHTS, 64, NULL,
+     "the environment as N directional lights (median-cut constellation)", offsetof(lbl_options, lights), 0, NULL},
+    {"cells", VSD_OPT_INT, 4, 256, 64, NULL,
+     "lattice cells per axis over the density's box (the material, marching and diffusion volumes)",
+     offsetof(lbl_options, cells), 0, NULL},
+    {"ray_spacing", VSD_OPT_NUMBER, 0.25, 1, 1, NULL, "light rays' spacing across their direction, in cells",
+     offsetof(lbl_options, ray_spacing), 0, NULL},
+    {"light_step", VSD_OPT_NUMBER, 0.25, 1, 1, NULL, "light rays' integration step (the paper's delta), in cells",
+     offsetof(lbl_options, light_step), 0, NULL},
+    {"tolerance", VSD_OPT_NUMBER, 1e-7, 0.1, 1e-3, NULL,
+     "diffusion: stop when the probes' fluence has less than this (relative) still to change",
+     offsetof(lbl_options, tolerance), 0, NULL},
+    {"max_steps", VSD_OPT_INT, 8, 100000, 4000, NULL, "diffusion: at most this many lattice steps",
+     offsetof(lbl_options, max_steps), 0, NULL},
+    {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, lbl_interp_names,
+     "view: the direct light between cell centres, nearest, trilinear, or trilinear in log radiance",
+     offsetof(lbl_options, interp), 0, NULL},
+    {"slice", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = a voxel)",
+     offsetof(lbl_options, slice), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+    {"view_bake", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "CPU view: the lights' term per record once per view, phase at the camera-to-record direction (0 = per ray)",
+     offsetof(lbl_options, view_bake), 0, NULL},
+    VSD_OPTION_EARLY_TERMINATION(lbl_options, "view ray"),
+    VSD_OPTION_PIXEL_SAMPLES(lbl_options),
+};
+
+typedef struct lbl_state {
+    lbl_options opt;
+    /* frame: the cells and their material */
+    vsd_record_grid rg;
+    float *sigma;                 /* [cells] sigma_t per world unit */
+    float *collide;               /* [cells] collision probability per lattice step */
+    double cell_world;            /* edge of a cube of a cell's world volume */
+    /* lighting */
+    vsd_constellation_cache cc;   /* the lights, kernel layout */
+    float *light_trans;           /* [records * lights] */
+    float *source;                /* [3][cells] */
+    float *fluence;               /* [3][cells] */
+    float *ms;                    /* [records * 3] VolumeInd source per unit sigma_s */
+    float *view_baked;            /* [records * 3] the lights' term toward this view's camera */
+    vsd_lbl_lattice lattice;      /* kept between lighting changes: the warm start */
+    vsd_lbl_diffusion_stats diffusion;
+    double march_seconds;
+} lbl_state;
+
+static vsd_status lbl_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
+{
+    lbl_state *s = calloc(1, sizeof *s);
+    (void)scene;
+    if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
+    s->opt = *(const lbl_options *)options;
+    *state = s;
+    return VSD_OK;
+}
+
+static void free_lighting(lbl_state *s)
+{
+    free(s->light_trans);
+    free(s->source);
+    free(s->fluence);
+    free(s->ms);
+    free(s->view_baked);
+    s->light_trans = s->source = s->fluence = s->ms = s->view_baked = NULL;
+}
+
+static void free_frame(lbl_state *s)
+{
+    vsd_record_grid_free(&s->rg);
+    free(s->sigma);
+    free(s->collide);
+    s->sigma = s->collide = NULL;
+    free_lighting(s);
+}
+
+static size_t cell_count(const lbl_state *s) { return (size_t)s->rg.res[0] * s->rg.res[1] * s->rg.res[2]; }
+
+/* grid -> world, and the world edge of a cell (cube root of its volume) */
+static vsd_status grid_to_world(const vsd_record_grid *rg, double out[16], double *edge, char *err, size_t errlen)
+{
+    double m[16];
+    int a;
+    for (a = 0; a < 12; a++) m[a] = rg->world_to_grid.m[a];
+    m[12] = m[13] = m[14] = 0.0;
+    m[15] = 1.0;
+    if (!vsd_mat4_invert(m, out)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl: the volume's transform is singular");
+    *edge = cbrt(fabs(out[0] * (out[5] * out[10] - out[6] * out[9]) - out[1] * (out[4] * out[10] - out[6] * out[8]) +
+                      out[2] * (out[4] * out[9] - out[5] * out[8])));
+    return VSD_OK;
+}
+
+/* The material volume: sigma_t of each cell as the mean of 3^3 samples inside it. */
+static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    lbl_state *s = state;
+    double g2w[16];
+    size_t n, c;
+    vsd_status st;
+    int32_t x, y, z;
+    free_frame(s);
+    if ((st = vsd_record_grid_build(&ctx->kd.density, s->opt.cells, 2, &s->rg, err, errlen))) return st;
+    n = cell_count(s);
+    if (n == 0) return VSD_OK;
+    if ((st = grid_to_world(&s->rg, g2w, &s->cell_world, err, errlen))) return st;
+    s->sigma = malloc(n * sizeof *s->sigma);
+    s->collide = malloc(n * sizeof *s->collide);
+    if (!s->sigma || !s->collide) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %zu cells", n);
+    for (z = 0, c = 0; z < s->rg.res[2]; z++)
+        for (y = 0; y < s->rg.res[1]; y++)
+            for (x = 0; x < s->rg.res[0]; x++, c++) {
+                double sum = 0.0;
+                int a, b, d;
+                for (a = 0; a < 3; a++)
+                    for (b = 0; b < 3; b++)
+                        for (d = 0; d < 3; d++) {
+                            double q[3] = {x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0, z + (d + 0.5) / 3.0};
+                            vsd_f3 w = f3((float)(g2w[0] * q[0] + g2w[1] * q[1] + g2w[2] * q[2] + g2w[3]),
+                                          (float)(g2w[4] * q[0] + g2w[5] * q[1] + g2w[6] * q[2] + g2w[7]),
+                                          (float)(g2w[8] * q[0] + g2w[9] * q[1] + g2w[10] * q[2] + g2w[11]));
+                            sum += vsd_kvolume_at(&ctx->kd.density, w);
+                        }
+                /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite
+                 * here: inf - inf in the trilinear lookups would turn the light into NaN; a
+                 * cell of 1e20 per unit length is opaque all the same */
+                s->sigma[c] = (float)fmin(sum / 27.0, 1e20);
+                s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
+            }
+    return VSD_OK;
+}
+
+/* The light each cell scatters out of the direct beams (and emits) per lattice step, in
+ * watts: albedo * E_k T_k * (1 - e^{-sigma lambda}) lambda^2 summed over the lights (a beam
+ * of irradiance E through a cell of cross-section lambda^2), plus the emission, 4pi L_e
+ * lambda^3 (L_e per unit length and steradian). */
+static vsd_status deposit(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    const size_t n = cell_count(s);
+    const double area = s->cell_world * s->cell_world, vol = area * s->cell_world;
+    const vsd_kmedium *m = &ctx->kd.medium;
+    double g2w[16], edge;
+    size_t c;
+    int32_t x, y, z;
+    vsd_status st;
+    if ((st = grid_to_world(&s->rg, g2w, &edge, err, errlen))) return st;
+    for (z = 0, c = 0; z < s->rg.res[2]; z++)
+        for (y = 0; y < s->rg.res[1]; y++)
+            for (x = 0; x < s->rg.res[0]; x++, c++) {
+                int32_t rec = s->rg.cell_record[c], k;
+                double e[3] = {0.0, 0.0, 0.0};
+                if (rec >= 0)
+                    for (k = 0; k < s->cc.count; k++) {
+                        float t = s->light_trans[(size_t)rec * s->cc.count + k];
+                        e[0] += t * s->cc.lights[8 * k + 4];
+                        e[1] += t * s->cc.lights[8 * k + 5];
+                        e[2] += t * s->cc.lights[8 * k + 6];
+                    }
+                s->source[c] = (float)(m->albedo.x * e[0] * s->collide[c] * area);
+                s->source[n + c] = (float)(m->albedo.y * e[1] * s->collide[c] * area);
+                s->source[2 * n + c] = (float)(m->albedo.z * e[2] * s->collide[c] * area);
+                if (m->has_emission) {
+                    vsd_f3 w = f3((float)(g2w[0] * (x + 0.5) + g2w[1] * (y + 0.5) + g2w[2] * (z + 0.5) + g2w[3]),
+                                  (float)(g2w[4] * (x + 0.5) + g2w[5] * (y + 0.5) + g2w[6] * (z + 0.5) + g2w[7]),
+                                  (float)(g2w[8] * (x + 0.5) + g2w[9] * (y + 0.5) + g2w[10] * (z + 0.5) + g2w[11]));
+                    double le = vsd_kvolume_at(&ctx->kd.emission, w) * 4.0 * PI_D * vol;
+                    s->source[c] += (float)(le * m->emission.x);
+                    s->source[n + c] += (float)(le * m->emission.y);
+                    s->source[2 * n + c] += (float)(le * m->emission.z);
+                }
+            }
+    return VSD_OK;
+}
+
+static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    lbl_state *s = state;
+    const vsd_scene *sc = ctx->scene;
+    const size_t n = cell_count(s), recs = (size_t)s->rg.count;
+    vsd_lbl_grid grid;
+    float albedo[3];
+    double t0;
+    vsd_status st;
+    int a, q;
+    size_t c;
+    free_lighting(s);
+    if ((st = vsd_constellation_cache_update(&s->cc, ctx->env, s->opt.lights, VSD_LIGHTS_MEDIAN_CUT,
+                                             sc->environment.strength, sc->environment.rotation_z, err, errlen)))
+        return st;
+    if (n == 0 || recs == 0) return VSD_OK;
+    s->light_trans = calloc(recs * (size_t)(s->cc.count > 0 ? s->cc.count : 1), sizeof *s->light_trans);
+    s->source = malloc(3 * n * sizeof *s->source);
+    s->fluence = malloc(3 * n * sizeof *s->fluence);
+    s->ms = malloc(3 * recs * sizeof *s->ms);
+    if (!s->light_trans || !s->source || !s->fluence || !s->ms)
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lighting of %zu cells", n);
+    /* marching pass */
+    memcpy(grid.res, s->rg.res, sizeof grid.res);
+    grid.sigma = s->sigma;
+    for (a = 0; a < 3; a++)
+        for (q = 0; q < 3; q++) grid.to_grid[3 * a + q] = s->rg.world_to_grid.m[4 * a + q];
+    t0 = vsd_clock_seconds();
+    if ((st = vsd_lbl_march_lights(&grid, s->cc.lights, s->cc.count, (float)s->opt.ray_spacing,
+                                   (float)s->opt.light_step, s->rg.cell_record, ctx->threads, s->light_trans, err,
+                                   errlen)))
+        return st;
+    s->march_seconds = vsd_clock_seconds() - t0;
+    if ((st = deposit(s, ctx, err, errlen))) return st;
+    /* diffusion pass, from the last solve's state */
+    if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, err, errlen))) return st;
+    albedo[0] = ctx->kd.medium.albedo.x;
+    albedo[1] = ctx->kd.medium.albedo.y;
+    albedo[2] = ctx->kd.medium.albedo.z;
+    if ((st = vsd_lbl_diffuse(&s->lattice, s->collide, albedo, s->source, s->opt.tolerance, s->opt.max_steps,
+                              ctx->threads, s->fluence, &s->diffusion, err, errlen)))
+        return st;
+    /* VolumeInd's source per unit sigma_s: phi / 4pi, phi = sum_i f_i / lambda^2 */
+    for (c = 0; c < n; c++) {
+        int32_t rec = s->rg.cell_record[c];
+        if (rec < 0) continue;
+        for (a = 0; a < 3; a++)
+            s->ms[3 * (size_t)rec + a] =
+                (float)(s->fluence[(size_t)a * n + c] / (s->cell_world * s->cell_world) / (4.0 * PI_D));
+    }
+    return VSD_OK;
+}
+
+/* The lights' term of every record for this view, with the phase function taken at the
+ * direction from the camera to the record (the view's direction at the record itself; a ray
+ * through a cell sees its records within cell size / distance of it, a fraction of a degree
+ * at our framings; exact for an orthographic camera). The march then reads one RGB triple
+ * per corner instead of summing 64 lights per record it crosses: the per-view volume pass
+ * crm also makes (vsd_crm_view_node). */
+static vsd_status bake_view(lbl_state *s, const vsd_krecord_grid *lights_view, const vsd_kernel_data *kd, char *err,
+                            size_t errlen)
+{
+    const float *m = kd->camera.cam_to_world.m;
+    vsd_f3 eye = f3(m[3], m[7], m[11]), back = f3_normalize(f3(m[2], m[6], m[10]));
+    float ph[3 * VSD_RECORDS_MAX_LIGHTS];
+    int32_t r;
+    if (!s->view_baked && !(s->view_baked = malloc(3 * (size_t)s->rg.count * sizeof *s->view_baked)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d view records", (int)s->rg.count);
+    for (r = 0; r < s->rg.count; r++) {
+        const float *p = s->rg.record_pos + 4 * (size_t)r;
+        vsd_f3 d = kd->camera.orthographic ? f3_scale(back, -1.0f) : f3_normalize(f3_sub(f3(p[0], p[1], p[2]), eye)), v;
+        vsd_records_light_weights(s->cc.lights, s->cc.count, d, kd->medium.anisotropy, ph);
+        v = vsd_records_radiance(lights_view, r, NULL, ph);
+        s->view_baked[3 * (size_t)r] = v.x;
+        s->view_baked[3 * (size_t)r + 1] = v.y;
+        s->view_baked[3 * (size_t)r + 2] = v.z;
+    }
+    return VSD_OK;
+}
+
+static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
+                             size_t errlen)
+{
+    lbl_state *s = state;
+    vsd_krecord_grid g;
+    vsd_status st;
+    memset(&g, 0, sizeof g);
+    ctx->kd.lights = s->cc.lights;
+    ctx->kd.light_count = s->cc.count;
+    g.kd = &ctx->kd;
+    g.cell_record = s->rg.cell_record;
+    g.world_to_grid = s->rg.world_to_grid;
+    memcpy(g.res, s->rg.res, sizeof g.res);
+    g.record_count = s->rg.count;
+    g.interp = s->opt.interp;
+    g.kind = VSD_RECORDS_LIGHTS;
+    g.lights = s->cc.lights;
+    g.light_trans = s->light_trans;
+    g.light_count = s->light_trans ? s->cc.count : 0;
+    g.records_ms = s->ms;
+    /* on the CPU the lights' term is baked per view; the device keeps its arrays per
+     * lighting generation, so there the march sums the lights per ray (exact phase) */
+    if (!ctx->cuda && s->opt.view_bake && s->light_trans) {
+        if ((st = bake_view(s, &g, &ctx->kd, err, errlen))) return st;
+        g.kind = VSD_RECORDS_BAKED;
+        g.records = s->view_baked;
+        g.stride = 3;
+        g.lights = NULL;
+        g.light_trans = NULL;
+        g.light_count = 0;
+    }
+    if (ctx->info && ctx->info_len)
+        snprintf(ctx->info, ctx->info_len,
+                 "cells=%dx%dx%d records=%d lights=%d march_seconds=%.3f diffusion_steps=%d diffusion_converged=%d "
+                 "diffusion_change=%.3g diffusion_seconds=%.3f",
+                 s->rg.res[0], s->rg.res[1], s->rg.res[2], (int)s->rg.count, s->cc.count, s->march_seconds,
+                 s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds);
+    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, samples,
+                                  err, errlen);
+}
+
+static void lbl_destroy(void *state)
+{
+    lbl_state *s = state;
+    if (!s) return;
+    free_frame(s);
+    vsd_lbl_lattice_free(&s->lattice);
+    vsd_constellation_cache_free(&s->cc);
+    free(s);
+}
+
+const vsd_method vsd_method_lbl = {
+    "lbl", VSD_OPTION_TABLE(lbl_option_rows, lbl_options), lbl_create, lbl_prepare_frame, lbl_prepare_lighting,
+    lbl_render, lbl_destroy,
+};

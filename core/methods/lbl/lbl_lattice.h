@@ -1,0 +1,61 @@
+/* lbl_lattice.h — the diffusion pass of Bernabei et al. 2012 (§III-C): lattice-Boltzmann
+ * lighting (Geist et al. 2004) on the D3Q6 lattice, one node per cell.
+ *
+ * Each node holds the photon density f_i arriving along each of the six axis directions
+ * c_i (RGB). One step collides every node with eq. 4-5's matrix and streams the result one
+ * cell along c_i:
+ *     f_i(r + c_i, t + 1) = (1 - p) f_i(r, t) + (albedo p / 6) sum_j f_j(r, t) + S(r) / 6
+ * where p = 1 - exp(-sigma_t lambda) is the node's collision probability per step (the
+ * paper's sigma_t, taken as a probability so thick cells stay stable) and the paper's rest
+ * population f_0 — the absorbed part, (1 - albedo) p sum_j f_j — is dropped, not re-emitted:
+ * with eq. 5 as printed, Theta_i0 = 1/6 would send it back out, which conserves energy for
+ * any albedo and turns absorption into delayed scattering. So a step with albedo 1 (or p =
+ * 0) conserves the photons inside the lattice, and one with albedo < 1 loses exactly the
+ * absorbed part (tests/test_lbl.c). S is the light the marching pass deposited, injected
+ * isotropically every step; populations that stream out of the lattice are gone (vacuum).
+ *
+ * Iterated to the steady state, sum_i f_i at a node is the fluence there times the cell's
+ * cross-section: with S in watts (the power the node scatters out of the direct beams, or
+ * emits), phi = sum_i f_i / lambda^2. Convergence watches, as the paper does, the summed
+ * fluence of a sparse set of probe nodes (every 7th node), every 8 steps; it stops when the
+ * change still to come — the last window's change plus its geometric continuation at the
+ * ratio of the last two windows' changes — is below `tolerance` (relative), or after
+ * `max_steps` steps. (The paper's test, the last change alone, stops a warm start long
+ * before the new steady state.) The last state warm-starts the next solve (a lighting
+ * edit). */
+#ifndef VSD_LBL_LATTICE_H
+#define VSD_LBL_LATTICE_H
+#include <stdint.h>
+#include "vsd/status.h"
+
+typedef struct vsd_lbl_lattice {
+    int32_t res[3];
+    size_t cells;
+    float *f;                /* [6 directions][3 channels][cells] arriving densities (warm state) */
+} vsd_lbl_lattice;
+
+typedef struct vsd_lbl_diffusion_stats {
+    int steps;
+    int converged;
+    double change;           /* estimated relative change still to come at the stop */
+    double seconds;
+} vsd_lbl_diffusion_stats;
+
+/* Allocates (zero state) or keeps the lattice when res is unchanged. */
+vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], char *err, size_t errlen);
+void vsd_lbl_lattice_free(vsd_lbl_lattice *l);
+
+/* One collide-and-stream step (no threads, for tests): collide[c] = p per node, albedo RGB,
+ * source [3][cells] (NULL = none). */
+void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source);
+
+/* Sum of all populations of channel ch (the photons in the lattice). */
+double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch);
+
+/* Steps from the current state until converged; fluence[3][cells] = sum_i f_i (caller
+ * divides by lambda^2). */
+vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
+                           double tolerance, int max_steps, int threads, float *fluence, vsd_lbl_diffusion_stats *stats,
+                           char *err, size_t errlen);
+
+#endif

@@ -1,0 +1,167 @@
+#include "lbl_march.h"
+#include "device/cpu/cpu_tiles.h"
+#include "src/render/padded_grid.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Rays die below this transmittance: what they would still leave behind is < 1e-4 of the
+ * light they brought. */
+#define LBL_T_MIN 1e-4f
+
+typedef struct march_job {
+    const vsd_lbl_grid *g;
+    const float *lights;
+    int light_count;
+    float spacing, step;
+    const int32_t *cell_record;
+    const vsd_padded_grid *pad;
+    float *trans;
+    vsd_status st;
+} march_job;
+
+/* trilinear sigma at grid point x inside the box (cell centres at +0.5) */
+static float sigma_at(const vsd_padded_grid *p, const float x[3])
+{
+    return vsd_padded_at(p, x[0] - 0.5f, x[1] - 0.5f, x[2] - 0.5f);
+}
+
+/* value v with weight 1 onto the eight cell centres around x, into an accumulator with a
+ * one-cell border (strides sx, sy; interior cell (i,j,k) at (i+1, j+1, k+1)): acc[2c] += w v,
+ * acc[2c+1] += w. Points are inside the box, so the corners are inside the border. */
+static void splat(size_t sx, size_t sy, const float x[3], float v, float *acc)
+{
+    float fx = x[0] - 0.5f, fy = x[1] - 0.5f, fz = x[2] - 0.5f, ix = floorf(fx), iy = floorf(fy), iz = floorf(fz);
+    float tx = fx - ix, ty = fy - iy, tz = fz - iz;
+    float *a = acc + 2 * ((size_t)((int32_t)iz + 1) * sy + (size_t)((int32_t)iy + 1) * sx + (size_t)((int32_t)ix + 1));
+    float w00 = (1.0f - ty) * (1.0f - tz), w10 = ty * (1.0f - tz), w01 = (1.0f - ty) * tz, w11 = ty * tz;
+    float w[8] = {(1.0f - tx) * w00, tx * w00, (1.0f - tx) * w10, tx * w10,
+                  (1.0f - tx) * w01, tx * w01, (1.0f - tx) * w11, tx * w11};
+    size_t off[8] = {0, 2, 2 * sx, 2 * sx + 2, 2 * sy, 2 * sy + 2, 2 * (sy + sx), 2 * (sy + sx) + 2};
+    int q;
+    for (q = 0; q < 8; q++) {
+        a[off[q]] += w[q] * v;
+        a[off[q] + 1] += w[q];
+    }
+}
+
+/* The ray o + t u (grid units) clipped to the box [0, res]: 0 when it misses. */
+static int clip(const int32_t res[3], const float o[3], const float u[3], float *t0, float *t1)
+{
+    int a;
+    *t0 = -1e30f;
+    *t1 = 1e30f;
+    for (a = 0; a < 3; a++) {
+        if (fabsf(u[a]) < 1e-12f) {
+            if (o[a] < 0.0f || o[a] > (float)res[a]) return 0;
+            continue;
+        }
+        {
+            float ta = (0.0f - o[a]) / u[a], tb = ((float)res[a] - o[a]) / u[a];
+            if (ta > tb) { float s = ta; ta = tb; tb = s; }
+            if (ta > *t0) *t0 = ta;
+            if (tb < *t1) *t1 = tb;
+        }
+    }
+    return *t1 > *t0;
+}
+
+static void march_light(const march_job *j, const vsd_padded_grid *pad, int k, float *acc)
+{
+    const vsd_lbl_grid *g = j->g;
+    const float *l = j->lights + 8 * (size_t)k;
+    const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
+    double v[3], len;
+    int32_t ci, cj, ck;
+    float u[3], e1[3], e2[3], centre[3], radius, a, b;
+    int ax;
+    /* the rays travel away from the light: -w in the grid */
+    for (ax = 0; ax < 3; ax++)
+        v[ax] = -(g->to_grid[3 * ax] * l[0] + g->to_grid[3 * ax + 1] * l[1] + g->to_grid[3 * ax + 2] * l[2]);
+    len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    memset(acc, 0, 2 * sy * ((size_t)g->res[2] + 2) * sizeof *acc);
+    if (len > 0.0) {
+        /* a grid step of `step` along u is step / len world units long */
+        const float world_step = (float)(j->step / len);
+        for (ax = 0; ax < 3; ax++) u[ax] = (float)(v[ax] / len);
+        /* e1, e2: an orthonormal frame across u */
+        {
+            float h[3] = {fabsf(u[0]) < 0.9f ? 1.0f : 0.0f, fabsf(u[0]) < 0.9f ? 0.0f : 1.0f, 0.0f}, d, n;
+            d = h[0] * u[0] + h[1] * u[1] + h[2] * u[2];
+            for (ax = 0; ax < 3; ax++) e1[ax] = h[ax] - d * u[ax];
+            n = sqrtf(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+            for (ax = 0; ax < 3; ax++) e1[ax] /= n;
+            e2[0] = u[1] * e1[2] - u[2] * e1[1];
+            e2[1] = u[2] * e1[0] - u[0] * e1[2];
+            e2[2] = u[0] * e1[1] - u[1] * e1[0];
+        }
+        for (ax = 0; ax < 3; ax++) centre[ax] = 0.5f * (float)g->res[ax];
+        radius = 0.5f * sqrtf((float)g->res[0] * g->res[0] + (float)g->res[1] * g->res[1] + (float)g->res[2] * g->res[2]) + 1.0f;
+        for (a = -radius; a <= radius; a += j->spacing)
+            for (b = -radius; b <= radius; b += j->spacing) {
+                float o[3], t0, t1, t, tr = 1.0f;
+                for (ax = 0; ax < 3; ax++) o[ax] = centre[ax] + a * e1[ax] + b * e2[ax];
+                if (!clip(g->res, o, u, &t0, &t1)) continue;
+                for (t = t0; t < t1 && tr > LBL_T_MIN; t += j->step) {
+                    float h = fminf(j->step, t1 - t), x[3], half;
+                    for (ax = 0; ax < 3; ax++) x[ax] = o[ax] + (t + 0.5f * h) * u[ax];
+                    half = expf(-0.5f * sigma_at(pad, x) * world_step * (h / j->step));
+                    /* the transmittance at the step's middle is what the cells there see */
+                    tr *= half;
+                    splat(sx, sy, x, tr, acc);
+                    tr *= half;
+                }
+            }
+    }
+    for (ck = 0; ck < g->res[2]; ck++)
+        for (cj = 0; cj < g->res[1]; cj++)
+            for (ci = 0; ci < g->res[0]; ci++) {
+                int32_t rec = j->cell_record[((size_t)ck * g->res[1] + cj) * g->res[0] + ci];
+                const float *a2 = acc + 2 * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
+                if (rec >= 0) j->trans[(size_t)rec * j->light_count + k] = a2[1] > 0.0f ? a2[0] / a2[1] : 0.0f;
+            }
+}
+
+/* Lights [k0, k1) as the x range of a count x 1 job of the CPU pool. */
+static void run(void *arg, int k0, int y0, int k1, int y1)
+{
+    march_job *j = arg;
+    size_t cells = ((size_t)j->g->res[0] + 2) * ((size_t)j->g->res[1] + 2) * ((size_t)j->g->res[2] + 2);
+    float *acc = malloc(2 * cells * sizeof *acc);
+    int k;
+    (void)y0;
+    (void)y1;
+    if (!acc) {
+        j->st = VSD_ERR_NOMEM;
+    } else {
+        for (k = k0; k < k1; k++) march_light(j, j->pad, k, acc);
+    }
+    free(acc);
+}
+
+vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, float spacing, float step,
+                                const int32_t *cell_record, int threads, float *trans, char *err, size_t errlen)
+{
+    march_job job;
+    vsd_padded_grid pad;
+    vsd_status st;
+    if (!(spacing > 0.0f && spacing <= 1.0f) || !(step > 0.0f && step <= 1.0f))
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl marching: ray spacing %g and step %g must be in (0, 1] cells",
+                        (double)spacing, (double)step);
+    if (light_count <= 0 || (size_t)g->res[0] * g->res[1] * g->res[2] == 0) return VSD_OK;
+    job.g = g;
+    job.lights = lights;
+    job.light_count = light_count;
+    job.spacing = spacing;
+    job.step = step;
+    job.trans = trans;
+    job.cell_record = cell_record;
+    job.st = VSD_OK;
+    if (!vsd_padded_grid_build(&pad, g->res, g->sigma)) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl light marching: no memory");
+    job.pad = &pad;
+    st = vsd_cpu_run_items(light_count, threads, run, &job, "lbl light marching");
+    vsd_padded_grid_free(&pad);
+    if (st) return vsd_fail(st, err, errlen, "lbl light marching cancelled");
+    if (job.st) return vsd_fail(job.st, err, errlen, "lbl light marching: no memory for the deposit grids");
+    return VSD_OK;
+}

@@ -1,0 +1,36 @@
+/* lbl_march.h — the marching pass of Bernabei et al. 2012 (§III-B), with n = 1 (straight
+ * rays; refraction is not built yet): light rays start outside the medium's box and march
+ * through it along each directional light, and the transmittance they carry is left
+ * behind in the cells they cross.
+ *
+ * Per light k (world direction w_k toward the light, so the rays travel along -w_k): a
+ * square lattice of parallel rays `spacing` cells apart on the plane across -w_k covers the
+ * grid's bounding sphere; each ray is clipped to the grid's box and marched in steps of
+ * `step` cells, midpoints, the optical depth summed from the cells' sigma_t (trilinear
+ * between cell centres, 0 outside). At every midpoint the ray's transmittance there is
+ * splatted onto the eight surrounding cell centres with trilinear weights (the paper's
+ * deposit into the diffusion volume, Fig. 3; the transfer's blending is the weighted sum);
+ * a cell's T_k is the weighted mean of what reached it (0 where nothing did: every ray
+ * through it had died, T < 1e-4). With spacing and step <= 1 every cell centre inside the
+ * box gets weight from some ray.
+ *
+ * Grid coordinates: cell (i,j,k) spans [i, i+1) x ..., its centre at +0.5 (the record
+ * grid's, src/render/record_grid.h). */
+#ifndef VSD_LBL_MARCH_H
+#define VSD_LBL_MARCH_H
+#include <stdint.h>
+#include "vsd/status.h"
+
+typedef struct vsd_lbl_grid {
+    int32_t res[3];
+    const float *sigma;      /* [res x*y*z] sigma_t per world unit at the cell centres */
+    double to_grid[9];       /* world direction -> grid displacement per world unit (row-major) */
+} vsd_lbl_grid;
+
+/* lights: kernel layout (8 floats: world direction xyz toward the light, 0, weight rgb, 0);
+ * cell_record: the record of each cell, -1 for none (the record grid's); trans[r *
+ * light_count + k]: T_k at record r's cell centre. threads: CPU threads (0 = all). */
+vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, float spacing, float step,
+                                const int32_t *cell_record, int threads, float *trans, char *err, size_t errlen);
+
+#endif

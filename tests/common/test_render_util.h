@@ -1,0 +1,48 @@
+/* test_render_util.h — helpers of the tests that render (test_crm, test_lbl): scenes from
+ * ../shared/data, renders by a fresh renderer, the block relative RMSE `vsd compare`
+ * reports, and the checks a fast method's comparison with `reference` makes. Failures are
+ * CHECKs (test_common.h). */
+#ifndef VSD_TEST_RENDER_UTIL_H
+#define VSD_TEST_RENDER_UTIL_H
+#include <stddef.h>
+#include "vsd/render.h"
+#include "vsd/scene.h"
+#include "vsd/volume.h"
+#include "vsd/env.h"
+#include "vsd/image.h"
+
+/* The value of `key` in a render's method_info ("key=value ..."); -1 (and a failed CHECK)
+ * when absent. */
+double test_info(const vsd_render_stats *s, const char *key);
+/* A scene file under ../shared/data, or JSON text, with --set style overrides. */
+int test_load_scene(const char *rel, const char *const *ov, int nov, vsd_scene *sc);
+int test_parse_scene(const char *json, const char *const *ov, int nov, vsd_scene *sc);
+vsd_renderer *test_make_renderer(const vsd_scene *sc, const char *cache_dir);
+int test_render(vsd_renderer *r, int frame, vsd_framebuffer **fb, vsd_render_stats *stats);
+/* One render by a fresh renderer (in-memory volume / environment when given); NULL on failure. */
+vsd_framebuffer *test_render_fresh(const vsd_scene *sc, const char *cache_dir, const vsd_volume *vol,
+                                   const vsd_env *env, int frame, vsd_render_stats *stats);
+/* Relative RMSE of pass p of a against b after 4x4 block averages, as `vsd compare`. */
+double test_rel_err(const vsd_framebuffer *a, const vsd_framebuffer *b, vsd_pass p);
+double test_rel_err_planes(const float *a, const float *b, int w, int h, int ch);
+size_t test_pass_floats(const vsd_framebuffer *fb, vsd_pass p);
+/* Every pass bit for bit. */
+int test_identical(const vsd_framebuffer *a, const vsd_framebuffer *b);
+/* max |a - b| / max |b| over pass p. */
+double test_max_rel_diff(const vsd_framebuffer *a, const vsd_framebuffer *b, vsd_pass p);
+/* Sum of the green channel of an RGB (or RGBA) pass. */
+double test_pass_sum(const vsd_framebuffer *fb, vsd_pass p);
+/* Combined is VolumeDir + VolumeInd per pixel (transparent film, no emission). */
+void test_check_pass_sum(const char *what, const vsd_framebuffer *fb);
+/* Negative controls (multiple scattering removed, halved; no scattered light) scored against
+ * ref's Combined must each fail `tol`. */
+void test_check_controls(const char *what, const vsd_framebuffer *method, const vsd_framebuffer *ref, double tol);
+
+/* A homogeneous ball: 32^3 voxels over [0,2]^3 (voxel 1/16), density 1 within 12 voxels
+ * (0.75) of the centre; with test_ball_json (medium density 4: optical radius 3, albedo
+ * 0.9, g 0, a uniform white environment, an orthographic camera, 32x32, method crm) a few
+ * scattering orders matter. */
+vsd_volume *test_ball_volume(void);
+extern const char *const test_ball_json;
+
+#endif

@@ -1,0 +1,153 @@
+/* test_lbl_lattice.c — the two lighting passes of method `lbl` against physics:
+ *   1. one lattice-Boltzmann step conserves the photons when nothing is absorbed
+ *      (albedo 1), and loses exactly the absorbed part albedo < 1 says;
+ *   2. the steady state in a homogeneous absorbing medium, far from the boundary, is the
+ *      infinite-medium balance sum_i f_i = S / ((1 - albedo) p);
+ *   3. the marching pass's transmittance in a homogeneous box along an axis is
+ *      Beer-Lambert's exp(-sigma depth) at every cell centre;
+ *   4. an oblique light through the same box agrees with the exact path length to the
+ *      box's face. */
+#include "test_common.h"
+#include "methods/lbl/lbl_lattice.h"
+#include "methods/lbl/lbl_march.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void test_conservation(void)
+{
+    const int32_t res[3] = {8, 8, 8};
+    vsd_lbl_lattice l;
+    float collide[512], ones[3] = {1.0f, 1.0f, 1.0f}, half[3] = {0.5f, 0.5f, 0.5f};
+    unsigned long long rng = 7;
+    double before, after, absorbed = 0.0;
+    size_t c;
+    int i, ch, x, y, z;
+    memset(&l, 0, sizeof l);
+    CHECK(vsd_lbl_lattice_init(&l, res, NULL, 0) == VSD_OK);
+    if (!l.f) return;
+    for (c = 0; c < 512; c++) collide[c] = (float)(0.1 + 0.8 * test_urand(&rng));
+    /* photons only two or more cells from the faces: none can stream out in one step */
+    for (z = 2; z < 6; z++)
+        for (y = 2; y < 6; y++)
+            for (x = 2; x < 6; x++)
+                for (i = 0; i < 6; i++)
+                    for (ch = 0; ch < 3; ch++) l.f[((size_t)i * 3 + ch) * 512 + (z * 8 + y) * 8 + x] = (float)test_urand(&rng);
+    before = vsd_lbl_lattice_total(&l, 0);
+    vsd_lbl_lattice_step(&l, collide, ones, NULL);
+    after = vsd_lbl_lattice_total(&l, 0);
+    printf("[1] albedo 1: photons %.6f -> %.6f\n", before, after);
+    CHECK_MSG(fabs(after - before) <= 1e-5 * before, "albedo 1 step: %.7g -> %.7g", before, after);
+    /* albedo 0.5: the step loses (1 - albedo) p sum_j f_j at every node, exactly */
+    before = vsd_lbl_lattice_total(&l, 1);
+    for (c = 0; c < 512; c++) {
+        double s = 0.0;
+        for (i = 0; i < 6; i++) s += l.f[((size_t)i * 3 + 1) * 512 + c];
+        absorbed += 0.5 * collide[c] * s;
+    }
+    vsd_lbl_lattice_step(&l, collide, half, NULL);
+    after = vsd_lbl_lattice_total(&l, 1);
+    printf("[1] albedo 0.5: photons %.6f -> %.6f, absorbed %.6f\n", before, after, absorbed);
+    CHECK_MSG(fabs(before - absorbed - after) <= 1e-5 * before, "albedo 0.5 step: %.7g - %.7g != %.7g", before,
+              absorbed, after);
+    vsd_lbl_lattice_free(&l);
+}
+
+static void test_infinite_medium(void)
+{
+    const int32_t res[3] = {33, 33, 33};
+    const size_t n = 33 * 33 * 33, centre = (16 * 33 + 16) * 33 + 16;
+    const float p = 0.6f, albedo[3] = {0.5f, 0.3f, 0.0f};
+    float *collide = malloc(n * sizeof *collide), *source = malloc(3 * n * sizeof *source);
+    float *fluence = malloc(3 * n * sizeof *fluence);
+    vsd_lbl_lattice l;
+    vsd_lbl_diffusion_stats st;
+    size_t c;
+    int ch;
+    memset(&l, 0, sizeof l);
+    if (!collide || !source || !fluence) return;
+    for (c = 0; c < n; c++) {
+        collide[c] = p;
+        for (ch = 0; ch < 3; ch++) source[ch * n + c] = 1.0f;
+    }
+    CHECK(vsd_lbl_lattice_init(&l, res, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_diffuse(&l, collide, albedo, source, 1e-7, 20000, 0, fluence, &st, NULL, 0) == VSD_OK);
+    printf("[2] infinite medium: %d steps (converged %d), centre fluence %.5f %.5f %.5f\n", st.steps, st.converged,
+           fluence[centre], fluence[n + centre], fluence[2 * n + centre]);
+    for (ch = 0; ch < 3; ch++) {
+        double want = 1.0 / ((1.0 - albedo[ch]) * p);
+        CHECK_MSG(fabs(fluence[ch * n + centre] - want) < 0.01 * want, "channel %d: %.5f, infinite medium %.5f", ch,
+                  fluence[ch * n + centre], want);
+    }
+    CHECK(st.converged);
+    vsd_lbl_lattice_free(&l);
+    free(collide);
+    free(source);
+    free(fluence);
+}
+
+/* a 16^3 box of sigma 2 per world unit, cells of 1/16 world unit (identity-like grid) */
+static void march_box(const float light_dir[3], float *trans, int32_t *records)
+{
+    static float sigma[16 * 16 * 16];
+    vsd_lbl_grid g;
+    float lights[8] = {light_dir[0], light_dir[1], light_dir[2], 0.0f, 1.0f, 1.0f, 1.0f, 0.0f};
+    int a;
+    for (a = 0; a < 4096; a++) {
+        sigma[a] = 2.0f;
+        records[a] = a;
+    }
+    g.res[0] = g.res[1] = g.res[2] = 16;
+    g.sigma = sigma;
+    memset(g.to_grid, 0, sizeof g.to_grid);
+    g.to_grid[0] = g.to_grid[4] = g.to_grid[8] = 16.0;   /* 16 cells per world unit */
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, 0.5f, 0.25f, records, 0, trans, NULL, 0) == VSD_OK);
+}
+
+static void test_march(void)
+{
+    static float trans[4096];
+    static int32_t records[4096];
+    const float down[3] = {0.0f, 0.0f, 1.0f};   /* the light is above: rays travel along -z */
+    const float oblique[3] = {0.6f, 0.0f, 0.8f};
+    double worst = 0.0;
+    int x, y, z;
+    march_box(down, trans, records);
+    /* interior cells (the box's sigma is trilinear between cell centres, so the outer half
+     * cell tapers to 0): depth below the top face's last centre plus the tapered half cell,
+     * [15.5, 16], whose sigma averages 3/4 of the box's: 0.375 cells */
+    for (z = 1; z < 15; z++)
+        for (y = 2; y < 14; y++)
+            for (x = 2; x < 14; x++) {
+                double depth = (15.5 - (z + 0.5)) / 16.0 + 0.375 / 16.0, want = exp(-2.0 * depth);
+                double got = trans[(z * 16 + y) * 16 + x], e = fabs(got - want) / want;
+                if (e > worst) worst = e;
+            }
+    printf("[3] axis-aligned light: worst relative error of T against Beer-Lambert %.4f\n", worst);
+    CHECK_MSG(worst < 0.005, "marching T off by %.4f", worst);
+    /* oblique: from a cell centre back toward the light the ray leaves through the top
+     * face after (16 - zc) / 0.8 cells, through the +x side after (16 - xc) / 0.6; cells
+     * clearly on the top's side: depth (15.5 - zc + 0.375) / 0.8 cells (the taper as above) */
+    march_box(oblique, trans, records);
+    worst = 0.0;
+    for (z = 1; z < 15; z++)
+        for (y = 2; y < 14; y++)
+            for (x = 1; x < 15; x++) {
+                double zc = z + 0.5, xc = x + 0.5, want, got, e;
+                if ((16.0 - zc) / 0.8 > (16.0 - xc) / 0.6 - 2.0) continue;
+                want = exp(-2.0 / 16.0 * (15.5 - zc + 0.375) / 0.8);
+                got = trans[(z * 16 + y) * 16 + x];
+                e = fabs(got - want) / want;
+                if (e > worst) worst = e;
+            }
+    printf("[4] oblique light: worst relative error of T %.4f\n", worst);
+    CHECK_MSG(worst < 0.005, "oblique marching T off by %.4f", worst);
+}
+
+int main(void)
+{
+    test_conservation();
+    test_infinite_medium();
+    test_march();
+    return test_finish("test_lbl_lattice");
+}
