@@ -97,6 +97,7 @@ static void march_box(const float light_dir[3], float *trans, int32_t *records)
         sigma[a] = 2.0f;
         records[a] = a;
     }
+    memset(&g, 0, sizeof g);   /* no refraction */
     g.res[0] = g.res[1] = g.res[2] = 16;
     g.sigma = sigma;
     memset(g.to_grid, 0, sizeof g.to_grid);

@@ -9,7 +9,8 @@
  *      estimate the same transmittance as the straight ones, within the noise;
  *   4. end to end: `reference` with ior 1.33 on a nearly transparent ball against a map
  *      changes the background seen through the ball and leaves every pixel whose ray misses
- *      the index grid bit for bit as with ior 1. */
+ *      the index grid bit for bit as with ior 1; `lbl`'s bent view rays match it, and lbl
+ *      without refraction (the control) does not. */
 #include "test_common.h"
 #include "test_render_util.h"
 #include "src/render/refraction.h"
@@ -20,6 +21,9 @@
 #include <string.h>
 
 #define PI_D 3.14159265358979323846
+/* lbl (4 x 4 rays per pixel) against reference (256 spp) through the refracting thin ball
+ * at 32x32: measured Combined 0.0085; lbl without refraction 0.347 */
+#define LBL_REFRACT_TOL 0.03
 
 static void test_parabola(void)
 {
@@ -206,6 +210,9 @@ static void test_render_background(void)
                              "film.transparent=false", "camera.ortho_scale=4"};
     const char *ov_bent[] = {"render.method=reference", "render.samples=16", "medium.density=0.05",
                              "film.transparent=false", "camera.ortho_scale=4", "medium.ior=1.33"};
+    const char *ov_bent_hi[] = {"render.method=reference", "render.samples=256", "medium.density=0.05",
+                                "film.transparent=false", "camera.ortho_scale=4", "medium.ior=1.33"};
+    vsd_scene bent_hi_sc;
     const char *uniform = "\"environment\":{\"color\":[1,1,1]}", *at = strstr(test_ball_json, uniform);
     char json[4096];
     vsd_scene flat_sc, bent_sc;
@@ -245,6 +252,35 @@ static void test_render_background(void)
                "middle changed by more than 5%%\n", same, outside, changed, centre);
         CHECK_MSG(outside > 0 && same == outside, "%d of %d pixels outside the grid differ", outside - same, outside);
         CHECK_MSG(centre > 0 && changed > centre / 2, "only %d of %d pixels through the ball changed", changed, centre);
+    }
+    /* lbl through the same refracting ball: its bent view rays against the path tracer's
+     * (Combined, mostly the background seen through the ball), and lbl without refraction as
+     * the control that must fail the same tolerance */
+    if (flat && bent) {
+        /* 4 x 4 rays per pixel: through the lens the map varies within a pixel, and the
+         * reference averages over the pixel too */
+        const char *lbl_ov[] = {"render.method=lbl", "render.options.pixel_samples=4", "medium.density=0.05",
+                                "film.transparent=false", "camera.ortho_scale=4", "medium.ior=1.33"};
+        vsd_scene lbl_sc, lbl1_sc;
+        vsd_framebuffer *lbl = NULL, *lbl1 = NULL;
+        if (test_parse_scene(json, lbl_ov, 6, &lbl_sc) && test_parse_scene(json, lbl_ov, 5, &lbl1_sc)) {
+            lbl = test_render_fresh(&lbl_sc, NULL, vol, NULL, 1, NULL);
+            lbl1 = test_render_fresh(&lbl1_sc, NULL, vol, NULL, 1, NULL);
+        }
+        if (lbl && lbl1) {
+            vsd_framebuffer *ref = test_parse_scene(json, ov_bent_hi, 6, &bent_hi_sc)
+                                       ? test_render_fresh(&bent_hi_sc, NULL, vol, NULL, 1, NULL)
+                                       : NULL;
+            double e = ref ? test_rel_err(lbl, ref, VSD_PASS_COMBINED) : 1.0;
+            double e1 = ref ? test_rel_err(lbl1, ref, VSD_PASS_COMBINED) : 0.0;
+            vsd_framebuffer_destroy(ref);
+            printf("    lbl vs reference, ior 1.33: Combined %.4f; lbl without refraction: %.4f (tolerance %.3f)\n", e,
+                   e1, LBL_REFRACT_TOL);
+            CHECK_MSG(e < LBL_REFRACT_TOL, "lbl with refraction: %.4f", e);
+            CHECK_MSG(e1 > LBL_REFRACT_TOL, "the control (no refraction) passes: %.4f", e1);
+        }
+        vsd_framebuffer_destroy(lbl);
+        vsd_framebuffer_destroy(lbl1);
     }
     vsd_framebuffer_destroy(flat);
     vsd_framebuffer_destroy(bent);

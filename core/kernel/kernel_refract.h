@@ -67,6 +67,14 @@ VSD_DEVICE int vsd_refract_clip(const vsd_krefract *r, vsd_f3 o, vsd_f3 d, float
     return hi > lo;
 }
 
+/* Whether world point p is inside the grid's box. */
+VSD_DEVICE int vsd_refract_inside(const vsd_krefract *r, vsd_f3 p)
+{
+    vsd_f3 q = vsd_affine_point(&r->world_to_grid, p);
+    return q.x >= 0.0f && q.y >= 0.0f && q.z >= 0.0f && q.x <= (float)r->dims[0] && q.y <= (float)r->dims[1] &&
+           q.z <= (float)r->dims[2];
+}
+
 /* One step of length h from x with v = n dx/ds: the new x, v, and the unit direction. */
 VSD_DEVICE void vsd_refract_step(const vsd_krefract *r, vsd_f3 *x, vsd_f3 *v, vsd_f3 *d, float h)
 {

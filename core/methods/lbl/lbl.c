@@ -15,10 +15,12 @@
  *                     direct deposit, with the phase function: our media are not
  *                     isotropic), VolumeInd from the diffused fluence (phi / 4pi,
  *                     isotropic), plus Emit, Transmittance and Depth from the march.
- * Not built yet (issue 14): refraction (the material volume's n and grad n, bent light
- * and view rays, `reference` on bent rays), the paper's 4^3 blocks with interface
- * buffers and the D3Q18 lattice, overlapping march and diffusion, and a device path for
- * the lighting stages (the view already runs on CUDA through the record grid).
+ * With medium.ior != 1 the frame stage also builds the n field (src/render/refraction.h)
+ * and the light and view rays bend through it (lbl_march.c, lbl_kernel.h; CPU only).
+ * Not built yet (issue 14): volume.ior_grid and medium.ior_from, the paper's 4^3 blocks
+ * with interface buffers and the D3Q18 lattice, overlapping march and diffusion, and a
+ * device path for the lighting stages (the unbent view runs on CUDA through the record
+ * grid).
  * docs/methods/lbl.md has the measurements. */
 #include "src/render/method.h"
 #include "src/render/record_grid.h"
@@ -28,6 +30,8 @@
 #include "src/common/clock.h"
 #include "lbl_march.h"
 #include "lbl_lattice.h"
+#include "lbl_kernel.h"
+#include "src/render/refraction.h"
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -88,6 +92,7 @@ typedef struct lbl_state {
     vsd_lbl_lattice lattice;      /* kept between lighting changes: the warm start */
     vsd_lbl_diffusion_stats diffusion;
     double march_seconds;
+    vsd_refraction_field refraction; /* medium.ior != 1: the view rays bend (lbl_kernel.h) */
 } lbl_state;
 
 static vsd_status lbl_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
@@ -112,6 +117,7 @@ static void free_lighting(lbl_state *s)
 
 static void free_frame(lbl_state *s)
 {
+    vsd_refraction_free(&s->refraction);
     vsd_record_grid_free(&s->rg);
     free(s->sigma);
     free(s->collide);
@@ -145,6 +151,9 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     int32_t x, y, z;
     free_frame(s);
     if ((st = vsd_record_grid_build(&ctx->kd.density, s->opt.cells, 2, &s->rg, err, errlen))) return st;
+    if (ctx->scene->medium.ior != 1.0f &&
+        (st = vsd_refraction_build(&ctx->kd.density, ctx->scene->medium.ior, 1.0f, 128, &s->refraction, err, errlen)))
+        return st;
     n = cell_count(s);
     if (n == 0) return VSD_OK;
     if ((st = grid_to_world(&s->rg, g2w, &s->cell_world, err, errlen))) return st;
@@ -243,6 +252,13 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     grid.sigma = s->sigma;
     for (a = 0; a < 3; a++)
         for (q = 0; q < 3; q++) grid.to_grid[3 * a + q] = s->rg.world_to_grid.m[4 * a + q];
+    grid.refract = s->refraction.k.ng ? &s->refraction.k : NULL;
+    grid.world_to_grid = s->rg.world_to_grid;
+    {
+        double g2w[16], edge;
+        if ((st = grid_to_world(&s->rg, g2w, &edge, err, errlen))) return st;
+        for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)g2w[a];
+    }
     t0 = vsd_clock_seconds();
     if ((st = vsd_lbl_march_lights(&grid, s->cc.lights, s->cc.count, (float)s->opt.ray_spacing,
                                    (float)s->opt.light_step, s->rg.cell_record, ctx->threads, s->light_trans, err,
@@ -296,6 +312,33 @@ static vsd_status bake_view(lbl_state *s, const vsd_krecord_grid *lights_view, c
     return VSD_OK;
 }
 
+static vsd_sample_result bent_sample(const void *m, int x, int y, int s, int n)
+{
+    return vsd_lbl_bent_sample((const vsd_klbl_bent *)m, x, y, s, n);
+}
+
+/* bent view rays have no device entry yet: the CPU threads run them */
+static const vsd_device_pass bent_view_pass = {
+    "ray marching (refracted)", 1, 256, sizeof(vsd_klbl_bent), offsetof(vsd_klbl_bent, g.kd), bent_sample, NULL, NULL,
+    NULL,
+};
+
+/* The view through a refracting medium (lbl_kernel.h), with the records baked for this view. */
+static vsd_status render_bent(lbl_state *s, vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *g,
+                              int *samples, char *err, size_t errlen)
+{
+    vsd_klbl_bent b;
+    struct vsd_cuda *cuda = ctx->cuda;
+    vsd_status st;
+    b.g = *g;
+    b.r = s->refraction.k;
+    ctx->kd.march_stop = (float)s->opt.early_termination;
+    ctx->cuda = NULL;
+    st = vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, &bent_view_pass, NULL, &b, samples, err, errlen);
+    ctx->cuda = cuda;
+    return st;
+}
+
 static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
                              size_t errlen)
 {
@@ -318,7 +361,8 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     g.records_ms = s->ms;
     /* on the CPU the lights' term is baked per view; the device keeps its arrays per
      * lighting generation, so there the march sums the lights per ray (exact phase) */
-    if (!ctx->cuda && s->opt.view_bake && s->light_trans) {
+    /* (bent view rays always read baked records: they run on the CPU) */
+    if ((!ctx->cuda || s->refraction.k.ng) && (s->opt.view_bake || s->refraction.k.ng) && s->light_trans) {
         if ((st = bake_view(s, &g, &ctx->kd, err, errlen))) return st;
         g.kind = VSD_RECORDS_BAKED;
         g.records = s->view_baked;
@@ -333,6 +377,7 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
                  "diffusion_change=%.3g diffusion_seconds=%.3f",
                  s->rg.res[0], s->rg.res[1], s->rg.res[2], (int)s->rg.count, s->cc.count, s->march_seconds,
                  s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds);
+    if (s->refraction.k.ng) return render_bent(s, ctx, fb, &g, samples, err, errlen);
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, samples,
                                   err, errlen);
 }

@@ -1,6 +1,7 @@
 #include "lbl_march.h"
 #include "device/cpu/cpu_tiles.h"
 #include "src/render/padded_grid.h"
+#include "kernel/kernel_refract.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -66,6 +67,35 @@ static int clip(const int32_t res[3], const float o[3], const float u[3], float 
     return *t1 > *t0;
 }
 
+/* A light ray through a refracting medium (g->refract): from its entry into the box at
+ * grid point o + t0 u, world-space steps of h (the grid step `step` cells along u) bent by
+ * the n field (eq. 2-3), each step's middle mapped into the grid for sigma and the deposit,
+ * until it leaves the box or dies. */
+static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const float o[3], const float u[3], float t0,
+                       float h, size_t sx, size_t sy, float *acc)
+{
+    const vsd_krefract *r = g->refract;
+    float q[3], tr = 1.0f;
+    vsd_f3 x, d, v, gr;
+    int32_t ax, steps = 0;
+    for (ax = 0; ax < 3; ax++) q[ax] = o[ax] + t0 * u[ax];
+    x = vsd_affine_point(&g->grid_to_world, f3(q[0], q[1], q[2]));
+    d = f3_normalize(vsd_affine_vector(&g->grid_to_world, f3(u[0], u[1], u[2])));
+    v = f3_scale(d, vsd_refract_eval(r, x, &gr));
+    while (tr > LBL_T_MIN && steps++ < r->max_steps) {
+        vsd_f3 m = vsd_affine_point(&g->world_to_grid, f3_madd(x, d, 0.5f * h));
+        float xm[3] = {m.x, m.y, m.z}, half;
+        if (m.x < 0.0f || m.y < 0.0f || m.z < 0.0f || m.x > (float)g->res[0] || m.y > (float)g->res[1] ||
+            m.z > (float)g->res[2])
+            break;
+        half = expf(-0.5f * sigma_at(pad, xm) * h);
+        tr *= half;
+        splat(sx, sy, xm, tr, acc);
+        tr *= half;
+        vsd_refract_step(r, &x, &v, &d, h);
+    }
+}
+
 static void march_light(const march_job *j, const vsd_padded_grid *pad, int k, float *acc)
 {
     const vsd_lbl_grid *g = j->g;
@@ -102,6 +132,10 @@ static void march_light(const march_job *j, const vsd_padded_grid *pad, int k, f
                 float o[3], t0, t1, t, tr = 1.0f;
                 for (ax = 0; ax < 3; ax++) o[ax] = centre[ax] + a * e1[ax] + b * e2[ax];
                 if (!clip(g->res, o, u, &t0, &t1)) continue;
+                if (g->refract) {
+                    march_bent(g, pad, o, u, t0, (float)(j->step / len), sx, sy, acc);
+                    continue;
+                }
                 for (t = t0; t < t1 && tr > LBL_T_MIN; t += j->step) {
                     float h = fminf(j->step, t1 - t), x[3], half;
                     for (ax = 0; ax < 3; ax++) x[ax] = o[ax] + (t + 0.5f * h) * u[ax];

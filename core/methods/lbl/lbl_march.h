@@ -14,17 +14,27 @@
  * through it had died, T < 1e-4). With spacing and step <= 1 every cell centre inside the
  * box gets weight from some ray.
  *
+ * With refraction the rays bend by the ray equation (kernel/kernel_refract.h) from where
+ * they enter the box. The deposit stays the weighted mean of the transmittance of the rays
+ * through a cell: where bent rays converge (a caustic) the light is not concentrated, only
+ * redirected — a limit of this form.
+ *
  * Grid coordinates: cell (i,j,k) spans [i, i+1) x ..., its centre at +0.5 (the record
  * grid's, src/render/record_grid.h). */
 #ifndef VSD_LBL_MARCH_H
 #define VSD_LBL_MARCH_H
 #include <stdint.h>
 #include "vsd/status.h"
+#include "kernel/kernel_types.h"
 
 typedef struct vsd_lbl_grid {
     int32_t res[3];
     const float *sigma;      /* [res x*y*z] sigma_t per world unit at the cell centres */
     double to_grid[9];       /* world direction -> grid displacement per world unit (row-major) */
+    /* refraction (medium.ior != 1), or NULL: the rays then bend by the n field, stepping in
+     * world space between the grid's and the world's coordinates */
+    const struct vsd_krefract *refract;
+    vsd_affine world_to_grid, grid_to_world;
 } vsd_lbl_grid;
 
 /* lights: kernel layout (8 floats: world direction xyz toward the light, 0, weight rgb, 0);

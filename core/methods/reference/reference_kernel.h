@@ -66,7 +66,8 @@ VSD_DEVICE float vsd_bent_delta_track(const vsd_kernel_data *kd, const vsd_krefr
             *o = f3_madd(*o, *d, t);
             return travelled + t;
         }
-        if (t0 > 0.0f) { /* straight up to the grid */
+        if (!vsd_refract_inside(r, *o)) { /* straight up to the grid, a hair into it */
+            t0 += 1e-3f * r->step;
             t = vsd_delta_track(&kd->density, *o, *d, t0, rng);
             *emit = f3_add(*emit, vsd_segment_emission(kd, *o, *d, vsd_minf(t, t0), rng));
             if (t < t0) {
@@ -75,11 +76,12 @@ VSD_DEVICE float vsd_bent_delta_track(const vsd_kernel_data *kd, const vsd_krefr
             }
             *o = f3_madd(*o, *d, t0);
             travelled += t0;
+            steps++;   /* a ray grazing the box cannot loop here for ever */
         }
         { /* in the grid: steps of h until it is left */
             vsd_f3 g, v = f3_scale(*d, vsd_refract_eval(r, *o, &g));
             float h = r->step;
-            while (steps < r->max_steps && vsd_refract_clip(r, *o, *d, &t0, &t1) && t0 <= 0.0f) {
+            while (steps < r->max_steps && vsd_refract_inside(r, *o)) {
                 t = vsd_delta_track(&kd->density, *o, *d, h, rng);
                 *emit = f3_add(*emit, vsd_segment_emission(kd, *o, *d, vsd_minf(t, h), rng));
                 if (t < h) {
@@ -106,14 +108,16 @@ VSD_DEVICE float vsd_bent_ratio_track(const vsd_kernel_data *kd, const vsd_krefr
             tr *= vsd_ratio_track(&kd->density, o, d, VSD_INF, rng);
             break;
         }
-        if (t0 > 0.0f) {
+        if (!vsd_refract_inside(r, o)) {
+            t0 += 1e-3f * r->step;
             tr *= vsd_ratio_track(&kd->density, o, d, t0, rng);
             o = f3_madd(o, d, t0);
+            steps++;
         }
         {
             vsd_f3 g, v = f3_scale(d, vsd_refract_eval(r, o, &g));
             float h = r->step;
-            while (tr > 0.0f && steps < r->max_steps && vsd_refract_clip(r, o, d, &t0, &t1) && t0 <= 0.0f) {
+            while (tr > 0.0f && steps < r->max_steps && vsd_refract_inside(r, o)) {
                 tr *= vsd_ratio_track(&kd->density, o, d, h, rng);
                 vsd_refract_step(r, &o, &v, &d, h);
                 steps++;
