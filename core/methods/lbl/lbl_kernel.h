@@ -5,7 +5,9 @@
  * (kernel_march.h, kernel_record_grid.h), until the light is gone or the ray leaves; an
  * opaque film's background is the map along the direction the ray leaves with (the visible
  * distortion). The records are the per-view baked ones (BAKED kind: the lights' term toward
- * the camera) plus records_ms. CPU only for now. */
+ * the camera) plus records_ms. CPU only for now. A ray that bends for r->max_steps steps
+ * stops there (what lies beyond is not marched). Emission outside the index grid (which
+ * covers the density's box and a margin) is not marched either. */
 #ifndef VSD_LBL_KERNEL_H
 #define VSD_LBL_KERNEL_H
 #include "kernel/kernel_record_grid.h"
@@ -30,20 +32,34 @@ VSD_DEVICE vsd_sample_result vsd_lbl_bent_pixel(const vsd_klbl_bent *b, int32_t 
     corners.key[0] = corners.key[1] = corners.key[2] = 0;
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
-    if (vsd_refract_clip(r, o, d, &t0, &t1)) {
-        vsd_f3 g, v;
+    {
+        vsd_f3 g, v = f3s(0.0f);
         float h = r->step;
-        t0 += 1e-3f * h;   /* a hair into the box */
-        o = f3_madd(o, d, t0);
-        travelled = t0;
-        v = f3_scale(d, vsd_refract_eval(r, o, &g));
-        while (steps < r->max_steps && acc.tr >= kd->march_stop && vsd_refract_inside(r, o)) {
-            vsd_f3 p = f3_madd(o, d, 0.5f * h);
-            float absorbed = vsd_march_medium(kd, &acc, p, h);
-            if (absorbed > 0.0f) {
-                vsd_f3 ms, ss = vsd_records_inscatter(&b->g, p, 0, 0, &corners, &ms);
-                vsd_march_source(&acc, f3_mul(kd->medium.albedo, ss), f3_mul(kd->medium.albedo, ms),
-                                 travelled + 0.5f * h, absorbed, absorbed);
+        int32_t inside = 0;
+        while (steps < r->max_steps && acc.tr >= kd->march_stop) {
+            if (!vsd_refract_inside(r, o)) {
+                /* straight (n = 1) to the grid, a hair into it; again if rounding left o
+                 * just outside; done when the ray misses it */
+                if (!vsd_refract_clip(r, o, d, &t0, &t1)) break;
+                t0 += 1e-3f * h;
+                o = f3_madd(o, d, t0);
+                travelled += t0;
+                inside = 0;
+                steps++;
+                continue;
+            }
+            if (!inside) {
+                v = f3_scale(d, vsd_refract_eval(r, o, &g));
+                inside = 1;
+            }
+            {
+                vsd_f3 p = f3_madd(o, d, 0.5f * h);
+                float absorbed = vsd_march_medium(kd, &acc, p, h);
+                if (absorbed > 0.0f) {
+                    vsd_f3 ms, ss = vsd_records_inscatter(&b->g, p, 0, 0, &corners, &ms);
+                    vsd_march_source(&acc, f3_mul(kd->medium.albedo, ss), f3_mul(kd->medium.albedo, ms),
+                                     travelled + 0.5f * h, absorbed, absorbed);
+                }
             }
             travelled += h;
             vsd_refract_step(r, &o, &v, &d, h);

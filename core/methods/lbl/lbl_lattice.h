@@ -16,9 +16,10 @@
  *
  * Iterated to the steady state, sum_i f_i at a node is the fluence there times the cell's
  * cross-section: with S in watts (the power the node scatters out of the direct beams, or
- * emits), phi = sum_i f_i / lambda^2. Convergence watches, as the paper does, the summed
- * fluence of a sparse set of probe nodes (every 7th node), every 8 steps; it stops when the
- * change still to come — the last window's change plus its geometric continuation at the
+ * emits), phi = sum_i f_i / lambda^2. Convergence watches, as the paper does, the fluence
+ * of a sparse set of probe nodes (every 7th node), every 8 steps — the sum of the probes'
+ * absolute changes over their summed fluence, so light moving between probes counts —; it
+ * stops when the change still to come — the last window's change plus its geometric continuation at the
  * ratio of the last two windows' changes — is below `tolerance` (relative), or after
  * `max_steps` steps. (The paper's test, the last change alone, stops a warm start long
  * before the new steady state.) The last state warm-starts the next solve (a lighting

@@ -78,6 +78,9 @@ static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const 
     float q[3], tr = 1.0f;
     vsd_f3 x, d, v, gr;
     int32_t ax, steps = 0;
+    /* the bending integrates at the field's own step at most (its smoothed interface is a
+     * few of them wide) */
+    h = fminf(h, r->step);
     for (ax = 0; ax < 3; ax++) q[ax] = o[ax] + t0 * u[ax];
     x = vsd_affine_point(&g->grid_to_world, f3(q[0], q[1], q[2]));
     d = f3_normalize(vsd_affine_vector(&g->grid_to_world, f3(u[0], u[1], u[2])));
@@ -85,9 +88,9 @@ static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const 
     while (tr > LBL_T_MIN && steps++ < r->max_steps) {
         vsd_f3 m = vsd_affine_point(&g->world_to_grid, f3_madd(x, d, 0.5f * h));
         float xm[3] = {m.x, m.y, m.z}, half;
-        if (m.x < 0.0f || m.y < 0.0f || m.z < 0.0f || m.x > (float)g->res[0] || m.y > (float)g->res[1] ||
-            m.z > (float)g->res[2])
-            break;
+        if (!(m.x >= 0.0f && m.y >= 0.0f && m.z >= 0.0f && m.x <= (float)g->res[0] && m.y <= (float)g->res[1] &&
+              m.z <= (float)g->res[2]))
+            break;   /* (also for a NaN position) */
         half = expf(-0.5f * sigma_at(pad, xm) * h);
         tr *= half;
         splat(sx, sy, xm, tr, acc);

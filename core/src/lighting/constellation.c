@@ -413,6 +413,9 @@ vsd_status vsd_constellation_cache_update(vsd_constellation_cache *c, const vsd_
     uint64_t key = vsd_env_content_hash(env);
     if (!c->valid || key != c->key || n != c->n || (int)method != c->method) {
         vsd_status st;
+        free(c->lights);   /* a failed rebuild leaves no lights of the old map behind */
+        c->lights = NULL;
+        c->count = 0;
         vsd_constellation_free(&c->cons);
         c->valid = 0;
         if ((st = vsd_constellation_build(env, n, method, &c->cons, err, errlen))) return st;
