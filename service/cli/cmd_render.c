@@ -296,6 +296,7 @@ static int render_frames(const vsd_scene *scene, const render_args *a)
             if (stats.method_info[0]) printf("  %s: %s\n", stats.method, stats.method_info);
             fflush(stdout);
         }
+        if (stats.warnings[0]) fprintf(stderr, "vsd render: frame %d: warning: %s\n", frame, stats.warnings);
     }
     vsd_framebuffer_destroy(fb);
     vsd_renderer_destroy(r);

@@ -312,6 +312,7 @@ void vsdd_run_job(vsdd_job *j, int worker)
     cJSON_AddStringToObject(o, "device", stats.device);
     if (stats.device_name[0]) cJSON_AddStringToObject(o, "device_name", stats.device_name);
     if (stats.device_note[0]) cJSON_AddStringToObject(o, "device_note", stats.device_note);
+    if (stats.warnings[0]) cJSON_AddStringToObject(o, "warnings", stats.warnings);
     cJSON_AddNumberToObject(o, "samples", stats.samples);
     cJSON_AddNumberToObject(o, "threads", stats.threads);
     cJSON_AddNumberToObject(o, "width", sc.film.width);

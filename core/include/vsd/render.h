@@ -43,6 +43,7 @@ typedef struct vsd_render_stats {
     char device_note[512];       /* why render.device "auto" uses the CPU, when it tried CUDA */
     unsigned long long device_uploaded_bytes; /* host-to-device copies during this render */
     char method_info[512];       /* the method's own figures, "key=value ..." (crm: RBFs, fit) */
+    char warnings[512];          /* what in the input looks wrong but renders ("" = nothing) */
 } vsd_render_stats;
 
 typedef struct vsd_renderer vsd_renderer;

@@ -30,6 +30,7 @@ typedef struct vsd_scene {
         int grid_index;                  /* -1 = by name (default) */
         char emission_grid[VSD_NAME_LEN];/* "" = none (default) */
         double matrix[16];               /* object matrix, row-major, default identity */
+        float warn_above;                /* a grid value above this is reported (default 1e4) */
     } volume;
 
     struct {

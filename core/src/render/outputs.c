@@ -32,7 +32,7 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
                                    char *note, size_t notelen, char *err, size_t errlen)
 {
     char path[VSD_PATH_LEN], samples[32], t_load[32], t_prep[32], t_render[32], threads[16], frame_s[16];
-    vsd_exr_attr attrs[11];
+    vsd_exr_attr attrs[16];
     vsd_exr_write_options wo;
     vsd_status st;
     int n = 0;
@@ -58,6 +58,7 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
     attrs[n].name = "vsd/prepare_seconds"; attrs[n++].value = t_prep;
     attrs[n].name = "vsd/render_seconds"; attrs[n++].value = t_render;
     if (stats->method_info[0]) { attrs[n].name = "vsd/method_info"; attrs[n++].value = stats->method_info; }
+    if (stats->warnings[0]) { attrs[n].name = "vsd/warnings"; attrs[n++].value = stats->warnings; }
     memset(&wo, 0, sizeof wo);
     wo.layer = scene->output.layer;
     const char *pass_names[VSD_PASS_COUNT];

@@ -302,6 +302,20 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     t1 = vsd_clock_seconds();
     stats->load_seconds = t1 - t0;
     stats->active_voxels = r->density->active_voxels;
+    /* values no real medium has (a corrupt file, or a grid in the wrong units) render, but
+     * as opaque and with the trackers at their cap (docs/reliability.md): say so */
+    {
+        const vsd_volume *vols[2] = {r->density, r->emission};
+        int v;
+        size_t used = 0;
+        for (v = 0; v < 2; v++)
+            if (vols[v] && vols[v]->value_max > sc->volume.warn_above && used < sizeof stats->warnings)
+                used += (size_t)snprintf(stats->warnings + used, sizeof stats->warnings - used,
+                                         "%s%s: grid '%s' has values up to %g, above volume.warn_above (%g): check its "
+                                         "units",
+                                         used ? "; " : "", vols[v]->file[0] ? vols[v]->file : "(in memory)",
+                                         vols[v]->grid_name, (double)vols[v]->value_max, (double)sc->volume.warn_above);
+    }
 
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = sc;

@@ -150,6 +150,7 @@ static const field volume_fields[] = {
     F_CUSTOM("grid", apply_grid),
     F_STR("emission_grid", s.volume.emission_grid, "", F_NULLABLE),
     F_MAT4("matrix", s.volume.matrix),
+    F_NUM("warn_above", s.volume.warn_above, 1e4, GT0, 0, 0),
 };
 TABLE(volume, NULL);
 
