@@ -80,6 +80,7 @@ static void test_defaults(void)
     CHECK_NEAR(d.medium.emission_strength, 0, 0);
     CHECK_NEAR(d.medium.ior, 1, 0);
     CHECK_NEAR(d.volume.warn_above, 1e4, 0);
+    CHECK(!strcmp(d.volume.ior_grid, "") && !strcmp(d.medium.ior_from, "none"));
     CHECK(!strcmp(d.environment.file, ""));
     CHECK_NEAR(d.environment.strength, 1, 0);
     CHECK_NEAR(d.environment.rotation_z, 0, 0);
@@ -284,7 +285,7 @@ static void test_errors(void)
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"\"}}", VSD_ERR_INVALID, "volume.file: required");
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": 3}}", VSD_ERR_TYPE, "volume.file: expected string");
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"fiel\": \"v.vdb\"}}", VSD_ERR_INVALID,
-               "volume.fiel: unknown key (known: file, grid, emission_grid, matrix, warn_above)");
+               "volume.fiel: unknown key (known: file, grid, emission_grid, matrix, warn_above, ior_grid)");
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"a_#_#.vdb\"}}", VSD_ERR_INVALID,
                "volume.file: \"/base/a_#_#.vdb\": more than one run of '#'");
     EXPECT_ERR(with("\"medium\": {\"albedo\": [1, 1]}"), VSD_ERR_TYPE, "medium.albedo: expected 3 numbers");
@@ -304,6 +305,7 @@ static void test_errors(void)
     EXPECT_ERR(with("\"medium\": {\"ior\": 0}"), VSD_ERR_INVALID, "medium.ior: 0 is out of range (must be > 0)");
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"warn_above\": 0}}", VSD_ERR_INVALID,
                "volume.warn_above: 0 is out of range (must be > 0)");
+    EXPECT_ERR(with("\"medium\": {\"ior_from\": \"heat\"}"), VSD_ERR_INVALID, "medium.ior_from:");
     EXPECT_ERR(with("\"environment\": {\"strength\": -0.5}"), VSD_ERR_INVALID,
                "environment.strength: -0.5 is out of range (must be >= 0)");
     EXPECT_ERR(with("\"environment\": {\"file\": \"a.exr\", \"color\": [1,1,1]}"), VSD_ERR_INVALID,

@@ -229,6 +229,15 @@ void vsdd_run_job(vsdd_job *j, int worker)
         goto failed_sent;
     }
     send_progress(j, "load", 0.0f);
+    if (vsd_scene_ior_grid(&sc)[0]) {
+        /* the daemon's renderer slots hold density, emission and map; a fourth grid is not
+         * wired through its cache yet (medium.ior, a constant, is served) */
+        code = VSD_E_INVALID_SCENE;
+        snprintf(msg, sizeof msg,
+                 "volume.ior_grid / medium.ior_from ('%s') are rendered by `vsd render` in-process only for now; "
+                 "the daemon serves a constant medium.ior", vsd_scene_ior_grid(&sc));
+        goto fail;
+    }
     if (vsdd_cache_get_volume(vsrc, sc.volume.grid, sc.volume.grid_index, &pins[0], &hits[0], &code, msg, sizeof msg))
         goto fail;
     if (sc.volume.emission_grid[0] &&

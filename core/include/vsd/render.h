@@ -70,6 +70,9 @@ void vsd_renderer_destroy(vsd_renderer *r);
  * alive until the renderer is destroyed or they are replaced; NULL returns to files.
  * The pointer identity is the cache key, so pass a new object for new contents. */
 void vsd_renderer_use_volumes(vsd_renderer *r, const vsd_volume *density, const vsd_volume *emission);
+/* After vsd_renderer_use_volumes: the grid volume.ior_grid (or medium.ior_from) names, or
+ * NULL. Borrowed like the others. */
+void vsd_renderer_use_ior_volume(vsd_renderer *r, const vsd_volume *ior);
 void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env);
 
 /* Write the frame's EXR (and preview PNG when the scene asks for one) with header

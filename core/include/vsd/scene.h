@@ -31,6 +31,8 @@ typedef struct vsd_scene {
         char emission_grid[VSD_NAME_LEN];/* "" = none (default) */
         double matrix[16];               /* object matrix, row-major, default identity */
         float warn_above;                /* a grid value above this is reported (default 1e4) */
+        char ior_grid[VSD_NAME_LEN];     /* "" = none: a grid of the refractive index (or, with
+                                            medium.ior_from, of what it is computed from) */
     } volume;
 
     struct {
@@ -40,6 +42,8 @@ typedef struct vsd_scene {
         float emission_color[3];         /* default 1,1,1 */
         float emission_strength;         /* default 0 */
         float ior;                       /* default 1 */
+        char ior_from[16];               /* "none" (default): volume.ior_grid holds n;
+                                            "temperature": it holds Blender's temperature */
     } medium;
 
     struct {
@@ -106,6 +110,10 @@ vsd_status vsd_scene_parse(const char *json, const char *base_dir,
  * ("smoke_####.vdb", 7 -> "smoke_0007.vdb"); patterns without '#' are copied. */
 vsd_status vsd_frame_path(const char *pattern, int frame, char *out, size_t outlen,
                           char *err, size_t errlen);
+
+/* The grid the refractive index comes from: volume.ior_grid, else "temperature" when
+ * medium.ior_from is "temperature", else "" (none). */
+const char *vsd_scene_ior_grid(const vsd_scene *s);
 
 #ifdef __cplusplus
 }

@@ -151,9 +151,7 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     int32_t x, y, z;
     free_frame(s);
     if ((st = vsd_record_grid_build(&ctx->kd.density, s->opt.cells, 2, &s->rg, err, errlen))) return st;
-    if (ctx->scene->medium.ior != 1.0f &&
-        (st = vsd_refraction_build(&ctx->kd.density, ctx->scene->medium.ior, 1.0f, 128, &s->refraction, err, errlen)))
-        return st;
+    if ((st = vsd_refraction_for_frame(ctx, &s->refraction, err, errlen))) return st;
     n = cell_count(s);
     if (n == 0) return VSD_OK;
     if ((st = grid_to_world(&s->rg, g2w, &s->cell_world, err, errlen))) return st;

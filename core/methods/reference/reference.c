@@ -43,8 +43,7 @@ static vsd_status reference_prepare_frame(void *state, vsd_frame_ctx *ctx, char 
 {
     reference_state *s = state;
     vsd_refraction_free(&s->refraction);
-    if (ctx->scene->medium.ior == 1.0f) return VSD_OK;
-    return vsd_refraction_build(&ctx->kd.density, ctx->scene->medium.ior, 1.0f, 128, &s->refraction, err, errlen);
+    return vsd_refraction_for_frame(ctx, &s->refraction, err, errlen);
 }
 
 static void reference_destroy(void *state)

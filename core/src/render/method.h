@@ -22,6 +22,7 @@ typedef struct vsd_frame_ctx {
     const vsd_scene *scene;
     const vsd_volume *density;          /* never NULL (empty volume when the grid is empty) */
     const vsd_volume *emission;         /* NULL when no emission grid */
+    const vsd_volume *ior;              /* volume.ior_grid's grid (of n or of temperature), or NULL */
     const vsd_env *env;
     vsd_kernel_data kd;                 /* host pointers; method fills lights/march_step */
     int threads;

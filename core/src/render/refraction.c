@@ -1,4 +1,6 @@
 #include "refraction.h"
+#include "method.h"
+#include "kernel_setup.h"
 #include "kernel/kernel_volume.h"
 #include <math.h>
 #include <stdlib.h>
@@ -42,29 +44,48 @@ static void blur_axis(float *v, const int32_t dims[3], int axis, float sigma, fl
         }
 }
 
-vsd_status vsd_refraction_build(const vsd_kvolume *density, float ior, float smooth, int max_cells,
-                                vsd_refraction_field *out, char *err, size_t errlen)
+/* n from one sample of the source grid, by mode; *bad set for an n grid value in (0, 1) */
+static float n_of(int mode, float v, float ior, int *bad)
 {
+    if (mode == VSD_IOR_GRID) {
+        if (v == 0.0f) return 1.0f;   /* background: no index given */
+        if (v < 1.0f) *bad = 1;
+        return v;
+    }
+    if (mode == VSD_IOR_TEMPERATURE) {
+        float t = 293.0f + 1000.0f * (v > 0.0f ? v : 0.0f);
+        return 1.0f - 2.9e-4f * (1.0f - 293.0f / t);
+    }
+    return v > 0.0f ? ior : 1.0f;   /* the constant inside the medium */
+}
+
+vsd_status vsd_refraction_build(const vsd_kvolume *density, const vsd_kvolume *source, const char *name, int mode,
+                                float ior, float smooth, int max_cells, vsd_refraction_field *out, char *err,
+                                size_t errlen)
+{
+    const vsd_kvolume *box = mode == VSD_IOR_CONSTANT ? density : source;
     int32_t k, margin, dims[3], a, x, y, z, big;
     size_t cells, c;
     float *n = NULL, *line = NULL, *tmp = NULL, *ng = NULL, cell_world = 1e30f;
     double lo[3];
     vsd_status st = VSD_OK;
     memset(out, 0, sizeof *out);
-    if (!(ior >= 1.0f) || !(ior <= 4.0f))
+    if (mode == VSD_IOR_CONSTANT && (!(ior >= 1.0f) || !(ior <= 4.0f)))
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "medium.ior: %g is out of range for refraction (1 to 4)", (double)ior);
+    if (mode != VSD_IOR_CONSTANT && !source)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "refraction: no grid '%s' loaded", name ? name : "");
     if (!(smooth >= 0.25f && smooth <= 8.0f) || max_cells < 8)
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "refraction: smoothing %g cells (0.25-8) or %d cells (>= 8)",
                         (double)smooth, max_cells);
-    if (density->dims[0] == 0) return VSD_OK;   /* no medium: n = 1 everywhere */
-    big = 8 * (density->dims[0] > density->dims[1] ? (density->dims[0] > density->dims[2] ? density->dims[0] : density->dims[2])
-                                                  : (density->dims[1] > density->dims[2] ? density->dims[1] : density->dims[2]));
+    if (box->dims[0] == 0) return VSD_OK;   /* nothing given: n = 1 everywhere */
+    big = 8 * (box->dims[0] > box->dims[1] ? (box->dims[0] > box->dims[2] ? box->dims[0] : box->dims[2])
+                                          : (box->dims[1] > box->dims[2] ? box->dims[1] : box->dims[2]));
     k = (big + max_cells - 1) / max_cells;
     if (k < 1) k = 1;
     margin = (int32_t)ceilf(3.0f * smooth) + 1;
     for (a = 0; a < 3; a++) {
-        dims[a] = (8 * density->dims[a] + k - 1) / k + 2 * margin;
-        lo[a] = density->origin[a] - (double)margin * k;
+        dims[a] = (8 * box->dims[a] + k - 1) / k + 2 * margin;
+        lo[a] = box->origin[a] - (double)margin * k;
     }
     cells = (size_t)dims[0] * dims[1] * dims[2];
     n = malloc(cells * sizeof *n);
@@ -75,27 +96,36 @@ vsd_status vsd_refraction_build(const vsd_kvolume *density, float ior, float smo
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "refraction: no memory for a %dx%dx%d grid", dims[0], dims[1], dims[2]);
         goto done;
     }
-    /* occupancy: k^3 samples per cell, the voxels lo + k x + (0..k-1) of the index grid
-     * (voxel values sit at integer index coordinates) */
+    /* n per cell: the mean over k^3 samples, the voxels lo + k x + (0..k-1) of the index
+     * grid (voxel values sit at integer index coordinates) */
     for (z = 0, c = 0; z < dims[2]; z++)
         for (y = 0; y < dims[1]; y++)
             for (x = 0; x < dims[0]; x++, c++) {
-                int32_t i, j, l, inside = 0;
+                int32_t i, j, l, bad = 0;
+                float sum = 0.0f;
                 for (l = 0; l < k; l++)
                     for (j = 0; j < k; j++)
                         for (i = 0; i < k; i++) {
                             vsd_f3 p = f3((float)(lo[0] + (double)x * k + i), (float)(lo[1] + (double)y * k + j),
                                           (float)(lo[2] + (double)z * k + l));
-                            inside += vsd_kvolume_field(density, p) > 0.0f;
+                            sum += n_of(mode, vsd_kvolume_field(box, p), ior, &bad);
+                            if (bad) {
+                                st = vsd_fail(VSD_ERR_INVALID, err, errlen,
+                                              "volume.ior_grid '%s': n = %g below 1 at index (%d, %d, %d); n >= 1 "
+                                              "(0 = background)", name ? name : "", (double)vsd_kvolume_field(box, p),
+                                              (int)p.x, (int)p.y, (int)p.z);
+                                goto done;
+                            }
                         }
-                n[c] = 1.0f + (ior - 1.0f) * (float)inside / (float)(k * k * k);
+                /* the constant's occupancy, or the mean n of the grid's samples */
+                n[c] = sum / (float)(k * k * k);
             }
     for (a = 0; a < 3; a++) blur_axis(n, dims, a, smooth, line, tmp);
     /* world -> grid: cell x's samples are centred on index lo + k x + (k - 1) / 2, which
      * must land on grid x + 0.5: grid = (index - lo) / k + 0.5 - (k - 1) / (2k) */
     for (a = 0; a < 3; a++) {
         int q;
-        for (q = 0; q < 4; q++) out->k.world_to_grid.m[4 * a + q] = density->world_to_index.m[4 * a + q] / (float)k;
+        for (q = 0; q < 4; q++) out->k.world_to_grid.m[4 * a + q] = box->world_to_index.m[4 * a + q] / (float)k;
         out->k.world_to_grid.m[4 * a + 3] += (float)(-lo[a] / k + 0.5 - (k - 1) / (2.0 * k));
     }
     /* the world length of a grid step along each axis: 1 / |row a of the linear part|
@@ -134,4 +164,26 @@ done:
     free(line);
     free(tmp);
     return st;
+}
+
+vsd_status vsd_refraction_for_frame(const vsd_frame_ctx *ctx, vsd_refraction_field *out, char *err, size_t errlen)
+{
+    const vsd_scene *sc = ctx->scene;
+    const char *name = vsd_scene_ior_grid(sc);
+    vsd_kvolume src;
+    vsd_status st;
+    memset(out, 0, sizeof *out);
+    if (!name[0])
+        return sc->medium.ior == 1.0f ? VSD_OK
+                                      : vsd_refraction_build(&ctx->kd.density, NULL, NULL, VSD_IOR_CONSTANT,
+                                                             sc->medium.ior, 1.0f, 128, out, err, errlen);
+    if (sc->medium.ior != 1.0f)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                        "medium.ior (%g) and the grid '%s' (volume.ior_grid / medium.ior_from) both give the refractive "
+                        "index: set one", (double)sc->medium.ior, name);
+    if (!ctx->ior) return vsd_fail(VSD_ERR_INVALID, err, errlen, "the refractive index's grid '%s' is not loaded", name);
+    if ((st = vsd_kvolume_setup(&src, ctx->ior, sc->volume.matrix, 1.0f, err, errlen))) return st;
+    return vsd_refraction_build(&ctx->kd.density, &src, name,
+                                strcmp(sc->medium.ior_from, "temperature") == 0 ? VSD_IOR_TEMPERATURE : VSD_IOR_GRID, 1.0f,
+                                1.0f, 128, out, err, errlen);
 }

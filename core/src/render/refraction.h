@@ -20,8 +20,27 @@ typedef struct vsd_refraction_field {
     float n_max;
 } vsd_refraction_field;
 
-vsd_status vsd_refraction_build(const vsd_kvolume *density, float ior, float smooth, int max_cells,
-                                vsd_refraction_field *out, char *err, size_t errlen);
+/* Where n comes from: the constant medium.ior inside the density's support; a grid of n
+ * (volume.ior_grid; 0 = background, n = 1 there; below 1 is an error); or Blender's
+ * normalised temperature (medium.ior_from = "temperature"): T = 293 K + 1000 K t, and the
+ * Gladstone-Dale law n - 1 = (n0 - 1) T0 / T with n0 - 1 = 2.9e-4 at T0 = 293 K, taken
+ * relative to the ambient air so that n = 1 at 293 K (only grad n bends rays; a jump to
+ * vacuum at the grid's edge would bend them there). */
+enum { VSD_IOR_CONSTANT = 0, VSD_IOR_GRID = 1, VSD_IOR_TEMPERATURE = 2 };
+
+/* density: the frame's density (its support and box for VSD_IOR_CONSTANT); source, name:
+ * the n or temperature grid and its name (for errors), NULL for VSD_IOR_CONSTANT; ior:
+ * the constant's value. */
+vsd_status vsd_refraction_build(const vsd_kvolume *density, const vsd_kvolume *source, const char *name, int mode,
+                                float ior, float smooth, int max_cells, vsd_refraction_field *out, char *err,
+                                size_t errlen);
 void vsd_refraction_free(vsd_refraction_field *f);
+
+/* The field a frame's scene asks for (an empty one, k.ng NULL, when n = 1 everywhere):
+ * medium.ior, or the grid of volume.ior_grid / medium.ior_from (ctx->ior); both at once is
+ * an error that names them. What `reference` and `lbl` call in their frame stage. */
+struct vsd_frame_ctx;
+vsd_status vsd_refraction_for_frame(const struct vsd_frame_ctx *ctx, vsd_refraction_field *out, char *err,
+                                    size_t errlen);
 
 #endif

@@ -22,9 +22,9 @@ struct vsd_renderer {
     const vsd_method *method;
     void *method_state;
     char volume_key[KEY_LEN];
-    const vsd_volume *density, *emission;   /* in use: owned_* or borrowed */
-    vsd_volume *owned_density, *owned_emission;
-    const vsd_volume *ext_density, *ext_emission;
+    const vsd_volume *density, *emission, *ior;   /* in use: owned_* or borrowed */
+    vsd_volume *owned_density, *owned_emission, *owned_ior;
+    const vsd_volume *ext_density, *ext_emission, *ext_ior;
     char env_key[KEY_LEN];
     const vsd_env *env;
     vsd_env *owned_env;
@@ -110,8 +110,9 @@ static void free_owned_volumes(vsd_renderer *r)
 {
     vsd_volume_destroy(r->owned_density);
     vsd_volume_destroy(r->owned_emission);
-    r->owned_density = r->owned_emission = NULL;
-    r->density = r->emission = NULL;
+    vsd_volume_destroy(r->owned_ior);
+    r->owned_density = r->owned_emission = r->owned_ior = NULL;
+    r->density = r->emission = r->ior = NULL;
     r->volume_key[0] = '\0';
 }
 
@@ -130,6 +131,13 @@ void vsd_renderer_use_volumes(vsd_renderer *r, const vsd_volume *density, const 
     r->volumes_serial++;
     r->ext_density = density;
     r->ext_emission = density ? emission : NULL;
+    r->ext_ior = NULL;
+}
+
+void vsd_renderer_use_ior_volume(vsd_renderer *r, const vsd_volume *ior)
+{
+    r->volumes_serial++;
+    r->ext_ior = r->ext_density ? ior : NULL;
 }
 
 void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env)
@@ -148,8 +156,9 @@ static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t err
     if (r->ext_density) {
         r->density = r->ext_density;
         r->emission = r->ext_emission;
-        snprintf(key, sizeof key, "memory:%lu:%p:%p", r->volumes_serial, (const void *)r->density,
-                 (const void *)r->emission);
+        r->ior = r->ext_ior;
+        snprintf(key, sizeof key, "memory:%lu:%p:%p:%p", r->volumes_serial, (const void *)r->density,
+                 (const void *)r->emission, (const void *)r->ior);
         if (strcmp(key, r->volume_key) != 0) {
             r->volume_gen = ++r->generation;
             snprintf(r->volume_key, sizeof r->volume_key, "%s", key);
@@ -158,7 +167,8 @@ static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t err
     }
     st = vsd_frame_path(sc->volume.file, frame, path, sizeof path, err, errlen);
     if (st) return st;
-    snprintf(key, sizeof key, "%s|%s|%d|%s", path, sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid);
+    snprintf(key, sizeof key, "%s|%s|%d|%s|%s", path, sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid,
+             vsd_scene_ior_grid(sc));
     if (r->owned_density && strcmp(key, r->volume_key) == 0) return VSD_OK;
     free_owned_volumes(r);
     sel.name = sc->volume.grid;
@@ -171,8 +181,17 @@ static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t err
         st = vsd_vdb_load(path, sel, &r->owned_emission, err, errlen);
         if (st) return st;
     }
+    if (vsd_scene_ior_grid(sc)[0]) {
+        /* the refractive index's grid (volume.ior_grid / medium.ior_from): a missing one is
+         * the loader's error, which names it and lists what the file has */
+        sel.name = vsd_scene_ior_grid(sc);
+        sel.index = -1;
+        st = vsd_vdb_load(path, sel, &r->owned_ior, err, errlen);
+        if (st) return st;
+    }
     r->density = r->owned_density;
     r->emission = r->owned_emission;
+    r->ior = r->owned_ior;
     r->volume_gen = ++r->generation;
     snprintf(r->volume_key, sizeof r->volume_key, "%s", key);
     return VSD_OK;
@@ -321,6 +340,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     ctx.scene = sc;
     ctx.density = r->density;
     ctx.emission = r->emission;
+    ctx.ior = r->ior;
     ctx.env = r->env;
     ctx.threads = vsd_cpu_thread_count(r->opt.threads > 0 ? r->opt.threads : sc->render.threads);
     ctx.progress = r->opt.progress;

@@ -144,6 +144,7 @@ static const double default_look_at[3] = {0, 0, 0};
 static const double default_up[3] = {0, 0, 1};
 static const char *const camera_types[] = {"perspective", "orthographic", NULL};
 static const char *const devices[] = {"auto", "cpu", "cuda", NULL};
+static const char *const ior_sources[] = {"none", "temperature", NULL};
 
 static const field volume_fields[] = {
     F_PATH("file", s.volume.file, "", F_REQUIRED | F_FRAMES),
@@ -151,6 +152,7 @@ static const field volume_fields[] = {
     F_STR("emission_grid", s.volume.emission_grid, "", F_NULLABLE),
     F_MAT4("matrix", s.volume.matrix),
     F_NUM("warn_above", s.volume.warn_above, 1e4, GT0, 0, 0),
+    F_STR("ior_grid", s.volume.ior_grid, "", F_NULLABLE),
 };
 TABLE(volume, NULL);
 
@@ -161,6 +163,7 @@ static const field medium_fields[] = {
     F_RGB("emission_color", s.medium.emission_color, 1, GE0, 0, 0),
     F_NUM("emission_strength", s.medium.emission_strength, 0, GE0, 0, 0),
     F_NUM("ior", s.medium.ior, 1, GT0, 0, 0),
+    F_CHOICE("ior_from", s.medium.ior_from, ior_sources, "none"),
 };
 TABLE(medium, NULL);
 
@@ -1162,4 +1165,10 @@ vsd_status vsd_scene_load(const char *path, const char *const *overrides, int ov
     st = parse_text(&p, text, len, base, overrides, override_count, scene);
     free(text);
     return st;
+}
+
+const char *vsd_scene_ior_grid(const vsd_scene *s)
+{
+    if (s->volume.ior_grid[0]) return s->volume.ior_grid;
+    return strcmp(s->medium.ior_from, "temperature") == 0 ? "temperature" : "";
 }
