@@ -592,6 +592,8 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
     except Exception:
         grids = []
     medium, grid, egrid = map_material(ob, grids, m)
+    # vsd's own setting (Blender's volumes do not refract): n inside the medium
+    medium["ior"] = float(scene.vsd.ior)
     volume["grid"] = grid
     volume["matrix"] = voxel_centre_matrix(ob, grid, m)
     if egrid:

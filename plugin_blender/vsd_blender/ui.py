@@ -32,6 +32,9 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
     device: EnumProperty(name="Device", items=DEVICES, default="auto")
     threads: IntProperty(name="Threads", default=0, min=0, max=4096,
                          description="CPU threads of the daemon for this job, 0 = all")
+    ior: FloatProperty(name="IOR", default=1.0, min=1.0, max=4.0,
+                       description="Refractive index inside the medium (medium.ior): vsd's reference and "
+                       "lbl bend rays through it; Blender itself does not refract inside volumes")
     options_json: StringProperty(name="Options", default="",
                                  description="More method options as a JSON object, e.g. "
                                  "{\"lights\": 64}; overrides the option fields")
@@ -131,6 +134,7 @@ class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
         col.prop(s, "samples")
         col.prop(s, "seed")
         col.prop(s, "threads")
+        col.prop(s, "ior")
 
 
 class RENDER_PT_vsd_options(VSDPanel, bpy.types.Panel):

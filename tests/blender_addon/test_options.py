@@ -118,6 +118,13 @@ try:
     scene2.vsd_options.raymarch.pixel_samples = 2   # the default is 1: only changed values are sent
     block = mapping.render_block(scene2.vsd)
     check(block["options"] == {"lights": 4, "pixel_samples": 2}, "raymarch options sent: %s" % block["options"])
+    # the refractive index is sent as medium.ior (default 1: straight rays)
+    check(mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["medium"]["ior"] == 1.0,
+          "medium.ior defaults to 1")
+    scene2.vsd.ior = 1.25
+    sent = mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["medium"]["ior"]
+    check(abs(sent - 1.25) < 1e-6, "Scene.vsd.ior is sent as medium.ior (%s)" % sent)
+    scene2.vsd.ior = 1.0
     images = []
     for lights in (4, 1):
         scene2.vsd_options.raymarch.lights = lights
