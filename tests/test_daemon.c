@@ -706,6 +706,72 @@ int main(int argc, char **argv)
         else CHECK_MSG(0, "render with an allowed server path: %s", err);
         vsdc_result_free(&res);
     }
+    /* the refractive index's grid (medium.ior_from = temperature: the file's "temperature"
+     * grid) is a fourth cached input: fetched, reported in RESULT.cache.ior, reused, and it
+     * changes lbl's image; a missing one is an error naming it */
+    {
+        static const char *const variants[3] = {"\"density\":8}", "\"density\":8,\"ior_from\":\"temperature\"}",
+                                                "\"density\":8},\"volume\":{\"file\":\"fluid_data_0001.vdb\",\"ior_grid\":\"nope\"}"};
+        unsigned char *plain = NULL;
+        size_t plain_len = 0;
+        int v;
+        for (v = 0; v < 3; v++) {
+            char base[4096], scn[4200], *at;
+            scene_json(base, sizeof base, "fluid_data_0001.vdb", eb, 1.0, 32, 18, "\"method\":\"lbl\"");
+            at = strstr(base, "\"density\":8}");
+            if (!at) {
+                CHECK(0);
+                break;
+            }
+            if (v == 2) {
+                /* the volume section again, with the grid: replace the first one instead */
+                char *vol = strstr(base, "\"volume\":{");
+                char *end = vol ? strchr(vol, '}') : NULL;
+                if (!vol || !end) break;
+                snprintf(scn, sizeof scn, "%.*s\"volume\":{\"file\":\"fluid_data_0001.vdb\",\"grid\":\"density\","
+                         "\"ior_grid\":\"nope\"}%s", (int)(vol - base), base, end + 1);
+            } else {
+                snprintf(scn, sizeof scn, "%.*s%s%s", (int)(at - base), base, variants[v], at + strlen("\"density\":8}"));
+            }
+            if (render_remote(c, scn, 1, &res, err, sizeof err) == 0) {
+                cJSON *info = result_info(&res);
+                CHECK_MSG(v != 2, "a missing ior grid rendered");
+                if (v == 0) {
+                    plain = malloc(res.exr_len);
+                    if (plain) memcpy(plain, res.exr, res.exr_len);
+                    plain_len = res.exr_len;
+                } else {
+                    CHECK_MSG(!cache_flag(info, "ior"), "the first temperature render found its grid cached");
+                    CHECK_MSG(plain && (plain_len != res.exr_len || memcmp(plain, res.exr, res.exr_len) != 0),
+                              "heat haze left lbl's image unchanged");
+                }
+                cJSON_Delete(info);
+            } else {
+                CHECK_MSG(v == 2, "render variant %d: %s", v, err);
+                if (v == 2) {
+                    printf("missing ior grid: %s: %s\n", vsdc_error_code(c), err);
+                    CHECK_CONTAINS(err, "'nope'");
+                }
+            }
+            vsdc_result_free(&res);
+        }
+        /* the same temperature scene again: every input from the cache */
+        {
+            char base[4096], scn[4200], *at;
+            scene_json(base, sizeof base, "fluid_data_0001.vdb", eb, 1.0, 32, 18, "\"method\":\"lbl\"");
+            at = strstr(base, "\"density\":8}");
+            if (at) {
+                snprintf(scn, sizeof scn, "%.*s%s%s", (int)(at - base), base, variants[1], at + strlen("\"density\":8}"));
+                if (render_remote(c, scn, 1, &res, err, sizeof err) == 0) {
+                    cJSON *info = result_info(&res);
+                    CHECK_MSG(cache_flag(info, "ior"), "the temperature grid was not reused: %s", res.json);
+                    cJSON_Delete(info);
+                } else CHECK_MSG(0, "temperature render again: %s", err);
+                vsdc_result_free(&res);
+            }
+        }
+        free(plain);
+    }
 
     /* 5. CANCEL stops a running job */
     {

@@ -101,7 +101,7 @@ static void free_entry(vsdd_entry *e)
     case ENT_ENV: vsd_env_destroy(e->env); break;
     case ENT_SLOT:
         vsd_renderer_destroy(e->slot->r);
-        for (i = 0; i < 3; i++) unpin_locked(e->slot->pins[i]);
+        for (i = 0; i < VSDD_SLOT_PINS; i++) unpin_locked(e->slot->pins[i]);
         free(e->slot);
         break;
     }
@@ -530,7 +530,7 @@ void vsdd_cache_unpin(vsdd_entry *e)
 
 /* A renderer's memory cannot be asked for: estimate it as the sampling tables of the map
  * plus as much again as the density grid (the methods' prepared grids are of that order). */
-static uint64_t slot_bytes(vsdd_entry *pins[3])
+static uint64_t slot_bytes(vsdd_entry *pins[VSDD_SLOT_PINS])
 {
     uint64_t b = 256 * 1024;
     if (pins[0]) b += pins[0]->bytes;
@@ -539,7 +539,7 @@ static uint64_t slot_bytes(vsdd_entry *pins[3])
     return b;
 }
 
-int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[3], vsdd_slot **out, int *hit,
+int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS], vsdd_slot **out, int *hit,
                         char *msg, size_t msglen)
 {
     vsdd_entry *e;
@@ -555,7 +555,7 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
         e->refs = 1;
         touch(e);
         C.hits[ENT_SLOT]++;
-        for (i = 0; i < 3; i++) unpin_locked(pins[i]); /* the slot pins the same entries */
+        for (i = 0; i < VSDD_SLOT_PINS; i++) unpin_locked(pins[i]); /* the slot pins the same entries */
         pthread_mutex_unlock(&C.lock);
         st = vsd_renderer_set_scene(e->slot->r, scene, msg, msglen);
         if (st) {
@@ -573,7 +573,7 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
     if (!s || !e) {
         free(s);
         free(e);
-        for (i = 0; i < 3; i++) vsdd_cache_unpin(pins[i]);
+        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin(pins[i]);
         snprintf(msg, msglen, "out of memory");
         return -(int)VSD_ERR_NOMEM;
     }
@@ -587,12 +587,13 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
     if (st) {
         free(s);
         free(e);
-        for (i = 0; i < 3; i++) vsdd_cache_unpin(pins[i]);
+        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin(pins[i]);
         return -(int)st;
     }
     vsd_renderer_use_volumes(s->r, vsdd_entry_volume(pins[0]), vsdd_entry_volume(pins[1]));
+    vsd_renderer_use_ior_volume(s->r, vsdd_entry_volume(pins[3]));
     if (pins[2]) vsd_renderer_use_env(s->r, pins[2]->env);
-    for (i = 0; i < 3; i++) s->pins[i] = pins[i];
+    for (i = 0; i < VSDD_SLOT_PINS; i++) s->pins[i] = pins[i];
     s->self = e;
     e->kind = ENT_SLOT;
     snprintf(e->key, sizeof e->key, "%s", key);

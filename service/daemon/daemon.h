@@ -18,6 +18,9 @@
 
 #define VSDD_MAX_ALLOW 8
 
+/* A renderer slot's inputs: density, emission, environment, the refractive index's grid */
+#define VSDD_SLOT_PINS 4
+
 typedef struct vsdd_config {
     char socket_path[108];
     char lock_path[VSD_PATH_LEN];
@@ -150,13 +153,13 @@ typedef struct vsdd_slot {
     float last_fraction;
     char last_stage[32];
     char prep_key[2048];           /* scene fields preparation depends on, last render */
-    vsdd_entry *pins[3];           /* density, emission, env entries (may be NULL) */
+    vsdd_entry *pins[VSDD_SLOT_PINS]; /* density, emission, env, ior grid entries (may be NULL) */
     vsdd_entry *self;
 } vsdd_slot;
 /* Find an idle renderer for key or create one. Takes over the caller's pins in every case
  * (kept by a new slot, released on a hit or a failure); returns 0 or -vsd_status.
  * The slot is in use until vsdd_cache_release_slot. */
-int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[3], vsdd_slot **out, int *hit,
+int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS], vsdd_slot **out, int *hit,
                         char *msg, size_t msglen);
 void vsdd_cache_release_slot(vsdd_slot *s, int keep);
 

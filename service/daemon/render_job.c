@@ -142,7 +142,7 @@ void vsdd_run_job(vsdd_job *j, int worker)
     char vsrc[VSD_PATH_LEN + 8], esrc[VSD_PATH_LEN + 8], key[12000], prep[1024];
     char exr_path[VSD_PATH_LEN], png_path[VSD_PATH_LEN], note[512];
     vsd_scene sc, out;
-    vsdd_entry *pins[3] = {NULL, NULL, NULL};
+    vsdd_entry *pins[VSDD_SLOT_PINS] = {NULL, NULL, NULL, NULL};
     vsdd_slot *slot = NULL;
     vsd_framebuffer *fb = NULL;
     vsd_render_stats stats;
@@ -229,15 +229,6 @@ void vsdd_run_job(vsdd_job *j, int worker)
         goto failed_sent;
     }
     send_progress(j, "load", 0.0f);
-    if (vsd_scene_ior_grid(&sc)[0]) {
-        /* the daemon's renderer slots hold density, emission and map; a fourth grid is not
-         * wired through its cache yet (medium.ior, a constant, is served) */
-        code = VSD_E_INVALID_SCENE;
-        snprintf(msg, sizeof msg,
-                 "volume.ior_grid / medium.ior_from ('%s') are rendered by `vsd render` in-process only for now; "
-                 "the daemon serves a constant medium.ior", vsd_scene_ior_grid(&sc));
-        goto fail;
-    }
     if (vsdd_cache_get_volume(vsrc, sc.volume.grid, sc.volume.grid_index, &pins[0], &hits[0], &code, msg, sizeof msg))
         goto fail;
     if (sc.volume.emission_grid[0] &&
@@ -245,18 +236,23 @@ void vsdd_run_job(vsdd_job *j, int worker)
         goto fail;
     if (esrc[0] && vsdd_cache_get_env(esrc, sc.environment.colorspace, &pins[2], &hits[2], &code, msg, sizeof msg))
         goto fail;
+    /* the refractive index's grid (volume.ior_grid / medium.ior_from), from the same file */
+    if (vsd_scene_ior_grid(&sc)[0] &&
+        vsdd_cache_get_volume(vsrc, vsd_scene_ior_grid(&sc), -1, &pins[3], &hits[3], &code, msg, sizeof msg))
+        goto fail;
     /* --- the renderer: one per (method, options, inputs) ------------------------------- */
-    snprintf(key, sizeof key, "%s|%s|%s|%s|%d|%s|%s|%s", sc.render.method, sc.render.options_json, vsrc,
-             sc.volume.grid, sc.volume.grid_index, sc.volume.emission_grid, esrc, sc.environment.colorspace);
+    snprintf(key, sizeof key, "%s|%s|%s|%s|%d|%s|%s|%s|%s", sc.render.method, sc.render.options_json, vsrc,
+             sc.volume.grid, sc.volume.grid_index, sc.volume.emission_grid, esrc, sc.environment.colorspace,
+             vsd_scene_ior_grid(&sc));
     {
         int rc = vsdd_cache_get_slot(key, &sc, pins, &slot, &slot_hit, err, sizeof err);
         if (rc) {
-            pins[0] = pins[1] = pins[2] = NULL; /* get_slot releases them when it fails */
+            pins[0] = pins[1] = pins[2] = pins[3] = NULL; /* get_slot releases them when it fails */
             code = code_for_status((vsd_status)-rc);
             snprintf(msg, sizeof msg, "%s", err);
             goto fail;
         }
-        pins[0] = pins[1] = pins[2] = NULL; /* the slot owns them now */
+        pins[0] = pins[1] = pins[2] = pins[3] = NULL; /* the slot owns them now */
     }
     prep_key_of(&sc, prep, sizeof prep);
     prep_hit = slot_hit && strcmp(prep, slot->prep_key) == 0;
@@ -340,6 +336,7 @@ void vsdd_run_job(vsdd_job *j, int worker)
     cJSON_AddItemToObject(cache, "volume", hit_json(1, hits[0]));
     cJSON_AddItemToObject(cache, "emission", hit_json(sc.volume.emission_grid[0] != 0, hits[1]));
     cJSON_AddItemToObject(cache, "environment", hit_json(esrc[0] != 0, hits[2]));
+    cJSON_AddItemToObject(cache, "ior", hit_json(vsd_scene_ior_grid(&sc)[0] != 0, hits[3]));
     cJSON_AddItemToObject(cache, "renderer", cJSON_CreateBool(slot_hit));
     cJSON_AddItemToObject(cache, "preparation", cJSON_CreateBool(prep_hit));
     vsdd_log(VSDD_LOG_INFO, "job %lu: frame %d %s %dx%d done in %.3fs (prepare %.3fs%s, render %.3fs, %zu bytes)",
@@ -362,6 +359,7 @@ done:
     vsdd_cache_unpin(pins[0]);
     vsdd_cache_unpin(pins[1]);
     vsdd_cache_unpin(pins[2]);
+    vsdd_cache_unpin(pins[3]);
     cJSON_Delete(missing);
     vsd_framebuffer_destroy(fb);
     free(exr);
