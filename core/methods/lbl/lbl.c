@@ -82,6 +82,7 @@ typedef struct lbl_state {
     float *sigma;                 /* [cells] sigma_t per world unit */
     float *collide;               /* [cells] collision probability per lattice step */
     double cell_world;            /* edge of a cube of a cell's world volume */
+    double g2w[16];               /* grid -> world (the record grid's world_to_grid inverted) */
     /* lighting */
     vsd_constellation_cache cc;   /* the lights, kernel layout */
     float *light_trans;           /* [records * lights] */
@@ -127,25 +128,33 @@ static void free_frame(lbl_state *s)
 
 static size_t cell_count(const lbl_state *s) { return (size_t)s->rg.res[0] * s->rg.res[1] * s->rg.res[2]; }
 
-/* grid -> world, and the world edge of a cell (cube root of its volume) */
-static vsd_status grid_to_world(const vsd_record_grid *rg, double out[16], double *edge, char *err, size_t errlen)
+/* grid -> world into s->g2w, and the world edge of a cell (cube root of its volume) */
+static vsd_status grid_to_world(lbl_state *s, char *err, size_t errlen)
 {
+    const double *o = s->g2w;
     double m[16];
     int a;
-    for (a = 0; a < 12; a++) m[a] = rg->world_to_grid.m[a];
+    for (a = 0; a < 12; a++) m[a] = s->rg.world_to_grid.m[a];
     m[12] = m[13] = m[14] = 0.0;
     m[15] = 1.0;
-    if (!vsd_mat4_invert(m, out)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl: the volume's transform is singular");
-    *edge = cbrt(fabs(out[0] * (out[5] * out[10] - out[6] * out[9]) - out[1] * (out[4] * out[10] - out[6] * out[8]) +
-                      out[2] * (out[4] * out[9] - out[5] * out[8])));
+    if (!vsd_mat4_invert(m, s->g2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl: the volume's transform is singular");
+    s->cell_world = cbrt(fabs(o[0] * (o[5] * o[10] - o[6] * o[9]) - o[1] * (o[4] * o[10] - o[6] * o[8]) +
+                              o[2] * (o[4] * o[9] - o[5] * o[8])));
     return VSD_OK;
+}
+
+/* the world point at grid coordinates (x, y, z) */
+static vsd_f3 grid_point(const lbl_state *s, double x, double y, double z)
+{
+    const double *g = s->g2w;
+    return f3((float)(g[0] * x + g[1] * y + g[2] * z + g[3]), (float)(g[4] * x + g[5] * y + g[6] * z + g[7]),
+              (float)(g[8] * x + g[9] * y + g[10] * z + g[11]));
 }
 
 /* The material volume: sigma_t of each cell as the mean of 3^3 samples inside it. */
 static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     lbl_state *s = state;
-    double g2w[16];
     size_t n, c;
     vsd_status st;
     int32_t x, y, z;
@@ -154,7 +163,7 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     if ((st = vsd_refraction_for_frame(ctx, &s->refraction, err, errlen))) return st;
     n = cell_count(s);
     if (n == 0) return VSD_OK;
-    if ((st = grid_to_world(&s->rg, g2w, &s->cell_world, err, errlen))) return st;
+    if ((st = grid_to_world(s, err, errlen))) return st;
     s->sigma = malloc(n * sizeof *s->sigma);
     s->collide = malloc(n * sizeof *s->collide);
     if (!s->sigma || !s->collide) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %zu cells", n);
@@ -165,13 +174,9 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
                 int a, b, d;
                 for (a = 0; a < 3; a++)
                     for (b = 0; b < 3; b++)
-                        for (d = 0; d < 3; d++) {
-                            double q[3] = {x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0, z + (d + 0.5) / 3.0};
-                            vsd_f3 w = f3((float)(g2w[0] * q[0] + g2w[1] * q[1] + g2w[2] * q[2] + g2w[3]),
-                                          (float)(g2w[4] * q[0] + g2w[5] * q[1] + g2w[6] * q[2] + g2w[7]),
-                                          (float)(g2w[8] * q[0] + g2w[9] * q[1] + g2w[10] * q[2] + g2w[11]));
-                            sum += vsd_kvolume_at(&ctx->kd.density, w);
-                        }
+                        for (d = 0; d < 3; d++)
+                            sum += vsd_kvolume_at(&ctx->kd.density, grid_point(s, x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0,
+                                                                               z + (d + 0.5) / 3.0));
                 /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite
                  * here: inf - inf in the trilinear lookups would turn the light into NaN; a
                  * cell of 1e20 per unit length is opaque all the same */
@@ -185,16 +190,13 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
  * watts: albedo * E_k T_k * (1 - e^{-sigma lambda}) lambda^2 summed over the lights (a beam
  * of irradiance E T_k through a cell of cross-section lambda^2, T_k at the centre), plus
  * the emission, 4pi L_e lambda^3 (L_e per unit length and steradian). */
-static vsd_status deposit(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
+static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
 {
     const size_t n = cell_count(s);
     const double area = s->cell_world * s->cell_world, vol = area * s->cell_world;
     const vsd_kmedium *m = &ctx->kd.medium;
-    double g2w[16], edge;
     size_t c;
     int32_t x, y, z;
-    vsd_status st;
-    if ((st = grid_to_world(&s->rg, g2w, &edge, err, errlen))) return st;
     for (z = 0, c = 0; z < s->rg.res[2]; z++)
         for (y = 0; y < s->rg.res[1]; y++)
             for (x = 0; x < s->rg.res[0]; x++, c++) {
@@ -216,16 +218,12 @@ static vsd_status deposit(lbl_state *s, const vsd_frame_ctx *ctx, char *err, siz
                 s->source[n + c] = (float)(m->albedo.y * e[1] * s->collide[c] * area);
                 s->source[2 * n + c] = (float)(m->albedo.z * e[2] * s->collide[c] * area);
                 if (m->has_emission) {
-                    vsd_f3 w = f3((float)(g2w[0] * (x + 0.5) + g2w[1] * (y + 0.5) + g2w[2] * (z + 0.5) + g2w[3]),
-                                  (float)(g2w[4] * (x + 0.5) + g2w[5] * (y + 0.5) + g2w[6] * (z + 0.5) + g2w[7]),
-                                  (float)(g2w[8] * (x + 0.5) + g2w[9] * (y + 0.5) + g2w[10] * (z + 0.5) + g2w[11]));
-                    double le = vsd_kvolume_at(&ctx->kd.emission, w) * 4.0 * PI_D * vol;
+                    double le = vsd_kvolume_at(&ctx->kd.emission, grid_point(s, x + 0.5, y + 0.5, z + 0.5)) * 4.0 * PI_D * vol;
                     s->source[c] += (float)(le * m->emission.x);
                     s->source[n + c] += (float)(le * m->emission.y);
                     s->source[2 * n + c] += (float)(le * m->emission.z);
                 }
             }
-    return VSD_OK;
 }
 
 static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
@@ -257,18 +255,14 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         for (q = 0; q < 3; q++) grid.to_grid[3 * a + q] = s->rg.world_to_grid.m[4 * a + q];
     grid.refract = s->refraction.k.ng ? &s->refraction.k : NULL;
     grid.world_to_grid = s->rg.world_to_grid;
-    {
-        double g2w[16], edge;
-        if ((st = grid_to_world(&s->rg, g2w, &edge, err, errlen))) return st;
-        for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)g2w[a];
-    }
+    for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)s->g2w[a];
     t0 = vsd_clock_seconds();
     if ((st = vsd_lbl_march_lights(&grid, s->cc.lights, s->cc.count, (float)s->opt.ray_spacing,
                                    (float)s->opt.light_step, s->rg.cell_record, ctx->threads, s->light_trans, err,
                                    errlen)))
         return st;
     s->march_seconds = vsd_clock_seconds() - t0;
-    if ((st = deposit(s, ctx, err, errlen))) return st;
+    deposit(s, ctx);
     /* diffusion pass, from the last solve's state */
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, err, errlen))) return st;
     albedo[0] = ctx->kd.medium.albedo.x;
@@ -284,33 +278,6 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         for (a = 0; a < 3; a++)
             s->ms[3 * (size_t)rec + a] =
                 (float)(s->fluence[(size_t)a * n + c] / (s->cell_world * s->cell_world) / (4.0 * PI_D));
-    }
-    return VSD_OK;
-}
-
-/* The lights' term of every record for this view, with the phase function taken at the
- * direction from the camera to the record (the view's direction at the record itself; a ray
- * through a cell sees its records within cell size / distance of it, a fraction of a degree
- * at our framings; exact for an orthographic camera). The march then reads one RGB triple
- * per corner instead of summing 64 lights per record it crosses: the per-view volume pass
- * crm also makes (vsd_crm_view_node). */
-static vsd_status bake_view(lbl_state *s, const vsd_krecord_grid *lights_view, const vsd_kernel_data *kd, char *err,
-                            size_t errlen)
-{
-    const float *m = kd->camera.cam_to_world.m;
-    vsd_f3 eye = f3(m[3], m[7], m[11]), back = f3_normalize(f3(m[2], m[6], m[10]));
-    float ph[3 * VSD_RECORDS_MAX_LIGHTS];
-    int32_t r;
-    if (!s->view_baked && !(s->view_baked = malloc(3 * (size_t)s->rg.count * sizeof *s->view_baked)))
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d view records", (int)s->rg.count);
-    for (r = 0; r < s->rg.count; r++) {
-        const float *p = s->rg.record_pos + 4 * (size_t)r;
-        vsd_f3 d = kd->camera.orthographic ? f3_scale(back, -1.0f) : f3_normalize(f3_sub(f3(p[0], p[1], p[2]), eye)), v;
-        vsd_records_light_weights(s->cc.lights, s->cc.count, d, kd->medium.anisotropy, ph);
-        v = vsd_records_radiance(lights_view, r, NULL, ph);
-        s->view_baked[3 * (size_t)r] = v.x;
-        s->view_baked[3 * (size_t)r + 1] = v.y;
-        s->view_baked[3 * (size_t)r + 2] = v.z;
     }
     return VSD_OK;
 }
@@ -347,7 +314,6 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
 {
     lbl_state *s = state;
     vsd_krecord_grid g;
-    vsd_status st;
     memset(&g, 0, sizeof g);
     ctx->kd.lights = s->cc.lights;
     ctx->kd.light_count = s->cc.count;
@@ -366,7 +332,9 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
      * lighting generation, so there the march sums the lights per ray (exact phase) */
     /* (bent view rays always read baked records: they run on the CPU) */
     if ((!ctx->cuda || s->refraction.k.ng) && (s->opt.view_bake || s->refraction.k.ng) && s->light_trans) {
-        if ((st = bake_view(s, &g, &ctx->kd, err, errlen))) return st;
+        if (!s->view_baked && !(s->view_baked = malloc(3 * (size_t)s->rg.count * sizeof *s->view_baked)))
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d view records", (int)s->rg.count);
+        vsd_record_grid_bake_view(&g, s->rg.record_pos, s->view_baked);
         g.kind = VSD_RECORDS_BAKED;
         g.records = s->view_baked;
         g.stride = 3;

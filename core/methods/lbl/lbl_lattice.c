@@ -132,13 +132,20 @@ void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float 
     free(job.gain);
 }
 
+/* The photons at node c in channel ch: the sum of its six arriving populations. */
+static float node_sum(const vsd_lbl_lattice *l, int ch, size_t c)
+{
+    float v = 0.0f;
+    int i;
+    for (i = 0; i < DIRS; i++) v += l->f[((size_t)i * CH + ch) * l->cells + c];
+    return v;
+}
+
 double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch)
 {
     double s = 0.0;
     size_t c;
-    int i;
-    for (i = 0; i < DIRS; i++)
-        for (c = 0; c < l->cells; c++) s += l->f[((size_t)i * CH + ch) * l->cells + c];
+    for (c = 0; c < l->cells; c++) s += node_sum(l, ch, c);
     return s;
 }
 
@@ -150,11 +157,10 @@ static double probe_fluence(const vsd_lbl_lattice *l, float *probes, int first, 
 {
     double s = 0.0, m = 0.0;
     size_t c, k = 0;
-    int i, ch;
+    int ch;
     for (c = 0; c < l->cells; c += 7)
         for (ch = 0; ch < CH; ch++, k++) {
-            float v = 0.0f;
-            for (i = 0; i < DIRS; i++) v += l->f[((size_t)i * CH + ch) * l->cells + c];
+            float v = node_sum(l, ch, c);
             if (!first) m += fabsf(v - probes[k]);
             probes[k] = v;
             s += v;
@@ -172,7 +178,7 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     step_job job;
     vsd_status st = VSD_OK;
     size_t c;
-    int k, i, ch;
+    int k, ch;
     memset(stats, 0, sizeof *stats);
     if (!l->f) return VSD_OK;
     job.l = l;
@@ -213,11 +219,7 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     free(job.gain);
     free(probes);
     for (ch = 0; ch < CH; ch++)
-        for (c = 0; c < l->cells; c++) {
-            float s = 0.0f;
-            for (i = 0; i < DIRS; i++) s += l->f[((size_t)i * CH + ch) * l->cells + c];
-            fluence[(size_t)ch * l->cells + c] = s;
-        }
+        for (c = 0; c < l->cells; c++) fluence[(size_t)ch * l->cells + c] = node_sum(l, ch, c);
     stats->seconds = vsd_clock_seconds() - t0;
     return st;
 }

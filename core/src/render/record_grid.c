@@ -118,23 +118,49 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
     return VSD_OK;
 }
 
+/* Every record's radiance into out (3 floats each): with the phase at a fixed direction
+ * (cam NULL: g = 0, any direction does), or at the direction from the camera to the
+ * record. */
+static void bake_into(const vsd_krecord_grid *g, const float *record_pos, const vsd_kcamera *cam, float *out)
+{
+    float ph[3 * VSD_RECORDS_MAX_LIGHTS];
+    vsd_f3 eye = f3s(0.0f), forward = f3(0.0f, 0.0f, 1.0f);
+    int32_t r;
+    if (cam) {
+        const float *m = cam->cam_to_world.m;
+        eye = f3(m[3], m[7], m[11]);
+        forward = f3_scale(f3_normalize(f3(m[2], m[6], m[10])), -1.0f);   /* the camera looks down -Z */
+    }
+    if (!cam || cam->orthographic) vsd_records_light_weights(g->lights, g->light_count, forward, cam ? g->kd->medium.anisotropy : 0.0f, ph);
+    for (r = 0; r < g->record_count; r++) {
+        vsd_f3 v;
+        if (cam && !cam->orthographic) {
+            const float *p = record_pos + 4 * (size_t)r;
+            vsd_records_light_weights(g->lights, g->light_count, f3_normalize(f3_sub(f3(p[0], p[1], p[2]), eye)),
+                                      g->kd->medium.anisotropy, ph);
+        }
+        v = vsd_records_radiance(g, r, NULL, ph);
+        out[3 * (size_t)r] = v.x;
+        out[3 * (size_t)r + 1] = v.y;
+        out[3 * (size_t)r + 2] = v.z;
+    }
+}
+
 vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *err, size_t errlen)
 {
-    float ph[3 * VSD_RECORDS_MAX_LIGHTS], *baked;
-    int32_t r;
+    float *baked;
     *out = NULL;
     baked = malloc(sizeof(float) * 3 * (size_t)(g->record_count > 0 ? g->record_count : 1));
     if (!baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", (int)g->record_count);
     /* g = 0: the weights are the same for every direction */
-    vsd_records_light_weights(g->lights, g->light_count, f3(0.0f, 0.0f, 1.0f), 0.0f, ph);
-    for (r = 0; r < g->record_count; r++) {
-        vsd_f3 v = vsd_records_radiance(g, r, NULL, ph);
-        baked[3 * (size_t)r] = v.x;
-        baked[3 * (size_t)r + 1] = v.y;
-        baked[3 * (size_t)r + 2] = v.z;
-    }
+    bake_into(g, NULL, NULL, baked);
     *out = baked;
     return VSD_OK;
+}
+
+void vsd_record_grid_bake_view(const vsd_krecord_grid *g, const float *record_pos, float *out)
+{
+    bake_into(g, record_pos, &g->kd->camera, out);
 }
 
 vsd_status vsd_record_grid_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *g, int n,

@@ -31,6 +31,14 @@ void vsd_record_grid_free(vsd_record_grid *g);
 struct vsd_krecord_grid;
 vsd_status vsd_record_grid_bake(const struct vsd_krecord_grid *g, float **out, char *err, size_t errlen);
 
+/* Any phase: every record's in-scattered RGB toward this view's camera (g->kd's), the
+ * phase taken at the direction from the camera to the record (the camera's axis when it
+ * is orthographic). A ray through a cell sees its records within cell size / distance of
+ * that direction, a fraction of a degree at our framings; the march then reads one RGB
+ * triple per corner instead of summing the lights per record it crosses. record_pos: the
+ * grid's (4 floats per record); out: 3 floats per record. */
+void vsd_record_grid_bake_view(const struct vsd_krecord_grid *g, const float *record_pos, float *out);
+
 /* The view pass of every record-grid method, on the CPU tiles or the CUDA device of ctx:
  * n x n rays per pixel through the shared march with a step of `step` world units (0 = the
  * smallest voxel: the records are interpolated anyway, and against half a voxel VolumeDir
