@@ -28,6 +28,8 @@ packages=(
   nettle-dev
   openimageio-tools
   xvfb xauth
+  povray
+  slurm-wlm munge
 )
 if [ "$with_blender" -eq 1 ]; then packages+=(blender); fi
 

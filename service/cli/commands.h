@@ -16,5 +16,8 @@ int vsd_cmd_render(int argc, char **argv);
 int vsd_cmd_info(int argc, char **argv);
 int vsd_cmd_compare(int argc, char **argv);
 int vsd_cmd_methods(int argc, char **argv);
+int vsd_cmd_export(int argc, char **argv);     /* cmd_export.c: `vsd export pov` */
+int vsd_cmd_composite(int argc, char **argv);  /* cmd_composite.c */
+int vsd_cmd_farm(int argc, char **argv);       /* cmd_farm.c: `vsd farm slurm|status` */
 
 #endif

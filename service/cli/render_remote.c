@@ -143,6 +143,7 @@ int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char
         char out_path[VSD_PATH_LEN];
         uint64_t up = 0;
         int attempt, st = 0;
+        if (opt->skip_frame && opt->skip_frame(opt->skip_user, frame)) continue;
         if (opt->begin_frame) opt->begin_frame(opt->user, frame);
         for (attempt = 0; attempt < 2; attempt++) {
             char vblob[128];
@@ -183,7 +184,7 @@ int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char
             break;
         }
         if (rc != VSD_EXIT_OK) break;
-        if (isatty(STDERR_FILENO) && !opt->quiet) fputc('\n', stderr);
+        if (opt->end_frame) opt->end_frame(opt->user, st == 0);
         if (st) {
             fprintf(stderr, "vsd render: frame %d: %s\n", frame, err);
             rc = st == VSDC_ERR_SERVER ? exit_code_for_server(vsdc_error_code(c)) : VSD_EXIT_RENDER_FAILED;
@@ -210,6 +211,7 @@ int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char
             if (str(info, "preview_note")[0]) printf("  preview: %s\n", str(info, "preview_note"));
             fflush(stdout);
         }
+        if (rc == VSD_EXIT_OK && opt->report) opt->report(opt->user);
         cJSON_Delete(info);
         vsdc_result_free(&res);
     }

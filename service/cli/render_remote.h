@@ -11,6 +11,11 @@ typedef struct vsd_remote_options {
     vsd_progress_fn progress;    /* the CLI's progress printer */
     void *user;
     void (*begin_frame)(void *user, int frame);
+    void (*end_frame)(void *user, int ok);   /* after each rendered (ok) or failed frame */
+    void (*report)(void *user);              /* after a written frame's line (run's ETA) */
+    /* --continue: frames for which this answers non-zero are not rendered; NULL = none. */
+    int (*skip_frame)(void *skip_user, int frame);
+    void *skip_user;
     volatile int *cancel;        /* SIGINT */
 } vsd_remote_options;
 

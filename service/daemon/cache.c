@@ -330,6 +330,16 @@ static int source_path(const char *src, char *path, size_t len, vsdd_entry **blo
     return 0;
 }
 
+int vsdd_cache_pin_file(const char *src, char *path, size_t len, vsdd_entry **blob, const char **code, char *msg,
+                        size_t msglen)
+{
+    int rc;
+    pthread_mutex_lock(&C.lock);
+    rc = source_path(src, path, len, blob, code, msg, msglen);
+    pthread_mutex_unlock(&C.lock);
+    return rc;
+}
+
 /* Server-side files are keyed with their modification time and size, so a file rewritten
  * in place (a re-simulated cache) is loaded again. */
 static void source_stamp(const char *src, char *stamp, size_t len)

@@ -142,6 +142,10 @@ int vsdd_cache_get_env(const char *src, const char *colorspace, vsdd_entry **out
 const vsd_volume *vsdd_entry_volume(const vsdd_entry *e);
 const vsd_env *vsdd_entry_env(const vsdd_entry *e);
 void vsdd_cache_unpin(vsdd_entry *e);
+/* The file behind src ("blob:<hash>", pinned into *blob until vsdd_cache_unpin, or a
+ * confined path, *blob = NULL): what the EXR's vsd/scene_hash reads (the file's bytes). */
+int vsdd_cache_pin_file(const char *src, char *path, size_t len, vsdd_entry **blob, const char **code, char *msg,
+                        size_t msglen);
 
 /* A renderer kept per (method, options, volume, emission, environment): a camera change
  * re-renders from its prepared state. */

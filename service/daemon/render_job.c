@@ -143,6 +143,7 @@ void vsdd_run_job(vsdd_job *j, int worker)
     char exr_path[VSD_PATH_LEN], png_path[VSD_PATH_LEN], note[512];
     vsd_scene sc, out;
     vsdd_entry *pins[VSDD_SLOT_PINS] = {NULL, NULL, NULL, NULL};
+    vsdd_entry *file_pins[2] = {NULL, NULL}; /* the blobs' files while the EXR is hashed */
     vsdd_slot *slot = NULL;
     vsd_framebuffer *fb = NULL;
     vsd_render_stats stats;
@@ -294,6 +295,12 @@ void vsdd_run_job(vsdd_job *j, int worker)
     send_progress(j, "encode", 0.0f);
     t_encode = vsdd_now();
     out = sc;
+    /* vsd/scene_hash reads the files' bytes: point the copy at the daemon's files, pinned
+     * until written (the hash then equals the client's own for --continue). */
+    if (vsdd_cache_pin_file(vsrc, out.volume.file, sizeof out.volume.file, &file_pins[0], &code, msg, sizeof msg) ||
+        (esrc[0] && vsdd_cache_pin_file(esrc, out.environment.file, sizeof out.environment.file, &file_pins[1], &code,
+                                        msg, sizeof msg)))
+        goto fail;
     snprintf(exr_path, sizeof exr_path, "%.960s/job-%lu.exr", g_daemon.cfg.cache_dir, j->seq);
     snprintf(png_path, sizeof png_path, "%.960s/job-%lu.png", g_daemon.cfg.cache_dir, j->seq);
     snprintf(out.output.exr, sizeof out.output.exr, "%s", exr_path);
@@ -360,6 +367,8 @@ done:
     vsdd_cache_unpin(pins[1]);
     vsdd_cache_unpin(pins[2]);
     vsdd_cache_unpin(pins[3]);
+    vsdd_cache_unpin(file_pins[0]);
+    vsdd_cache_unpin(file_pins[1]);
     cJSON_Delete(missing);
     vsd_framebuffer_destroy(fb);
     free(exr);

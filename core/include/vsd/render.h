@@ -82,6 +82,29 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
                                    const vsd_render_stats *stats, char *exr_path, size_t exr_len,
                                    char *note, size_t notelen, char *err, size_t errlen);
 
+/* What a frame's output EXR holds, for `vsd render --continue` and `vsd farm status`. */
+typedef enum vsd_frame_output_state {
+    VSD_FRAME_DONE = 0,      /* complete: header with this scene's hash, every pixel reads */
+    VSD_FRAME_MISSING,       /* no file */
+    VSD_FRAME_STALE,         /* a complete file of another scene (hash differs or absent) */
+    VSD_FRAME_BROKEN         /* a file that does not read: truncated, not an EXR, ... */
+} vsd_frame_output_state;
+
+/* The hash a frame's EXR records as "vsd/scene_hash" (32 hex digits): XXH3-128 over
+ * everything that changes the frame's pixels — the scene with the frame range, output
+ * paths, thread count and preview settings left out — and the contents of the frame's
+ * VDB file and the environment map. Two runs that would render the same image agree;
+ * splitting a sequence into frame ranges does not change it. VSD_ERR_IO when a file
+ * cannot be read. */
+vsd_status vsd_scene_frame_hash(const vsd_scene *scene, int frame, char hex[33],
+                                char *err, size_t errlen);
+
+/* The state of scene->output.exr for `frame`; `why` gets a line for the log ("complete",
+ * "no file", "rendered from another scene (hash 1a2b.. , now 3c4d..)", "pixels do not
+ * read: ..."). A leftover "<path>.tmp-<pid>" of a killed run is not the frame. */
+vsd_frame_output_state vsd_frame_output_check(const vsd_scene *scene, int frame, char *why,
+                                              size_t whylen);
+
 /* Names of the methods this build renders (NULL-terminated, static). */
 const char *const *vsd_method_names(void);
 

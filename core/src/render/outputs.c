@@ -31,7 +31,7 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
                                    const vsd_render_stats *stats, char *exr_path, size_t exr_len,
                                    char *note, size_t notelen, char *err, size_t errlen)
 {
-    char path[VSD_PATH_LEN], samples[32], t_load[32], t_prep[32], t_render[32], threads[16], frame_s[16];
+    char path[VSD_PATH_LEN], samples[32], t_load[32], t_prep[32], t_render[32], threads[16], frame_s[16], scene_hash[33];
     vsd_exr_attr attrs[16];
     vsd_exr_write_options wo;
     vsd_status st;
@@ -41,6 +41,8 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
     if (st) return st;
     if (exr_path && exr_len) snprintf(exr_path, exr_len, "%s", path);
     if ((st = make_parent_dirs(path, err, errlen))) return st;
+    /* What `vsd render --continue` compares before skipping this frame. */
+    if ((st = vsd_scene_frame_hash(scene, frame, scene_hash, err, errlen))) return st;
     snprintf(samples, sizeof samples, "%d", stats->samples);
     snprintf(t_load, sizeof t_load, "%.6f", stats->load_seconds);
     snprintf(t_prep, sizeof t_prep, "%.6f", stats->prepare_seconds);
@@ -54,6 +56,7 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
     attrs[n].name = "vsd/samples"; attrs[n++].value = samples;
     attrs[n].name = "vsd/threads"; attrs[n++].value = threads;
     attrs[n].name = "vsd/frame"; attrs[n++].value = frame_s;
+    attrs[n].name = "vsd/scene_hash"; attrs[n++].value = scene_hash;
     attrs[n].name = "vsd/load_seconds"; attrs[n++].value = t_load;
     attrs[n].name = "vsd/prepare_seconds"; attrs[n++].value = t_prep;
     attrs[n].name = "vsd/render_seconds"; attrs[n++].value = t_render;
