@@ -98,7 +98,7 @@ typedef struct VSD_ALIGN16 vsd_kenv {
     float strength;
     float cos_rot, sin_rot;   /* Blender Mapping node Z rotation */
     float pdf_norm;           /* width*height / (2 pi^2 * sum of weights), see kernel_env.h */
-    float row_weight_sum_inv; /* unused padding for now */
+    int32_t linear;           /* 1: bilinear between texel centres (Blender's "Linear"), 0: nearest */
 } vsd_kenv;
 
 typedef struct VSD_ALIGN16 vsd_kcamera {

@@ -238,7 +238,7 @@ def build_world(sc, scene, base):
         mp.inputs["Rotation"].default_value = (0.0, 0.0, float(env.get("rotation_z", 0.0)))
         tex = nt.nodes.new("ShaderNodeTexEnvironment")
         tex.image = img
-        tex.interpolation = "Closest"
+        tex.interpolation = "Closest" if env.get("interpolation") == "closest" else "Linear"
         tex.projection = "EQUIRECTANGULAR"
         nt.links.new(tc.outputs["Generated"], mp.inputs["Vector"])
         nt.links.new(mp.outputs["Vector"], tex.inputs["Vector"])

@@ -18,6 +18,7 @@ extern "C" {
 #define VSD_NAME_LEN 128
 #define VSD_OPTIONS_LEN 4096
 
+typedef enum vsd_env_interpolation { VSD_ENV_LINEAR = 0, VSD_ENV_CLOSEST = 1 } vsd_env_interpolation;
 typedef enum vsd_camera_type { VSD_CAMERA_PERSPECTIVE = 0, VSD_CAMERA_ORTHOGRAPHIC = 1 } vsd_camera_type;
 
 typedef struct vsd_scene {
@@ -52,6 +53,8 @@ typedef struct vsd_scene {
         float strength;                  /* default 1 */
         float rotation_z;                /* radians, default 0 */
         char colorspace[VSD_NAME_LEN];   /* "" = file is already scene-linear */
+        int interpolation;               /* VSD_ENV_LINEAR (default, Blender's Environment
+                                            Texture default) or VSD_ENV_CLOSEST */
     } environment;
 
     int light_count;                     /* lights[] must be empty in this version */

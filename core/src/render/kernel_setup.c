@@ -77,7 +77,28 @@ vsd_status vsd_kvolume_setup(vsd_kvolume *kv, const vsd_volume *vol, const doubl
     return VSD_OK;
 }
 
-vsd_status vsd_env_tables_build(const vsd_env *env, vsd_env_tables *t, char *err, size_t errlen)
+static double texel_luminance(const vsd_env *env, int x, int y)
+{
+    const float *p = env->rgb + 3 * ((size_t)y * env->width + x);
+    return fmax(0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2], 0.0);
+}
+
+/* The integral over texel (x, y) of the bilinear interpolant of the luminance, in texel
+ * areas: each neighbour's value reaches 1/8 of the way into the texel along its axis. */
+static double texel_weight(const vsd_env *env, int interpolation, int x, int y)
+{
+    static const double k[3] = {0.125, 0.75, 0.125};
+    int w = env->width, h = env->height, i, j;
+    double sum = 0;
+    if (interpolation == VSD_ENV_CLOSEST) return texel_luminance(env, x, y);
+    for (j = -1; j <= 1; j++) {
+        int yy = y + j < 0 ? 0 : y + j >= h ? h - 1 : y + j;
+        for (i = -1; i <= 1; i++) sum += k[i + 1] * k[j + 1] * texel_luminance(env, (x + i + w) % w, yy);
+    }
+    return sum;
+}
+
+vsd_status vsd_env_tables_build(const vsd_env *env, int interpolation, vsd_env_tables *t, char *err, size_t errlen)
 {
     int w = env->width, h = env->height, x, y;
     double total = 0;
@@ -97,13 +118,11 @@ vsd_status vsd_env_tables_build(const vsd_env *env, vsd_env_tables *t, char *err
         for (y = 0; y < h; y++) {
             float *cc = t->cdf_cols + (size_t)y * (w + 1);
             double sin_t = sin(M_PI * (y + 0.5) / h), acc = 0;
-            const float *p = env->rgb + (size_t)y * w * 3;
             cc[0] = 0;
             for (x = 0; x < w; x++) {
-                double lum = 0.2126 * p[3 * x] + 0.7152 * p[3 * x + 1] + 0.0722 * p[3 * x + 2];
                 /* a small floor keeps every direction reachable, so MIS stays unbiased
                  * even where the map is black */
-                acc += (fmax(lum, 0.0) + 1e-6) * sin_t;
+                acc += (texel_weight(env, interpolation, x, y) + 1e-6) * sin_t;
                 cc[x + 1] = (float)acc;
             }
             for (x = 1; x <= w; x++) cc[x] = acc > 0 ? (float)(cc[x] / acc) : (float)x / w;
@@ -131,7 +150,8 @@ void vsd_env_tables_free(vsd_env_tables *t)
     t->cdf_rows = t->cdf_cols = NULL;
 }
 
-void vsd_kenv_setup(vsd_kenv *ke, const vsd_env *env, const vsd_env_tables *t, float strength, float rotation_z)
+void vsd_kenv_setup(vsd_kenv *ke, const vsd_env *env, const vsd_env_tables *t, int interpolation, float strength,
+                    float rotation_z)
 {
     memset(ke, 0, sizeof *ke);
     ke->rgb = env->rgb;
@@ -140,6 +160,7 @@ void vsd_kenv_setup(vsd_kenv *ke, const vsd_env *env, const vsd_env_tables *t, f
     ke->width = env->width;
     ke->height = env->height;
     ke->strength = strength;
+    ke->linear = interpolation == VSD_ENV_LINEAR;
     ke->cos_rot = cosf(rotation_z);
     ke->sin_rot = sinf(rotation_z);
 }

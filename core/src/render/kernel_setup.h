@@ -9,16 +9,22 @@
 #include "vsd/env.h"
 #include "kernel/kernel_types.h"
 
-/* Marginal and conditional CDFs over texels weighted by luminance * sin(theta). */
+/* Marginal and conditional CDFs over texels weighted by luminance * sin(theta): the
+ * texel's own luminance for VSD_ENV_CLOSEST; for VSD_ENV_LINEAR the integral over the
+ * texel of the bilinear interpolant, which is the luminance filtered by
+ * [1/8, 3/4, 1/8] in each direction (wrapping in u, clamped at the poles), so the
+ * piecewise-constant pdf follows the map as it is evaluated. */
 typedef struct vsd_env_tables {
     float *cdf_rows;   /* [height + 1] */
     float *cdf_cols;   /* [height * (width + 1)] */
 } vsd_env_tables;
 
-vsd_status vsd_env_tables_build(const vsd_env *env, vsd_env_tables *t, char *err, size_t errlen);
+vsd_status vsd_env_tables_build(const vsd_env *env, int interpolation, vsd_env_tables *t, char *err,
+                                size_t errlen);
 void vsd_env_tables_free(vsd_env_tables *t);
 
-void vsd_kenv_setup(vsd_kenv *ke, const vsd_env *env, const vsd_env_tables *t, float strength, float rotation_z);
+void vsd_kenv_setup(vsd_kenv *ke, const vsd_env *env, const vsd_env_tables *t, int interpolation, float strength,
+                    float rotation_z);
 /* vol may be NULL (an absent volume: dims 0). object_matrix row-major 4x4. */
 vsd_status vsd_kvolume_setup(vsd_kvolume *kv, const vsd_volume *vol, const double object_matrix[16],
                              float scale, char *err, size_t errlen);

@@ -205,6 +205,8 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
     vsd_status st;
     if (r->ext_env) snprintf(key, sizeof key, "memory:%lu:%p", r->env_serial, (const void *)r->ext_env);
     else snprintf(key, sizeof key, "%s|%s|%g,%g,%g", sc->environment.file, sc->environment.colorspace, c[0], c[1], c[2]);
+    /* the sampling tables follow the interpolation */
+    snprintf(key + strlen(key), sizeof key - strlen(key), "|%d", sc->environment.interpolation);
     if (r->env && strcmp(key, r->env_key) == 0) return VSD_OK;
     free_owned_env(r);
     if (r->ext_env) st = VSD_OK;
@@ -214,7 +216,7 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
         st = vsd_env_create_uniform(c, 64, 32, &r->owned_env, err, errlen);
     if (st) return st;
     r->env = r->ext_env ? r->ext_env : r->owned_env;
-    st = vsd_env_tables_build(r->env, &r->tables, err, errlen);
+    st = vsd_env_tables_build(r->env, sc->environment.interpolation, &r->tables, err, errlen);
     if (st) return st;
     r->env_gen = ++r->generation;
     snprintf(r->env_key, sizeof r->env_key, "%s", key);
@@ -357,7 +359,8 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     if (st) return st;
     ctx.kd.medium.has_emission = r->emission && r->emission->brick_dims[0] > 0 &&
                                  sc->medium.emission_strength > 0.0f;
-    vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.strength, sc->environment.rotation_z);
+    vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.interpolation, sc->environment.strength,
+                   sc->environment.rotation_z);
 
     make_keys(r, frame_key, lighting_key);
     {

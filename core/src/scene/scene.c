@@ -145,6 +145,8 @@ static const double default_up[3] = {0, 0, 1};
 static const char *const camera_types[] = {"perspective", "orthographic", NULL};
 static const char *const devices[] = {"auto", "cpu", "cuda", NULL};
 static const char *const ior_sources[] = {"none", "temperature", NULL};
+/* Blender's Environment Texture interpolations vsd reads (index = vsd_env_interpolation). */
+static const char *const env_interpolations[] = {"linear", "closest", NULL};
 
 static const field volume_fields[] = {
     F_PATH("file", s.volume.file, "", F_REQUIRED | F_FRAMES),
@@ -173,6 +175,7 @@ static const field environment_fields[] = {
     F_NUM("strength", s.environment.strength, 1, GE0, 0, 0),
     F_NUM("rotation_z", s.environment.rotation_z, 0, 0, 0, 0),
     F_STR("colorspace", s.environment.colorspace, "", F_NULLABLE),
+    F_ENUM("interpolation", s.environment.interpolation, env_interpolations),
 };
 TABLE(environment, environment_finish);
 
