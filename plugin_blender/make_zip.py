@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Package the Blender add-on: plugin_blender/vsd_blender/ plus vsd_client.py -> a zip that
-Blender's Preferences > Add-ons > Install... takes.
+"""Package the Blender add-on: plugin_blender/vsd_blender/ (with its protocol client
+vsd_client.py) -> a zip that Blender's Preferences > Add-ons > Install... takes. Copying the
+folder into Blender's addons folder installs the same add-on.
 
     python3 plugin_blender/make_zip.py [OUT.zip]     (default: build/vsd_blender.zip)
 
@@ -22,8 +23,6 @@ def main():
         for name in sorted(os.listdir(pkg)):
             if name.endswith(".py"):
                 z.write(os.path.join(pkg, name), "vsd_blender/" + name)
-        # the protocol client, shared with tests/test_python_client.py: one copy in the repo
-        z.write(os.path.join(HERE, "vsd_client.py"), "vsd_blender/vsd_client.py")
     os.replace(tmp, out)
     print(out)
 

@@ -1,7 +1,7 @@
 # The Blender add-on (issue 6): packaging target and tests in real Blender.
 #
 # `cmake --build build --target vsd_blender_zip` writes build/vsd_blender.zip, the installable
-# add-on (plugin_blender/vsd_blender + vsd_client.py), with plugin_blender/make_zip.py.
+# add-on (plugin_blender/vsd_blender, protocol client included), with plugin_blender/make_zip.py.
 # The tests run Blender headless against a `vsd serve` they start on a temp socket; each
 # takes well under a minute on 2 cores. They are registered only when blender is found and
 # VSD_BLENDER_TESTS is not OFF (ON without Blender is a configure error, as in cycles.cmake).

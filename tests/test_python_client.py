@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""plugin_blender/vsd_client.py against a real `vsd serve` started here on a temp socket.
+"""plugin_blender/vsd_blender/vsd_client.py against a real `vsd serve` started here on a temp socket.
 
 Usage: test_python_client.py VSD SHARED_DATA TMP_DIR
 Checks HELLO, SHA-256 blob upload (sent once), render with progress (EXR bytes, preview
@@ -15,7 +15,7 @@ import threading
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "plugin_blender"))
+sys.path.insert(0, os.path.join(HERE, "..", "plugin_blender", "vsd_blender"))
 import vsd_client  # noqa: E402
 
 failures = []

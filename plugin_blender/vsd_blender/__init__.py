@@ -13,24 +13,12 @@ bl_info = {
     "category": "Render",
 }
 
-import importlib.util
-import os
-import sys
+# The package is complete as it stands in the repository: copying this folder into
+# Blender's addons folder installs it, as the zip does (vsd_client.py, the stdlib-only
+# protocol client, lives here too and is shared with tests/test_python_client.py).
+import bpy
 
-# vsd_client.py lives beside the package in the repository (plugin_blender/vsd_client.py)
-# and inside it in the zip; either way it is this package's `vsd_client` submodule.
-try:
-    from . import vsd_client  # noqa: F401  (the zip)
-except ImportError:
-    _spec = importlib.util.spec_from_file_location(
-        __name__ + ".vsd_client", os.path.join(os.path.dirname(os.path.dirname(__file__)), "vsd_client.py"))
-    vsd_client = importlib.util.module_from_spec(_spec)
-    sys.modules[__name__ + ".vsd_client"] = vsd_client
-    _spec.loader.exec_module(vsd_client)
-
-import bpy  # noqa: E402
-
-from . import connection, engine, export, ui  # noqa: E402
+from . import connection, engine, export, ui, vsd_client  # noqa: F401
 
 
 def register():

@@ -493,6 +493,15 @@ def map_world(scene, m):
         elif vec.type != "TEX_COORD":
             m.warn("world Environment Texture Vector is fed by %s: ignored" % vec.bl_idname)
     env["rotation_z"] = rot
+    # The node's interpolation: vsd has Blender's default Linear and Closest; Cubic and
+    # Smart (cubic when magnified) come closest as Linear.
+    interp = getattr(tex, "interpolation", "Linear")
+    if interp == "Closest":
+        env["interpolation"] = "closest"
+    else:
+        env["interpolation"] = "linear"
+        if interp != "Linear":
+            m.warn("world Environment Texture interpolation %s: vsd uses Linear" % interp)
     return env
 
 

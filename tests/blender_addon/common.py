@@ -53,17 +53,22 @@ def fresh_tmp(tmp):
     os.makedirs(tmp)
 
 
-def install_addon(tmp, vsd=None, auto_start=False, address=""):
-    """Package the add-on, unpack it into tmp/scripts/addons and enable it."""
+def install_addon(tmp, vsd=None, auto_start=False, address="", by_copy=False):
+    """Package the add-on, unpack it into tmp/scripts/addons and enable it; by_copy: copy
+    the repository's plugin_blender/vsd_blender folder there instead, as a developer does."""
     import addon_utils
     import zipfile
-    zpath = os.path.join(tmp, "vsd_blender.zip")
-    subprocess.run([sys.executable if os.path.basename(sys.executable).startswith("python") else "python3",
-                    os.path.join(REPO, "plugin_blender", "make_zip.py"), zpath], check=True)
     addons = os.path.join(tmp, "scripts", "addons")
     os.makedirs(addons, exist_ok=True)
-    with zipfile.ZipFile(zpath) as z:
-        z.extractall(addons)
+    if by_copy:
+        shutil.copytree(os.path.join(REPO, "plugin_blender", "vsd_blender"), os.path.join(addons, "vsd_blender"),
+                        ignore=shutil.ignore_patterns("__pycache__"))
+    else:
+        zpath = os.path.join(tmp, "vsd_blender.zip")
+        subprocess.run([sys.executable if os.path.basename(sys.executable).startswith("python") else "python3",
+                        os.path.join(REPO, "plugin_blender", "make_zip.py"), zpath], check=True)
+        with zipfile.ZipFile(zpath) as z:
+            z.extractall(addons)
     if addons not in sys.path:
         sys.path.insert(0, addons)
     mod = addon_utils.enable("vsd_blender", default_set=True, handle_error=None)
@@ -297,7 +302,7 @@ def run_blender_render(write_path=None, animation=False):
 
 
 def vsd_stats(sock):
-    sys.path.insert(0, os.path.join(REPO, "plugin_blender"))
+    sys.path.insert(0, os.path.join(REPO, "plugin_blender", "vsd_blender"))
     import vsd_client
     with vsd_client.Client(sock) as c:
         return c.stats()

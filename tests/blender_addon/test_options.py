@@ -7,7 +7,9 @@
 #   doc, and the panel draws a row for it when that method is picked;
 # * only values set away from the defaults are sent (render.options), and they are what the
 #   table's checker accepts: a real render through the daemon with one of them works;
-# * the daemon's HELLO carries the same table.
+# * the daemon's HELLO carries the same table;
+# * the add-on here is installed by copying the repository's folder into the addons folder
+#   (as a developer does with a checkout); the other add-on tests install the zip.
 import json
 import os
 import subprocess
@@ -24,7 +26,7 @@ common.fresh_tmp(tmp)
 table = json.loads(subprocess.run([vsd, "methods", "--json"], capture_output=True, check=True).stdout)
 check(set(table) >= {"reference", "raymarch", "constellation", "shgrid"}, "vsd methods --json lists the methods")
 
-common.install_addon(tmp, vsd=vsd)
+common.install_addon(tmp, vsd=vsd, by_copy=True)
 import vsd_blender  # noqa: E402
 from vsd_blender import mapping, method_options, ui  # noqa: E402
 
@@ -124,6 +126,14 @@ try:
     scene2.vsd.ior = 1.25
     sent = mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["medium"]["ior"]
     check(abs(sent - 1.25) < 1e-6, "Scene.vsd.ior is sent as medium.ior (%s)" % sent)
+    # the world's Environment Texture interpolation: Blender's default Linear, then Closest
+    env_tex = [n for n in scene2.world.node_tree.nodes if n.type == "TEX_ENVIRONMENT"][0]
+    sent = mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["environment"]["interpolation"]
+    check(env_tex.interpolation == "Linear" and sent == "linear", "Linear is sent as linear (%s)" % sent)
+    env_tex.interpolation = "Closest"
+    sent = mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["environment"]["interpolation"]
+    check(sent == "closest", "Closest is sent as closest (%s)" % sent)
+    env_tex.interpolation = "Linear"
     scene2.vsd.ior = 1.0
     images = []
     for lights in (4, 1):
