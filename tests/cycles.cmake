@@ -7,6 +7,12 @@ if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
   if(BLENDER_EXE)
     vsd_add_test(test_cycles_crosscheck SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/cycles/test_cycles_crosscheck.c
                  LIBS vsd_lib LABELS blender slow TIMEOUT 2400)
+    # The emissive case: fire96 frame 48 with its flame grid (Emit, and emission after one
+    # scatter in VolumeDir as Cycles puts it). About 3 minutes on 2 cores.
+    add_test(NAME test_cycles_crosscheck_fire COMMAND test_cycles_crosscheck --scene fire --vsd-spp 1024
+             --cycles-spp 256 --dir ${VSD_TEST_TMP}/cycles_crosscheck_fire)
+    set_tests_properties(test_cycles_crosscheck_fire PROPERTIES LABELS "blender;slow" TIMEOUT 2400
+                         SKIP_RETURN_CODE 77)
     target_compile_definitions(test_cycles_crosscheck PRIVATE
       VSD_BLENDER_EXE="${BLENDER_EXE}"
       VSD_CYCLES_SCRIPT="${CMAKE_CURRENT_SOURCE_DIR}/cycles/cycles_scene.py")

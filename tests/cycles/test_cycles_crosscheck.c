@@ -46,7 +46,8 @@
  *                          [--scene smoke|fire] [--dir DIR]
  *   test_cycles_crosscheck --compare V1.exr V2.exr C1.exr C2.exr   (the metrics of 4 files)
  *
- * --scene fire (not run by ctest) checks emission on fire96 frame 48. Exit 77 (ctest SKIP)
+ * --scene fire (ctest test_cycles_crosscheck_fire, with --vsd-spp 1024 --cycles-spp 256) checks
+ * emission and its passes on fire96 frame 48. Exit 77 (ctest SKIP)
  * when no Blender is found. Nothing is cached between runs: the working folder's files are
  * deleted first. */
 #define _POSIX_C_SOURCE 200809L
@@ -298,8 +299,8 @@ static int compare_files(char **paths)
 /* The frame every render uses (the scene's frames.start). */
 static int g_frame = 24;
 
-/* "smoke" (ctest's): smoke64 frame 24, no emission. "fire" (a manual check of the emission
- * conventions, about 4x slower in Cycles): fire96 frame 48 with its flame grid, as
+/* "smoke": smoke64 frame 24, no emission. "fire" (the emission conventions and their passes,
+ * about 4x slower in Cycles): fire96 frame 48 with its flame grid, as
  * ../shared/data/scenes/fire96_studio.json. */
 static int write_scene(const char *path, const char *which)
 {

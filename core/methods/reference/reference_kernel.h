@@ -8,9 +8,11 @@
  * track-length estimator: the integral of L_e over each free-flight segment, which is
  * unbiased for the integral of T * L_e because P(segment longer than t) = T(t).
  *
- * Passes follow Cycles: light that scattered exactly once toward the camera is Direct
- * (VolumeDir), everything that scattered more often — and emission seen after a scatter —
- * is Indirect (VolumeInd); emission seen straight from the camera is Emit. */
+ * Passes follow Cycles: light that reaches the camera after exactly one scatter is Direct
+ * (VolumeDir) — the environment's light and the emission collected on the segment after
+ * the first scatter alike (Cycles writes any light reached at bounce 1 to Volume Direct) —
+ * everything that scattered more often is Indirect (VolumeInd); emission seen straight
+ * from the camera is Emit. */
 #ifndef VSD_REFERENCE_KERNEL_H
 #define VSD_REFERENCE_KERNEL_H
 #include "kernel/kernel_types.h"
@@ -157,7 +159,7 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
             e = vsd_segment_emission(kd, o, d, t, &rng);
         }
         if (bounce == 0) res.emit = f3_add(res.emit, e);
-        else res.indirect = f3_add(res.indirect, f3_mul(throughput, e));
+        else vsd_add_path_light(&res, bounce, f3_mul(throughput, e));
 
         if (t >= VSD_INF) { /* escaped to the environment */
             vsd_f3 env = vsd_env_eval(&kd->env, d);
