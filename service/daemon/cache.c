@@ -3,8 +3,8 @@
  * and renderers (each holding a method's prepared state). One LRU list; an entry with
  * refs > 0 is in use (a running job, or a renderer pinning its volumes) and never evicted. */
 #define _GNU_SOURCE
-#include "daemon.h"
-#include "vsd/vdbio.h"
+#include "cache.h"
+#include "loader.h"
 #include <dirent.h>
 #include <errno.h>
 #include <stdio.h>
@@ -35,8 +35,6 @@ static struct {
     uint64_t hits[ENT_KINDS], misses[ENT_KINDS], evictions, count[ENT_KINDS];
     char blob_dir[VSD_PATH_LEN];
 } C = {.lock = PTHREAD_MUTEX_INITIALIZER};
-
-void vsdd_slot_progress(void *user, const char *stage, float fraction); /* render_job.c */
 
 static void lru_unlink(vsdd_entry *e)
 {
@@ -199,8 +197,7 @@ int vsdd_cache_has_blob(const char *hash)
     return e != NULL;
 }
 
-int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, const char **code, char *msg, size_t msglen,
-                        int *fatal)
+int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, vsdd_err *e, int *fatal)
 {
     char key[128], tmp[VSD_PATH_LEN + 32], final_path[VSD_PATH_LEN + 80], got[VSD_HASH_HEX_MAX];
     vsd_hash_kind kind = vsd_hash_kind_of(hash);
@@ -212,12 +209,11 @@ int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, const char **cod
     snprintf(key, sizeof key, "blob:%s", hash);
     if (vsdd_cache_has_blob(hash)) {
         if (vsd_proto_skip(fd, len, 30000)) *fatal = 1;
-        return *fatal ? -1 : 0;
+        return *fatal ? vsdd_fail(e, VSD_E_BAD_FRAME, "blob data truncated or too slow") : 0;
     }
     if (len > g_daemon.cfg.cache_bytes) {
-        *code = VSD_E_LIMIT;
-        snprintf(msg, msglen, "blob of %llu bytes is larger than the whole cache (%llu bytes, --cache-mb)",
-                 (unsigned long long)len, (unsigned long long)g_daemon.cfg.cache_bytes);
+        vsdd_fail(e, VSD_E_LIMIT, "blob of %llu bytes is larger than the whole cache (%llu bytes, --cache-mb)",
+                  (unsigned long long)len, (unsigned long long)g_daemon.cfg.cache_bytes);
         *fatal = vsd_proto_skip(fd, len, 30000) != 0;
         return -1;
     }
@@ -229,8 +225,7 @@ int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, const char **cod
     }
     pthread_mutex_unlock(&C.lock);
     if (!reserved) {
-        *code = VSD_E_CACHE_FULL;
-        snprintf(msg, msglen, "the cache is full of data in use by running jobs; retry later");
+        vsdd_fail(e, VSD_E_CACHE_FULL, "the cache is full of data in use by running jobs; retry later");
         *fatal = vsd_proto_skip(fd, len, 30000) != 0;
         return -1;
     }
@@ -239,23 +234,20 @@ int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, const char **cod
     buf = malloc(1 << 20);
     h = vsd_hasher_new(kind);
     if (tfd < 0 || !buf || !h) {
-        *code = VSD_E_INTERNAL;
-        snprintf(msg, msglen, "cannot store the blob: %s", tfd < 0 ? strerror(errno) : "out of memory");
+        vsdd_fail(e, VSD_E_INTERNAL, "cannot store the blob: %s", tfd < 0 ? strerror(errno) : "out of memory");
         *fatal = vsd_proto_skip(fd, len, 30000) != 0;
         goto done;
     }
     while (left > 0) {
         size_t chunk = left > (1u << 20) ? (1u << 20) : (size_t)left;
         if (vsd_proto_read_full(fd, buf, chunk, 30000)) {
-            *code = VSD_E_BAD_FRAME;
-            snprintf(msg, msglen, "blob data truncated or too slow");
+            vsdd_fail(e, VSD_E_BAD_FRAME, "blob data truncated or too slow");
             *fatal = 1;
             goto done;
         }
         vsd_hasher_update(h, buf, chunk);
         if (vsd_proto_write_full(tfd, buf, chunk)) {
-            *code = VSD_E_INTERNAL;
-            snprintf(msg, msglen, "cannot write the blob: %s", strerror(errno));
+            vsdd_fail(e, VSD_E_INTERNAL, "cannot write the blob: %s", strerror(errno));
             *fatal = vsd_proto_skip(fd, left - chunk, 30000) != 0;
             goto done;
         }
@@ -264,8 +256,7 @@ int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, const char **cod
     vsd_hasher_final(h, got);
     h = NULL;
     if (strcmp(got, hash) != 0) {
-        *code = VSD_E_HASH_MISMATCH;
-        snprintf(msg, msglen, "blob %s: the data hashes to %s (%s)", hash, got, vsd_hash_kind_name(kind));
+        vsdd_fail(e, VSD_E_HASH_MISMATCH, "blob %s: the data hashes to %s (%s)", hash, got, vsd_hash_kind_name(kind));
         goto done;
     }
     close(tfd);
@@ -275,21 +266,20 @@ int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, const char **cod
     C.reserved -= len;
     reserved = 0;
     if (!find(ENT_BLOB, key, 0)) {
-        vsdd_entry *e = calloc(1, sizeof *e);
-        if (e && rename(tmp, final_path) == 0) {
-            e->kind = ENT_BLOB;
-            snprintf(e->key, sizeof e->key, "%s", key);
-            snprintf(e->path, sizeof e->path, "%.1000s", final_path);
-            e->bytes = len;
+        vsdd_entry *b = calloc(1, sizeof *b);
+        if (b && rename(tmp, final_path) == 0) {
+            b->kind = ENT_BLOB;
+            snprintf(b->key, sizeof b->key, "%s", key);
+            snprintf(b->path, sizeof b->path, "%.1000s", final_path);
+            b->bytes = len;
             make_room(len); /* the reservation was released: normally a no-op */
-            lru_push(e);
-            account(e, 1);
+            lru_push(b);
+            account(b, 1);
             tmp[0] = '\0';
             rc = 0;
         } else {
-            free(e);
-            *code = VSD_E_INTERNAL;
-            snprintf(msg, msglen, "cannot store the blob");
+            free(b);
+            vsdd_fail(e, VSD_E_INTERNAL, "cannot store the blob");
         }
     } else {
         rc = 0;
@@ -309,17 +299,12 @@ done:
 }
 
 /* Lock held. The file behind src ("blob:<hash>" pinned into *blob, or a path). */
-static int source_path(const char *src, char *path, size_t len, vsdd_entry **blob, const char **code, char *msg,
-                       size_t msglen)
+static int source_path(const char *src, char *path, size_t len, vsdd_entry **blob, vsdd_err *e)
 {
     *blob = NULL;
     if (strncmp(src, "blob:", 5) == 0) {
         vsdd_entry *b = find(ENT_BLOB, src, 0);
-        if (!b) {
-            *code = VSD_E_MISSING_BLOB;
-            snprintf(msg, msglen, "%s is not in the daemon's cache (send it with PUT)", src);
-            return -1;
-        }
+        if (!b) return vsdd_fail(e, VSD_E_MISSING_BLOB, "%s is not in the daemon's cache (send it with PUT)", src);
         b->refs++;
         touch(b);
         *blob = b;
@@ -330,12 +315,11 @@ static int source_path(const char *src, char *path, size_t len, vsdd_entry **blo
     return 0;
 }
 
-int vsdd_cache_pin_file(const char *src, char *path, size_t len, vsdd_entry **blob, const char **code, char *msg,
-                        size_t msglen)
+int vsdd_cache_pin_file(const char *src, char *path, size_t len, vsdd_entry **blob, vsdd_err *e)
 {
     int rc;
     pthread_mutex_lock(&C.lock);
-    rc = source_path(src, path, len, blob, code, msg, msglen);
+    rc = source_path(src, path, len, blob, e);
     pthread_mutex_unlock(&C.lock);
     return rc;
 }
@@ -358,7 +342,7 @@ static uint64_t volume_bytes(const vsd_volume *v)
 }
 
 /* Insert a freshly loaded entry (lock held), or adopt one another thread inserted meanwhile. */
-static int insert_loaded(vsdd_entry *e, vsdd_entry **out, const char **code, char *msg, size_t msglen)
+static int insert_loaded(vsdd_entry *e, vsdd_entry **out, vsdd_err *err)
 {
     vsdd_entry *other = find(e->kind, e->key, 0);
     if (other) {
@@ -369,9 +353,8 @@ static int insert_loaded(vsdd_entry *e, vsdd_entry **out, const char **code, cha
         return 0;
     }
     if (make_room(e->bytes)) {
-        *code = VSD_E_CACHE_FULL;
-        snprintf(msg, msglen, "the cache (%llu MiB) cannot hold %.80s (%llu bytes) beside the data in use",
-                 (unsigned long long)(g_daemon.cfg.cache_bytes >> 20), e->key, (unsigned long long)e->bytes);
+        vsdd_fail(err, VSD_E_CACHE_FULL, "the cache (%llu MiB) cannot hold %.80s (%llu bytes) beside the data in use",
+                  (unsigned long long)(g_daemon.cfg.cache_bytes >> 20), e->key, (unsigned long long)e->bytes);
         free_entry(e);
         return -1;
     }
@@ -382,149 +365,93 @@ static int insert_loaded(vsdd_entry *e, vsdd_entry **out, const char **code, cha
     return 0;
 }
 
-int vsdd_cache_get_volume(const char *src, const char *grid, int grid_index, vsdd_entry **out, int *hit,
-                          const char **code, char *msg, size_t msglen)
+/* Lock held: a cached entry for key, pinned, or NULL (counted as a hit or a miss). */
+static vsdd_entry *lookup(int kind, const char *key)
 {
-    char key[1400], path[VSD_PATH_LEN], err[1024], stamp[64];
-    vsdd_entry *e, *blob = NULL;
-    vsd_grid_select sel;
+    vsdd_entry *e = find(kind, key, 0);
+    if (!e) {
+        C.misses[kind]++;
+        return NULL;
+    }
+    e->refs++;
+    touch(e);
+    C.hits[kind]++;
+    return e;
+}
+
+/* Keep a freshly decoded volume or map (one of vol/env set) under key, pinned. */
+static int keep_loaded(int kind, const char *key, vsd_volume *vol, vsd_env *env, vsdd_entry *blob, vsdd_entry **out,
+                       vsdd_err *err)
+{
+    vsdd_entry *e = calloc(1, sizeof *e);
+    int rc;
+    if (!e) {
+        vsd_volume_destroy(vol);
+        vsd_env_destroy(env);
+        vsdd_cache_unpin(blob);
+        return vsdd_fail(err, VSD_E_INTERNAL, "out of memory");
+    }
+    e->kind = kind;
+    snprintf(e->key, sizeof e->key, "%s", key);
+    e->vol = vol;
+    e->env = env;
+    e->bytes = vol ? volume_bytes(vol) : sizeof *env + (uint64_t)env->width * env->height * 3 * sizeof(float);
+    pthread_mutex_lock(&C.lock);
+    unpin_locked(blob);
+    rc = insert_loaded(e, out, err);
+    pthread_mutex_unlock(&C.lock);
+    return rc;
+}
+
+int vsdd_cache_get_volume(const char *src, const char *grid, int grid_index, vsdd_entry **out, int *hit, vsdd_err *err)
+{
+    char key[1400], path[VSD_PATH_LEN], stamp[64];
+    vsdd_entry *blob = NULL;
     vsd_volume *vol = NULL;
-    vsd_grid_info *grids = NULL;
-    int n = 0, i, pick = -1, rc;
-    vsd_status st;
-    *out = NULL;
+    int rc;
     *hit = 0;
     source_stamp(src, stamp, sizeof stamp);
     snprintf(key, sizeof key, "vol|%s%s|%s|%d", src, stamp, grid, grid_index);
     pthread_mutex_lock(&C.lock);
-    e = find(ENT_VOLUME, key, 0);
-    if (e) {
-        e->refs++;
-        touch(e);
-        C.hits[ENT_VOLUME]++;
-        pthread_mutex_unlock(&C.lock);
-        *out = e;
+    *out = lookup(ENT_VOLUME, key);
+    rc = *out ? 0 : source_path(src, path, sizeof path, &blob, err);
+    pthread_mutex_unlock(&C.lock);
+    if (*out) {
         *hit = 1;
         return 0;
     }
-    C.misses[ENT_VOLUME]++;
-    rc = source_path(src, path, sizeof path, &blob, code, msg, msglen);
-    pthread_mutex_unlock(&C.lock);
     if (rc) return -1;
-    /* the voxel limit, from the file's metadata before loading the voxels */
-    st = vsd_vdb_list(path, &grids, &n, err, sizeof err);
-    if (!st) {
-        for (i = 0; i < n && pick < 0; i++) {
-            if (grid_index >= 0) pick = grid_index < n ? grid_index : -2;
-            else if (grid[0] ? strcmp(grids[i].name, grid) == 0 : strcmp(grids[i].type, "float") == 0) pick = i;
-        }
-        if (pick >= 0 && grids[pick].active_voxels > g_daemon.cfg.max_voxels) {
-            *code = VSD_E_LIMIT;
-            snprintf(msg, msglen, "grid '%s' has %llu active voxels, more than the daemon's limit %llu (--max-voxels)",
-                     grids[pick].name, (unsigned long long)grids[pick].active_voxels,
-                     (unsigned long long)g_daemon.cfg.max_voxels);
-            vsd_vdb_list_free(grids);
-            goto fail;
-        }
-        vsd_vdb_list_free(grids);
-        sel.name = grid;
-        sel.index = grid_index;
-        st = vsd_vdb_load(path, sel, &vol, err, sizeof err);
+    /* decoded without the cache lock: other jobs go on meanwhile (the blob stays pinned) */
+    if (vsdd_load_volume(src, path, grid, grid_index, &vol, err)) {
+        vsdd_cache_unpin(blob);
+        return -1;
     }
-    if (st) {
-        *code = VSD_E_INPUT;
-        /* name the blob, not the daemon's private file */
-        if (blob) {
-            char *p = strstr(err, path);
-            snprintf(msg, msglen, "%s: %s", src, p ? p + strlen(path) + (p[strlen(path)] == ':' ? 2 : 0) : err);
-        } else {
-            snprintf(msg, msglen, "%s", err);
-        }
-        goto fail;
-    }
-    e = calloc(1, sizeof *e);
-    if (!e) {
-        vsd_volume_destroy(vol);
-        *code = VSD_E_INTERNAL;
-        snprintf(msg, msglen, "out of memory");
-        goto fail;
-    }
-    e->kind = ENT_VOLUME;
-    snprintf(e->key, sizeof e->key, "%s", key);
-    e->vol = vol;
-    e->bytes = volume_bytes(vol);
-    pthread_mutex_lock(&C.lock);
-    unpin_locked(blob);
-    rc = insert_loaded(e, out, code, msg, msglen);
-    pthread_mutex_unlock(&C.lock);
-    return rc;
-fail:
-    pthread_mutex_lock(&C.lock);
-    unpin_locked(blob);
-    pthread_mutex_unlock(&C.lock);
-    return -1;
+    return keep_loaded(ENT_VOLUME, key, vol, NULL, blob, out, err);
 }
 
-int vsdd_cache_get_env(const char *src, const char *colorspace, vsdd_entry **out, int *hit, const char **code,
-                       char *msg, size_t msglen)
+int vsdd_cache_get_env(const char *src, const char *colorspace, vsdd_entry **out, int *hit, vsdd_err *err)
 {
-    char key[1400], path[VSD_PATH_LEN], err[1024], stamp[64];
-    vsdd_entry *e, *blob = NULL;
+    char key[1400], path[VSD_PATH_LEN], stamp[64];
+    vsdd_entry *blob = NULL;
     vsd_env *env = NULL;
-    vsd_status st;
     int rc;
-    *out = NULL;
     *hit = 0;
     source_stamp(src, stamp, sizeof stamp);
     snprintf(key, sizeof key, "env|%s%s|%s", src, stamp, colorspace);
     pthread_mutex_lock(&C.lock);
-    e = find(ENT_ENV, key, 0);
-    if (e) {
-        e->refs++;
-        touch(e);
-        C.hits[ENT_ENV]++;
-        pthread_mutex_unlock(&C.lock);
-        *out = e;
+    *out = lookup(ENT_ENV, key);
+    rc = *out ? 0 : source_path(src, path, sizeof path, &blob, err);
+    pthread_mutex_unlock(&C.lock);
+    if (*out) {
         *hit = 1;
         return 0;
     }
-    C.misses[ENT_ENV]++;
-    rc = source_path(src, path, sizeof path, &blob, code, msg, msglen);
-    pthread_mutex_unlock(&C.lock);
     if (rc) return -1;
-    st = vsd_env_load(path, colorspace[0] ? colorspace : NULL, &env, err, sizeof err);
-    if (!st && (uint64_t)env->width * env->height > g_daemon.cfg.max_pixels * 4) {
-        *code = VSD_E_LIMIT;
-        snprintf(msg, msglen, "environment map %dx%d is larger than the daemon allows", env->width, env->height);
-        vsd_env_destroy(env);
-        goto fail;
+    if (vsdd_load_env(src, path, colorspace, &env, err)) {
+        vsdd_cache_unpin(blob);
+        return -1;
     }
-    if (st) {
-        *code = VSD_E_INPUT;
-        snprintf(msg, msglen, "%s: %s", src, err);
-        goto fail;
-    }
-    e = calloc(1, sizeof *e);
-    if (!e) {
-        vsd_env_destroy(env);
-        *code = VSD_E_INTERNAL;
-        snprintf(msg, msglen, "out of memory");
-        goto fail;
-    }
-    e->kind = ENT_ENV;
-    snprintf(e->key, sizeof e->key, "%s", key);
-    e->env = env;
-    e->bytes = sizeof *env + (uint64_t)env->width * env->height * 3 * sizeof(float);
-    pthread_mutex_lock(&C.lock);
-    unpin_locked(blob);
-    rc = insert_loaded(e, out, code, msg, msglen);
-    pthread_mutex_unlock(&C.lock);
-    return rc;
-fail:
-    pthread_mutex_lock(&C.lock);
-    unpin_locked(blob);
-    pthread_mutex_unlock(&C.lock);
-    return -1;
+    return keep_loaded(ENT_ENV, key, NULL, env, blob, out, err);
 }
 
 const vsd_volume *vsdd_entry_volume(const vsdd_entry *e) { return e ? e->vol : NULL; }
@@ -549,8 +476,8 @@ static uint64_t slot_bytes(vsdd_entry *pins[VSDD_SLOT_PINS])
     return b;
 }
 
-int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS], vsdd_slot **out, int *hit,
-                        char *msg, size_t msglen)
+int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
+                        vsdd_slot_progress_fn progress, vsdd_slot **out, int *hit, char *msg, size_t msglen)
 {
     vsdd_entry *e;
     vsdd_slot *s;
@@ -589,7 +516,7 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
     }
     memset(&ro, 0, sizeof ro);
     ro.threads = g_daemon.cfg.threads;
-    ro.progress = vsdd_slot_progress;
+    ro.progress = progress;
     ro.user = s;
     ro.cancel = &s->cancel;
     ro.cache_dir = g_daemon.cfg.method_cache[0] ? g_daemon.cfg.method_cache : NULL;

@@ -2,7 +2,10 @@
  * PUT, CANCEL, STATS and BYE itself and queues RENDER as a job. Anything malformed costs
  * the sender an ERROR, and the connection when the byte stream can no longer be trusted. */
 #define _GNU_SOURCE
-#include "daemon.h"
+#include "conn.h"
+#include "cache.h"
+#include "jobs.h"
+#include "reply.h"
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,81 +16,6 @@
 
 #define FRAME_TIMEOUT_MS 30000   /* the rest of a frame must follow its header within this */
 #define MAX_HAS 100000
-
-int vsdd_send2(vsdd_conn *c, unsigned type, cJSON *json, const void *a, size_t alen, const void *b, size_t blen)
-{
-    char *text = json ? cJSON_PrintUnformatted(json) : NULL;
-    int rc = -1;
-    if (json) cJSON_Delete(json);
-    if (!text) return -1;
-    pthread_mutex_lock(&c->wlock);
-    if (!c->dead) {
-        vsd_frame_header h;
-        unsigned char hdr[VSD_PROTO_HEADER_SIZE];
-        h.version = VSD_PROTO_VERSION;
-        h.type = (uint16_t)type;
-        h.json_len = (uint32_t)strlen(text);
-        h.bin_len = (uint64_t)alen + blen;
-        vsd_proto_pack_header(&h, hdr);
-        rc = vsd_proto_write_full(c->fd, hdr, sizeof hdr) || vsd_proto_write_full(c->fd, text, h.json_len) ||
-                     (alen && vsd_proto_write_full(c->fd, a, alen)) || (blen && vsd_proto_write_full(c->fd, b, blen))
-                 ? -1
-                 : 0;
-        if (rc) {
-            c->dead = 1;
-            shutdown(c->fd, SHUT_RDWR);
-            vsdd_log(VSDD_LOG_INFO, "conn %u: write failed (%s), dropping the connection", c->id, strerror(errno));
-        }
-    }
-    pthread_mutex_unlock(&c->wlock);
-    free(text);
-    return rc;
-}
-
-int vsdd_send(vsdd_conn *c, unsigned type, cJSON *json, const void *bin, size_t bin_len)
-{
-    return vsdd_send2(c, type, json, bin, bin_len, NULL, 0);
-}
-
-int vsdd_send_error_id(vsdd_conn *c, double id, int has_id, const char *code, const char *message, cJSON *extra)
-{
-    cJSON *o = extra ? extra : cJSON_CreateObject();
-    if (has_id) cJSON_AddNumberToObject(o, "id", id);
-    else cJSON_AddNullToObject(o, "id");
-    cJSON_AddStringToObject(o, "code", code);
-    cJSON_AddStringToObject(o, "message", message);
-    vsdd_log(VSDD_LOG_INFO, "conn %u: error %s: %s", c->id, code, message);
-    return vsdd_send(c, VSD_MSG_ERROR, o, NULL, 0);
-}
-
-int vsdd_send_error(vsdd_conn *c, const cJSON *id, const char *code, const char *message, cJSON *extra)
-{
-    int has = id && cJSON_IsNumber(id);
-    return vsdd_send_error_id(c, has ? id->valuedouble : 0, has, code, message, extra);
-}
-
-void vsdd_conn_release_locked(vsdd_conn *c)
-{
-    vsdd_conn **p;
-    if (--c->refs > 0) return;
-    for (p = &g_daemon.conns; *p; p = &(*p)->next)
-        if (*p == c) {
-            *p = c->next;
-            break;
-        }
-    g_daemon.conn_count--;
-    close(c->fd);
-    pthread_mutex_destroy(&c->wlock);
-    free(c);
-    pthread_cond_broadcast(&g_daemon.idle_cond);
-}
-
-void vsdd_conn_release(vsdd_conn *c)
-{
-    pthread_mutex_lock(&g_daemon.lock);
-    vsdd_conn_release_locked(c);
-    pthread_mutex_unlock(&g_daemon.lock);
-}
 
 static int constant_time_equal(const char *a, const char *b)
 {
@@ -206,8 +134,7 @@ static void on_has(vsdd_conn *c, const cJSON *msg, const cJSON *id)
 static int on_put(vsdd_conn *c, const cJSON *msg, const cJSON *id, uint64_t bin_len)
 {
     const cJSON *hash = cJSON_GetObjectItemCaseSensitive(msg, "hash");
-    const char *code = VSD_E_INTERNAL;
-    char text[512];
+    vsdd_err e = {VSD_E_INTERNAL, ""};
     int fatal = 0;
     cJSON *o;
     if (!cJSON_IsString(hash) || vsd_hash_kind_of(hash->valuestring) == VSD_HASH_NONE) {
@@ -215,8 +142,8 @@ static int on_put(vsdd_conn *c, const cJSON *msg, const cJSON *id, uint64_t bin_
                         "PUT.hash: expected 32 (xxh3-128) or 64 (sha256) lowercase hex digits", NULL);
         return vsd_proto_skip(c->fd, bin_len, FRAME_TIMEOUT_MS) ? -1 : 0;
     }
-    if (vsdd_cache_put_blob(c->fd, hash->valuestring, bin_len, &code, text, sizeof text, &fatal)) {
-        vsdd_send_error(c, id, code, text, NULL);
+    if (vsdd_cache_put_blob(c->fd, hash->valuestring, bin_len, &e, &fatal)) {
+        vsdd_send_error(c, id, e.code, e.msg, NULL);
         return fatal ? -1 : 0;
     }
     pthread_mutex_lock(&g_daemon.lock);
@@ -285,7 +212,7 @@ static void on_stats(vsdd_conn *c, const cJSON *id)
     if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
     cJSON_AddStringToObject(o, "server_version", vsd_version());
     cJSON_AddNumberToObject(o, "version", VSD_PROTO_VERSION);
-    cJSON_AddNumberToObject(o, "uptime_seconds", vsdd_now() - g_daemon.start_time);
+    cJSON_AddNumberToObject(o, "uptime_seconds", vsd_clock_seconds() - g_daemon.start_time);
     vsdd_jobs_counts(&queued, &running);
     q = cJSON_AddObjectToObject(o, "queue");
     cJSON_AddNumberToObject(q, "queued", queued);

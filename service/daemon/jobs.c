@@ -1,7 +1,9 @@
 /* The job queue: a bounded FIFO (--queue) run by --workers threads, a watchdog for
  * max_job_seconds, and cancellation by CANCEL, disconnect, timeout or shutdown. */
 #define _GNU_SOURCE
-#include "daemon.h"
+#include "jobs.h"
+#include "render_job.h"
+#include "reply.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,7 +34,7 @@ static void *worker_main(void *arg)
         if (!g_daemon.queue_head) g_daemon.queue_tail = NULL;
         g_daemon.queued--;
         j->state = VSDD_JOB_RUNNING;
-        j->started_at = vsdd_now();
+        j->started_at = vsd_clock_seconds();
         j->next = g_daemon.running;
         g_daemon.running = j;
         pthread_mutex_unlock(&g_daemon.lock);
@@ -63,7 +65,7 @@ static void *watchdog_main(void *arg)
     while (!g_daemon.stopping) {
         struct timespec ts;
         vsdd_job *j;
-        double now = vsdd_now();
+        double now = vsd_clock_seconds();
         for (j = g_daemon.running; j; j = j->next)
             if (g_daemon.cfg.max_job_seconds > 0 && now - j->started_at > g_daemon.cfg.max_job_seconds)
                 set_cancel(j, VSDD_CANCEL_TIMEOUT);
@@ -132,7 +134,7 @@ int vsdd_job_submit(vsdd_conn *c, double id, cJSON *req, int *position)
     c->refs++;
     j->req = req;
     j->state = VSDD_JOB_QUEUED;
-    j->queued_at = vsdd_now();
+    j->queued_at = vsd_clock_seconds();
     if (g_daemon.queue_tail) g_daemon.queue_tail->next = j;
     else g_daemon.queue_head = j;
     g_daemon.queue_tail = j;

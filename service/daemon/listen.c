@@ -1,7 +1,7 @@
 /* Listening sockets and the lock file: the Unix socket (mode 0600) guarded by an flock'ed
  * pid file so two daemons never share it, and the optional TCP socket. */
 #define _GNU_SOURCE
-#include "daemon.h"
+#include "daemon_state.h"
 #include "listen.h"
 #include <errno.h>
 #include <fcntl.h>

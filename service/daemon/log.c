@@ -1,6 +1,6 @@
 /* Daemon logging: one line per event on stderr, "<time> vsd serve: <level>: <message>". */
 #define _POSIX_C_SOURCE 200809L
-#include "daemon.h"
+#include "daemon_state.h"
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>

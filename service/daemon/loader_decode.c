@@ -1,0 +1,64 @@
+/* The one decoding path for volumes and maps, run in the loader child (isolated) or on a
+ * worker thread (--loader inprocess): the voxel limit is checked from the file's metadata
+ * before any voxel is read; errors name the client's source, not the daemon's private
+ * blob file. */
+#define _GNU_SOURCE
+#include "loader.h"
+#include "vsd/vdbio.h"
+#include <stdio.h>
+#include <string.h>
+
+int vsdd_decode_volume(const char *src, const char *path, const char *grid, int grid_index, uint64_t max_voxels,
+                       vsd_volume **out, vsdd_err *e)
+{
+    char err[1024];
+    vsd_grid_info *grids = NULL;
+    vsd_grid_select sel;
+    int n = 0, i, pick = -1;
+    vsd_status st;
+    *out = NULL;
+    st = vsd_vdb_list(path, &grids, &n, err, sizeof err);
+    if (!st) {
+        for (i = 0; i < n && pick < 0; i++) {
+            if (grid_index >= 0) pick = grid_index < n ? grid_index : -2;
+            else if (grid[0] ? strcmp(grids[i].name, grid) == 0 : strcmp(grids[i].type, "float") == 0) pick = i;
+        }
+        if (pick >= 0 && grids[pick].active_voxels > max_voxels) {
+            vsdd_fail(e, VSD_E_LIMIT, "grid '%s' has %llu active voxels, more than the daemon's limit %llu (--max-voxels)",
+                      grids[pick].name, (unsigned long long)grids[pick].active_voxels, (unsigned long long)max_voxels);
+            vsd_vdb_list_free(grids);
+            return -1;
+        }
+        vsd_vdb_list_free(grids);
+        sel.name = grid;
+        sel.index = grid_index;
+        st = vsd_vdb_load(path, sel, out, err, sizeof err);
+    }
+    if (!st) return 0;
+    /* name the blob, not the daemon's private file */
+    if (strncmp(src, "blob:", 5) == 0) {
+        size_t pl = strlen(path);
+        char *p = strstr(err, path);
+        return vsdd_fail(e, VSD_E_INPUT, "%s: %s", src, p ? p + pl + (p[pl] == ':' ? 2 : 0) : err);
+    }
+    return vsdd_fail(e, VSD_E_INPUT, "%s", err);
+}
+
+int vsdd_decode_env(const char *src, const char *path, const char *colorspace, uint64_t max_pixels, vsd_env **out,
+                    vsdd_err *e)
+{
+    char err[1024];
+    vsd_status st = vsd_env_load(path, colorspace[0] ? colorspace : NULL, out, err, sizeof err);
+    if (st) {
+        *out = NULL;
+        return vsdd_fail(e, VSD_E_INPUT, "%s: %s", src, err);
+    }
+    if ((uint64_t)(*out)->width * (uint64_t)(*out)->height > max_pixels * 4) {
+        vsdd_fail(e, VSD_E_LIMIT, "environment map %dx%d is larger than the daemon allows", (*out)->width,
+                  (*out)->height);
+        vsd_env_destroy(*out);
+        *out = NULL;
+        return -1;
+    }
+    return 0;
+}

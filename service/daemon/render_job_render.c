@@ -1,0 +1,106 @@
+/* Step 3 of a RENDER: a renderer for (method, options, inputs) from the cache — kept
+ * between jobs, so a camera change re-renders from its preparation — then the render,
+ * with progress to the client and the job's cancel flag wired to the renderer's. */
+#define _GNU_SOURCE
+#include "render_job_steps.h"
+#include <stdio.h>
+#include <string.h>
+
+static const char *code_for_status(vsd_status st)
+{
+    switch (st) {
+    case VSD_ERR_IO: case VSD_ERR_FORMAT: return VSD_E_INPUT;
+    case VSD_ERR_NOT_FOUND: case VSD_ERR_TYPE: case VSD_ERR_INVALID: case VSD_ERR_UNSUPPORTED: return VSD_E_INVALID_SCENE;
+    case VSD_ERR_CANCELLED: return VSD_E_CANCELLED;
+    default: return VSD_E_RENDER_FAILED;
+    }
+}
+
+/* The scene fields a renderer's preparation depends on (the camera is not one). */
+static void prep_key_of(const vsd_scene *sc, char *out, size_t len)
+{
+    const double *m = sc->volume.matrix;
+    const float *a = sc->medium.albedo, *e = sc->medium.emission_color, *c = sc->environment.color;
+    int n = snprintf(out, len, "%.9g|%.9g,%.9g,%.9g|%.9g|%.9g,%.9g,%.9g|%.9g|%.9g|%.9g|%.9g,%.9g,%.9g|",
+                     sc->medium.density, a[0], a[1], a[2], sc->medium.anisotropy, e[0], e[1], e[2],
+                     sc->medium.emission_strength, sc->environment.strength, sc->environment.rotation_z, c[0], c[1],
+                     c[2]);
+    int i;
+    for (i = 0; i < 16 && n > 0 && (size_t)n < len - 32; i++) n += snprintf(out + n, len - (size_t)n, "%.17g,", m[i]);
+}
+
+/* The renderer's progress callback (user = the slot): PROGRESS to the job rendering now,
+ * at most every 1% or 50 ms, and on every new stage. */
+static void slot_progress(void *user, const char *stage, float fraction)
+{
+    vsdd_slot *s = user;
+    vsdd_job *j = s->job;
+    double now = vsd_clock_seconds();
+    int stage_changed;
+    if (!j) return;
+    stage_changed = strcmp(stage, s->last_stage) != 0;
+    if (!stage_changed && fraction < 1.0f &&
+        (fraction - s->last_fraction < 0.01f || now - s->last_progress_time < 0.05))
+        return;
+    if (!stage_changed && fraction >= 1.0f && s->last_fraction >= 1.0f) return;
+    snprintf(s->last_stage, sizeof s->last_stage, "%s", stage);
+    s->last_fraction = fraction;
+    s->last_progress_time = now;
+    vsdd_send_progress(j->conn, j->id, stage, fraction);
+}
+
+static int get_slot(vsdd_run *run)
+{
+    const vsd_scene *sc = &run->sc;
+    char key[12000], err[2048];
+    int rc;
+    snprintf(key, sizeof key, "%s|%s|%s|%s|%d|%s|%s|%s|%s", sc->render.method, sc->render.options_json, run->vsrc,
+             sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid, run->esrc, sc->environment.colorspace,
+             vsd_scene_ior_grid(sc));
+    rc = vsdd_cache_get_slot(key, sc, run->pins, slot_progress, &run->slot, &run->slot_hit, err, sizeof err);
+    memset(run->pins, 0, sizeof run->pins); /* the slot owns them now, or get_slot released them */
+    if (rc) return vsdd_fail(&run->err, code_for_status((vsd_status)-rc), "%s", err);
+    return 0;
+}
+
+int vsdd_step_render(vsdd_run *run)
+{
+    static const char *const reasons[] = {"cancelled", "cancelled by the client", "client disconnected",
+                                          "the job ran past max_job_seconds", "the daemon is shutting down"};
+    vsdd_job *j = run->job;
+    char prep[1024], err[2048];
+    vsd_status st;
+    int reason;
+    if (get_slot(run)) return VSDD_STEP_FAILED;
+    prep_key_of(&run->sc, prep, sizeof prep);
+    run->prep_hit = run->slot_hit && strcmp(prep, run->slot->prep_key) == 0;
+    pthread_mutex_lock(&g_daemon.lock);
+    run->slot->cancel = j->cancel_reason != VSDD_CANCEL_NONE;
+    j->cancel_flag = &run->slot->cancel;
+    run->slot->job = j;
+    run->slot->last_stage[0] = '\0';
+    run->slot->last_fraction = 0;
+    pthread_mutex_unlock(&g_daemon.lock);
+    st = vsd_renderer_render(run->slot->r, run->frame, &run->fb, &run->stats, err, sizeof err);
+    pthread_mutex_lock(&g_daemon.lock);
+    j->cancel_flag = NULL;
+    run->slot->job = NULL;
+    reason = j->cancel_reason;
+    pthread_mutex_unlock(&g_daemon.lock);
+    if (st == VSD_OK && reason == VSDD_CANCEL_NONE)
+        snprintf(run->slot->prep_key, sizeof run->slot->prep_key, "%s", prep);
+    if (reason != VSDD_CANCEL_NONE || st == VSD_ERR_CANCELLED) {
+        run->cancel_reason = reason;
+        vsdd_fail(&run->err,
+                  reason == VSDD_CANCEL_TIMEOUT    ? VSD_E_TIMEOUT
+                  : reason == VSDD_CANCEL_SHUTDOWN ? VSD_E_SHUTDOWN
+                                                   : VSD_E_CANCELLED,
+                  "%s", reasons[reason < 5 ? reason : 0]);
+        return VSDD_STEP_CANCELLED;
+    }
+    if (st) {
+        vsdd_fail(&run->err, code_for_status(st), "%s", err);
+        return VSDD_STEP_FAILED;
+    }
+    return VSDD_STEP_OK;
+}
