@@ -49,7 +49,9 @@
  * options above on this build's CPU path.
  * smoke64_sunset frame 24 at 96x54 against reference 1024 spp (seed 1):
  *   noise of the reference (seed 7 vs seed 1): Combined 0.0145, VolumeDir 0.0324,
- *     VolumeInd 0.0403 (so each reference carries about 0.010 / 0.023 / 0.028);
+ *     VolumeInd 0.0403 (so each reference carries about 0.010 / 0.023 / 0.028); with the
+ *     map read by linear interpolation (2026-12-02) 0.0139 / 0.0335 / 0.0402, so VolumeDir's
+ *     tolerance moved from 0.10 to 0.11 to stay above 3x the noise;
  *   crm: Combined 0.0315, VolumeDir 0.0557, VolumeInd 0.1100, Transmittance 0.0011 (before
  *     the node grid's box-filtered density and 1-voxel spacing on small volumes: 0.0503,
  *     0.0957, 0.1716);
@@ -58,7 +60,7 @@
  * The tolerances are ~1.4-1.8x the measured errors, above 3x the noise (checked below, with
  * the noise of each run), and the Combined one 7x below the nearest control. */
 #define TOL_COMBINED 0.045
-#define TOL_DIR 0.10
+#define TOL_DIR 0.11
 #define TOL_IND 0.16
 /* The ball at 32x32 against reference 2048 spp: noise Combined 0.0057, VolumeDir 0.0091,
  * VolumeInd 0.0111; crm Combined 0.0271, VolumeDir 0.0168, VolumeInd 0.0640,

@@ -53,6 +53,10 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     const float *lights;          /* [light_count * 8] extracted lights: world dir xyz, 0, E rgb, 0 */
     const float *light_trans;     /* [record_count * light_count] T from each record toward each light */
     const float *records_ms;      /* [record_count * 3] multiple scattering (VolumeInd), or NULL */
+    /* [record_count * 3] or NULL: light that scattered once and is isotropic there — lbl's
+     * emission scattered once, which Cycles counts as direct (VolumeDir); added linearly to
+     * the in-scattered radiance the records give */
+    const float *records_ms_dir;
     vsd_affine world_to_grid;
     int32_t res[3];
     int32_t order, n2, stride;    /* stride = n2 (scalar) or 3 n2 (RGB) */
@@ -132,6 +136,7 @@ typedef struct vsd_records_corners {
     int32_t valid;    /* bit a: corner a holds a record */
     vsd_f3 v[8];
     vsd_f3 m[8];      /* records_ms at the corners (linear values) */
+    vsd_f3 e[8];      /* records_ms_dir at the corners (linear values) */
 } vsd_records_corners;
 
 /* A ray moving into a neighbouring cell shares 4 (or 2, or 1) corners with the last one:
@@ -141,10 +146,11 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
 {
     int32_t a, logi = g->interp == VSD_RECORDS_LOG_TRILINEAR;
     int32_t di = i0 - c->key[0], dj = j0 - c->key[1], dk = k0 - c->key[2], had = c->filled, old_valid = c->valid;
-    vsd_f3 old[8], old_m[8];
+    vsd_f3 old[8], old_m[8], old_e[8];
     for (a = 0; a < 8; a++) {
         old[a] = c->v[a];
         old_m[a] = c->m[a];
+        old_e[a] = c->e[a];
     }
     c->key[0] = i0; c->key[1] = j0; c->key[2] = k0;
     c->filled = 1;
@@ -158,6 +164,7 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
             int32_t b = ox | (oy << 1) | (oz << 2);
             c->v[a] = old[b];
             c->m[a] = old_m[b];
+            c->e[a] = old_e[b];
             if (old_valid & (1 << b)) c->valid |= 1 << a;
             continue;
         }
@@ -172,13 +179,18 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
             const float *m = g->records_ms + 3 * (size_t)rec;
             c->m[a] = f3(m[0], m[1], m[2]);
         }
+        if (g->records_ms_dir) {
+            const float *e = g->records_ms_dir + 3 * (size_t)rec;
+            c->e[a] = f3(e[0], e[1], e[2]);
+        }
         c->valid |= 1 << a;
     }
 }
 
 /* In-scattered radiance at world point p: nearest cell, or trilinear between the records
  * at the eight surrounding cell centres (weights renormalised over non-empty cells); *ms
- * gets the records_ms term the same way (linearly), or 0 without it. */
+ * gets the records_ms term the same way (linearly), or 0 without it; records_ms_dir, when
+ * present, is added to the returned radiance the same way (linearly). */
 VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, const float *w, const float *ph,
                                        vsd_records_corners *c, vsd_f3 *ms)
 {
@@ -190,12 +202,15 @@ VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, con
         rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
         if (rec < 0) return f3s(0.0f);
         if (g->records_ms) *ms = f3(g->records_ms[3 * rec], g->records_ms[3 * rec + 1], g->records_ms[3 * rec + 2]);
+        if (g->records_ms_dir)
+            return f3_add(vsd_records_radiance(g, rec, w, ph),
+                          f3(g->records_ms_dir[3 * rec], g->records_ms_dir[3 * rec + 1], g->records_ms_dir[3 * rec + 2]));
         return vsd_records_radiance(g, rec, w, ph);
     } else {
         float fx = q.x - 0.5f, fy = q.y - 0.5f, fz = q.z - 0.5f;
         int32_t i0 = (int32_t)floorf(fx), j0 = (int32_t)floorf(fy), k0 = (int32_t)floorf(fz), a;
         float tx = fx - (float)i0, ty = fy - (float)j0, tz = fz - (float)k0, wsum = 0.0f;
-        vsd_f3 s = f3s(0.0f), m = f3s(0.0f);
+        vsd_f3 s = f3s(0.0f), m = f3s(0.0f), e = f3s(0.0f);
         if (!c->filled || c->key[0] != i0 || c->key[1] != j0 || c->key[2] != k0)
             vsd_records_fill_corners(g, i0, j0, k0, w, ph, c);
         for (a = 0; a < 8; a++) {
@@ -203,13 +218,15 @@ VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, con
             if (!(c->valid & (1 << a)) || wt <= 0.0f) continue;
             s = f3_add(s, f3_scale(c->v[a], wt));
             if (g->records_ms) m = f3_add(m, f3_scale(c->m[a], wt));
+            if (g->records_ms_dir) e = f3_add(e, f3_scale(c->e[a], wt));
             wsum += wt;
         }
         if (!(wsum > 0.0f)) return f3s(0.0f);
         s = f3_scale(s, 1.0f / wsum);
         if (g->records_ms) *ms = f3_scale(m, 1.0f / wsum);
         /* log-trilinear: the weighted geometric mean, exact where S falls exponentially */
-        return g->interp == VSD_RECORDS_LOG_TRILINEAR ? f3(expf(s.x), expf(s.y), expf(s.z)) : s;
+        if (g->interp == VSD_RECORDS_LOG_TRILINEAR) s = f3(expf(s.x), expf(s.y), expf(s.z));
+        return g->records_ms_dir ? f3_add(s, f3_scale(e, 1.0f / wsum)) : s;
     }
 }
 

@@ -125,7 +125,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
     double prev_sum = 0.0, last_sum = 0.0, tail_sum = 0.0;
     long nside = vsd_sh_healpix_nside(directions);
-    float *ms = NULL;
+    float *ms = NULL, *je = NULL; /* je: the emission scattered once, per coarse cell */
     coarse_grid g;
     order_job job;
     vsd_tile_job tiles;
@@ -149,9 +149,10 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     g.sy = g.sx * ((size_t)g.res[1] + 3);
     g.pad = calloc(4 * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
     ms = calloc(g.n * 3, sizeof *ms);
+    je = emission ? calloc(g.n * 3, sizeof *je) : NULL;
     wsum = calloc(g.n, sizeof *wsum);
     dirs = malloc(sizeof *dirs * 3 * (size_t)directions);
-    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs || (emission && !g.emit)) {
+    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs || (emission && (!g.emit || !je))) {
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", g.res[0], g.res[1], g.res[2]);
         goto done;
     }
@@ -194,6 +195,19 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     tiles.fn = run_order;
     tiles.user = &job;
     tiles.stage = "crm multiple scattering";
+    if (g.emit) {
+        /* The emission scattered once: one gather with the emission alone as the source.
+         * It is in J_2 (the first order gathers sigma J_1 + emission), but Cycles counts it
+         * as direct light (docs/design-notes.md, "Passes"): it is taken out of J_ms below
+         * and written into the single-scattering band 0, so the view puts it in VolumeDir. */
+        memcpy(ms, g.j, sizeof(float) * 3 * g.n);          /* ms holds J_1 for a moment */
+        memset(g.j, 0, sizeof(float) * 3 * g.n);
+        fill_pad(&g, 1);
+        if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
+        memcpy(je, g.next, sizeof(float) * 3 * g.n);
+        memcpy(g.j, ms, sizeof(float) * 3 * g.n);
+        memset(ms, 0, sizeof(float) * 3 * g.n);
+    }
     for (k = 0; k < max_orders; k++) {
         double sum = 0.0;
         fill_pad(&g, k == 0);
@@ -221,7 +235,23 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         for (i = 0; i < 3 * g.n; i++) ms[i] += (float)(f * g.j[i]);
         stats->tail = tail_sum > 0.0 ? f * last_sum / (tail_sum + f * last_sum) : 0.0;
     }
+    if (je)
+        for (i = 0; i < 3 * g.n; i++) ms[i] = ms[i] > je[i] ? ms[i] - je[i] : 0.0f;
     /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), band 0 only */
+    if (je) {
+        memcpy(g.j, je, sizeof(float) * 3 * g.n);
+        fill_pad(&g, 0);
+        for (i = 0; i < fine; i++) {
+            float *ss = nodes + i * CRM_NODE_FLOATS, smp[4];
+            double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
+            double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse;
+            if (!(sigma_t[i] > 0.0f)) continue;
+            sample(&g, (float)x, (float)y, (float)z, smp);
+            if (!(smp[0] > 0.0f)) continue;
+            for (c = 0; c < 3; c++) ss[c * CRM_SS_N] += (float)(smp[1 + c] / smp[0] * 2.0 * sqrt(PI_D));
+            valid[i] |= CRM_NODE_SINGLE;
+        }
+    }
     memcpy(g.j, ms, sizeof(float) * 3 * g.n);
     fill_pad(&g, 0);
     for (i = 0; i < fine; i++) {
@@ -247,6 +277,7 @@ done:
     free(g.emit);
     free(g.pad);
     free(ms);
+    free(je);
     free(wsum);
     free(dirs);
     stats->seconds = vsd_clock_seconds() - t0;

@@ -14,7 +14,10 @@
  * one adds less than `tolerance` of the sum, or `max_orders`; the rest is closed with the
  * geometric tail of the last two orders' ratio (below albedo < 1, so it converges). Phase:
  * each order beyond the first is taken isotropic (HG's g matters little after two
- * bounces). J_ms = sum over k >= 2 of J_k is written, band 0 only, into the fine nodes. */
+ * bounces). J_ms = sum over k >= 2 of J_k is written, band 0 only, into the fine nodes —
+ * less the emission scattered once (the first order's gather of the emission alone),
+ * which is added to the single-scattering band 0 instead: Cycles counts it as direct
+ * light (VolumeDir), docs/design-notes.md "Passes". */
 #ifndef VSD_CRM_ORDERS_H
 #define VSD_CRM_ORDERS_H
 #include <stdint.h>

@@ -89,10 +89,16 @@ typedef struct lbl_state {
     float *source;                /* [3][cells] */
     float *fluence;               /* [3][cells] */
     float *ms;                    /* [records * 3] VolumeInd source per unit sigma_s */
+    /* with emission: the emission alone (source_e), its fluence before any scattering
+       (fluence_e, a lattice solve with albedo 0) and that fluence per record (ms_dir, the
+       emission scattered once toward the camera: VolumeDir, as Cycles counts it) */
+    float *source_e, *fluence_e, *ms_dir;
+    vsd_lbl_lattice lattice_e;    /* the warm start of the emission's solve */
     float *view_baked;            /* [records * 3] the lights' term toward this view's camera */
     vsd_lbl_lattice lattice;      /* kept between lighting changes: the warm start */
     vsd_lbl_diffusion_stats diffusion;
     double march_seconds;
+    int emission_steps;           /* lattice steps of the emission's solve (0: no emission) */
     vsd_refraction_field refraction; /* medium.ior != 1: the view rays bend (lbl_kernel.h) */
 } lbl_state;
 
@@ -113,7 +119,12 @@ static void free_lighting(lbl_state *s)
     free(s->fluence);
     free(s->ms);
     free(s->view_baked);
+    free(s->source_e);
+    free(s->fluence_e);
+    free(s->ms_dir);
     s->light_trans = s->source = s->fluence = s->ms = s->view_baked = NULL;
+    s->source_e = s->fluence_e = s->ms_dir = NULL;
+    s->emission_steps = 0;
 }
 
 static void free_frame(lbl_state *s)
@@ -219,9 +230,12 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
                 s->source[2 * n + c] = (float)(m->albedo.z * e[2] * s->collide[c] * area);
                 if (m->has_emission) {
                     double le = vsd_kvolume_at(&ctx->kd.emission, grid_point(s, x + 0.5, y + 0.5, z + 0.5)) * 4.0 * PI_D * vol;
-                    s->source[c] += (float)(le * m->emission.x);
-                    s->source[n + c] += (float)(le * m->emission.y);
-                    s->source[2 * n + c] += (float)(le * m->emission.z);
+                    s->source_e[c] = (float)(le * m->emission.x);
+                    s->source_e[n + c] = (float)(le * m->emission.y);
+                    s->source_e[2 * n + c] = (float)(le * m->emission.z);
+                    s->source[c] += s->source_e[c];
+                    s->source[n + c] += s->source_e[n + c];
+                    s->source[2 * n + c] += s->source_e[2 * n + c];
                 }
             }
 }
@@ -246,7 +260,13 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     s->source = malloc(3 * n * sizeof *s->source);
     s->fluence = malloc(3 * n * sizeof *s->fluence);
     s->ms = malloc(3 * recs * sizeof *s->ms);
-    if (!s->light_trans || !s->source || !s->fluence || !s->ms)
+    if (ctx->kd.medium.has_emission) {
+        s->source_e = malloc(3 * n * sizeof *s->source_e);
+        s->fluence_e = malloc(3 * n * sizeof *s->fluence_e);
+        s->ms_dir = malloc(3 * recs * sizeof *s->ms_dir);
+    }
+    if (!s->light_trans || !s->source || !s->fluence || !s->ms ||
+        (ctx->kd.medium.has_emission && (!s->source_e || !s->fluence_e || !s->ms_dir)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lighting of %zu cells", n);
     /* marching pass */
     memcpy(grid.res, s->rg.res, sizeof grid.res);
@@ -271,13 +291,34 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if ((st = vsd_lbl_diffuse(&s->lattice, s->collide, albedo, s->source, s->opt.tolerance, s->opt.max_steps,
                               ctx->threads, s->fluence, &s->diffusion, err, errlen)))
         return st;
-    /* VolumeInd's source per unit sigma_s: phi / 4pi, phi = sum_i f_i / lambda^2 */
+    if (s->source_e) {
+        /* The emission's fluence before any scattering: the same lattice without scattering
+         * (albedo 0), fed by the emission alone. Scattered toward the camera it is light
+         * that scattered once: VolumeDir, as Cycles counts it (docs/design-notes.md,
+         * "Passes"); the rest of the fluence scatters again before it gets there. */
+        static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
+        vsd_lbl_diffusion_stats stats_e;
+        if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, err, errlen))) return st;
+        if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
+                                  s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))
+            return st;
+        s->diffusion.seconds += stats_e.seconds;
+        s->emission_steps = stats_e.steps;
+    }
+    /* VolumeInd's source per unit sigma_s: phi / 4pi, phi = sum_i f_i / lambda^2 (less the
+     * emission's unscattered fluence, VolumeDir's ms_dir) */
     for (c = 0; c < n; c++) {
         int32_t rec = s->rg.cell_record[c];
         if (rec < 0) continue;
-        for (a = 0; a < 3; a++)
-            s->ms[3 * (size_t)rec + a] =
-                (float)(s->fluence[(size_t)a * n + c] / (s->cell_world * s->cell_world) / (4.0 * PI_D));
+        for (a = 0; a < 3; a++) {
+            double k = 1.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D), phi = s->fluence[(size_t)a * n + c];
+            if (s->fluence_e) {
+                double phi_e = s->fluence_e[(size_t)a * n + c];
+                s->ms_dir[3 * (size_t)rec + a] = (float)(phi_e * k);
+                phi = phi > phi_e ? phi - phi_e : 0.0;
+            }
+            s->ms[3 * (size_t)rec + a] = (float)(phi * k);
+        }
     }
     return VSD_OK;
 }
@@ -328,6 +369,7 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     g.light_trans = s->light_trans;
     g.light_count = s->light_trans ? s->cc.count : 0;
     g.records_ms = s->ms;
+    g.records_ms_dir = s->ms_dir;
     /* on the CPU the lights' term is baked per view; the device keeps its arrays per
      * lighting generation, so there the march sums the lights per ray (exact phase) */
     /* (bent view rays always read baked records: they run on the CPU) */
@@ -345,9 +387,10 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     if (ctx->info && ctx->info_len)
         snprintf(ctx->info, ctx->info_len,
                  "cells=%dx%dx%d records=%d lights=%d march_seconds=%.3f diffusion_steps=%d diffusion_converged=%d "
-                 "diffusion_change=%.3g diffusion_seconds=%.3f",
+                 "diffusion_change=%.3g diffusion_seconds=%.3f emission_steps=%d",
                  s->rg.res[0], s->rg.res[1], s->rg.res[2], (int)s->rg.count, s->cc.count, s->march_seconds,
-                 s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds);
+                 s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds,
+                 s->emission_steps);
     if (s->refraction.k.ng) return render_bent(s, ctx, fb, &g, samples, err, errlen);
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, samples,
                                   err, errlen);
@@ -359,6 +402,7 @@ static void lbl_destroy(void *state)
     if (!s) return;
     free_frame(s);
     vsd_lbl_lattice_free(&s->lattice);
+    vsd_lbl_lattice_free(&s->lattice_e);
     vsd_constellation_cache_free(&s->cc);
     free(s);
 }

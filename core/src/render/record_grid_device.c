@@ -36,6 +36,7 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
         PUT(records, VSD_SLOT_RG_RECORDS, recs * (size_t)g->stride * sizeof(float));
         PUT(light_trans, VSD_SLOT_RG_LIGHT_TRANS, recs * lights * sizeof(float));
         PUT(records_ms, VSD_SLOT_RG_RECORDS_MS, g->records_ms ? recs * 3 * sizeof(float) : 0);
+        PUT(records_ms_dir, VSD_SLOT_RG_RECORDS_MS_DIR, g->records_ms_dir ? recs * 3 * sizeof(float) : 0);
         d->record_pos = d->dirs = d->basis = d->dir_radiance = NULL;
     } else {
         PUT(record_pos, VSD_SLOT_RG_POS, recs * 4 * sizeof(float));
@@ -45,6 +46,7 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
         d->records = NULL;
         d->light_trans = NULL;
         d->records_ms = NULL;
+        d->records_ms_dir = NULL;
     }
 #undef PUT
     return VSD_OK;
@@ -58,6 +60,7 @@ void vsd_record_grid_arrays(const vsd_krecord_grid *g, int view, int lights, vsd
         visit(user, g->records, rc * (size_t)g->stride * sizeof(float), "records.records");
         visit(user, g->light_trans, rc * lc * sizeof(float), "records.light_trans");
         if (g->records_ms) visit(user, g->records_ms, rc * 3 * sizeof(float), "records.records_ms");
+        if (g->records_ms_dir) visit(user, g->records_ms_dir, rc * 3 * sizeof(float), "records.records_ms_dir");
         if (g->kind == VSD_RECORDS_SH_SCALAR) visit(user, g->light, 3 * n2 * sizeof(float), "records.light");
     } else {
         visit(user, g->record_pos, rc * 4 * sizeof(float), "records.record_pos");
