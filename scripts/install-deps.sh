@@ -17,6 +17,7 @@ if [ "$(id -u)" -ne 0 ]; then sudo_cmd="sudo"; fi
 
 packages=(
   build-essential cmake pkg-config
+  clang libclang-rt-14-dev
   libopenvdb-dev libboost-dev libtbb-dev libblosc-dev zlib1g-dev
   libopenexr-dev libimath-dev
   libopencolorio-dev

@@ -19,12 +19,3 @@ if(Python3_Interpreter_FOUND)
                    ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/python_client)
   set_tests_properties(test_python_client PROPERTIES LABELS "integration;service" TIMEOUT 300 SKIP_RETURN_CODE 77)
 endif()
-
-# libFuzzer target for frame and message parsing (clang only): cmake -DVSD_FUZZ=ON with CC=clang
-option(VSD_FUZZ "Build the libFuzzer target fuzz_protocol (needs clang)" OFF)
-if(VSD_FUZZ)
-  add_executable(fuzz_protocol ${CMAKE_CURRENT_SOURCE_DIR}/fuzz_protocol.c)
-  target_compile_options(fuzz_protocol PRIVATE -fsanitize=fuzzer,address,undefined)
-  target_link_options(fuzz_protocol PRIVATE -fsanitize=fuzzer,address,undefined)
-  target_link_libraries(fuzz_protocol PRIVATE vsd_proto PkgConfig::CJSON)
-endif()

@@ -197,6 +197,19 @@ GridEntry scan_descriptor(const std::string &path, ByteReader &in, uint32_t vers
     if (version >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION &&
         g.grid_pos + 4 <= g.end_pos && in.seek(g.grid_pos) && in.read(&g.compression, 4))
         g.has_compression = true;
+    // The grid's own metadata and its transform's type name follow (io::File::readGridPartial:
+    // compression, MetaMap::readMeta, Transform::read). OpenVDB sizes strings from their
+    // length fields before reading them, so a corrupt length in a 10 KB file asked it for
+    // 1.7 GB (found by tests/fuzz/fuzz_vdb): check them against the grid's bytes first.
+    if (version >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION ? g.has_compression
+                                                                        : in.seek(g.grid_pos)) {
+        std::string map_type;
+        scan_metadata(path, in, ("the metadata of " + label).c_str());
+        // before grid instancing (223) the topology came between metadata and transform
+        const bool transform_next = version >= openvdb::OPENVDB_FILE_VERSION_GRID_INSTANCING;
+        if ((transform_next && !in.read_string(map_type)) || in.pos() > g.block_pos)
+            throw ScanError{VSD_ERR_FORMAT, truncated(path, "the transform of " + label, in.size())};
+    }
     if (!in.seek(g.end_pos))
         throw ScanError{VSD_ERR_FORMAT, truncated(path, label, in.size())};
     return g;
@@ -498,6 +511,16 @@ void copy_cstr(char *dst, size_t cap, const std::string &s)
     std::snprintf(dst, cap, "%s", s.c_str());
 }
 
+template <typename MetaT, typename ValueT>
+bool get_meta(const GridBase &grid, const char *key, ValueT &out)
+{
+    auto m = grid.getMetadata<MetaT>(key);
+    if (!m)
+        return false;
+    out = m->value();
+    return true;
+}
+
 // Read grid `g` through OpenVDB and convert it. Throws ScanError or OpenVDB/std exceptions.
 vsd_volume *load_grid(const std::string &path, const GridEntry &g)
 {
@@ -520,6 +543,21 @@ vsd_volume *load_grid(const std::string &path, const GridEntry &g)
     copy_cstr(vol->grid_name, sizeof vol->grid_name, g.name);
     copy_cstr(vol->file, sizeof vol->file, path);
     vol->active_voxels = base->activeVoxelCount();
+    // The voxel count the writer stored is what callers check limits against before loading
+    // (vsd_vdb_list; the daemon's --max-voxels). A file whose tree holds more than that is
+    // corrupt, and a flipped tile flag made a 10 KB file expand to billions of voxels (found by
+    // tests/fuzz/fuzz_vdb): refuse it rather than trust either number.
+    {
+        int64_t stated = 0;
+        if (get_meta<openvdb::Int64Metadata>(*base, GridBase::META_FILE_VOXEL_COUNT, stated) &&
+            uint64_t(stated) != uint64_t(vol->active_voxels)) {
+            const std::string msg = path + ": truncated or corrupt OpenVDB file (grid '" + g.name + "' holds " +
+                                    std::to_string(vol->active_voxels) + " active voxels, its metadata says " +
+                                    std::to_string(stated) + ")";
+            vsd_volume_destroy(vol);
+            throw ScanError{VSD_ERR_FORMAT, msg};
+        }
+    }
 
     std::string why;
     vsd_status st = VSD_ERR_TYPE;
@@ -548,16 +586,6 @@ std::string compression_string(uint32_t flags)
     if (flags & openvdb::io::COMPRESS_BLOSC) add("blosc");
     if (flags & openvdb::io::COMPRESS_ACTIVE_MASK) add("active-mask");
     return s.empty() ? "unknown" : s;
-}
-
-template <typename MetaT, typename ValueT>
-bool get_meta(const GridBase &grid, const char *key, ValueT &out)
-{
-    auto m = grid.getMetadata<MetaT>(key);
-    if (!m)
-        return false;
-    out = m->value();
-    return true;
 }
 
 // Active count and bbox from the statistics OpenVDB writes into each grid's metadata; only

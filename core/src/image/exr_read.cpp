@@ -10,12 +10,85 @@
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <new>
 
 namespace {
+
+// The most pixels an EXR may have: vsd's own largest image is 16384 x 16384 (the daemon's
+// --max-size); a larger data window is taken as corrupt.
+constexpr int64_t VSD_EXR_MAX_PIXELS = int64_t(1) << 28;
+
+// OpenEXR allocates each header attribute at the size its length field states before
+// reading it, so a corrupt length in a 1 KB file asked for 1.9 GB (found by
+// tests/fuzz/fuzz_env). Walk the header(s) first: after the magic and version, attributes
+// "name\0type\0" + int32 size + value, an empty name ending a header; multi-part files
+// (version bit 12) hold several headers and end with an empty one. Every size must fit in
+// what is left of the file.
+vsd_status check_exr_headers(const char *path, char *err, size_t errlen)
+{
+    std::FILE *f = std::fopen(path, "rb");
+    if (!f)
+        return vsd_fail(VSD_ERR_IO, err, errlen, "cannot open '%s'", path);
+    long size = -1;
+    unsigned char version[4] = {0, 0, 0, 0};
+    if (std::fseek(f, 0, SEEK_END) == 0)
+        size = std::ftell(f);
+    bool ok = size >= 8 && std::fseek(f, 4, SEEK_SET) == 0 && std::fread(version, 1, 4, f) == 4;
+    const bool multipart = (version[1] & 0x10) != 0;
+    char name[256] = "", type[256] = "";
+    for (int header = 0; ok; header++) {
+        int attrs = 0;
+        for (;; attrs++) {
+            int n = 0, c = 0;
+            for (int part = 0; part < 2 && ok; part++) {   // name, then type
+                char *dst = part == 0 ? name : type;
+                n = 0;
+                while ((c = std::fgetc(f)) > 0 && n < 255)
+                    dst[n++] = char(c);
+                dst[n] = '\0';
+                ok = c == 0 && !(part == 1 && n == 0);
+                if (part == 0 && ok && n == 0)
+                    break;
+            }
+            if (!ok || n == 0)
+                break;   // an error, or the empty name that ends this header
+            unsigned char b[4] = {0, 0, 0, 0};
+            ok = std::fread(b, 1, 4, f) == 4;
+            const int32_t len = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 |
+                                        uint32_t(b[3]) << 24);
+            const long at = ok ? std::ftell(f) : -1;
+            ok = ok && len >= 0 && at >= 0 && len <= size - at;
+            if (ok && len == 16 && std::strcmp(name, "dataWindow") == 0 && std::strcmp(type, "box2i") == 0) {
+                // OpenEXR sizes its line-offset table from this before any check of ours:
+                // the same bound as read_all's, applied before OpenEXR sees the file
+                unsigned char v[16];
+                int32_t box[4];
+                ok = std::fread(v, 1, 16, f) == 16;
+                for (int k = 0; ok && k < 4; k++)
+                    box[k] = int32_t(uint32_t(v[4 * k]) | uint32_t(v[4 * k + 1]) << 8 |
+                                     uint32_t(v[4 * k + 2]) << 16 | uint32_t(v[4 * k + 3]) << 24);
+                const int64_t w = ok ? int64_t(box[2]) - box[0] + 1 : 0, h = ok ? int64_t(box[3]) - box[1] + 1 : 0;
+                ok = ok && w > 0 && h > 0 && w * h <= VSD_EXR_MAX_PIXELS;
+            } else {
+                ok = ok && std::fseek(f, len, SEEK_CUR) == 0;
+            }
+        }
+        // single-part: one header; multi-part: until an empty header
+        if (!ok || !multipart || (header > 0 && attrs == 0))
+            break;
+    }
+    std::fclose(f);
+    if (!ok)
+        return vsd_fail(VSD_ERR_FORMAT, err, errlen,
+                        "EXR '%s' is truncated or corrupt: its header runs past the end of the file "
+                        "(at attribute '%.64s')",
+                        path, name);
+    return VSD_OK;
+}
 
 // Distinguish "missing/unreadable" (VSD_ERR_IO) and "not an EXR" (VSD_ERR_FORMAT) before
 // OpenEXR sees the file: its exceptions do not say which of the two happened.
@@ -28,7 +101,7 @@ vsd_status check_exr_file(const char *path, char *err, size_t errlen)
         return s;
     if (got < 4 || std::memcmp(head, VSD_EXR_MAGIC, 4) != 0)
         return vsd_fail(VSD_ERR_FORMAT, err, errlen, "'%s' is not an OpenEXR file", path);
-    return VSD_OK;
+    return check_exr_headers(path, err, errlen);
 }
 
 vsd_exr_image *alloc_image(int w, int h, int count)
@@ -80,7 +153,14 @@ vsd_status read_all(const char *path, vsd_exr_image **out, char *err, size_t err
     int count = 0;
     for (auto it = hdr.channels().begin(); it != hdr.channels().end(); ++it)
         count++;
-    vsd_exr_image *img = alloc_image(dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1, count);
+    // The planes are sized from the header's data window: a corrupt window in a 1 KB file
+    // asked for 18 GB (found by tests/fuzz/fuzz_env), and its width can overflow an int.
+    const int64_t w = int64_t(dw.max.x) - dw.min.x + 1, h = int64_t(dw.max.y) - dw.min.y + 1;
+    if (w <= 0 || h <= 0 || w * h > VSD_EXR_MAX_PIXELS)
+        return vsd_fail(VSD_ERR_FORMAT, err, errlen,
+                        "EXR '%s' is corrupt: data window of %lld x %lld pixels", path, (long long)w,
+                        (long long)h);
+    vsd_exr_image *img = alloc_image(int(w), int(h), count);
     if (!img)
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "'%s': out of memory", path);
     Imf::FrameBuffer fb;

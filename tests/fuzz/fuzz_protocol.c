@@ -1,5 +1,5 @@
-/* libFuzzer target for frame and message parsing (build: CC=clang cmake -DVSD_FUZZ=ON;
- * run: build/tests/fuzz_protocol -max_total_time=60). Feeds arbitrary bytes through the
+/* libFuzzer target for frame and message parsing (scripts/fuzz.sh builds and runs it; the
+ * daemon's handlers themselves are fuzz_daemon.c). Feeds arbitrary bytes through the
  * header decoder, the JSON part parser and the field checks the daemon applies, and the
  * socket reader on a socket pair; ASan/UBSan must stay quiet. */
 #include "vsd_proto.h"
