@@ -7,6 +7,7 @@
 #include "loader.h"
 #include <dirent.h>
 #include <errno.h>
+#include <malloc.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -465,15 +466,58 @@ void vsdd_cache_unpin(vsdd_entry *e)
     pthread_mutex_unlock(&C.lock);
 }
 
-/* A renderer's memory cannot be asked for: estimate it as the sampling tables of the map
- * plus as much again as the density grid (the methods' prepared grids are of that order). */
-static uint64_t slot_bytes(vsdd_entry *pins[VSDD_SLOT_PINS])
+/* What each method's renderers were last seen to hold (vsdd_cache_slot_grew), the first
+ * estimate of a new one; lock held. */
+static struct { char method[32]; uint64_t bytes; } learned[16];
+
+static uint64_t *learned_bytes(const char *method)
 {
-    uint64_t b = 256 * 1024;
+    size_t i;
+    for (i = 0; i < sizeof learned / sizeof learned[0] && learned[i].method[0]; i++)
+        if (strcmp(learned[i].method, method) == 0) return &learned[i].bytes;
+    if (i == sizeof learned / sizeof learned[0]) return NULL;
+    snprintf(learned[i].method, sizeof learned[i].method, "%s", method);
+    learned[i].bytes = 0;
+    return &learned[i].bytes;
+}
+
+/* A renderer's first estimate, before it is measured: the sampling tables of the map plus
+ * as much again as the density grid, or what the method's last renderer held if more. */
+static uint64_t slot_bytes(vsdd_entry *pins[VSDD_SLOT_PINS], const char *method)
+{
+    uint64_t b = 256 * 1024, *l = learned_bytes(method);
     if (pins[0]) b += pins[0]->bytes;
     if (pins[2] && pins[2]->env) b += (uint64_t)pins[2]->env->width * pins[2]->env->height * 8;
     else b += 64 * 32 * 8;
-    return b;
+    return l && *l > b ? *l : b;
+}
+
+uint64_t vsdd_heap_in_use(void)
+{
+    struct mallinfo2 mi = mallinfo2();
+    return (uint64_t)mi.uordblks + (uint64_t)mi.hblkhd;
+}
+
+void vsdd_cache_slot_grew(vsdd_slot *s, int64_t grown)
+{
+    vsdd_entry *e = s->self;
+    uint64_t held, *l;
+    pthread_mutex_lock(&C.lock);
+    s->held += grown;
+    held = s->held > 0 ? (uint64_t)s->held : 0;
+    l = learned_bytes(s->method);
+    if (l) *l = held;
+    if (held > e->bytes && strcmp(e->key, "(uncached)") != 0) {
+        account(e, 0);
+        e->bytes = held;
+        /* this slot is in use (refs > 0), so only other idle entries go */
+        if (make_room(e->bytes)) {
+            e->bytes = 0;
+            snprintf(e->key, sizeof e->key, "(uncached)");
+        }
+        account(e, 1);
+    }
+    pthread_mutex_unlock(&C.lock);
 }
 
 int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
@@ -520,7 +564,12 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
     ro.user = s;
     ro.cancel = &s->cancel;
     ro.cache_dir = g_daemon.cfg.method_cache[0] ? g_daemon.cfg.method_cache : NULL;
-    st = vsd_renderer_create(scene, &ro, &s->r, msg, msglen);
+    {
+        uint64_t before = vsdd_heap_in_use();
+        st = vsd_renderer_create(scene, &ro, &s->r, msg, msglen);
+        s->held = (int64_t)vsdd_heap_in_use() - (int64_t)before;
+    }
+    snprintf(s->method, sizeof s->method, "%.31s", scene->render.method);
     if (st) {
         free(s);
         free(e);
@@ -535,8 +584,8 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
     e->kind = ENT_SLOT;
     snprintf(e->key, sizeof e->key, "%s", key);
     e->slot = s;
-    e->bytes = slot_bytes(pins);
     pthread_mutex_lock(&C.lock);
+    e->bytes = slot_bytes(pins, s->method);
     if (make_room(e->bytes)) {
         /* still render (the job's data is in memory already), but do not keep it */
         e->bytes = 0;

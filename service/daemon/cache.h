@@ -39,6 +39,9 @@ typedef struct vsdd_slot {
     char prep_key[2048];           /* scene fields preparation depends on, last render */
     vsdd_entry *pins[VSDD_SLOT_PINS]; /* density, emission, env, ior grid entries (may be NULL) */
     vsdd_entry *self;
+    char method[32];               /* render.method: what learned_bytes is kept by */
+    int64_t held;                  /* heap bytes the renderer was seen to keep (sum of the
+                                      allocator's in-use growth over its create and renders) */
 } vsdd_slot;
 /* The renderer's progress callback; `user` is the slot. Passed in by the jobs layer, so
  * the cache does not call up into it. */
@@ -49,5 +52,16 @@ typedef void (*vsdd_slot_progress_fn)(void *user, const char *stage, float fract
 int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
                         vsdd_slot_progress_fn progress, vsdd_slot **out, int *hit, char *msg, size_t msglen);
 void vsdd_cache_release_slot(vsdd_slot *s, int keep);
+/* The heap in use now (glibc's mallinfo2: arenas plus mmap'd blocks), for measuring what a
+ * renderer keeps. */
+uint64_t vsdd_heap_in_use(void);
+/* A render of slot s changed the heap in use by `grown` bytes (the framebuffer it made
+ * left out). A renderer's memory cannot be asked for, and a fixed estimate let crm's
+ * ~50 MB renderers fill RSS to several times the budget (docs/soak.md): the slot is counted
+ * at what it was seen to hold, idle entries are evicted to keep the budget, a slot larger
+ * than the whole budget is dropped after its job, and the size is remembered per method
+ * as the first estimate of its next new slot. With several workers the growth of the
+ * others' renders is mixed in: an estimate, not an exact count. */
+void vsdd_cache_slot_grew(vsdd_slot *s, int64_t grown);
 
 #endif

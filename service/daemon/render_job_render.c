@@ -81,7 +81,15 @@ int vsdd_step_render(vsdd_run *run)
     run->slot->last_stage[0] = '\0';
     run->slot->last_fraction = 0;
     pthread_mutex_unlock(&g_daemon.lock);
-    st = vsd_renderer_render(run->slot->r, run->frame, &run->fb, &run->stats, err, sizeof err);
+    {
+        /* what the renderer keeps: the heap's growth over the render, less a framebuffer it
+         * makes (the job frees that after the reply) */
+        int64_t before = (int64_t)vsdd_heap_in_use(), fb_bytes = run->fb ? 0
+            : (int64_t)run->sc.film.width * run->sc.film.height * 17 * (int64_t)sizeof(float);
+        st = vsd_renderer_render(run->slot->r, run->frame, &run->fb, &run->stats, err, sizeof err);
+        if (st == VSD_OK)
+            vsdd_cache_slot_grew(run->slot, (int64_t)vsdd_heap_in_use() - before - (run->fb ? fb_bytes : 0));
+    }
     pthread_mutex_lock(&g_daemon.lock);
     j->cancel_flag = NULL;
     run->slot->job = NULL;
