@@ -367,19 +367,6 @@ static void rot_z(double th, double r[16])
     memcpy(r, m, sizeof m);
 }
 
-static void mat_mul(const double a[16], const double b[16], double c[16])
-{
-    double t[16];
-    int i, j, k;
-    for (i = 0; i < 4; i++)
-        for (j = 0; j < 4; j++) {
-            double s = 0;
-            for (k = 0; k < 4; k++) s += a[4 * i + k] * b[4 * k + j];
-            t[4 * i + j] = s;
-        }
-    memcpy(c, t, sizeof t);
-}
-
 /* Turning the environment by theta about Z (rotation_z = -theta: the Mapping node rotates
  * the lookup, so the visible map turns the other way) equals turning the volume and the
  * camera by -theta, the environment fixed: the constellation is rotated, not rebuilt, and
@@ -398,8 +385,8 @@ static void test_rotation_equivalence(void)
         double r[16];
         a.environment.rotation_z = (float)-theta;
         rot_z(-theta, r);
-        mat_mul(r, b.volume.matrix, b.volume.matrix);
-        mat_mul(r, b.camera.matrix, b.camera.matrix);
+        vsd_mat4_mul(r, b.volume.matrix, b.volume.matrix);
+        vsd_mat4_mul(r, b.camera.matrix, b.camera.matrix);
         fa = render_mem(&a, vol, vol, env);
         fb = render_mem(&b, vol, vol, env);
     }

@@ -573,31 +573,9 @@ static void test_empty(void)
     remove_dir(test_tmp("crm_empty_cache"));
 }
 
-static void test_emission_split(void)
-{
-    const char *ref_ov[] = {"render.method=reference", "render.samples=256", "film.width=64", "film.height=36",
-                            "environment.file=null", "environment.color=[0,0,0]"};
-    const char *crm_ov[] = {"render.method=crm", "film.width=64", "film.height=36", "environment.file=null",
-                            "environment.color=[0,0,0]"};
-    vsd_scene ref_sc, crm_sc;
-    vsd_framebuffer *ref = NULL, *crm = NULL;
-    printf("[7] fire96 in a black world: emission scattered once is VolumeDir\n");
-    if (!test_load_scene("scenes/fire96_studio.json", ref_ov, 6, &ref_sc) ||
-        !test_load_scene("scenes/fire96_studio.json", crm_ov, 5, &crm_sc))
-        return;
-    ref = test_render_fresh(&ref_sc, NULL, NULL, NULL, 48, NULL);
-    crm = test_render_fresh(&crm_sc, NULL, NULL, NULL, 48, NULL);
-    if (ref && crm) {
-        double dir = test_rel_err(crm, ref, VSD_PASS_VOLUME_DIR), ind = test_rel_err(crm, ref, VSD_PASS_VOLUME_IND);
-        double mdir = test_pass_sum(crm, VSD_PASS_VOLUME_DIR) / test_pass_sum(ref, VSD_PASS_VOLUME_DIR);
-        double mind = test_pass_sum(crm, VSD_PASS_VOLUME_IND) / test_pass_sum(ref, VSD_PASS_VOLUME_IND);
-        printf("    VolumeDir %.4f (mean ratio %.3f), VolumeInd %.4f (mean ratio %.3f)\n", dir, mdir, ind, mind);
-        CHECK_MSG(dir < 0.4 && ind < 0.5, "fire96 black world: VolumeDir %.4f, VolumeInd %.4f", dir, ind);
-        CHECK_MSG(fabs(mdir - 1.0) < 0.2 && fabs(mind - 1.0) < 0.25, "mean ratios %.3f / %.3f", mdir, mind);
-    }
-    vsd_framebuffer_destroy(ref);
-    vsd_framebuffer_destroy(crm);
-}
+/* fire96 in a black world at 64x36 against 256 spp: measured crm VolumeDir 0.161 and VolumeInd
+ * 0.222, means 0.983 / 0.983 */
+static void test_emission_split(void) { test_check_emission_split("[7]", "crm", 0.4, 0.5, 0.2, 0.25); }
 
 int main(void)
 {

@@ -9,6 +9,7 @@
  * mid-render exits cleanly and removes the socket. */
 #define _GNU_SOURCE
 #include "test_common.h"
+#include "test_daemon_proc.h"
 #include "vsd_client.h"
 #include "vsd_proto.h"
 #include "vsd/render.h"
@@ -37,70 +38,9 @@ static double now(void)
 }
 
 /* ---- daemons -------------------------------------------------------------------------- */
-typedef struct daemon_proc {
-    pid_t pid;
-    char sock[256], ready[300], log[300];
-} daemon_proc;
 
-static int start_daemon(daemon_proc *d, const char *name, const char *const *extra)
-{
-    const char *argv[64];
-    int n = 0, i;
-    snprintf(d->sock, sizeof d->sock, "%s/%s.sock", g_dir, name);
-    snprintf(d->ready, sizeof d->ready, "%s/%s.ready", g_dir, name);
-    snprintf(d->log, sizeof d->log, "%s/%s.log", g_dir, name);
-    unlink(d->ready);
-    argv[n++] = g_vsd;
-    argv[n++] = "serve";
-    argv[n++] = "--socket";
-    argv[n++] = d->sock;
-    argv[n++] = "--ready-file";
-    argv[n++] = d->ready;
-    argv[n++] = "--cache-dir";
-    argv[n++] = g_dir;
-    argv[n++] = "--log-level";
-    argv[n++] = "debug";
-    for (i = 0; extra && extra[i] && n < 62; i++) argv[n++] = extra[i];
-    argv[n] = NULL;
-    d->pid = fork();
-    if (d->pid == 0) {
-        FILE *f = freopen(d->log, "w", stderr);
-        (void)f;
-        execv(g_vsd, (char *const *)argv);
-        _exit(127);
-    }
-    for (i = 0; i < 200; i++) {
-        if (access(d->ready, F_OK) == 0) return 0;
-        usleep(50000);
-    }
-    fprintf(stderr, "daemon %s did not start (see %s)\n", name, d->log);
-    return -1;
-}
 
-/* SIGTERM and wait; returns the exit status (or -1 when it did not exit within 10 s). */
-static int stop_daemon(daemon_proc *d)
-{
-    int i, status;
-    if (d->pid <= 0) return -1;
-    kill(d->pid, SIGTERM);
-    for (i = 0; i < 200; i++) {
-        if (waitpid(d->pid, &status, WNOHANG) == d->pid) {
-            d->pid = 0;
-            return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-        }
-        usleep(50000);
-    }
-    kill(d->pid, SIGKILL);
-    waitpid(d->pid, &status, 0);
-    d->pid = 0;
-    return -1;
-}
 
-static int daemon_alive(const daemon_proc *d)
-{
-    int status;
-    return d->pid > 0 && waitpid(d->pid, &status, WNOHANG) == 0;
-}
 
 /* ---- scenes --------------------------------------------------------------------------- */
 static void scene_json(char *out, size_t len, const char *vol, const char *env, double cam_x, int w, int h,
@@ -389,7 +329,7 @@ static cJSON *stats_of(const char *sock)
 
 int main(int argc, char **argv)
 {
-    daemon_proc d1 = {0}, d2 = {0}, d3 = {0}, d4 = {0};
+    test_daemon d1 = {0}, d2 = {0}, d3 = {0}, d4 = {0};
     char err[2048], scene[4096], vb[3][128], eb[128], allow[1100];
     vsd_framebuffer *ref = NULL, *cams[3] = {NULL, NULL, NULL};
     vsdc *c = NULL;
@@ -425,7 +365,7 @@ int main(int argc, char **argv)
 
     {
         const char *extra[] = {"--allow-path", allow, "--max-size", "512", "--queue", "32", NULL};
-        if (start_daemon(&d1, "d1", extra)) return 1;
+        if (test_daemon_start(&d1, g_vsd, g_dir, "d1", NULL, NULL, extra)) return 1;
     }
     /* the socket is private */
     {
@@ -434,7 +374,7 @@ int main(int argc, char **argv)
     }
     /* one daemon per socket */
     {
-        daemon_proc dup = {0};
+        test_daemon dup = {0};
         const char *extra[] = {NULL};
         char log[2048] = "";
         FILE *f;
@@ -463,7 +403,7 @@ int main(int argc, char **argv)
     /* 1. HELLO */
     if (vsdc_connect(d1.sock, NULL, &c, err, sizeof err)) {
         CHECK_MSG(0, "connect: %s", err);
-        stop_daemon(&d1);
+        test_daemon_stop(&d1);
         return test_finish("test_daemon");
     }
     {
@@ -694,7 +634,7 @@ int main(int argc, char **argv)
             cJSON_Delete(m);
             close(fd);
         }
-        CHECK(daemon_alive(&d1));
+        CHECK(test_daemon_alive(&d1));
         check_still_serves(d1.sock, ref, "hostile input");
     }
     /* server-side paths inside --allow-path work */
@@ -843,7 +783,7 @@ int main(int argc, char **argv)
     }
     vsdc_close(c);
     c = NULL;
-    CHECK(stop_daemon(&d1) == 0);
+    CHECK(test_daemon_stop(&d1) == 0);
     CHECK(access(d1.sock, F_OK) != 0);
 
     /* 7. BUSY when the queue is full; SIGTERM in mid-render exits cleanly */
@@ -851,7 +791,7 @@ int main(int argc, char **argv)
         const char *extra[] = {"--queue", "1", "--workers", "1", NULL};
         int fd, got_busy = 0, got_shutdown = 0, k, rc;
         char msg[5000];
-        if (start_daemon(&d2, "d2", extra) == 0) {
+        if (test_daemon_start(&d2, g_vsd, g_dir, "d2", NULL, NULL, extra) == 0) {
             vsdc *s = NULL;
             if (vsdc_connect(d2.sock, NULL, &s, err, sizeof err) == 0) {
                 vsdc_upload_file(s, g_vol[0], vb[0], sizeof vb[0], NULL, err, sizeof err);
@@ -876,7 +816,7 @@ int main(int argc, char **argv)
                 cJSON_Delete(m);
             }
             CHECK_MSG(got_busy, "a full queue must answer BUSY");
-            rc = stop_daemon(&d2);
+            rc = test_daemon_stop(&d2);
             for (k = 0; k < 100; k++) {
                 unsigned type;
                 cJSON *m = raw_recv(fd, 0, &type, 2000);
@@ -899,7 +839,7 @@ int main(int argc, char **argv)
     /* 8. the cache stays under its budget while a longer sequence streams through */
     {
         const char *extra[] = {"--cache-mb", "16", NULL};
-        if (start_daemon(&d3, "d3", extra) == 0) {
+        if (test_daemon_start(&d3, g_vsd, g_dir, "d3", NULL, NULL, extra) == 0) {
             vsdc *s = NULL;
             double peak = 0, budget = 16 << 20, evictions = 0;
             int frames_ok = 0;
@@ -933,7 +873,7 @@ int main(int argc, char **argv)
             CHECK_MSG(peak <= budget, "cache peak %.0f bytes above the budget %.0f", peak, budget);
             CHECK_MSG(evictions > 0, "a sequence larger than the budget must evict");
             printf("cache: 12 frames through a 16 MiB budget, peak %.1f MiB, %g evictions\n", peak / 1048576, evictions);
-            CHECK(stop_daemon(&d3) == 0);
+            CHECK(test_daemon_stop(&d3) == 0);
         } else CHECK(0);
     }
 
@@ -948,7 +888,7 @@ int main(int argc, char **argv)
         chmod(tokfile, 0600);
         {
             const char *extra[] = {"--tcp", "127.0.0.1:0", "--token-file", tokfile, NULL};
-            if (start_daemon(&d4, "d4", extra) == 0) {
+            if (test_daemon_start(&d4, g_vsd, g_dir, "d4", NULL, NULL, extra) == 0) {
                 char ready[512] = "", addr[128] = "";
                 cJSON *r;
                 vsdc *s = NULL;
@@ -972,7 +912,7 @@ int main(int argc, char **argv)
                 /* the Unix socket needs no token */
                 if (vsdc_connect(d4.sock, NULL, &s, err, sizeof err) == 0) vsdc_close(s);
                 else CHECK_MSG(0, "unix: %s", err);
-                CHECK(stop_daemon(&d4) == 0);
+                CHECK(test_daemon_stop(&d4) == 0);
             } else CHECK(0);
         }
         {
@@ -993,9 +933,9 @@ int main(int argc, char **argv)
 
     vsd_framebuffer_destroy(ref);
     for (i = 0; i < 3; i++) vsd_framebuffer_destroy(cams[i]);
-    if (d1.pid) stop_daemon(&d1);
-    if (d2.pid) stop_daemon(&d2);
-    if (d3.pid) stop_daemon(&d3);
-    if (d4.pid) stop_daemon(&d4);
+    if (d1.pid) test_daemon_stop(&d1);
+    if (d2.pid) test_daemon_stop(&d2);
+    if (d3.pid) test_daemon_stop(&d3);
+    if (d4.pid) test_daemon_stop(&d4);
     return test_finish("test_daemon");
 }

@@ -14,6 +14,7 @@
  *     render; the in-process daemon ignores the hook (only the child reads it). */
 #define _GNU_SOURCE
 #include "test_common.h"
+#include "test_daemon_proc.h"
 #include "daemon.h"
 #include "vsd_client.h"
 #include "vsd/render.h"
@@ -87,20 +88,6 @@ static int agree_env(const char *src, const char *path)
     return ok;
 }
 
-static unsigned char *read_all(const char *path, long *size)
-{
-    FILE *f = fopen(path, "rb");
-    unsigned char *buf = NULL;
-    if (!f) return NULL;
-    if (fseek(f, 0, SEEK_END) == 0 && (*size = ftell(f)) > 0 && fseek(f, 0, SEEK_SET) == 0 &&
-        (buf = malloc((size_t)*size)) && fread(buf, 1, (size_t)*size, f) != (size_t)*size) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    return buf;
-}
-
 static void test_same_results(void)
 {
     static const char *const frames[] = {"smoke64/fluid_data_0001.vdb", "smoke128/fluid_data_0030.vdb"};
@@ -128,7 +115,7 @@ static void test_same_results(void)
     CHECK(agree_volume(path, test_data("env/sunset.exr"), "density", NULL));
     CHECK(agree_env(path, path));
     /* byte-mutated copies (the mutation experiment of test_hostile_vdb, smaller) */
-    orig = read_all(path, &size);
+    orig = test_read_file(path, &size);
     CHECK(orig != NULL);
     for (i = 0; orig && i < 40; i++) {
         unsigned char *m = malloc((size_t)size);
@@ -201,65 +188,9 @@ static void test_cost(void)
 
 /* ---- real daemons ---------------------------------------------------------------------- */
 
-typedef struct daemon_proc {
-    pid_t pid;
-    char sock[256], ready[300], log[300];
-} daemon_proc;
 
-static int start_daemon(daemon_proc *d, const char *name, const char *hook, const char *const *extra)
-{
-    const char *argv[40];
-    int n = 0, i;
-    snprintf(d->sock, sizeof d->sock, "%s/%s.sock", g_dir, name);
-    snprintf(d->ready, sizeof d->ready, "%s/%s.ready", g_dir, name);
-    snprintf(d->log, sizeof d->log, "%s/%s.log", g_dir, name);
-    unlink(d->ready);
-    argv[n++] = g_vsd;
-    argv[n++] = "serve";
-    argv[n++] = "--socket";
-    argv[n++] = d->sock;
-    argv[n++] = "--ready-file";
-    argv[n++] = d->ready;
-    argv[n++] = "--cache-dir";
-    argv[n++] = g_dir;
-    argv[n++] = "--log-level";
-    argv[n++] = "debug";
-    for (i = 0; extra[i] && n < 38; i++) argv[n++] = extra[i];
-    argv[n] = NULL;
-    d->pid = fork();
-    if (d->pid == 0) {
-        FILE *f = freopen(d->log, "w", stderr);
-        (void)f;
-        setenv("VSD_TEST_LOADER_CRASH", hook, 1);
-        execv(g_vsd, (char *const *)argv);
-        _exit(127);
-    }
-    for (i = 0; i < 200; i++) {
-        if (access(d->ready, F_OK) == 0) return 0;
-        usleep(50000);
-    }
-    fprintf(stderr, "daemon %s did not start (see %s)\n", name, d->log);
-    return -1;
-}
 
-static int stop_daemon(daemon_proc *d)
-{
-    int i, status;
-    kill(d->pid, SIGTERM);
-    for (i = 0; i < 200; i++) {
-        if (waitpid(d->pid, &status, WNOHANG) == d->pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        usleep(50000);
-    }
-    kill(d->pid, SIGKILL);
-    waitpid(d->pid, &status, 0);
-    return -1;
-}
 
-static int alive(const daemon_proc *d)
-{
-    int status;
-    return waitpid(d->pid, &status, WNOHANG) == 0;
-}
 
 /* Upload frame's VDB and sunset.exr, render 32x18 raymarch; the EXR's pixels are compared
  * with `expect` when given. Returns 0 rendered (and equal), else -1 with the error. */
@@ -346,7 +277,7 @@ static void test_daemons(void)
     char vdb[5][1100], hash[5][80], hook[512], err[2048], code[64];
     const char *iso_args[] = {"--loader-seconds", "2", "--loader-mb", "512", NULL};
     const char *inp_args[] = {"--loader", "inprocess", NULL};
-    daemon_proc iso = {0}, inp = {0};
+    test_daemon iso = {0}, inp = {0};
     vsd_framebuffer *expect;
     double t0;
     int i;
@@ -358,7 +289,8 @@ static void test_daemons(void)
     snprintf(hook, sizeof hook, "segv:%s,hang:%s,oom:%s", hash[2], hash[3], hash[4]);
     expect = render_local(vdb[1]);
     CHECK(expect != NULL);
-    if (!expect || start_daemon(&iso, "iso", hook, iso_args) || start_daemon(&inp, "inp", hook, inp_args)) {
+    if (!expect || test_daemon_start(&iso, g_vsd, g_dir, "iso", "VSD_TEST_LOADER_CRASH", hook, iso_args) ||
+        test_daemon_start(&inp, g_vsd, g_dir, "inp", "VSD_TEST_LOADER_CRASH", hook, inp_args)) {
         CHECK(0);
         return;
     }
@@ -370,7 +302,7 @@ static void test_daemons(void)
     CHECK(strcmp(code, "bad_input") == 0);
     CHECK_CONTAINS(err, "the decoder crashed (signal 11");
     CHECK_CONTAINS(err, hash[2]);
-    CHECK(alive(&iso));
+    CHECK(test_daemon_alive(&iso));
     CHECK_MSG(render_frame(iso.sock, vdb[1], expect, code, err, sizeof err) == 0, "after the crash: %s", err);
 
     t0 = vsd_clock_seconds();
@@ -390,13 +322,13 @@ static void test_daemons(void)
         long mib = p ? strtol(p + 11, NULL, 10) : -1;
         CHECK_MSG(mib >= 0 && mib < 512, "the child allocated %ld MiB under --loader-mb 512", mib);
     }
-    CHECK(alive(&iso));
+    CHECK(test_daemon_alive(&iso));
     CHECK_MSG(render_frame(iso.sock, vdb[1], expect, code, err, sizeof err) == 0, "after all three: %s", err);
 
     /* in-process: the hook is the child's only, so frame 2 renders */
     CHECK_MSG(render_frame(inp.sock, vdb[2], NULL, code, err, sizeof err) == 0, "in-process frame 2: %s", err);
-    CHECK(stop_daemon(&iso) == 0);
-    CHECK(stop_daemon(&inp) == 0);
+    CHECK(test_daemon_stop(&iso) == 0);
+    CHECK(test_daemon_stop(&inp) == 0);
     vsd_framebuffer_destroy(expect);
 }
 

@@ -25,20 +25,6 @@ static unsigned long long rng_state = 20261202ull;
 
 static uint64_t next_random(void) { return (uint64_t)(test_urand(&rng_state) * 4294967296.0); }
 
-static unsigned char *read_all(const char *path, long *size)
-{
-    FILE *f = fopen(path, "rb");
-    unsigned char *buf = NULL;
-    if (!f) return NULL;
-    if (fseek(f, 0, SEEK_END) == 0 && (*size = ftell(f)) > 0 && fseek(f, 0, SEEK_SET) == 0 &&
-        (buf = malloc((size_t)*size)) && fread(buf, 1, (size_t)*size, f) != (size_t)*size) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    return buf;
-}
-
 static int write_all(const char *path, const unsigned char *buf, long size)
 {
     FILE *f = fopen(path, "wb");
@@ -121,7 +107,7 @@ int main(void)
     int worst_copy = -1;
     char path[1024], file_set[1100];
     for (i = 0; i < 2; i++) {
-        orig[i] = read_all(test_data(sources[i]), &size[i]);
+        orig[i] = test_read_file(test_data(sources[i]), &size[i]);
         CHECK_MSG(orig[i] != NULL, "cannot read %s", test_data(sources[i]));
         if (!orig[i]) return test_finish("test_hostile_vdb");
     }

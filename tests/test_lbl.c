@@ -176,33 +176,9 @@ static void test_options_and_empty(void)
     vsd_volume_destroy(empty);
 }
 
-/* fire96 at 64x36 in a black world: measured lbl VolumeDir 0.24 and VolumeInd 0.31 at
- * 96x54 against 256 spp (means +6% / +7%) */
-static void test_emission_split(void)
-{
-    const char *ref_ov[] = {"render.method=reference", "render.samples=256", "film.width=64", "film.height=36",
-                            "environment.file=null", "environment.color=[0,0,0]"};
-    const char *lbl_ov[] = {"render.method=lbl", "film.width=64", "film.height=36", "environment.file=null",
-                            "environment.color=[0,0,0]"};
-    vsd_scene ref_sc, lbl_sc;
-    vsd_framebuffer *ref = NULL, *lbl = NULL;
-    printf("[5] fire96 in a black world: emission scattered once is VolumeDir\n");
-    if (!test_load_scene("scenes/fire96_studio.json", ref_ov, 6, &ref_sc) ||
-        !test_load_scene("scenes/fire96_studio.json", lbl_ov, 5, &lbl_sc))
-        return;
-    ref = test_render_fresh(&ref_sc, NULL, NULL, NULL, 48, NULL);
-    lbl = test_render_fresh(&lbl_sc, NULL, NULL, NULL, 48, NULL);
-    if (ref && lbl) {
-        double dir = test_rel_err(lbl, ref, VSD_PASS_VOLUME_DIR), ind = test_rel_err(lbl, ref, VSD_PASS_VOLUME_IND);
-        double mdir = test_pass_sum(lbl, VSD_PASS_VOLUME_DIR) / test_pass_sum(ref, VSD_PASS_VOLUME_DIR);
-        double mind = test_pass_sum(lbl, VSD_PASS_VOLUME_IND) / test_pass_sum(ref, VSD_PASS_VOLUME_IND);
-        printf("    VolumeDir %.4f (mean ratio %.3f), VolumeInd %.4f (mean ratio %.3f)\n", dir, mdir, ind, mind);
-        CHECK_MSG(dir < 0.4 && ind < 0.5, "fire96 black world: VolumeDir %.4f, VolumeInd %.4f", dir, ind);
-        CHECK_MSG(fabs(mdir - 1.0) < 0.2 && fabs(mind - 1.0) < 0.2, "mean ratios %.3f / %.3f", mdir, mind);
-    }
-    vsd_framebuffer_destroy(ref);
-    vsd_framebuffer_destroy(lbl);
-}
+/* fire96 in a black world at 64x36 against 256 spp: measured lbl VolumeDir 0.216 and VolumeInd
+ * 0.339, means +5.5% / +9.0% */
+static void test_emission_split(void) { test_check_emission_split("[5]", "lbl", 0.4, 0.5, 0.2, 0.2); }
 
 int main(void)
 {

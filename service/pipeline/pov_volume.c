@@ -4,27 +4,14 @@
 #include <math.h>
 #include <string.h>
 
-static void mat_mul(const double a[16], const double b[16], double c[16])
-{
-    double r[16];
-    int i, j, k;
-    for (i = 0; i < 4; i++)
-        for (j = 0; j < 4; j++) {
-            double s = 0;
-            for (k = 0; k < 4; k++) s += a[i * 4 + k] * b[k * 4 + j];
-            r[i * 4 + j] = s;
-        }
-    memcpy(c, r, sizeof r);
-}
-
 void vsd_pov_box_matrix(const vsd_df3 *d, const vsd_volume *grid, const double object_matrix[16], double out[16])
 {
     static const int swap[4] = {0, 2, 1, 3};
     double box[16], m[16];
     int i, j;
     vsd_df3_box_to_index(d, box);
-    mat_mul(grid->index_to_world, box, m);  /* box -> the grid's world */
-    mat_mul(object_matrix, m, m);           /* -> vsd world (volume.matrix after the grid's) */
+    vsd_mat4_mul(grid->index_to_world, box, m);  /* box -> the grid's world */
+    vsd_mat4_mul(object_matrix, m, m);           /* -> vsd world (volume.matrix after the grid's) */
     /* -> POV-Ray world: swap the output rows only. The box's own axes stay x, y, z: the
      * df3 layout fixes them. */
     for (i = 0; i < 4; i++)

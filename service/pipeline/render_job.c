@@ -19,10 +19,9 @@ static const struct { const char *flag, *key; } k_field_flags[] = {
     {"--samples", "render.samples"}, {"--seed", "render.seed"}, {"--device", "render.device"},
     {"--threads", "render.threads"},
 };
-/* Every option that takes a value (so that a value is never read as a file). */
-static const char *const k_valued[] = {"--method", "--width", "--height", "--samples", "--seed", "--device",
-                                       "--threads", "--set", "--frames", "--output", "-o", "--preview",
-                                       "--token-file", "--cache-dir", NULL};
+/* The other options that take a value. */
+static const char *const k_other_valued[] = {"--set", "--frames", "--output", "-o", "--preview", "--token-file",
+                                             "--cache-dir", NULL};
 
 void vsd_render_job_usage(FILE *f)
 {
@@ -53,9 +52,12 @@ void vsd_render_job_usage(FILE *f)
                "over scene file.\n");
 }
 
+/* Every option that takes a value (so that a value is never read as a file). */
 static int takes_value(const char *arg)
 {
-    for (const char *const *v = k_valued; *v; v++)
+    for (size_t k = 0; k < sizeof k_field_flags / sizeof k_field_flags[0]; k++)
+        if (strcmp(arg, k_field_flags[k].flag) == 0) return 1;
+    for (const char *const *v = k_other_valued; *v; v++)
         if (strcmp(arg, *v) == 0) return 1;
     return 0;
 }

@@ -43,3 +43,17 @@ int test_finish(const char *name)
     printf("%s: all checks passed\n", name);
     return 0;
 }
+
+unsigned char *test_read_file(const char *path, long *size)
+{
+    FILE *f = fopen(path, "rb");
+    unsigned char *buf = NULL;
+    if (!f) return NULL;
+    if (fseek(f, 0, SEEK_END) == 0 && (*size = ftell(f)) > 0 && fseek(f, 0, SEEK_SET) == 0 &&
+        (buf = malloc((size_t)*size)) && fread(buf, 1, (size_t)*size, f) != (size_t)*size) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    return buf;
+}

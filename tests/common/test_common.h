@@ -33,5 +33,8 @@ void test_random_dir(unsigned long long *state, double d[3]);
 
 /* Return the exit status: 0 when no CHECK failed. Prints a summary. */
 int test_finish(const char *name);
+/* A whole file into a malloc'd buffer (*size bytes), or NULL when it cannot be read or is
+ * empty. */
+unsigned char *test_read_file(const char *path, long *size);
 
 #endif

@@ -5,6 +5,7 @@
 #include "test_common.h"
 #include "vsd/compare.h"
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -208,6 +209,43 @@ vsd_volume *test_ball_volume(void)
     CHECK(vsd_volume_create_dense(v, dims, lo, m, &vol, NULL, 0) == VSD_OK);
     free(v);
     return vol;
+}
+
+void test_check_emission_split(const char *label, const char *method, double tol_dir, double tol_ind,
+                               double ratio_dir, double ratio_ind)
+{
+    static const char *const black[] = {"film.width=64", "film.height=36", "environment.file=null",
+                                        "environment.color=[0,0,0]"};
+    const char *ref_ov[6], *m_ov[5];
+    char method_ov[160];
+    vsd_scene ref_sc, m_sc;
+    vsd_framebuffer *ref = NULL, *m = NULL;
+    int i;
+    snprintf(method_ov, sizeof method_ov, "render.method=%s", method);
+    for (i = 0; i < 4; i++) ref_ov[i] = m_ov[i] = black[i];
+    ref_ov[4] = "render.method=reference";
+    ref_ov[5] = "render.samples=256";
+    m_ov[4] = method_ov;
+    printf("%s fire96 in a black world: emission scattered once is VolumeDir\n", label);
+    if (!test_load_scene("scenes/fire96_studio.json", ref_ov, 6, &ref_sc) ||
+        !test_load_scene("scenes/fire96_studio.json", m_ov, 5, &m_sc))
+        return;
+    ref = test_render_fresh(&ref_sc, NULL, NULL, NULL, 48, NULL);
+    m = test_render_fresh(&m_sc, NULL, NULL, NULL, 48, NULL);
+    CHECK(ref && m);
+    if (ref && m) {
+        double dir = test_rel_err(m, ref, VSD_PASS_VOLUME_DIR), ind = test_rel_err(m, ref, VSD_PASS_VOLUME_IND);
+        double mdir = test_pass_sum(m, VSD_PASS_VOLUME_DIR) / test_pass_sum(ref, VSD_PASS_VOLUME_DIR);
+        double mind = test_pass_sum(m, VSD_PASS_VOLUME_IND) / test_pass_sum(ref, VSD_PASS_VOLUME_IND);
+        printf("    %s VolumeDir %.4f (mean ratio %.3f), VolumeInd %.4f (mean ratio %.3f)\n", method, dir, mdir, ind,
+               mind);
+        CHECK_MSG(dir < tol_dir && ind < tol_ind, "%s fire96 black world: VolumeDir %.4f, VolumeInd %.4f", method, dir,
+                  ind);
+        CHECK_MSG(fabs(mdir - 1.0) < ratio_dir && fabs(mind - 1.0) < ratio_ind, "%s mean ratios %.3f / %.3f", method,
+                  mdir, mind);
+    }
+    vsd_framebuffer_destroy(ref);
+    vsd_framebuffer_destroy(m);
 }
 
 const char *const test_ball_json =

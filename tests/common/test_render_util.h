@@ -38,6 +38,14 @@ void test_check_pass_sum(const char *what, const vsd_framebuffer *fb);
  * ref's Combined must each fail `tol`. */
 void test_check_controls(const char *what, const vsd_framebuffer *method, const vsd_framebuffer *ref, double tol);
 
+/* Emission scattered once is VolumeDir, as in `reference` and Cycles: fire96 frame 48 at
+ * 64x36 in a black world (all scattered light is emission's), `method` against a 256-spp
+ * reference. Checks VolumeDir and VolumeInd's relative errors below tol_dir / tol_ind and
+ * each pass's mean within ratio_dir / ratio_ind of the reference's (all of it in VolumeInd
+ * scores VolumeDir 1.0). `label` heads the printout. */
+void test_check_emission_split(const char *label, const char *method, double tol_dir, double tol_ind,
+                               double ratio_dir, double ratio_ind);
+
 /* A homogeneous ball: 32^3 voxels over [0,2]^3 (voxel 1/16), density 1 within 12 voxels
  * (0.75) of the centre; with test_ball_json (medium density 4: optical radius 3, albedo
  * 0.9, g 0, a uniform white environment, an orthographic camera, 32x32, method crm) a few

@@ -70,6 +70,11 @@ void vsd_volume_world_bounds(const vsd_volume *vol, const double object_matrix[1
 
 void vsd_volume_destroy(vsd_volume *vol);
 
+/* 4x4 row-major matrices (volume.matrix, index_to_world, the camera's): c = a * b (c may
+ * be a or b); the inverse returns 0 when m is singular. */
+void vsd_mat4_mul(const double a[16], const double b[16], double c[16]);
+int vsd_mat4_invert(const double m[16], double inv[16]);
+
 #ifdef __cplusplus
 }
 #endif

@@ -30,9 +30,12 @@ typedef struct order_job {
     double albedo[3];
 } order_job;
 
-/* with_emission: the first order, whose light also comes from the medium's own emission
- * (the march reads sigma J + emission per unit length as its source) */
-static void fill_pad(coarse_grid *g, int with_emission)
+/* What a march reads as its source per unit length: sigma J (the orders after the first),
+ * sigma J + emission (the first order: the medium's own light scatters too), or the
+ * emission alone (its once-scattered part, which Cycles counts as direct). */
+typedef enum { SOURCE_J, SOURCE_J_EMISSION, SOURCE_EMISSION } source_kind;
+
+static void fill_pad(coarse_grid *g, source_kind kind)
 {
     int32_t i, j, k, c;
     for (k = 0; k < g->res[2]; k++)
@@ -42,7 +45,8 @@ static void fill_pad(coarse_grid *g, int with_emission)
                 float *p = g->pad + 4 * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
                 p[0] = g->sigma[n];
                 for (c = 0; c < 3; c++)
-                    p[1 + c] = g->sigma[n] * g->j[3 * n + c] + (with_emission && g->emit ? g->emit[3 * n + c] : 0.0f);
+                    p[1 + c] = (kind == SOURCE_EMISSION ? 0.0f : g->sigma[n] * g->j[3 * n + c]) +
+                               (kind != SOURCE_J && g->emit ? g->emit[3 * n + c] : 0.0f);
             }
 }
 
@@ -200,17 +204,13 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
          * It is in J_2 (the first order gathers sigma J_1 + emission), but Cycles counts it
          * as direct light (docs/design-notes.md, "Passes"): it is taken out of J_ms below
          * and written into the single-scattering band 0, so the view puts it in VolumeDir. */
-        memcpy(ms, g.j, sizeof(float) * 3 * g.n);          /* ms holds J_1 for a moment */
-        memset(g.j, 0, sizeof(float) * 3 * g.n);
-        fill_pad(&g, 1);
+        fill_pad(&g, SOURCE_EMISSION);
         if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
         memcpy(je, g.next, sizeof(float) * 3 * g.n);
-        memcpy(g.j, ms, sizeof(float) * 3 * g.n);
-        memset(ms, 0, sizeof(float) * 3 * g.n);
     }
     for (k = 0; k < max_orders; k++) {
         double sum = 0.0;
-        fill_pad(&g, k == 0);
+        fill_pad(&g, k == 0 ? SOURCE_J_EMISSION : SOURCE_J);
         if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
         for (i = 0; i < 3 * g.n; i++) {
             ms[i] += g.next[i];
@@ -240,7 +240,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), band 0 only */
     if (je) {
         memcpy(g.j, je, sizeof(float) * 3 * g.n);
-        fill_pad(&g, 0);
+        fill_pad(&g, SOURCE_J);
         for (i = 0; i < fine; i++) {
             float *ss = nodes + i * CRM_NODE_FLOATS, smp[4];
             double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
@@ -253,7 +253,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         }
     }
     memcpy(g.j, ms, sizeof(float) * 3 * g.n);
-    fill_pad(&g, 0);
+    fill_pad(&g, SOURCE_J);
     for (i = 0; i < fine; i++) {
         float *out = nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;
         double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;

@@ -113,23 +113,36 @@ static vsd_status run_step(step_job *job, int threads)
     return st ? st : vsd_cpu_run_items(job->l->res[2], threads, stream_slices, job, "lbl diffusion");
 }
 
+/* A step job over l with its scratch (post-collision populations, per-node gain); 0 when
+ * that scratch could not be allocated (step_job_free in either case). */
+static int step_job_init(step_job *job, vsd_lbl_lattice *l, const float *collide, const float albedo[3],
+                         const float *source)
+{
+    int c;
+    job->l = l;
+    job->collide = collide;
+    job->source = source;
+    for (c = 0; c < CH; c++) job->albedo[c] = albedo[c];
+    job->post = malloc(l->cells * DIRS * CH * sizeof *job->post);
+    job->gain = malloc(l->cells * sizeof *job->gain);
+    return job->post && job->gain;
+}
+
+static void step_job_free(step_job *job)
+{
+    free(job->post);
+    free(job->gain);
+}
+
 void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source)
 {
     step_job job;
-    int c;
     if (!l->f) return;
-    job.l = l;
-    job.collide = collide;
-    job.source = source;
-    for (c = 0; c < CH; c++) job.albedo[c] = albedo[c];
-    job.post = malloc(l->cells * DIRS * CH * sizeof *job.post);
-    job.gain = malloc(l->cells * sizeof *job.gain);
-    if (job.post && job.gain) {
+    if (step_job_init(&job, l, collide, albedo, source)) {
         collide_slices(&job, 0, 0, l->res[2], 1);
         stream_slices(&job, 0, 0, l->res[2], 1);
     }
-    free(job.post);
-    free(job.gain);
+    step_job_free(&job);
 }
 
 /* The photons at node c in channel ch: the sum of its six arriving populations. */
@@ -181,16 +194,9 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     int k, ch;
     memset(stats, 0, sizeof *stats);
     if (!l->f) return VSD_OK;
-    job.l = l;
-    job.collide = collide;
-    job.source = source;
-    for (ch = 0; ch < CH; ch++) job.albedo[ch] = albedo[ch];
-    job.post = malloc(l->cells * DIRS * CH * sizeof *job.post);
-    job.gain = malloc(l->cells * sizeof *job.gain);
     probes = malloc(((l->cells + 6) / 7) * CH * sizeof *probes);
-    if (!job.post || !job.gain || !probes) {
-        free(job.post);
-        free(job.gain);
+    if (!step_job_init(&job, l, collide, albedo, source) || !probes) {
+        step_job_free(&job);
         free(probes);
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lattice's collision buffers");
     }
@@ -215,8 +221,7 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
             last = now;
         }
     }
-    free(job.post);
-    free(job.gain);
+    step_job_free(&job);
     free(probes);
     for (ch = 0; ch < CH; ch++)
         for (c = 0; c < l->cells; c++) fluence[(size_t)ch * l->cells + c] = node_sum(l, ch, c);

@@ -32,8 +32,4 @@ void vsd_kcamera_setup(vsd_kcamera *kc, const vsd_scene *scene);
 /* Medium, film and camera from the scene (volumes and env set separately). */
 void vsd_kernel_data_from_scene(vsd_kernel_data *kd, const vsd_scene *scene);
 
-/* 4x4 row-major helpers (double): c = a * b; inverse returns 0 when singular. */
-void vsd_mat4_mul(const double a[16], const double b[16], double c[16]);
-int vsd_mat4_invert(const double m[16], double inv[16]);
-
 #endif
