@@ -1,7 +1,9 @@
 /* Is a frame already rendered? The scene hash a frame's EXR records, and the check that
  * `vsd render --continue` and `vsd farm status` make before rendering it again. */
+#define _POSIX_C_SOURCE 200809L
 #include "vsd/render.h"
 #include <errno.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -15,19 +17,94 @@ static void hash_int(XXH3_state_t *h, int v) { hash_bytes(h, &v, sizeof v); }
 static void hash_floats(XXH3_state_t *h, const float *v, int n) { hash_bytes(h, v, sizeof *v * (size_t)n); }
 static void hash_doubles(XXH3_state_t *h, const double *v, int n) { hash_bytes(h, v, sizeof *v * (size_t)n); }
 
-static vsd_status hash_file(XXH3_state_t *h, const char *path, char *err, size_t errlen)
+/* The last files digested, by identity (device, inode, size, modification time): a
+ * sequence's environment map, and a frame's VDB that the --continue check and the writer
+ * both hash, are read once, not once per frame and per use. A file rewritten in place
+ * changes its modification time, so it is read again. A hit is checked with stat() before
+ * the file is opened. */
+typedef struct file_digest {
+    dev_t dev;
+    ino_t ino;
+    off_t size;
+    struct timespec mtime;
+    XXH128_hash_t digest;
+    int used;
+    unsigned long long last_use;  /* the least recently used entry is replaced */
+} file_digest;
+
+static file_digest g_digests[8];
+static unsigned long long g_digest_clock;
+static pthread_mutex_t g_digest_lock = PTHREAD_MUTEX_INITIALIZER;
+
+static int same_file(const file_digest *c, const struct stat *sb)
+{
+    return c->used && c->dev == sb->st_dev && c->ino == sb->st_ino && c->size == sb->st_size &&
+           c->mtime.tv_sec == sb->st_mtim.tv_sec && c->mtime.tv_nsec == sb->st_mtim.tv_nsec;
+}
+
+/* XXH3-128 of a file's bytes into *out. */
+static vsd_status file_digest_of(const char *path, XXH128_hash_t *out, char *err, size_t errlen)
 {
     unsigned char buf[1 << 16];
+    struct stat sb;
     size_t n;
-    FILE *f = fopen(path, "rb");
+    unsigned i;
+    int known;
+    XXH3_state_t *h;
+    FILE *f;
+    known = stat(path, &sb) == 0;
+    if (known) {
+        pthread_mutex_lock(&g_digest_lock);
+        for (i = 0; i < sizeof g_digests / sizeof g_digests[0]; i++)
+            if (same_file(&g_digests[i], &sb)) {
+                *out = g_digests[i].digest;
+                g_digests[i].last_use = ++g_digest_clock;
+                pthread_mutex_unlock(&g_digest_lock);
+                return VSD_OK;
+            }
+        pthread_mutex_unlock(&g_digest_lock);
+    }
+    f = fopen(path, "rb");
     if (!f) return vsd_fail(VSD_ERR_IO, err, errlen, "%s: %s", path, strerror(errno));
-    while ((n = fread(buf, 1, sizeof buf, f)) > 0) hash_bytes(h, buf, n);
+    /* the identity of what is read (the file may have been replaced since the stat) */
+    known = fstat(fileno(f), &sb) == 0;
+    if (!(h = XXH3_createState())) {
+        fclose(f);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "out of memory hashing %s", path);
+    }
+    XXH3_128bits_reset(h);
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0) XXH3_128bits_update(h, buf, n);
+    *out = XXH3_128bits_digest(h);
+    XXH3_freeState(h);
     if (ferror(f)) {
         fclose(f);
         return vsd_fail(VSD_ERR_IO, err, errlen, "%s: read error", path);
     }
     fclose(f);
+    if (!known) return VSD_OK;
+    pthread_mutex_lock(&g_digest_lock);
+    {
+        file_digest *c = &g_digests[0];
+        for (i = 1; i < sizeof g_digests / sizeof g_digests[0]; i++)
+            if (g_digests[i].last_use < c->last_use) c = &g_digests[i];
+        c->dev = sb.st_dev;
+        c->ino = sb.st_ino;
+        c->size = sb.st_size;
+        c->mtime = sb.st_mtim;
+        c->digest = *out;
+        c->used = 1;
+        c->last_use = ++g_digest_clock;
+    }
+    pthread_mutex_unlock(&g_digest_lock);
     return VSD_OK;
+}
+
+static vsd_status hash_file(XXH3_state_t *h, const char *path, char *err, size_t errlen)
+{
+    XXH128_hash_t d;
+    vsd_status st = file_digest_of(path, &d, err, errlen);
+    if (!st) hash_bytes(h, &d, sizeof d);
+    return st;
 }
 
 /* Everything in vsd_scene that changes pixels. Left out: base_dir, frames (a farm splits
