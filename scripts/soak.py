@@ -360,7 +360,9 @@ def soak(vsd, data, tmp, clients=8, jobs=400, cache_mb=64, workers=2, seed=16, s
         fig["outcomes"] = outcomes
         fig["retries"] = counters
         fig["stats_jobs"] = st["jobs"]
-        fig["stats_cache"] = {k: st["cache"][k] for k in ("budget_bytes", "peak_bytes", "evictions")}
+        fig["stats_cache"] = {k: st["cache"][k] for k in ("budget_bytes", "peak_bytes", "evictions",
+                                                          "admission_waits", "blob_budget_bytes",
+                                                          "blob_peak_bytes")}
         for job, o, _, detail in results:
             if o == "failed":
                 problems.append("job %d (%s %s frame %d %dx%d, %s) failed: %s" % (
@@ -378,6 +380,9 @@ def soak(vsd, data, tmp, clients=8, jobs=400, cache_mb=64, workers=2, seed=16, s
         if st["cache"]["peak_bytes"] > st["cache"]["budget_bytes"]:
             problems.append("STATS cache peak %d above the budget %d" % (st["cache"]["peak_bytes"],
                                                                        st["cache"]["budget_bytes"]))
+        if st["cache"]["blob_peak_bytes"] > st["cache"]["blob_budget_bytes"]:
+            problems.append("STATS blob peak %d above the blob budget %d" % (
+                st["cache"]["blob_peak_bytes"], st["cache"]["blob_budget_bytes"]))
 
         lat = {}
         for job, o, dt, _ in results:

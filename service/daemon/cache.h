@@ -1,6 +1,7 @@
-/* cache.h — the daemon's caches under one memory budget (--cache-mb): blobs, parsed
- * volumes and maps (decoded by loader.h on a miss) and renderers. Below the jobs, above
- * the loader and the bottom layer; takes its own lock (never g_daemon.lock inside it). */
+/* cache.h — the daemon's caches: blobs under a disk budget (--blob-mb); parsed volumes
+ * and maps (decoded by loader.h on a miss) and renderers under a memory budget
+ * (--cache-mb). Below the jobs, above the loader and the bottom layer; takes its own lock
+ * (never g_daemon.lock inside it). */
 #ifndef VSD_DAEMON_CACHE_H
 #define VSD_DAEMON_CACHE_H
 #include "reply.h"
@@ -42,26 +43,30 @@ typedef struct vsdd_slot {
     char method[32];               /* render.method: what learned_bytes is kept by */
     int64_t held;                  /* heap bytes the renderer was seen to keep (sum of the
                                       allocator's in-use growth over its create and renders) */
+    uint64_t heap_start;           /* the heap in use at the render's begin */
+    uint64_t peak;                 /* the most it was seen to hold, this job */
 } vsdd_slot;
 /* The renderer's progress callback; `user` is the slot. Passed in by the jobs layer, so
  * the cache does not call up into it. */
 typedef void (*vsdd_slot_progress_fn)(void *user, const char *stage, float fraction);
-/* Find an idle renderer for key or create one. Takes over the caller's pins in every case
- * (kept by a new slot, released on a hit or a failure); returns 0 or -vsd_status.
- * The slot is in use until vsdd_cache_release_slot. */
+/* Find an idle renderer for key or create one. A new one first waits until the memory
+ * budget can hold it, or until no other renderer is busy (then it renders alone and is not
+ * kept); raising *cancel ends the wait with -VSD_ERR_CANCELLED. Takes over the caller's
+ * pins in every case (kept by a new slot, released on a hit or a failure); returns 0 or
+ * -vsd_status. The slot is in use until vsdd_cache_release_slot. */
 int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
-                        vsdd_slot_progress_fn progress, vsdd_slot **out, int *hit, char *msg, size_t msglen);
+                        vsdd_slot_progress_fn progress, volatile int *cancel, vsdd_slot **out, int *hit, char *msg,
+                        size_t msglen);
 void vsdd_cache_release_slot(vsdd_slot *s, int keep);
-/* The heap in use now (glibc's mallinfo2: arenas plus mmap'd blocks), for measuring what a
- * renderer keeps. */
+/* The heap in use now (glibc's mallinfo2: arenas plus mmap'd blocks). */
 uint64_t vsdd_heap_in_use(void);
-/* A render of slot s changed the heap in use by `grown` bytes (the framebuffer it made
- * left out). A renderer's memory cannot be asked for, and a fixed estimate let crm's
- * ~50 MB renderers fill RSS to several times the budget (docs/soak.md): the slot is counted
- * at what it was seen to hold, idle entries are evicted to keep the budget, a slot larger
- * than the whole budget is dropped after its job, and the size is remembered per method
- * as the first estimate of its next new slot. With several workers the growth of the
- * others' renders is mixed in: an estimate, not an exact count. */
-void vsdd_cache_slot_grew(vsdd_slot *s, int64_t grown);
+/* Around one render of slot s. A renderer's memory cannot be asked for, and a fixed
+ * estimate let crm's ~50 MB renderers fill RSS to several times the budget
+ * (docs/soak.md): at the end the slot is counted at what the render left allocated (the
+ * growth of the heap in use, less the framebuffer_bytes it made, when ok), evicting idle
+ * entries to make room, and that size becomes the first estimate of its method's next new
+ * renderer. With several workers the others' growth is mixed in: an estimate. */
+void vsdd_cache_render_begin(vsdd_slot *s);
+void vsdd_cache_render_end(vsdd_slot *s, int64_t framebuffer_bytes, int ok);
 
 #endif

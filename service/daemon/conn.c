@@ -40,6 +40,7 @@ static cJSON *limits_json(void)
     cJSON_AddNumberToObject(l, "workers", cfg->workers);
     cJSON_AddNumberToObject(l, "max_connections", cfg->max_connections);
     cJSON_AddNumberToObject(l, "cache_bytes", (double)cfg->cache_bytes);
+    cJSON_AddNumberToObject(l, "blob_bytes", (double)cfg->blob_bytes);
     cJSON_AddNumberToObject(l, "max_has_hashes", MAX_HAS);
     return l;
 }

@@ -10,7 +10,8 @@
  *        |
  *     render_job.c                 one RENDER in four steps (render_job_steps.h):
  *        |                         _parse -> _inputs -> _render -> _reply, one vsdd_err
- *     cache.c                      blobs, volumes, maps, renderers under --cache-mb
+ *     cache.c                      blobs (--blob-mb), volumes, maps (--cache-mb)
+ *        '- cache_slots.c          renderers: admission by memory, sizes learned per method
  *        |
  *     loader.c                     decode a VDB / map: isolated (default) or in-process
  *        |- loader_isolated.c      daemon side: request to the zygote, deadline, status

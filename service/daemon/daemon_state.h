@@ -28,7 +28,9 @@ typedef struct vsdd_config {
     char cache_parent[VSD_PATH_LEN];
     char cache_dir[VSD_PATH_LEN];  /* private folder made at start, removed at exit */
     char method_cache[VSD_PATH_LEN]; /* methods' work kept between runs (crm fits); "" = none */
-    uint64_t cache_bytes;
+    uint64_t cache_bytes;          /* --cache-mb: volumes, maps, renderers (memory) */
+    uint64_t blob_bytes;           /* --blob-mb: blob files (disk), a budget of their own so
+                                      memory pressure never evicts an upload before its RENDER */
     int workers, threads, queue_max, max_connections;
     uint64_t max_message;          /* binary part of one frame (a PUT blob) */
     uint32_t max_json;             /* JSON part of one frame */

@@ -52,26 +52,58 @@ static void slot_progress(void *user, const char *stage, float fraction)
 static int get_slot(vsdd_run *run)
 {
     const vsd_scene *sc = &run->sc;
+    vsdd_job *j = run->job;
     char key[12000], err[2048];
+    volatile int wait_cancel;
     int rc;
     snprintf(key, sizeof key, "%s|%s|%s|%s|%d|%s|%s|%s|%s", sc->render.method, sc->render.options_json, run->vsrc,
              sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid, run->esrc, sc->environment.colorspace,
              vsd_scene_ior_grid(sc));
-    rc = vsdd_cache_get_slot(key, sc, run->pins, slot_progress, &run->slot, &run->slot_hit, err, sizeof err);
+    /* a new renderer may wait for memory: a cancel, a disconnect or the job's time limit
+     * ends the wait through this flag as it would end a render */
+    pthread_mutex_lock(&g_daemon.lock);
+    wait_cancel = j->cancel_reason != VSDD_CANCEL_NONE;
+    j->cancel_flag = &wait_cancel;
+    pthread_mutex_unlock(&g_daemon.lock);
+    rc = vsdd_cache_get_slot(key, sc, run->pins, slot_progress, &wait_cancel, &run->slot, &run->slot_hit, err,
+                             sizeof err);
+    pthread_mutex_lock(&g_daemon.lock);
+    j->cancel_flag = NULL;
+    pthread_mutex_unlock(&g_daemon.lock);
     memset(run->pins, 0, sizeof run->pins); /* the slot owns them now, or get_slot released them */
+    if (rc == -(int)VSD_ERR_CANCELLED) return rc;
     if (rc) return vsdd_fail(&run->err, code_for_status((vsd_status)-rc), "%s", err);
     return 0;
 }
 
-int vsdd_step_render(vsdd_run *run)
+/* The job's one error for a cancel (VSDD_CANCEL_* reason), while waiting or rendering. */
+static int cancelled(vsdd_run *run, int reason)
 {
     static const char *const reasons[] = {"cancelled", "cancelled by the client", "client disconnected",
                                           "the job ran past max_job_seconds", "the daemon is shutting down"};
+    run->cancel_reason = reason;
+    vsdd_fail(&run->err,
+              reason == VSDD_CANCEL_TIMEOUT    ? VSD_E_TIMEOUT
+              : reason == VSDD_CANCEL_SHUTDOWN ? VSD_E_SHUTDOWN
+                                               : VSD_E_CANCELLED,
+              "%s", reasons[reason >= 0 && reason < 5 ? reason : 0]);
+    return VSDD_STEP_CANCELLED;
+}
+
+int vsdd_step_render(vsdd_run *run)
+{
     vsdd_job *j = run->job;
     char prep[1024], err[2048];
     vsd_status st;
-    int reason;
-    if (get_slot(run)) return VSDD_STEP_FAILED;
+    int reason, rc;
+    rc = get_slot(run);
+    if (rc == -(int)VSD_ERR_CANCELLED) {
+        pthread_mutex_lock(&g_daemon.lock);
+        reason = j->cancel_reason;
+        pthread_mutex_unlock(&g_daemon.lock);
+        return cancelled(run, reason);
+    }
+    if (rc) return VSDD_STEP_FAILED;
     prep_key_of(&run->sc, prep, sizeof prep);
     run->prep_hit = run->slot_hit && strcmp(prep, run->slot->prep_key) == 0;
     pthread_mutex_lock(&g_daemon.lock);
@@ -82,13 +114,12 @@ int vsdd_step_render(vsdd_run *run)
     run->slot->last_fraction = 0;
     pthread_mutex_unlock(&g_daemon.lock);
     {
-        /* what the renderer keeps: the heap's growth over the render, less a framebuffer it
-         * makes (the job frees that after the reply) */
-        int64_t before = (int64_t)vsdd_heap_in_use(), fb_bytes = run->fb ? 0
-            : (int64_t)run->sc.film.width * run->sc.film.height * 17 * (int64_t)sizeof(float);
+        /* the framebuffer the render makes is the job's (freed after the reply), not the
+         * renderer's */
+        int64_t fb_bytes = run->fb ? 0 : (int64_t)run->sc.film.width * run->sc.film.height * 17 * (int64_t)sizeof(float);
+        vsdd_cache_render_begin(run->slot);
         st = vsd_renderer_render(run->slot->r, run->frame, &run->fb, &run->stats, err, sizeof err);
-        if (st == VSD_OK)
-            vsdd_cache_slot_grew(run->slot, (int64_t)vsdd_heap_in_use() - before - (run->fb ? fb_bytes : 0));
+        vsdd_cache_render_end(run->slot, run->fb ? fb_bytes : 0, st == VSD_OK);
     }
     pthread_mutex_lock(&g_daemon.lock);
     j->cancel_flag = NULL;
@@ -97,15 +128,7 @@ int vsdd_step_render(vsdd_run *run)
     pthread_mutex_unlock(&g_daemon.lock);
     if (st == VSD_OK && reason == VSDD_CANCEL_NONE)
         snprintf(run->slot->prep_key, sizeof run->slot->prep_key, "%s", prep);
-    if (reason != VSDD_CANCEL_NONE || st == VSD_ERR_CANCELLED) {
-        run->cancel_reason = reason;
-        vsdd_fail(&run->err,
-                  reason == VSDD_CANCEL_TIMEOUT    ? VSD_E_TIMEOUT
-                  : reason == VSDD_CANCEL_SHUTDOWN ? VSD_E_SHUTDOWN
-                                                   : VSD_E_CANCELLED,
-                  "%s", reasons[reason < 5 ? reason : 0]);
-        return VSDD_STEP_CANCELLED;
-    }
+    if (reason != VSDD_CANCEL_NONE || st == VSD_ERR_CANCELLED) return cancelled(run, reason);
     if (st) {
         vsdd_fail(&run->err, code_for_status(st), "%s", err);
         return VSDD_STEP_FAILED;

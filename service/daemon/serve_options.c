@@ -19,7 +19,9 @@ static void serve_usage(FILE *f)
             "  --listen-any           allow a non-loopback --tcp address\n"
             "  --token-file FILE      token TCP clients must send in HELLO\n"
             "  --allow-path DIR       RENDER may name files under DIR (repeatable; default: blobs only)\n"
-            "  --cache-mb N           memory budget of all caches (default 2048)\n"
+            "  --cache-mb N           memory budget of the decoded volumes, maps and kept renderers\n"
+            "                         (default 2048); a new renderer waits until it fits\n"
+            "  --blob-mb N            disk budget of uploaded blob files (default 4 * cache-mb)\n"
             "  --cache-dir DIR        where blob files live (default $TMPDIR or /tmp)\n"
             "  --method-cache DIR     where methods keep work between runs, e.g. crm's RBF fits (default\n"
             "                         $VSD_CACHE_DIR, else $XDG_CACHE_HOME/vsd or ~/.cache/vsd; 'none' = off)\n"
@@ -144,6 +146,9 @@ int vsdd_serve_options(int argc, char **argv, char *ready_file, size_t ready_len
         } else if (!strcmp(a, "--cache-mb")) {
             if (parse_u64(a, val, 1, 1ull << 24, &v)) return 2;
             c->cache_bytes = v << 20;
+        } else if (!strcmp(a, "--blob-mb")) {
+            if (parse_u64(a, val, 1, 1ull << 26, &v)) return 2;
+            c->blob_bytes = v << 20;
         } else if (!strcmp(a, "--cache-dir")) snprintf(c->cache_parent, sizeof c->cache_parent, "%s", val);
         else if (!strcmp(a, "--method-cache"))
             snprintf(c->method_cache, sizeof c->method_cache, "%s", strcmp(val, "none") ? val : "");
@@ -223,6 +228,7 @@ int vsdd_serve_options(int argc, char **argv, char *ready_file, size_t ready_len
     if (!c->lock_path[0]) snprintf(c->lock_path, sizeof c->lock_path, "%s.lock", c->socket_path);
     /* room for the largest grid the cache could keep, decoded beside OpenVDB's own tree,
      * plus the executable's libraries */
+    if (!c->blob_bytes) c->blob_bytes = 4 * c->cache_bytes;
     if (!c->loader_bytes) c->loader_bytes = 2 * c->cache_bytes + (1024ull << 20);
     if (c->threads == 0 && c->workers > 1) {
         long cores = sysconf(_SC_NPROCESSORS_ONLN);

@@ -86,6 +86,7 @@ static void daemon_start(void)
     snprintf(c->cache_parent, sizeof c->cache_parent, "%s", g_root);
     snprintf(c->token, sizeof c->token, "fuzz-token-0123");
     c->cache_bytes = 8u << 20;
+    c->blob_bytes = 32u << 20;
     c->workers = 1;
     c->threads = 1;
     c->queue_max = 4;

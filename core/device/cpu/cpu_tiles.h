@@ -8,7 +8,9 @@
 
 #define VSD_TILE_SIZE 16
 
-/* Work on the pixel rectangle [x0,x1) x [y0,y1). */
+/* Work on the pixel rectangle [x0,x1) x [y0,y1). For an image (height > 1) the pool
+ * passes one pixel at a time, checking the cancel flag between pixels, so each (x, y) must
+ * be computed on its own; item lists (height 1) come in ranges of VSD_TILE_SIZE. */
 typedef void (*vsd_tile_fn)(void *user, int x0, int y0, int x1, int y1);
 
 typedef struct vsd_tile_job {
@@ -23,7 +25,8 @@ typedef struct vsd_tile_job {
     volatile int *cancel;        /* may be 0 */
 } vsd_tile_job;
 
-/* Runs every tile; VSD_ERR_CANCELLED when *cancel became non-zero. */
+/* Runs every tile; VSD_ERR_CANCELLED when *cancel became non-zero (seen within one pixel of
+ * an image, or 16 items of a list, per thread). */
 vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job);
 
 /* fn over items [0, count) in ranges, as the x range of a count x 1 image (no progress,

@@ -1,0 +1,257 @@
+/* Renderer slots of the daemon's cache: a renderer kept per (method, options, inputs),
+ * counted in the memory budget at the heap it was seen to use. A new one is admitted when
+ * the budget can hold its method's last working size, or when no other renderer is busy
+ * (then it renders alone outside the budget and is not kept). Without the wait, renderers that did not fit rendered
+ * uncached beside a full cache, two at once with two workers, and RSS reached 1.8x the
+ * budget (docs/soak.md: why each of these was needed). */
+#define _GNU_SOURCE
+#include "cache_internal.h"
+#include <malloc.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+/* What each method's renderers were last seen to use at most within a job
+ * (vsdd_cache_render_end), the first estimate of a new one; lock held. */
+static struct { char method[32]; uint64_t bytes; } learned[16];
+
+static uint64_t *learned_bytes(const char *method)
+{
+    size_t i;
+    for (i = 0; i < sizeof learned / sizeof learned[0] && learned[i].method[0]; i++)
+        if (strcmp(learned[i].method, method) == 0) return &learned[i].bytes;
+    if (i == sizeof learned / sizeof learned[0]) return NULL;
+    snprintf(learned[i].method, sizeof learned[i].method, "%s", method);
+    learned[i].bytes = 0;
+    return &learned[i].bytes;
+}
+
+/* A renderer's first estimate, before it is measured: the sampling tables of the map plus
+ * as much again as the density grid, or its method's last working size if more. */
+static uint64_t slot_bytes(vsdd_entry *pins[VSDD_SLOT_PINS], const char *method)
+{
+    uint64_t b = 256 * 1024, *l = learned_bytes(method);
+    if (pins[0]) b += pins[0]->bytes;
+    if (pins[2] && pins[2]->env) b += (uint64_t)pins[2]->env->width * pins[2]->env->height * 8;
+    else b += 64 * 32 * 8;
+    return l && *l > b ? *l : b;
+}
+
+uint64_t vsdd_heap_in_use(void)
+{
+    struct mallinfo2 mi = mallinfo2();
+    return (uint64_t)mi.uordblks + (uint64_t)mi.hblkhd;
+}
+
+/* Lock held. Count the busy slot of entry e at `working` bytes when that is more than
+ * now: idle entries are evicted to make room (e is in use, so it stays); one that still
+ * does not fit is counted outside the budget until its job ends and is not kept, so that
+ * no other renderer is admitted beside it meanwhile. */
+static void grow_entry(vsdd_entry *e, uint64_t working)
+{
+    if (working <= e->bytes) return;
+    vsdd_cache_account(e, 0);
+    e->bytes = working;
+    if (!e->uncached && vsdd_cache_make_room(e->bytes)) {
+        e->uncached = 1;
+        snprintf(e->key, sizeof e->key, "(uncached)");
+    }
+    vsdd_cache_account(e, 1);
+}
+
+void vsdd_cache_render_begin(vsdd_slot *s)
+{
+    uint64_t heap = vsdd_heap_in_use();
+    pthread_mutex_lock(&g_cache.lock);
+    s->heap_start = heap;
+    s->peak = s->held > 0 ? (uint64_t)s->held : 0;
+    pthread_mutex_unlock(&g_cache.lock);
+}
+
+void vsdd_cache_render_end(vsdd_slot *s, int64_t framebuffer_bytes, int ok)
+{
+    uint64_t heap = vsdd_heap_in_use(), *l;
+    pthread_mutex_lock(&g_cache.lock);
+    if (ok) {
+        /* what it keeps: the growth over the render, less the framebuffer it made */
+        s->held += (int64_t)heap - (int64_t)s->heap_start - framebuffer_bytes;
+        if (s->held < 0) s->held = 0;
+        if ((uint64_t)s->held > s->peak) s->peak = (uint64_t)s->held;
+        /* the next new renderer of this method is first estimated at this one's working
+         * size: a rise taken at once, a fall slowly */
+        l = learned_bytes(s->method);
+        if (l) *l = s->peak >= *l ? s->peak : (*l * 3 + s->peak) / 4;
+    }
+    grow_entry(s->self, s->peak);
+    pthread_mutex_unlock(&g_cache.lock);
+}
+
+/* Lock held. Wait until a new renderer of `est` bytes is admitted: room in the memory
+ * budget (reserved, *cached = 1), or no other renderer busy (it renders alone outside the
+ * budget, *cached = 0). The jobs waiting here hold only their inputs' pins, and busy
+ * renderers end (max_job_seconds at worst), so the wait ends. -1 if *cancel is raised. */
+static int admit_renderer(uint64_t est, volatile int *cancel, int *cached)
+{
+    int waited = 0;
+    for (;;) {
+        /* a renderer running outside the budget counts here, or a second one would be
+         * admitted beside it into a cache that is full once it ends */
+        if (vsdd_cache_make_room(est + g_cache.uncached) == 0) {
+            g_cache.reserved += est;
+            *cached = 1;
+            break;
+        }
+        if (g_cache.busy_slots == 0) {
+            /* make_room above evicted every idle entry it could: a renderer larger than
+             * the budget renders beside nothing but the inputs of waiting jobs */
+            g_cache.uncached += est;
+            *cached = 0;
+            break;
+        }
+        if (cancel && *cancel) return -1;
+        if (!waited) {
+            g_cache.admission_waits++;
+            vsdd_log(VSDD_LOG_DEBUG, "cache: a new renderer (%llu bytes) waits for memory",
+                     (unsigned long long)est);
+            waited = 1;
+        }
+        {
+            struct timespec until;
+            clock_gettime(CLOCK_REALTIME, &until);
+            until.tv_nsec += 200 * 1000000L; /* the cancel flag has no condition variable */
+            if (until.tv_nsec >= 1000000000L) {
+                until.tv_sec++;
+                until.tv_nsec -= 1000000000L;
+            }
+            pthread_cond_timedwait(&g_cache.room, &g_cache.lock, &until);
+        }
+    }
+    g_cache.busy_slots++;
+    vsdd_cache_note_peaks();
+    return 0;
+}
+
+/* Lock held. Undo admit_renderer's reservation once the slot's entry is created or failed. */
+static void end_admission(uint64_t est, int cached)
+{
+    if (cached) g_cache.reserved -= est;
+    else g_cache.uncached -= est;
+}
+
+int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
+                        vsdd_slot_progress_fn progress, volatile int *cancel, vsdd_slot **out, int *hit, char *msg,
+                        size_t msglen)
+{
+    vsdd_entry *e;
+    vsdd_slot *s;
+    vsd_render_options ro;
+    vsd_status st;
+    uint64_t est;
+    int i, cached = 0;
+    *out = NULL;
+    *hit = 0;
+    pthread_mutex_lock(&g_cache.lock);
+    e = vsdd_cache_find(ENT_SLOT, key, 1);
+    if (e) {
+        e->refs = 1;
+        g_cache.busy_slots++;
+        vsdd_cache_touch(e);
+        g_cache.hits[ENT_SLOT]++;
+        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(pins[i]); /* the slot pins the same entries */
+        pthread_mutex_unlock(&g_cache.lock);
+        st = vsd_renderer_set_scene(e->slot->r, scene, msg, msglen);
+        if (st) {
+            vsdd_cache_release_slot(e->slot, 0);
+            return -(int)st;
+        }
+        *out = e->slot;
+        *hit = 1;
+        return 0;
+    }
+    g_cache.misses[ENT_SLOT]++;
+    est = slot_bytes(pins, scene->render.method);
+    if (admit_renderer(est, cancel, &cached)) {
+        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(pins[i]);
+        pthread_mutex_unlock(&g_cache.lock);
+        snprintf(msg, msglen, "cancelled while waiting for memory");
+        return -(int)VSD_ERR_CANCELLED;
+    }
+    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_cache_trim_after_evictions(); /* before the new renderer allocates beside what was evicted */
+    s = calloc(1, sizeof *s);
+    e = calloc(1, sizeof *e);
+    if (!s || !e) {
+        free(s);
+        free(e);
+        st = VSD_ERR_NOMEM;
+        snprintf(msg, msglen, "out of memory");
+        goto failed;
+    }
+    memset(&ro, 0, sizeof ro);
+    ro.threads = g_daemon.cfg.threads;
+    ro.progress = progress;
+    ro.user = s;
+    ro.cancel = &s->cancel;
+    ro.cache_dir = g_daemon.cfg.method_cache[0] ? g_daemon.cfg.method_cache : NULL;
+    {
+        uint64_t before = vsdd_heap_in_use();
+        st = vsd_renderer_create(scene, &ro, &s->r, msg, msglen);
+        s->held = (int64_t)vsdd_heap_in_use() - (int64_t)before;
+    }
+    snprintf(s->method, sizeof s->method, "%.31s", scene->render.method);
+    if (st) {
+        free(s);
+        free(e);
+        goto failed;
+    }
+    vsd_renderer_use_volumes(s->r, vsdd_entry_volume(pins[0]), vsdd_entry_volume(pins[1]));
+    vsd_renderer_use_ior_volume(s->r, vsdd_entry_volume(pins[3]));
+    if (pins[2]) vsd_renderer_use_env(s->r, pins[2]->env);
+    for (i = 0; i < VSDD_SLOT_PINS; i++) s->pins[i] = pins[i];
+    s->self = e;
+    e->kind = ENT_SLOT;
+    snprintf(e->key, sizeof e->key, "%s", key);
+    e->slot = s;
+    pthread_mutex_lock(&g_cache.lock);
+    end_admission(est, cached);
+    e->bytes = est;
+    if (!cached) {
+        /* rendered alone beside nothing else busy, counted outside the budget, not kept */
+        e->uncached = 1;
+        snprintf(e->key, sizeof e->key, "(uncached)");
+    }
+    e->refs = 1;
+    vsdd_cache_lru_push(e);
+    vsdd_cache_account(e, 1);
+    pthread_mutex_unlock(&g_cache.lock);
+    *out = s;
+    return 0;
+failed:
+    pthread_mutex_lock(&g_cache.lock);
+    end_admission(est, cached);
+    g_cache.busy_slots--;
+    for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(pins[i]);
+    pthread_cond_broadcast(&g_cache.room);
+    pthread_mutex_unlock(&g_cache.lock);
+    return -(int)st;
+}
+
+void vsdd_cache_release_slot(vsdd_slot *s, int keep)
+{
+    vsdd_entry *e = s->self;
+    pthread_mutex_lock(&g_cache.lock);
+    if (e->refs > 0) e->refs--;
+    g_cache.busy_slots--;
+    if ((!keep || e->uncached) && e->refs == 0) {
+        vsdd_cache_evict(e);
+    } else if (e->refs == 0 && (uint64_t)s->held < e->bytes) {
+        /* kept: counted at what it holds between jobs, no longer at its working size */
+        vsdd_cache_account(e, 0);
+        e->bytes = (uint64_t)s->held;
+        vsdd_cache_account(e, 1);
+    }
+    pthread_cond_broadcast(&g_cache.room);
+    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_cache_trim_after_evictions();
+}
