@@ -381,6 +381,44 @@ def map_material(ob, grids, m):
     return medium, grid, (egrid if strength > 0.0 else "")
 
 
+# ---- refractive index --------------------------------------------------------------------
+
+# the methods that bend rays through the refractive index (docs/scene-file.md, medium.ior)
+REFRACTING_METHODS = ("reference", "lbl")
+
+
+def map_ior(settings, grids, medium, volume, m):
+    """The add-on's index source (Scene.vsd.ior_source) -> medium.ior, medium.ior_from and
+    volume.ior_grid, as docs/scene-file.md defines them. Returns True when the scene asks
+    for refraction.
+
+    * constant: medium.ior = IOR and nothing else (what the add-on always sent);
+    * grid: volume.ior_grid = the grid of n, medium.ior_from = "none";
+    * temperature: volume.ior_grid = the temperature grid ("temperature" when left empty),
+      medium.ior_from = "temperature" (Gladstone-Dale: heat haze).
+    A grid source sends medium.ior = 1: the renderer refuses ior_grid with medium.ior != 1.
+    A grid the file lacks is still sent (the renderer's error names it and lists the
+    file's grids) after a warning here, so an exported scene says so too."""
+    src = settings.ior_source
+    if src == "constant":
+        medium["ior"] = float(settings.ior)
+        return medium["ior"] != 1.0
+    medium["ior"] = 1.0
+    if src == "temperature":
+        name = settings.ior_temperature_grid if settings.ior_temperature_grid.strip() else "temperature"
+        medium["ior_from"] = "temperature"
+    else:
+        name = settings.ior_grid
+        if not name.strip():
+            m.warn("Index Source Grid without a grid name: no refraction (n = 1)")
+            return False
+        medium["ior_from"] = "none"
+    volume["ior_grid"] = name
+    if grids and name not in grids:
+        m.warn("refractive index grid '%s' is not in the volume file (grids: %s)" % (name, ", ".join(grids)))
+    return True
+
+
 # ---- world -------------------------------------------------------------------------------
 
 _env_cache = {}
@@ -601,12 +639,19 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
     except Exception:
         grids = []
     medium, grid, egrid = map_material(ob, grids, m)
-    # vsd's own setting (Blender's volumes do not refract): n inside the medium
-    medium["ior"] = float(scene.vsd.ior)
     volume["grid"] = grid
-    volume["matrix"] = voxel_centre_matrix(ob, grid, m)
+    volume["matrix"] = voxel_centre_matrix(ob, grid, m)   # loads the grids
     if egrid:
         volume["emission_grid"] = egrid
+    # vsd's own settings (Blender's volumes do not refract): the refractive index
+    try:
+        grids = [g.name for g in ob.data.grids]
+    except Exception:
+        pass
+    refracts = map_ior(scene.vsd, grids, medium, volume, m)
+    if refracts and not viewport and scene.vsd.method not in REFRACTING_METHODS:
+        m.warn("method %s ignores the refractive index: only %s refract"
+               % (scene.vsd.method, " and ".join(REFRACTING_METHODS)))
     w, h = size if size else film_size(scene)
     r = scene.render
     if not viewport:

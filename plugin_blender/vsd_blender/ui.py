@@ -3,7 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from . import connection, method_options
+from . import connection, mapping, method_options
 
 METHODS = [
     ("reference", "Reference", "Unbiased volumetric path tracing, all bounces (matches Cycles)"),
@@ -12,6 +12,14 @@ METHODS = [
     ("shgrid", "SH Grid", "Delalandre 2013: spherical-harmonics record grid"),
     ("crm", "CRM", "Zhou 2008: compensated ray marching of RBF densities"),
     ("lbl", "LBL", "Bernabei 2012: light marching, lattice-Boltzmann multiple scattering"),
+]
+# Where medium.ior / volume.ior_grid / medium.ior_from come from (mapping.map_ior).
+IOR_SOURCES = [
+    ("constant", "Constant", "One refractive index inside the medium (IOR, medium.ior), 1 outside"),
+    ("grid", "Grid", "A grid of the volume file holds the refractive index n itself (volume.ior_grid)"),
+    ("temperature", "Heat Haze from Temperature",
+     "n from the temperature grid by Gladstone-Dale (medium.ior_from temperature): hot air has a "
+     "lower index, so light bends above fire, as heat haze does. Only reference and lbl refract"),
 ]
 DEVICES = [("auto", "Auto", "CUDA when a GPU is present, else CPU"),
            ("cpu", "CPU", "CPU threads"), ("cuda", "CUDA", "NVIDIA GPU")]
@@ -32,9 +40,20 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
     device: EnumProperty(name="Device", items=DEVICES, default="auto")
     threads: IntProperty(name="Threads", default=0, min=0, max=4096,
                          description="CPU threads of the daemon for this job, 0 = all")
+    ior_source: EnumProperty(name="Index Source", items=IOR_SOURCES, default="constant",
+                             description="Where the refractive index comes from. Only vsd's "
+                             "reference and lbl methods refract; the others ignore it. Blender "
+                             "itself does not refract inside volumes")
     ior: FloatProperty(name="IOR", default=1.0, min=1.0, max=4.0,
-                       description="Refractive index inside the medium (medium.ior): vsd's reference and "
-                       "lbl bend rays through it; Blender itself does not refract inside volumes")
+                       description="Refractive index inside the medium (medium.ior), 1 outside: vsd's "
+                       "reference and lbl bend rays through it; Blender itself does not refract inside volumes")
+    ior_grid: StringProperty(name="Index Grid", default="",
+                             description="Grid of the volume file holding the refractive index n itself "
+                             "(volume.ior_grid; 0 = background, n = 1; a value below 1 is an error)")
+    ior_temperature_grid: StringProperty(name="Temperature Grid", default="temperature",
+                                         description="Grid of Blender's normalised temperature "
+                                         "(volume.ior_grid with medium.ior_from temperature); Blender's "
+                                         "smoke and fire domains write it as 'temperature' in their VDB cache")
     options_json: StringProperty(name="Options", default="",
                                  description="More method options as a JSON object, e.g. "
                                  "{\"lights\": 64}; overrides the option fields")
@@ -120,6 +139,40 @@ class VSDPanel:
         return context.engine in cls.COMPAT_ENGINES
 
 
+def _volume_data(context):
+    """The Volume data whose grids the index grid is chosen from: the active object's if it
+    is a volume, else the first volume object of the scene by name; None if there is none."""
+    ob = getattr(context, "active_object", None)
+    if ob is None or ob.type != "VOLUME":
+        vols = sorted((o for o in context.scene.objects if o.type == "VOLUME"), key=lambda o: o.name)
+        ob = vols[0] if vols else None
+    return ob.data if ob is not None else None
+
+
+def draw_ior(col, context, s):
+    """The refractive index rows: the source, then IOR (Constant) or the grid's name, offered
+    from the volume's grids (Grid, Heat Haze)."""
+    col.prop(s, "ior_source")
+    if s.ior_source == "constant":
+        col.prop(s, "ior")
+        refracts = s.ior != 1.0
+    else:
+        key = "ior_grid" if s.ior_source == "grid" else "ior_temperature_grid"
+        vol = _volume_data(context)
+        if vol is not None:
+            try:
+                vol.grids.load()   # as Blender's own Volume panel does in its draw()
+            except Exception:
+                pass
+            # a name the volume's file lacks shows red (the render would fail on it)
+            col.prop_search(s, key, vol, "grids", text="Grid")
+        else:
+            col.prop(s, key, text="Grid")
+        refracts = True
+    if refracts and s.method not in mapping.REFRACTING_METHODS:
+        col.label(text="Only Reference and LBL refract", icon="INFO")
+
+
 class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
     bl_label = "vsd"
 
@@ -134,7 +187,7 @@ class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
         col.prop(s, "samples")
         col.prop(s, "seed")
         col.prop(s, "threads")
-        col.prop(s, "ior")
+        draw_ior(col, context, s)
 
 
 class RENDER_PT_vsd_options(VSDPanel, bpy.types.Panel):
