@@ -548,8 +548,8 @@ static void test_errors(void)
 }
 
 /* Structural damage (lengths and counts that point past the end of the file) is caught by the
- * loader's own scan before OpenVDB sees the file. Damage inside compressed leaf data is not
- * tested: OpenVDB 10 trusts node masks and can corrupt its heap on such files (see vdbio.cpp). */
+ * loader's own scan before OpenVDB sees the file. Damage inside the tree: test_tiny_trees and
+ * test_corrupt_tree below. */
 static void test_corrupt_structure(void)
 {
     const char *src = test_data("smoke64/fluid_data_0001.vdb");
@@ -571,6 +571,712 @@ static void test_corrupt_structure(void)
         expect_list_error(path, VSD_ERR_FORMAT, "truncated or corrupt");
     }
     remove(path);
+}
+
+/* ---- damage inside the tree (vdbio/vdb_tree_scan.cpp) --------------------------------------- */
+
+/* OpenVDB 10 trusts the sizes inside a grid's tree (chunk sizes, counts, mask-dependent
+ * lengths), so vdbio walks the tree before OpenVDB reads it. Tested two ways: VDBs written
+ * here byte by byte, whose every field is known (valid variants of each layout rule must
+ * load with the right voxels; a damaged field must be refused, naming grid and node), and a
+ * real shared file whose fields are found by parsing it. */
+
+typedef struct bytes {
+    unsigned char *p;
+    long n, cap;
+} bytes;
+
+static void put(bytes *b, const void *src, long n)
+{
+    if (b->n + n > b->cap) {
+        long cap = b->cap ? b->cap : 4096;
+        while (cap < b->n + n)
+            cap *= 2;
+        unsigned char *q = realloc(b->p, (size_t)cap);
+        if (!q)
+            abort();
+        b->p = q;
+        b->cap = cap;
+    }
+    if (n > 0)
+        memcpy(b->p + b->n, src, (size_t)n);
+    b->n += n;
+}
+static void put_u8(bytes *b, unsigned v) { unsigned char c = (unsigned char)v; put(b, &c, 1); }
+static void put_u32(bytes *b, uint32_t v) { put(b, &v, 4); }
+static void put_i32(bytes *b, int32_t v) { put(b, &v, 4); }
+static void put_i64(bytes *b, int64_t v) { put(b, &v, 8); }
+static void put_f64(bytes *b, double v) { put(b, &v, 8); }
+static void put_zeros(bytes *b, long n) { static const unsigned char z[4096]; while (n > 0) { long k = n < 4096 ? n : 4096; put(b, z, k); n -= k; } }
+static void put_str(bytes *b, const char *s) { put_u32(b, (uint32_t)strlen(s)); put(b, s, (long)strlen(s)); }
+static void set_i64(bytes *b, long at, int64_t v) { memcpy(b->p + at, &v, 8); }
+static void set_i32(bytes *b, long at, int32_t v) { memcpy(b->p + at, &v, 4); }
+
+/* IEEE half of a float that is exact in half (the test's values are multiples of 1/8). */
+static uint16_t to_half(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    if ((u & 0x7fffffffu) == 0)
+        return (uint16_t)(u >> 16);
+    return (uint16_t)(((u >> 16) & 0x8000u) | ((((u >> 23) & 0xffu) - 127 + 15) << 10) | ((u >> 13) & 0x3ffu));
+}
+
+enum { TV_ZIP = 1, TV_MASK = 2, TV_BLOSC = 4 };   /* io::COMPRESS_* */
+
+/* One hand-written grid 'density': an optional inactive root tile, then one or two root
+ * children, each an InternalNode<5> -> InternalNode<4> -> one leaf whose every fifth voxel is
+ * active with value 0.125 * (1 + n % 7). Where the writer put the fields tests damage. */
+typedef struct tiny_vdb {
+    uint32_t version;     /* 224, or 221 (file-wide zlib flag, old node and leaf layouts) */
+    uint32_t compression; /* TV_* flags (221: only TV_ZIP counts) */
+    int value_bytes;      /* 4 float, 8 double */
+    int half_data;        /* values stored as 16-bit halves */
+    int half_suffix;      /* "_HalfFloat" on the type name */
+    int half_meta;        /* "is_saved_as_half_float": -1 absent, 0 or 1 */
+    int leaf_flag;        /* the leaves' mask-compression flag (0..6) */
+    int tile;             /* an inactive root tile before the children */
+    int children;         /* 1 or 2 */
+    int descending;       /* write the two children in descending order */
+    const char *instance; /* type of a second grid 'density_copy' sharing the tree, or NULL */
+    int frustum;          /* a NonlinearFrustumMap transform instead of a uniform scale */
+    int far_tile;         /* with 'tile_a', two active zero tiles in the first InternalNode<5> */
+    int tile_a, tile_b;   /* their child-table indices */
+    /* filled in by tiny_write */
+    long block_field, counts_at, tile_active_at, child_origin_at, node5_flag_at, node5_size_at, leaf_flag_at,
+        leaf_size_at, leaf_origin_at;
+} tiny_vdb;
+
+static const int32_t tiny_keys[2][3] = {{4096, 0, -4096}, {8192, 0, -4096}};
+/* node5 child (1, 2, 3) -> +(128, 256, 384); node4 child (4, 5, 6) -> +(32, 40, 48) */
+enum { TINY_N5 = (1 << 10) | (2 << 5) | 3, TINY_N4 = (4 << 8) | (5 << 4) | 6 };
+
+static void tiny_leaf_origin(int child, int32_t o[3])
+{
+    const int32_t d[3] = {128 + 32, 256 + 40, 384 + 48};
+    for (int a = 0; a < 3; ++a)
+        o[a] = tiny_keys[child][a] + d[a];
+}
+static int tiny_active(int n) { return n % 5 == 0; }
+static double tiny_value(int n) { return 0.125 * (1 + n % 7); }
+
+/* A value chunk (io::readData): Blosc as a "memcpyed" chunk (no compressor needed), zlib as
+ * the raw form OpenVDB writes when zlib does not help (size -n), or plain bytes. */
+static void put_chunk(bytes *b, uint32_t comp, const unsigned char *data, long nbytes, int typesize,
+                      long *size_at)
+{
+    *size_at = -1;
+    if (comp & TV_BLOSC) {
+        *size_at = b->n;
+        put_i64(b, nbytes + 16);
+        put_u8(b, 2);      /* BLOSC_VERSION_FORMAT */
+        put_u8(b, 1);
+        put_u8(b, 0x02);   /* BLOSC_MEMCPYED */
+        put_u8(b, (unsigned)typesize);
+        put_u32(b, (uint32_t)nbytes);
+        put_u32(b, (uint32_t)nbytes);   /* one block */
+        put_u32(b, (uint32_t)nbytes + 16);
+    } else if (comp & TV_ZIP) {
+        *size_at = b->n;
+        put_i64(b, -nbytes);
+    }
+    put(b, data, nbytes);
+}
+
+/* io::writeCompressedValues' layout for `count` values (vals[i]) under value mask `mask`. */
+static void put_values(bytes *b, const tiny_vdb *t, int flag, const double *vals, const unsigned char *mask, long count,
+                       long mask_bytes, long *flag_at, long *size_at)
+{
+    const int newer = t->version >= 222;
+    const uint32_t comp = newer ? t->compression : (t->compression & TV_ZIP);
+    *flag_at = -1;
+    if (newer) {
+        *flag_at = b->n;
+        put_u8(b, (unsigned)flag);
+    } else {
+        flag = 6;
+    }
+    if (flag == 2 || flag == 4 || flag == 5) {   /* one or two inactive values, full size */
+        for (int k = 0; k < (flag == 5 ? 2 : 1); ++k) {
+            if (t->value_bytes == 8) put_f64(b, 0.75 + k);
+            else { float f = 0.75f + (float)k; put(b, &f, 4); }
+        }
+    }
+    if (flag == 3 || flag == 4 || flag == 5)
+        put_zeros(b, mask_bytes);   /* selection mask */
+    const int active_only = newer && (comp & TV_MASK) && flag != 6;
+    const int elem = t->half_data ? 2 : t->value_bytes;
+    unsigned char *data = malloc((size_t)(count * elem + 1));
+    long n = 0;
+    for (long i = 0; i < count; ++i) {
+        if (active_only && !(mask[i >> 3] >> (i & 7) & 1))
+            continue;
+        if (t->half_data) { uint16_t h = to_half((float)vals[i]); memcpy(data + n * 2, &h, 2); }
+        else if (elem == 8) memcpy(data + n * 8, &vals[i], 8);
+        else { float f = (float)vals[i]; memcpy(data + n * 4, &f, 4); }
+        ++n;
+    }
+    if (!(t->half_data && n == 0))   /* io::HalfWriter writes nothing for no values */
+        put_chunk(b, comp, data, n * elem, elem, size_at);
+    free(data);
+}
+
+static void put_internal(bytes *b, tiny_vdb *t, int log2dim, int child_index, int first)
+{
+    const long size = 1L << (3 * log2dim), mask_bytes = size / 8;
+    unsigned char *child = calloc((size_t)mask_bytes, 1), *value = calloc((size_t)mask_bytes, 1);
+    double *vals = calloc((size_t)size, sizeof *vals);
+    long flag_at, size_at;
+    child[child_index >> 3] |= (unsigned char)(1u << (child_index & 7));
+    if (log2dim == 5 && first && t->far_tile) {   /* active tiles of value 0 */
+        value[t->tile_a >> 3] |= (unsigned char)(1u << (t->tile_a & 7));
+        value[t->tile_b >> 3] |= (unsigned char)(1u << (t->tile_b & 7));
+    }
+    put(b, child, mask_bytes);
+    put(b, value, mask_bytes);
+    /* before 222 only the tile slots' values are stored */
+    put_values(b, t, 0, vals, value, t->version >= 222 ? size : size - 1, mask_bytes, &flag_at, &size_at);
+    if (log2dim == 5 && first) {
+        t->node5_flag_at = flag_at;
+        t->node5_size_at = size_at;
+    }
+    free(child);
+    free(value);
+    free(vals);
+}
+
+static bytes tiny_write(tiny_vdb *t)
+{
+    bytes b = {NULL, 0, 0};
+    const int newer = t->version >= 222;
+    unsigned char leaf_mask[64] = {0};
+    double leaf_vals[512];
+    for (int n = 0; n < 512; ++n) {
+        if (tiny_active(n)) leaf_mask[n >> 3] |= (unsigned char)(1u << (n & 7));
+        leaf_vals[n] = tiny_active(n) ? tiny_value(n) : 0.0;
+    }
+    /* header: magic, format, library 10.0, has grid offsets, [221: zlib flag], uuid */
+    put_i64(&b, 0x56444220);
+    put_u32(&b, t->version);
+    put_u32(&b, 10);
+    put_u32(&b, 0);
+    put_u8(&b, 1);
+    if (!newer) put_u8(&b, t->compression & TV_ZIP);
+    put(&b, "00000000-0000-0000-0000-000000000000", 36);
+    put_u32(&b, 0);   /* file metadata */
+    put_i32(&b, t->instance ? 2 : 1);   /* grids */
+    char type[64];
+    snprintf(type, sizeof type, "Tree_%s_5_4_3%s", t->value_bytes == 8 ? "double" : "float",
+             t->half_suffix ? "_HalfFloat" : "");
+    put_str(&b, "density");
+    put_str(&b, type);
+    put_str(&b, "");   /* no instance parent */
+    const long offsets = b.n;
+    put_i64(&b, 0); put_i64(&b, 0); put_i64(&b, 0);
+    const long grid_pos = b.n;
+    if (newer) put_u32(&b, t->compression);
+    put_u32(&b, t->half_meta >= 0 ? 1 : 0);
+    if (t->half_meta >= 0) {
+        put_str(&b, "is_saved_as_half_float");
+        put_str(&b, "bool");
+        put_u32(&b, 1);
+        put_u8(&b, (unsigned)t->half_meta);
+    }
+    if (t->frustum) {   /* bbox (double), taper, depth, then a second map with its own type name */
+        put_str(&b, "NonlinearFrustumMap");
+        const double box[6] = {0, 0, 0, 16, 16, 16};
+        for (int k = 0; k < 6; ++k) put_f64(&b, box[k]);
+        put_f64(&b, 0.5);
+        put_f64(&b, 2.0);
+        put_str(&b, "AffineMap");
+        for (int k = 0; k < 16; ++k) put_f64(&b, k % 5 == 0 ? 1.0 : 0.0);
+    } else {
+        put_str(&b, "UniformScaleMap");   /* scale, voxel size, inverse, 1/s^2, 1/2s */
+        const double s = 0.1, m[5] = {s, s, 1 / s, 1 / (s * s), 1 / (2 * s)};
+        for (int k = 0; k < 15; ++k) put_f64(&b, m[k / 3]);
+    }
+    /* topology */
+    put_i32(&b, 1);
+    put_zeros(&b, t->value_bytes);   /* background 0 */
+    t->counts_at = b.n;
+    put_u32(&b, t->tile ? 1 : 0);
+    put_u32(&b, (uint32_t)t->children);
+    if (t->tile) {
+        put_i32(&b, -4096); put_i32(&b, 0); put_i32(&b, 0);
+        if (t->value_bytes == 8) put_f64(&b, 0.5); else { float f = 0.5f; put(&b, &f, 4); }
+        t->tile_active_at = b.n;
+        put_u8(&b, 0);
+    }
+    for (int c = 0; c < t->children; ++c) {
+        const int k = t->descending ? t->children - 1 - c : c;
+        if (c == 0) t->child_origin_at = b.n;
+        put_i32(&b, tiny_keys[k][0]); put_i32(&b, tiny_keys[k][1]); put_i32(&b, tiny_keys[k][2]);
+        put_internal(&b, t, 5, TINY_N5, c == 0);
+        put_internal(&b, t, 4, TINY_N4, c == 0);
+        put(&b, leaf_mask, 64);
+    }
+    const long block_pos = b.n;
+    for (int c = 0; c < t->children; ++c) {
+        long flag_at, size_at;
+        put(&b, leaf_mask, 64);
+        if (!newer) {
+            int32_t o[3];
+            tiny_leaf_origin(t->descending ? t->children - 1 - c : c, o);
+            if (c == 0) t->leaf_origin_at = b.n;
+            put(&b, o, 12);
+            put_u8(&b, 1);   /* buffer count */
+        }
+        put_values(&b, t, t->leaf_flag, leaf_vals, leaf_mask, 512, 64, &flag_at, &size_at);
+        if (c == 0) {
+            t->leaf_flag_at = flag_at;
+            t->leaf_size_at = size_at;
+        }
+    }
+    set_i64(&b, offsets, grid_pos);
+    set_i64(&b, offsets + 8, block_pos);
+    set_i64(&b, offsets + 16, b.n);
+    t->block_field = offsets + 8;
+    if (t->instance) {
+        /* io::Archive::writeGridInstance: descriptor (with the parent's unique name), then
+         * compression, metadata and transform; the block position stays 0 */
+        put_str(&b, "density_copy");
+        put_str(&b, t->instance);
+        put_str(&b, "density");
+        const long at = b.n;
+        put_i64(&b, 0); put_i64(&b, 0); put_i64(&b, 0);
+        const long pos = b.n;
+        if (newer) put_u32(&b, t->compression);
+        put_u32(&b, 0);
+        put_str(&b, "TranslationMap");
+        put_f64(&b, 1.0); put_f64(&b, 2.0); put_f64(&b, 3.0);
+        set_i64(&b, at, pos);
+        set_i64(&b, at + 16, b.n);
+    }
+    return b;
+}
+
+static tiny_vdb tiny_default(void)
+{
+    tiny_vdb t;
+    memset(&t, 0, sizeof t);
+    t.version = 224;
+    t.compression = TV_ZIP | TV_MASK;
+    t.value_bytes = 4;
+    t.half_meta = -1;
+    t.children = 1;
+    return t;
+}
+
+static int write_bytes(const char *path, const bytes *b)
+{
+    FILE *f = fopen(path, "wb");
+    int ok = f && fwrite(b->p, 1, (size_t)b->n, f) == (size_t)b->n;
+    if (f) ok = fclose(f) == 0 && ok;
+    return ok;
+}
+
+/* The grid must load (and list, through the whole-grid fallback: it has no statistics) with
+ * every leaf's active voxels, values and positions. */
+static void expect_tiny_loads(const char *what, tiny_vdb t)
+{
+    bytes b = tiny_write(&t);
+    char path[2048];
+    snprintf(path, sizeof path, "%s", test_tmp("tiny.vdb"));
+    CHECK(write_bytes(path, &b));
+    free(b.p);
+    const uint64_t active = 103u * (uint64_t)t.children;   /* n % 5 == 0 for n < 512 */
+    vsd_grid_info *g = NULL;
+    int n = 0;
+    char err[2048] = "";
+    const int grids = t.instance ? 2 : 1;
+    CHECK_MSG(vsd_vdb_list(path, &g, &n, err, sizeof err) == VSD_OK && n == grids, "%s: list: %s", what, err);
+    for (int i = 0; g && i < n; ++i)
+        CHECK_MSG(g[i].active_voxels == active, "%s: grid %d: listed %llu active voxels", what, i,
+                  (unsigned long long)g[i].active_voxels);
+    vsd_vdb_list_free(g);
+    vsd_volume *vol = NULL;
+    CHECK_MSG(vsd_vdb_load(path, by_name("density"), &vol, err, sizeof err) == VSD_OK && vol, "%s: load: %s", what, err);
+    if (!vol)
+        return;
+    CHECK_MSG(vol->active_voxels == active, "%s: %llu active voxels", what, (unsigned long long)vol->active_voxels);
+    int wrong = 0;
+    for (int c = 0; c < t.children; ++c) {
+        int32_t o[3];
+        tiny_leaf_origin(c, o);
+        for (int k = 0; k < 512; ++k) {
+            const float want = tiny_active(k) ? (float)tiny_value(k) : 0.0f;
+            wrong += vsd_volume_voxel(vol, o[0] + (k >> 6), o[1] + ((k >> 3) & 7), o[2] + (k & 7)) != want;
+        }
+    }
+    CHECK_MSG(wrong == 0, "%s: %d voxels differ from what was written", what, wrong);
+    vsd_volume_destroy(vol);
+    if (t.instance) {   /* the instance reads its parent's tree: the same voxels */
+        vol = NULL;
+        CHECK_MSG(vsd_vdb_load(path, by_name("density_copy"), &vol, err, sizeof err) == VSD_OK && vol, "%s: load: %s",
+                  what, err);
+        if (vol) {
+            CHECK(vol->active_voxels == active);
+            int32_t o[3];
+            tiny_leaf_origin(0, o);
+            CHECK(vsd_volume_voxel(vol, o[0], o[1], o[2]) == (float)tiny_value(0));
+            CHECK_NEAR(vol->voxel_size[0], 1.0, 1e-12);   /* its own transform */
+        }
+        vsd_volume_destroy(vol);
+    }
+}
+
+/* Write variant t, let `damage` change it, and expect both load and list (which reads the
+ * whole grid: no statistics) to be refused as corrupt, naming the grid and `problem`. */
+static void expect_tiny_refused(const char *what, tiny_vdb t, void (*damage)(bytes *, const tiny_vdb *), const char *problem)
+{
+    bytes b = tiny_write(&t);
+    if (damage)
+        damage(&b, &t);
+    char path[2048];
+    snprintf(path, sizeof path, "%s", test_tmp("tiny_bad.vdb"));
+    CHECK(write_bytes(path, &b));
+    free(b.p);
+    vsd_volume *vol = NULL;
+    char err[2048] = "";
+    const vsd_status st = vsd_vdb_load(path, by_name("density"), &vol, err, sizeof err);
+    CHECK_MSG(st == VSD_ERR_FORMAT && !vol, "%s: load gave %s (%s)", what, vsd_status_str(st), err);
+    CHECK_CONTAINS(err, path);
+    CHECK_CONTAINS(err, "corrupt OpenVDB file (grid 'density': ");
+    CHECK_CONTAINS(err, problem);
+    vsd_volume_destroy(vol);
+    expect_list_error(path, VSD_ERR_FORMAT, problem);
+    remove(path);
+}
+
+static void damage_child_count(bytes *b, const tiny_vdb *t) { set_i32(b, t->counts_at + 4, 1000); }
+static void damage_node5_size(bytes *b, const tiny_vdb *t) { set_i64(b, t->node5_size_at, 912345678); }
+static void damage_node5_raw(bytes *b, const tiny_vdb *t) { set_i64(b, t->node5_size_at, -(32768 * 4 + 4)); }
+static void damage_node5_min(bytes *b, const tiny_vdb *t) { set_i64(b, t->node5_size_at, INT64_MIN); }
+static void damage_leaf_size(bytes *b, const tiny_vdb *t) { set_i64(b, t->leaf_size_at, 0x7f3f1e000000007fLL); }
+static void damage_leaf_small(bytes *b, const tiny_vdb *t) { set_i64(b, t->leaf_size_at, 5); }
+static void damage_blosc_nbytes(bytes *b, const tiny_vdb *t) { set_i32(b, t->leaf_size_at + 8 + 4, 4000); }
+static void damage_blosc_cbytes(bytes *b, const tiny_vdb *t) { set_i32(b, t->leaf_size_at + 8 + 12, 100000); }
+static void damage_leaf_flag(bytes *b, const tiny_vdb *t) { b->p[t->leaf_flag_at] = 7; }
+static void damage_tile_active(bytes *b, const tiny_vdb *t) { b->p[t->tile_active_at] = 2; }
+static void damage_child_origin(bytes *b, const tiny_vdb *t) { set_i32(b, t->child_origin_at, 4097); }
+static void damage_block_pos(bytes *b, const tiny_vdb *t)
+{
+    int64_t v;
+    memcpy(&v, b->p + t->block_field, 8);
+    set_i64(b, t->block_field, v + 1);
+}
+static void damage_leaf_origin(bytes *b, const tiny_vdb *t) { set_i32(b, t->leaf_origin_at + 4, 297); }
+
+static void test_tiny_trees(void)
+{
+    /* valid: every compression, mask compression on and off, float/double/half, every
+     * mask-compression flag, an inactive root tile, two children, the 221 layout */
+    static const uint32_t comps[] = {0, TV_MASK, TV_ZIP, TV_ZIP | TV_MASK, TV_BLOSC, TV_BLOSC | TV_MASK,
+                                     TV_BLOSC | TV_ZIP | TV_MASK};
+    char what[128];
+    for (size_t c = 0; c < sizeof comps / sizeof comps[0]; ++c) {
+        for (int kind = 0; kind < 3; ++kind) {   /* float, double, half */
+            tiny_vdb t = tiny_default();
+            t.compression = comps[c];
+            t.value_bytes = kind == 1 ? 8 : 4;
+            t.half_data = kind == 2;
+            t.half_suffix = kind == 2;
+            t.half_meta = kind == 2 ? 1 : -1;
+            snprintf(what, sizeof what, "compression %u, %s", (unsigned)comps[c], kind == 0 ? "float" : kind == 1 ? "double" : "half");
+            expect_tiny_loads(what, t);
+        }
+    }
+    for (int flag = 0; flag <= 6; ++flag) {
+        for (int half = 0; half < 2; ++half) {
+            tiny_vdb t = tiny_default();
+            t.leaf_flag = flag;
+            t.half_data = t.half_suffix = half;
+            t.half_meta = half ? 1 : -1;
+            snprintf(what, sizeof what, "mask-compression flag %d%s", flag, half ? ", half" : "");
+            expect_tiny_loads(what, t);
+        }
+    }
+    tiny_vdb t = tiny_default();
+    t.tile = 1;
+    t.children = 2;
+    t.compression = TV_BLOSC | TV_MASK;
+    expect_tiny_loads("tile and two children", t);
+    for (int zip = 0; zip < 2; ++zip) {
+        for (int half = 0; half < 2; ++half) {
+            t = tiny_default();
+            t.version = 221;
+            t.compression = zip ? TV_ZIP : 0;
+            t.half_data = t.half_suffix = half;
+            t.half_meta = half ? 1 : -1;
+            t.children = 2;
+            snprintf(what, sizeof what, "format 221%s%s", zip ? ", zlib" : "", half ? ", half" : "");
+            expect_tiny_loads(what, t);
+        }
+    }
+    /* OpenVDB decides "half" from the grid's metadata, not the type name's suffix */
+    t = tiny_default();
+    t.half_suffix = 1;
+    t.half_meta = 0;
+    expect_tiny_loads("_HalfFloat suffix, metadata false, float data", t);
+    t = tiny_default();
+    t.half_data = 1;
+    t.half_meta = 1;
+    expect_tiny_loads("no suffix, metadata true, half data", t);
+    t = tiny_default();
+    t.half_data = t.half_suffix = 1;
+    t.compression = TV_ZIP;
+    expect_tiny_refused("_HalfFloat suffix, no metadata, half data", t, NULL, "value chunk");
+
+    /* a frustum transform is walked too (its second map has a type name of its own): the grid
+     * gets through the scan to vdbio's own refusal of non-linear transforms */
+    t = tiny_default();
+    t.frustum = 1;
+    {
+        bytes b = tiny_write(&t);
+        char path[2048];
+        snprintf(path, sizeof path, "%s", test_tmp("tiny_frustum.vdb"));
+        CHECK(write_bytes(path, &b));
+        free(b.p);
+        expect_error(path, by_name("density"), VSD_ERR_UNSUPPORTED, "NonlinearFrustumMap transform; vsd supports linear");
+        remove(path);
+    }
+
+    /* damaged */
+    expect_tiny_refused("root child count", tiny_default(), damage_child_count, "the root's 1000 children need at least");
+    t = tiny_default();
+    t.compression = TV_ZIP;   /* no mask compression: the internal node stores all 32768 values */
+    expect_tiny_refused("internal node chunk size", t, damage_node5_size,
+                        "the internal node at (4096, 0, -4096)'s compressed value chunk claims 912345678 bytes");
+    expect_tiny_refused("internal node raw chunk size", t, damage_node5_raw,
+                        "uncompressed value chunk holds 131076 bytes, not the 131072 its values take");
+    expect_tiny_refused("internal node chunk size INT64_MIN", t, damage_node5_min, "holds 2^63 bytes");
+    t = tiny_default();
+    t.compression = TV_BLOSC | TV_MASK;
+    expect_tiny_refused("leaf chunk size", t, damage_leaf_size,
+                        "leaf 0 at (4256, 296, -3664)'s compressed value chunk claims 9169080351698452607 bytes");
+    expect_tiny_refused("leaf chunk shorter than a Blosc header", t, damage_leaf_small, "Blosc chunk claims 5 bytes");
+    expect_tiny_refused("Blosc uncompressed size", t, damage_blosc_nbytes, "Blosc header says 4000 uncompressed bytes, not the 412");
+    expect_tiny_refused("Blosc compressed size", t, damage_blosc_cbytes, "Blosc header says 100000 compressed bytes");
+    t = tiny_default();
+    t.compression = TV_ZIP | TV_MASK;
+    expect_tiny_refused("zlib chunk size", t, damage_leaf_size, "leaf 0 at (4256, 296, -3664)'s compressed value chunk claims");
+    expect_tiny_refused("mask-compression flag", tiny_default(), damage_leaf_flag, "leaf 0 at (4256, 296, -3664) has a mask-compression flag of 7");
+    t = tiny_default();
+    t.tile = 1;
+    expect_tiny_refused("tile active flag", t, damage_tile_active, "root tile 0 at (-4096, 0, 0) has an active flag of 2");
+    expect_tiny_refused("unaligned child", tiny_default(), damage_child_origin, "root child 0 at (4097, 0, -4096) is not aligned");
+    t = tiny_default();
+    t.children = 2;
+    t.descending = 1;
+    expect_tiny_refused("children out of order", t, NULL, "root child 1 at (4096, 0, -4096) does not come after");
+    expect_tiny_refused("block position", tiny_default(), damage_block_pos, "its topology ends at byte");
+    /* instances: OpenVDB reads the parent's tree, so that is the tree checked */
+    t = tiny_default();
+    t.instance = "Tree_float_5_4_3";
+    t.compression = TV_BLOSC | TV_MASK;
+    expect_tiny_loads("instance", t);
+    {
+        bytes b = tiny_write(&t);
+        damage_leaf_size(&b, &t);
+        char path[2048];
+        snprintf(path, sizeof path, "%s", test_tmp("tiny_instance.vdb"));
+        CHECK(write_bytes(path, &b));
+        free(b.p);
+        expect_error(path, by_name("density_copy"), VSD_ERR_FORMAT,
+                     "grid 'density': leaf 0 at (4256, 296, -3664)'s compressed value chunk claims");
+        t.instance = "Tree_vec3s_5_4_3";
+        b = tiny_write(&t);
+        CHECK(write_bytes(path, &b));
+        free(b.p);
+        vsd_grid_select sel = {NULL, 1};
+        expect_error(path, sel, VSD_ERR_TYPE, "vec3s");
+        t.instance = "Tree_double_5_4_3";
+        b = tiny_write(&t);
+        CHECK(write_bytes(path, &b));
+        free(b.p);
+        expect_error(path, sel, VSD_ERR_FORMAT, "grid 'density_copy' shares the tree of grid 'density', which has another type");
+        remove(path);
+    }
+    t = tiny_default();
+    t.version = 221;
+    expect_tiny_refused("format 221 leaf origin", t, damage_leaf_origin, "leaf 0 at (4256, 296, -3664)'s buffer says it is at (4256, 297, -3664)");
+}
+
+/* vsd's brick index is dense over the active bbox: a box that is large and nearly empty
+ * (here: two active zero-valued tiles 4096 voxels apart and one leaf) is refused, a small one
+ * loads. */
+static void test_sparse_box(void)
+{
+    char path[2048], err[2048] = "";
+    snprintf(path, sizeof path, "%s", test_tmp("tiny_sparse.vdb"));
+    for (int far = 0; far < 2; ++far) {
+        tiny_vdb t = tiny_default();
+        t.far_tile = 1;
+        t.tile_a = 0;                  /* local (0, 0, 0) */
+        t.tile_b = far ? 32767 : 1;    /* (31, 31, 31) or (0, 0, 1): 128-voxel tiles */
+        bytes b = tiny_write(&t);
+        CHECK(write_bytes(path, &b));
+        free(b.p);
+        vsd_grid_info *g = NULL;
+        int n = 0;
+        CHECK_MSG(vsd_vdb_list(path, &g, &n, err, sizeof err) == VSD_OK && n == 1, "%s", err);
+        if (g)
+            CHECK(g[0].active_voxels == 103u + 2u * 128u * 128u * 128u);
+        vsd_vdb_list_free(g);
+        vsd_volume *vol = NULL;
+        const vsd_status st = vsd_vdb_load(path, by_name("density"), &vol, err, sizeof err);
+        if (far) {
+            CHECK_MSG(st == VSD_ERR_UNSUPPORTED && !vol, "far tiles: %s (%s)", vsd_status_str(st), err);
+            CHECK_CONTAINS(err, path);
+            CHECK_CONTAINS(err, "grid 'density': its active voxels span 135005697 brick cells, but only 1 bricks hold data");
+        } else {
+            CHECK_MSG(st == VSD_OK && vol, "near tiles: %s", err);
+            if (vol)
+                CHECK(vol->brick_count == 1 && vol->active_voxels == 103u + 2u * 128u * 128u * 128u);
+        }
+        vsd_volume_destroy(vol);
+    }
+    remove(path);
+}
+
+/* Where one grid's parts lie in a real file (a small parser of its own: header, file
+ * metadata, descriptors, then the grid's compression, metadata and transform). */
+typedef struct grid_loc {
+    long grid_pos, block_pos, end_pos, topo_pos;
+    long delayed_at;      /* value of the "__delayedload" entry */
+    long voxcount_bytes;  /* byte count field of "file_voxel_count" */
+    uint32_t compression;
+} grid_loc;
+
+static uint32_t rd32(const unsigned char *b, long at) { uint32_t v; memcpy(&v, b + at, 4); return v; }
+static int64_t rd64(const unsigned char *b, long at) { int64_t v; memcpy(&v, b + at, 8); return v; }
+
+static int locate_grid(const unsigned char *b, long size, const char *name, grid_loc *out)
+{
+    long p = 8;
+    const uint32_t version = rd32(b, p);
+    p += 4 + 8 + 1 + (version < 222 ? 1 : 0) + 36;
+    uint32_t count = rd32(b, p);
+    p += 4;
+    for (uint32_t i = 0; i < count; ++i) {   /* file metadata */
+        p += 4 + rd32(b, p);
+        p += 4 + rd32(b, p);
+        p += 4 + rd32(b, p);
+    }
+    const int32_t grids = (int32_t)rd32(b, p);
+    p += 4;
+    for (int32_t i = 0; i < grids && p < size; ++i) {
+        const uint32_t n = rd32(b, p);
+        const int match = n == strlen(name) && memcmp(b + p + 4, name, n) == 0;
+        p += 4 + n;
+        p += 4 + rd32(b, p);   /* type */
+        p += 4 + rd32(b, p);   /* instance parent */
+        memset(out, 0, sizeof *out);
+        out->grid_pos = (long)rd64(b, p);
+        out->block_pos = (long)rd64(b, p + 8);
+        out->end_pos = (long)rd64(b, p + 16);
+        if (!match) {
+            p = out->end_pos;
+            continue;
+        }
+        long q = out->grid_pos;
+        out->compression = rd32(b, q);
+        q += 4;
+        const uint32_t entries = rd32(b, q);
+        q += 4;
+        for (uint32_t e = 0; e < entries; ++e) {
+            const uint32_t nl = rd32(b, q);
+            const int voxcount = nl == 16 && memcmp(b + q + 4, "file_voxel_count", 16) == 0;
+            q += 4 + nl;
+            const uint32_t tl = rd32(b, q);
+            const int delayed = tl == 13 && memcmp(b + q + 4, "__delayedload", 13) == 0;
+            q += 4 + tl;
+            if (voxcount) out->voxcount_bytes = q;
+            if (delayed) out->delayed_at = q + 4;
+            q += 4 + rd32(b, q);
+        }
+        const uint32_t tl = rd32(b, q);
+        static const struct { const char *type; long bytes; } maps[] = {
+            {"UniformScaleMap", 120}, {"ScaleMap", 120}, {"UniformScaleTranslateMap", 144},
+            {"ScaleTranslateMap", 144}, {"TranslationMap", 24}, {"AffineMap", 128}, {"UnitaryMap", 128}};
+        for (size_t m = 0; m < sizeof maps / sizeof maps[0]; ++m)
+            if (tl == strlen(maps[m].type) && memcmp(b + q + 4, maps[m].type, tl) == 0)
+                out->topo_pos = q + 4 + tl + maps[m].bytes;
+        return out->topo_pos > 0;
+    }
+    return 0;
+}
+
+/* A copy of `src` with `n` bytes at `at` replaced. */
+static int patched_copy(const unsigned char *buf, long size, const char *dst, long at, const void *bytes_, int n)
+{
+    unsigned char *c = malloc((size_t)size);
+    if (!c) return 0;
+    memcpy(c, buf, (size_t)size);
+    memcpy(c + at, bytes_, (size_t)n);
+    FILE *f = fopen(dst, "wb");
+    int ok = f && fwrite(c, 1, (size_t)size, f) == (size_t)size;
+    if (f) ok = fclose(f) == 0 && ok;
+    free(c);
+    return ok;
+}
+
+static void test_corrupt_tree(void)
+{
+    const char *rel = "smoke64/fluid_data_0001.vdb";   /* 'density': half floats, Blosc, no mask compression */
+    long size = 0;
+    unsigned char *buf = test_read_file(test_data(rel), &size);
+    grid_loc g;
+    CHECK(buf != NULL);
+    if (!buf)
+        return;
+    const int found = locate_grid(buf, size, "density", &g);
+    CHECK_MSG(found, "could not locate grid 'density' in %s", rel);
+    if (!found) {
+        free(buf);
+        return;
+    }
+    char path[2048];
+    snprintf(path, sizeof path, "%s", test_tmp("tree_damage.vdb"));
+    /* root: buffer count, float background, tile count, child count */
+    const long tiles = (long)rd32(buf, g.topo_pos + 8);
+    CHECK(rd32(buf, g.topo_pos + 12) >= 1);
+    const int32_t many = 0x10000000;
+    CHECK(patched_copy(buf, size, path, g.topo_pos + 12, &many, 4));
+    expect_error(path, by_name("density"), VSD_ERR_FORMAT, "grid 'density': the root's 268435456 children need at least");
+    /* the first internal node's values (32768 halves, Blosc): flag byte, then the chunk size */
+    const long node5 = g.topo_pos + 16 + tiles * 17 + 12 + 2 * 4096;
+    CHECK(buf[node5] == 6);   /* NO_MASK_AND_ALL_VALS: no mask compression in this file */
+    const int64_t claim = 912345678;
+    CHECK(patched_copy(buf, size, path, node5 + 1, &claim, 8));
+    expect_error(path, by_name("density"), VSD_ERR_FORMAT,
+                 "grid 'density': the internal node at (0, 0, 0)'s compressed value chunk claims 912345678 bytes");
+    const unsigned char flag = 9;
+    CHECK(patched_copy(buf, size, path, node5, &flag, 1));
+    expect_error(path, by_name("density"), VSD_ERR_FORMAT, "has a mask-compression flag of 9");
+    /* the first leaf buffer: value mask, flag byte (6), then its chunk size */
+    CHECK(buf[g.block_pos + 64] == 6);
+    CHECK(patched_copy(buf, size, path, g.block_pos + 65, &claim, 8));
+    expect_error(path, by_name("density"), VSD_ERR_FORMAT, "grid 'density': leaf 0 at (");
+    expect_error(path, by_name("density"), VSD_ERR_FORMAT, "'s compressed value chunk claims 912345678 bytes");
+    /* the other grids of the file still load: only the damaged tree is walked */
+    vsd_volume *vol = load_ok(rel, by_name("density"));
+    vsd_volume_destroy(vol);
+    vsd_volume *other = NULL;
+    char err[2048] = "";
+    CHECK_MSG(vsd_vdb_load(path, by_name("temperature"), &other, err, sizeof err) == VSD_OK, "%s", err);
+    vsd_volume_destroy(other);
+    /* metadata OpenVDB would misread: the delayed-load leaf count, a fixed-size entry's length */
+    CHECK(g.delayed_at > 0 && g.voxcount_bytes > 0);
+    const uint32_t leaves = 0x7fffffffu;
+    CHECK(patched_copy(buf, size, path, g.delayed_at, &leaves, 4));
+    expect_error(path, by_name("density"), VSD_ERR_FORMAT, "'file_delayed_load' (__delayedload) claims 2147483647 leaves");
+    expect_list_error(path, VSD_ERR_FORMAT, "claims 2147483647 leaves");
+    const uint32_t nine = 9;
+    CHECK(patched_copy(buf, size, path, g.voxcount_bytes, &nine, 4));
+    expect_list_error(path, VSD_ERR_FORMAT, "entry 'file_voxel_count' (int64) holds 9 bytes, not 8");
+    remove(path);
+    free(buf);
 }
 
 /* ---- speed -------------------------------------------------------------------------------- */
@@ -654,6 +1360,9 @@ int main(void)
     test_external();
     test_errors();
     test_corrupt_structure();
+    test_tiny_trees();
+    test_sparse_box();
+    test_corrupt_tree();
     test_load_time();
     check_every_file();
     return test_finish("test_vdbio");

@@ -1,4 +1,4 @@
-/* libFuzzer target for the OpenVDB loader (vdbio/vdbio.cpp): the input is a whole .vdb file.
+/* libFuzzer target for the OpenVDB loader (vdbio/: the structural and tree scans, then OpenVDB): the input is a whole .vdb file.
  * It goes through what the daemon does with a PUT blob named by a scene: vsd_vdb_list (the
  * structural scan, then OpenVDB's metadata), then vsd_vdb_load of the first float grid and,
  * when there are several grids, of the last one by index. Every outcome must be a volume or
