@@ -41,7 +41,7 @@
 #define PI_D 3.14159265358979323846
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps;
     double ray_spacing, light_step, tolerance, slice, early_termination;
 } lbl_options;
 
@@ -63,6 +63,10 @@ static const vsd_option_spec lbl_option_rows[] = {
      offsetof(lbl_options, tolerance), 0, NULL},
     {"max_steps", VSD_OPT_INT, 8, 100000, 4000, NULL, "diffusion: at most this many lattice steps",
      offsetof(lbl_options, max_steps), 0, NULL},
+    {"block_steps", VSD_OPT_INT, 0, 64, 0, NULL,
+     "diffusion: 0 = one global lattice; n = the paper's 4^3 blocks with interface buffers, n steps per "
+     "exchange (docs/methods/lbl.md, Fig. 6)",
+     offsetof(lbl_options, block_steps), 0, NULL},
     {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, lbl_interp_names,
      "view: the direct light between cell centres, nearest, trilinear, or trilinear in log radiance",
      offsetof(lbl_options, interp), 0, NULL},
@@ -284,7 +288,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     s->march_seconds = vsd_clock_seconds() - t0;
     deposit(s, ctx);
     /* diffusion pass, from the last solve's state */
-    if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, err, errlen))) return st;
+    if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, s->opt.block_steps, err, errlen))) return st;
     albedo[0] = ctx->kd.medium.albedo.x;
     albedo[1] = ctx->kd.medium.albedo.y;
     albedo[2] = ctx->kd.medium.albedo.z;
@@ -298,7 +302,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
          * "Passes"); the rest of the fluence scatters again before it gets there. */
         static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
         vsd_lbl_diffusion_stats stats_e;
-        if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, err, errlen))) return st;
+        if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, s->opt.block_steps, err, errlen))) return st;
         if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
                                   s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))
             return st;

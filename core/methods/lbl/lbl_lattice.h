@@ -28,11 +28,16 @@
 #define VSD_LBL_LATTICE_H
 #include <stdint.h>
 #include "vsd/status.h"
+#include "lbl_blocked.h"
 
 typedef struct vsd_lbl_lattice {
     int32_t res[3];
     size_t cells;
-    float *f;                /* [6 directions][3 channels][cells] arriving densities (warm state) */
+    float *f;                /* [6 directions][3 channels][cells] arriving densities (warm state);
+                                NULL when blocked */
+    int block_steps;         /* 0: the global lattice; n > 0: the paper's 4^3 blocks with
+                                interface buffers, n steps per iteration (lbl_blocked.h) */
+    vsd_lbl_blocked blocked;
 } vsd_lbl_lattice;
 
 typedef struct vsd_lbl_diffusion_stats {
@@ -42,19 +47,22 @@ typedef struct vsd_lbl_diffusion_stats {
     double seconds;
 } vsd_lbl_diffusion_stats;
 
-/* Allocates (zero state) or keeps the lattice when res is unchanged. */
-vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], char *err, size_t errlen);
+/* Allocates (zero state) or keeps the lattice when res and block_steps are unchanged;
+ * block_steps 0 = the global lattice. */
+vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], int block_steps, char *err, size_t errlen);
 void vsd_lbl_lattice_free(vsd_lbl_lattice *l);
 
-/* One collide-and-stream step (no threads, for tests): collide[c] = p per node, albedo RGB,
- * source [3][cells] (NULL = none). */
+/* One collide-and-stream step (no threads, for tests; a blocked lattice does one
+ * iteration): collide[c] = p per node, albedo RGB, source [3][cells] (NULL = none). */
 void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source);
 
-/* Sum of all populations of channel ch (the photons in the lattice). */
+/* Sum of all populations of channel ch (the photons in the lattice, with those waiting in
+ * a blocked lattice's interface buffers). */
 double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch);
 
 /* Steps from the current state until converged; fluence[3][cells] = sum_i f_i (caller
- * divides by lambda^2). */
+ * divides by lambda^2). stats->steps counts lattice steps (block_steps per iteration of a
+ * blocked lattice). */
 vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
                            double tolerance, int max_steps, int threads, float *fluence, vsd_lbl_diffusion_stats *stats,
                            char *err, size_t errlen);
