@@ -306,3 +306,34 @@ def vsd_stats(sock):
     import vsd_client
     with vsd_client.Client(sock) as c:
         return c.stats()
+
+
+class LayoutRecorder(object):
+    """Stands in for a panel's layout and records the rows drawn: ("prop", data, key),
+    ("search", data, key, search_data, search_key), ("label", None, text)."""
+
+    def __init__(self):
+        self.rows = []
+        self.use_property_split = self.use_property_decorate = False
+
+    def column(self, **kw):
+        return self
+
+    def row(self, **kw):
+        return self
+
+    def prop(self, data, key, **kw):
+        self.rows.append(("prop", data, key))
+
+    def prop_search(self, data, key, search_data, search_key, **kw):
+        self.rows.append(("search", data, key, search_data, search_key))
+
+    def label(self, **kw):
+        self.rows.append(("label", None, kw.get("text")))
+
+
+class FakePanel(object):
+    """What a Panel.draw needs of self: a layout (a LayoutRecorder)."""
+
+    def __init__(self):
+        self.layout = LayoutRecorder()

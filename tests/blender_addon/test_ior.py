@@ -29,34 +29,6 @@ import bpy  # noqa: E402
 MEDIUM_KEYS = {"density", "albedo", "anisotropy", "emission_color", "emission_strength"}
 
 
-class Recorder(object):
-    """Stands in for a panel's layout and records the rows drawn."""
-
-    def __init__(self):
-        self.rows = []
-        self.use_property_split = self.use_property_decorate = False
-
-    def column(self, **kw):
-        return self
-
-    def row(self, **kw):
-        return self
-
-    def prop(self, data, key, **kw):
-        self.rows.append(("prop", key))
-
-    def prop_search(self, data, key, search_data, search_key, **kw):
-        self.rows.append(("search", key, search_data, search_key))
-
-    def label(self, **kw):
-        self.rows.append(("label", kw.get("text")))
-
-
-class FakePanel(object):
-    def __init__(self):
-        self.layout = Recorder()
-
-
 def main():
     vsd, data, tmp, _ = common.args()
     common.fresh_tmp(tmp)
@@ -146,9 +118,11 @@ def main():
                                      ("temperature", "shgrid", [("prop", "ior_source"),
                                                                 "search ior_temperature_grid", "note"])):
             s.ior_source, s.method = source, method
-            panel = FakePanel()
+            panel = common.FakePanel()
             ui.RENDER_PT_vsd.draw(panel, bpy.context)
-            rows = panel.layout.rows
+            # (kind, key...) without the data each prop belongs to
+            rows = [(r[0], r[2]) if r[0] == "prop" else ("search",) + r[2:] if r[0] == "search" else ("label", r[2])
+                    for r in panel.layout.rows]
             start = rows.index(("prop", "ior_source")) if ("prop", "ior_source") in rows else len(rows)
             got = []
             for r in rows[start:]:

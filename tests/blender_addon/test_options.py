@@ -35,31 +35,6 @@ scene = bpy.context.scene
 scene.render.engine = "VSD"
 
 
-class Recorder(object):
-    """Stands in for a panel's layout and records the rows drawn."""
-
-    def __init__(self):
-        self.rows = []
-        self.use_property_split = self.use_property_decorate = False
-
-    def column(self, **kw):
-        return self
-
-    def row(self, **kw):
-        return self
-
-    def prop(self, data, key, **kw):
-        self.rows.append((data, key))
-
-    def label(self, **kw):
-        self.rows.append((None, kw.get("text")))
-
-
-class FakePanel(object):
-    def __init__(self):
-        self.layout = Recorder()
-
-
 for method, rows in sorted(table.items()):
     group = getattr(scene.vsd_options, method, None)
     check(group is not None, "Scene.vsd_options.%s exists" % method)
@@ -87,9 +62,9 @@ for method, rows in sorted(table.items()):
             check(value == row["default"], "%s.%s defaults to %s" % (method, key, row["default"]))
     # the panel draws one row per option for the picked method
     scene.vsd.method = method
-    panel = FakePanel()
+    panel = common.FakePanel()
     ui.RENDER_PT_vsd_options.draw(panel, bpy.context)
-    drawn = [k for d, k in panel.layout.rows if d is not None and d == group]
+    drawn = [r[2] for r in panel.layout.rows if r[0] == "prop" and r[1] == group]
     check(drawn == [r["key"] for r in rows], "the panel draws %s's rows %s (drew %s)" % (
         method, [r["key"] for r in rows], drawn))
 
