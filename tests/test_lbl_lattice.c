@@ -11,7 +11,9 @@
  *      counting those waiting in the buffers, on a lattice that is not a multiple of 4;
  *   6. the blocked lattice's steady state against the global lattice's, one light in a
  *      homogeneous medium, two albedos (the paper's Fig. 6): the same steady state with
- *      one step per exchange and with four (fluence averaged over an iteration). */
+ *      one step per exchange and with four (fluence averaged over an iteration);
+ *   7. Geist's D3Q18 lattice: a step with albedo 1 conserves the photons, and the steady
+ *      state in an infinite homogeneous medium is the balance lbl_d3q18.h derives. */
 #include "test_common.h"
 #include "methods/lbl/lbl_lattice.h"
 #include "methods/lbl/lbl_march.h"
@@ -29,7 +31,7 @@ static void test_conservation(void)
     size_t c;
     int i, ch, x, y, z;
     memset(&l, 0, sizeof l);
-    CHECK(vsd_lbl_lattice_init(&l, res, 0, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_lattice_init(&l, res, NULL, NULL, 0) == VSD_OK);
     if (!l.f) return;
     for (c = 0; c < 512; c++) collide[c] = (float)(0.1 + 0.8 * test_urand(&rng));
     /* photons only two or more cells from the faces: none can stream out in one step */
@@ -75,7 +77,7 @@ static void test_infinite_medium(void)
         collide[c] = p;
         for (ch = 0; ch < 3; ch++) source[ch * n + c] = 1.0f;
     }
-    CHECK(vsd_lbl_lattice_init(&l, res, 0, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_lattice_init(&l, res, NULL, NULL, 0) == VSD_OK);
     CHECK(vsd_lbl_diffuse(&l, collide, albedo, source, 1e-7, 20000, 0, fluence, &st, NULL, 0) == VSD_OK);
     printf("[2] infinite medium: %d steps (converged %d), centre fluence %.5f %.5f %.5f\n", st.steps, st.converged,
            fluence[centre], fluence[n + centre], fluence[2 * n + centre]);
@@ -162,7 +164,8 @@ static void test_blocked_conservation(void)
     int x, y, z;
     memset(&l, 0, sizeof l);
     memset(source, 0, sizeof source);
-    CHECK(vsd_lbl_lattice_init(&l, res, 2, NULL, 0) == VSD_OK);
+    const vsd_lbl_layout two_steps = {2, 0};
+    CHECK(vsd_lbl_lattice_init(&l, res, &two_steps, NULL, 0) == VSD_OK);
     for (c = 0; c < n; c++) collide[c] = (float)(0.1 + 0.8 * test_urand(&rng));
     /* sources at [4,5]^3, straddling the block faces at 4: two steps per iteration keep
      * everything inside the lattice, so with albedo 1 nothing may be lost */
@@ -201,7 +204,8 @@ static int steady(int block_steps, float albedo, float *fluence, vsd_lbl_diffusi
     for (z = 9; z < 15; z++)
         for (y = 9; y < 15; y++) source[(z * 24 + y) * 24 + 0] = source[n + (z * 24 + y) * 24 + 0] =
                                      source[2 * n + (z * 24 + y) * 24 + 0] = 1.0f;
-    ok = vsd_lbl_lattice_init(&l, res, block_steps, NULL, 0) == VSD_OK &&
+    const vsd_lbl_layout layout = {block_steps, 0};
+    ok = vsd_lbl_lattice_init(&l, res, &layout, NULL, 0) == VSD_OK &&
          vsd_lbl_diffuse(&l, collide, a, source, 1e-7, 40000, 0, fluence, st, NULL, 0) == VSD_OK;
     vsd_lbl_lattice_free(&l);
     return ok;
@@ -255,6 +259,63 @@ static void test_blocked_against_global(void)
     free(blocked);
 }
 
+static void test_d3q18(void)
+{
+    const vsd_lbl_layout q18 = {0, 1};
+    const int32_t small[3] = {10, 10, 10}, big[3] = {33, 33, 33};
+    const size_t n = 33 * 33 * 33, centre = (16 * 33 + 16) * 33 + 16;
+    const float p = 0.6f, albedo[3] = {0.5f, 0.3f, 0.0f}, ones[3] = {1.0f, 1.0f, 1.0f};
+    float *collide = malloc(n * sizeof *collide), *source = calloc(3 * n, sizeof *source);
+    float *fluence = malloc(3 * n * sizeof *fluence);
+    unsigned long long rng = 5;
+    double injected = 0.0, before, after;
+    vsd_lbl_lattice l;
+    vsd_lbl_diffusion_stats st;
+    size_t c;
+    int ch, x, y, z;
+    if (!collide || !source || !fluence) return;
+    /* conservation: a source in the middle of a 10^3 lattice, albedo 1, two steps (a
+     * diagonal moves one cell along each of two axes, so nothing reaches a face) */
+    memset(&l, 0, sizeof l);
+    CHECK(vsd_lbl_lattice_init(&l, small, &q18, NULL, 0) == VSD_OK);
+    for (c = 0; c < 1000; c++) collide[c] = (float)(0.1 + 0.8 * test_urand(&rng));
+    for (z = 4; z < 6; z++)
+        for (y = 4; y < 6; y++)
+            for (x = 4; x < 6; x++) {
+                source[(z * 10 + y) * 10 + x] = (float)test_urand(&rng);
+                injected += source[(z * 10 + y) * 10 + x];
+            }
+    vsd_lbl_lattice_step(&l, collide, ones, source);
+    before = vsd_lbl_lattice_total(&l, 0);
+    vsd_lbl_lattice_step(&l, collide, ones, NULL);
+    after = vsd_lbl_lattice_total(&l, 0);
+    printf("[7] D3Q18: injected %.6f, after one step %.6f, after another (albedo 1) %.6f\n", injected, before, after);
+    CHECK_MSG(fabs(before - injected) <= 1e-5 * injected, "D3Q18 injection: %.7g of %.7g", before, injected);
+    CHECK_MSG(fabs(after - before) <= 1e-5 * before, "D3Q18 albedo 1 step: %.7g -> %.7g", before, after);
+    vsd_lbl_lattice_free(&l);
+    /* infinite medium: phi lambda^2 = S / (1 - albedo) (1/(2p) + sqrt2/(2 pd)) */
+    memset(&l, 0, sizeof l);
+    for (c = 0; c < n; c++) {
+        collide[c] = p;
+        for (ch = 0; ch < 3; ch++) source[ch * n + c] = 1.0f;
+    }
+    CHECK(vsd_lbl_lattice_init(&l, big, &q18, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_diffuse(&l, collide, albedo, source, 1e-7, 20000, 0, fluence, &st, NULL, 0) == VSD_OK);
+    printf("[7] D3Q18 infinite medium: %d steps (converged %d), centre %.5f %.5f %.5f\n", st.steps, st.converged,
+           fluence[centre], fluence[n + centre], fluence[2 * n + centre]);
+    for (ch = 0; ch < 3; ch++) {
+        const double pd = 1.0 - pow(1.0 - p, sqrt(2.0));
+        const double want = (0.5 / p + sqrt(2.0) * 0.5 / pd) / (1.0 - albedo[ch]);
+        CHECK_MSG(fabs(fluence[ch * n + centre] - want) < 0.01 * want, "D3Q18 channel %d: %.5f, balance %.5f", ch,
+                  fluence[ch * n + centre], want);
+    }
+    CHECK(st.converged);
+    vsd_lbl_lattice_free(&l);
+    free(collide);
+    free(source);
+    free(fluence);
+}
+
 int main(void)
 {
     test_conservation();
@@ -262,5 +323,6 @@ int main(void)
     test_march();
     test_blocked_conservation();
     test_blocked_against_global();
+    test_d3q18();
     return test_finish("test_lbl_lattice");
 }

@@ -41,9 +41,11 @@
 #define PI_D 3.14159265358979323846
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice;
     double ray_spacing, light_step, tolerance, slice, early_termination;
 } lbl_options;
+
+static const char *const lbl_lattice_names[] = {"d3q6", "d3q18", NULL};
 
 /* in VSD_RECORDS_NEAREST.. order */
 static const char *const lbl_interp_names[] = {"nearest", "trilinear", "log", NULL};
@@ -67,6 +69,10 @@ static const vsd_option_spec lbl_option_rows[] = {
      "diffusion: 0 = one global lattice; n = the paper's 4^3 blocks with interface buffers, n steps per "
      "exchange (docs/methods/lbl.md, Fig. 6)",
      offsetof(lbl_options, block_steps), 0, NULL},
+    {"lattice", VSD_OPT_CHOICE, 0, 0, 0, lbl_lattice_names,
+     "diffusion: the paper's 6 axis directions (d3q6), or Geist et al.'s 18 with the in-plane diagonals (d3q18, "
+     "3x the memory; not with block_steps)",
+     offsetof(lbl_options, lattice), 0, NULL},
     {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, lbl_interp_names,
      "view: the direct light between cell centres, nearest, trilinear, or trilinear in log radiance",
      offsetof(lbl_options, interp), 0, NULL},
@@ -251,6 +257,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     const size_t n = cell_count(s), recs = (size_t)s->rg.count;
     vsd_lbl_grid grid;
     float albedo[3];
+    const vsd_lbl_layout layout = {s->opt.block_steps, s->opt.lattice == 1};
     double t0;
     vsd_status st;
     int a, q;
@@ -288,7 +295,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     s->march_seconds = vsd_clock_seconds() - t0;
     deposit(s, ctx);
     /* diffusion pass, from the last solve's state */
-    if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, s->opt.block_steps, err, errlen))) return st;
+    if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
     albedo[0] = ctx->kd.medium.albedo.x;
     albedo[1] = ctx->kd.medium.albedo.y;
     albedo[2] = ctx->kd.medium.albedo.z;
@@ -302,7 +309,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
          * "Passes"); the rest of the fluence scatters again before it gets there. */
         static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
         vsd_lbl_diffusion_stats stats_e;
-        if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, s->opt.block_steps, err, errlen))) return st;
+        if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, &layout, err, errlen))) return st;
         if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
                                   s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))
             return st;

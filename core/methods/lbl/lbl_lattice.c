@@ -11,19 +11,27 @@ enum { DIRS = 6, CH = 3 };
 static const int32_t dir_axis[DIRS] = {0, 0, 1, 1, 2, 2};
 static const int32_t dir_sign[DIRS] = {1, -1, 1, -1, 1, -1};
 
-vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], int block_steps, char *err, size_t errlen)
+vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], const vsd_lbl_layout *layout, char *err,
+                                size_t errlen)
 {
+    static const vsd_lbl_layout global = {0, 0};
     size_t cells = (size_t)res[0] * res[1] * res[2];
-    if ((l->f || l->blocked.f) && memcmp(l->res, res, sizeof l->res) == 0 && l->block_steps == block_steps)
+    if (!layout) layout = &global;
+    if ((l->f || l->blocked.f || l->q18.f) && memcmp(l->res, res, sizeof l->res) == 0 &&
+        memcmp(&l->layout, layout, sizeof *layout) == 0)
         return VSD_OK;
     vsd_lbl_lattice_free(l);
     if (cells == 0) return VSD_OK;
-    if (block_steps > 0) {
-        vsd_status st = vsd_lbl_blocked_init(&l->blocked, res, block_steps, err, errlen);
+    if (layout->block_steps > 0 && layout->d3q18)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                        "lbl: the blocked lattice (block_steps) is D3Q6 only, not with lattice \"d3q18\"");
+    if (layout->block_steps > 0 || layout->d3q18) {
+        vsd_status st = layout->d3q18 ? vsd_lbl_q18_init(&l->q18, res, err, errlen)
+                                      : vsd_lbl_blocked_init(&l->blocked, res, layout->block_steps, err, errlen);
         if (st) return st;
         memcpy(l->res, res, sizeof l->res);
         l->cells = cells;
-        l->block_steps = block_steps;
+        l->layout = *layout;
         return VSD_OK;
     }
     if (!(l->f = calloc(cells * DIRS * CH, sizeof *l->f)))
@@ -37,6 +45,7 @@ void vsd_lbl_lattice_free(vsd_lbl_lattice *l)
 {
     free(l->f);
     vsd_lbl_blocked_free(&l->blocked);
+    vsd_lbl_q18_free(&l->q18);
     memset(l, 0, sizeof *l);
 }
 
@@ -147,9 +156,14 @@ static void step_job_free(step_job *job)
 void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source)
 {
     step_job job;
-    if (l->block_steps > 0) {
+    if (l->layout.block_steps > 0) {
         if (vsd_lbl_blocked_set_material(&l->blocked, collide, source, NULL, 0) == VSD_OK)
             vsd_lbl_blocked_iterate(&l->blocked, albedo, 1);
+        return;
+    }
+    if (l->layout.d3q18) {
+        vsd_lbl_q18_set_material(&l->q18, collide, source);
+        vsd_lbl_q18_step(&l->q18, albedo, 1);
         return;
     }
     if (!l->f) return;
@@ -165,7 +179,8 @@ static float node_sum(const vsd_lbl_lattice *l, int ch, size_t c)
 {
     float v = 0.0f;
     int i;
-    if (l->block_steps > 0) return vsd_lbl_blocked_node_sum(&l->blocked, ch, c);
+    if (l->layout.block_steps > 0) return vsd_lbl_blocked_node_sum(&l->blocked, ch, c);
+    if (l->layout.d3q18) return vsd_lbl_q18_node_fluence(&l->q18, ch, c);
     for (i = 0; i < DIRS; i++) v += l->f[((size_t)i * CH + ch) * l->cells + c];
     return v;
 }
@@ -174,7 +189,8 @@ double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch)
 {
     double s = 0.0;
     size_t c;
-    if (l->block_steps > 0) return vsd_lbl_blocked_total(&l->blocked, ch);
+    if (l->layout.block_steps > 0) return vsd_lbl_blocked_total(&l->blocked, ch);
+    if (l->layout.d3q18) return vsd_lbl_q18_total(&l->q18, ch);
     for (c = 0; c < l->cells; c++) s += node_sum(l, ch, c);
     return s;
 }
@@ -209,14 +225,15 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     vsd_status st = VSD_OK;
     size_t c;
     int k, ch;
-    const int blocked = l->block_steps > 0, per = blocked ? l->block_steps : 1;
+    const int blocked = l->layout.block_steps > 0, q18 = l->layout.d3q18, per = blocked ? l->layout.block_steps : 1;
     int next_check = per > 8 ? per : 8;
     memset(stats, 0, sizeof *stats);
     memset(&job, 0, sizeof job);
-    if (!l->f && !blocked) return VSD_OK;
+    if (!l->f && !blocked && !q18) return VSD_OK;
     if (blocked && (st = vsd_lbl_blocked_set_material(&l->blocked, collide, source, err, errlen))) return st;
+    if (q18) vsd_lbl_q18_set_material(&l->q18, collide, source);
     probes = malloc(((l->cells + 6) / 7) * CH * sizeof *probes);
-    if ((!blocked && !step_job_init(&job, l, collide, albedo, source)) || !probes) {
+    if ((!blocked && !q18 && !step_job_init(&job, l, collide, albedo, source)) || !probes) {
         step_job_free(&job);
         free(probes);
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lattice's collision buffers");
@@ -224,7 +241,9 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     /* k counts lattice steps; a blocked lattice advances block_steps per iteration, and the
      * convergence test runs every 8 steps or every iteration, whichever is longer */
     for (k = 0; k < max_steps; k += per) {
-        if ((st = blocked ? vsd_lbl_blocked_iterate(&l->blocked, albedo, threads) : run_step(&job, threads))) {
+        if ((st = blocked ? vsd_lbl_blocked_iterate(&l->blocked, albedo, threads)
+                  : q18   ? vsd_lbl_q18_step(&l->q18, albedo, threads)
+                          : run_step(&job, threads))) {
             st = vsd_fail(st, err, errlen, "lbl diffusion cancelled");
             break;
         }

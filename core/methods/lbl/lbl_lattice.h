@@ -29,15 +29,23 @@
 #include <stdint.h>
 #include "vsd/status.h"
 #include "lbl_blocked.h"
+#include "lbl_d3q18.h"
+
+/* Which lattice: the global D3Q6 (all zero), the paper's blocks, or Geist's D3Q18. */
+typedef struct vsd_lbl_layout {
+    int block_steps;         /* n > 0: 4^3 blocks with interface buffers, n steps per
+                                iteration (lbl_blocked.h) */
+    int d3q18;               /* 1: 18 directions (lbl_d3q18.h); not with blocks */
+} vsd_lbl_layout;
 
 typedef struct vsd_lbl_lattice {
     int32_t res[3];
     size_t cells;
     float *f;                /* [6 directions][3 channels][cells] arriving densities (warm state);
                                 NULL when blocked */
-    int block_steps;         /* 0: the global lattice; n > 0: the paper's 4^3 blocks with
-                                interface buffers, n steps per iteration (lbl_blocked.h) */
-    vsd_lbl_blocked blocked;
+    vsd_lbl_layout layout;
+    vsd_lbl_blocked blocked; /* when layout.block_steps > 0 */
+    vsd_lbl_q18 q18;         /* when layout.d3q18 */
 } vsd_lbl_lattice;
 
 typedef struct vsd_lbl_diffusion_stats {
@@ -47,9 +55,10 @@ typedef struct vsd_lbl_diffusion_stats {
     double seconds;
 } vsd_lbl_diffusion_stats;
 
-/* Allocates (zero state) or keeps the lattice when res and block_steps are unchanged;
- * block_steps 0 = the global lattice. */
-vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], int block_steps, char *err, size_t errlen);
+/* Allocates (zero state) or keeps the lattice when res and layout are unchanged; layout
+ * NULL = the global D3Q6 lattice. */
+vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], const vsd_lbl_layout *layout, char *err,
+                                size_t errlen);
 void vsd_lbl_lattice_free(vsd_lbl_lattice *l);
 
 /* One collide-and-stream step (no threads, for tests; a blocked lattice does one
@@ -61,8 +70,8 @@ void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float 
 double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch);
 
 /* Steps from the current state until converged; fluence[3][cells] = sum_i f_i (caller
- * divides by lambda^2). stats->steps counts lattice steps (block_steps per iteration of a
- * blocked lattice). */
+ * divides by lambda^2; on D3Q18 sum_i |c_i| f_i). stats->steps counts lattice steps
+ * (block_steps per iteration of a blocked lattice). */
 vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
                            double tolerance, int max_steps, int threads, float *fluence, vsd_lbl_diffusion_stats *stats,
                            char *err, size_t errlen);
