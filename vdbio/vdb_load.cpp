@@ -223,11 +223,18 @@ vsd_status fill_volume(const GridT &grid, vsd_volume *vol, std::string &why)
 } // namespace
 
 // Read grid `g` through OpenVDB and convert it. Throws ScanError or OpenVDB/std exceptions.
-vsd_volume *load_grid(const std::string &path, const GridEntry &g)
+openvdb::GridBase::Ptr read_checked_grid(openvdb::io::File &file, const std::string &path, const FileScan &scan,
+                                         const GridEntry &g)
+{
+    scan_grid_tree(path, scan, lookup_name(g));
+    return file.readGrid(lookup_name(g));
+}
+
+vsd_volume *load_grid(const std::string &path, const FileScan &scan, const GridEntry &g)
 {
     openvdb::io::File file(path);
     file.open(false);   // no delayed loading: read (and fail) now, inside our try
-    GridBase::Ptr base = file.readGrid(lookup_name(g));
+    GridBase::Ptr base = read_checked_grid(file, path, scan, g);
     file.close();
     if (!base)
         throw ScanError{VSD_ERR_FORMAT, path + ": grid '" + g.name + "' could not be read"};

@@ -8,6 +8,7 @@
 #include "vsd/volume.h"
 
 #include <openvdb/Grid.h>
+#include <openvdb/io/File.h>
 
 #include <cstddef>
 #include <cstdio>
@@ -30,10 +31,15 @@ bool get_meta(const openvdb::GridBase &grid, const char *key, ValueT &out)
     return true;
 }
 
-// Read grid `g` through OpenVDB and convert it. Throws ScanError or OpenVDB/std exceptions.
-// The caller has scanned the file (scan_file) and the grid's tree (scan_grid_tree) first.
-// Implemented in vdb_load.cpp.
-vsd_volume *load_grid(const std::string &path, const GridEntry &g);
+// The one way vdbio reads a grid's tree through OpenVDB: first the walk of that tree
+// (scan_grid_tree), since OpenVDB trusts the sizes inside it, then io::File::readGrid. `scan`
+// is the file's structural scan (scan_file). Implemented in vdb_load.cpp.
+openvdb::GridBase::Ptr read_checked_grid(openvdb::io::File &file, const std::string &path, const FileScan &scan,
+                                         const GridEntry &g);
+
+// Read grid `g` (read_checked_grid) and convert it. Throws ScanError or OpenVDB/std
+// exceptions. Implemented in vdb_load.cpp.
+vsd_volume *load_grid(const std::string &path, const FileScan &scan, const GridEntry &g);
 
 } // namespace vsd_vdbio
 

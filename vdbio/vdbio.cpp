@@ -142,8 +142,7 @@ void grid_stats(const std::string &path, const FileScan &scan, openvdb::io::File
         bbox = openvdb::CoordBBox(openvdb::Coord(lo), openvdb::Coord(hi));
         return;
     }
-    vsd_vdbio::scan_grid_tree(path, scan, lookup_name(g));
-    GridBase::Ptr full = file.readGrid(lookup_name(g));
+    GridBase::Ptr full = vsd_vdbio::read_checked_grid(file, path, scan, g);
     active = full->activeVoxelCount();
     bbox = full->evalActiveVoxelBoundingBox();
 }
@@ -241,9 +240,7 @@ vsd_status vsd_vdb_load(const char *path, vsd_grid_select sel, vsd_volume **out,
             return fail(err, errlen, VSD_ERR_TYPE,
                         p + ": grid '" + g.name + "' has value type " + vt +
                             "; vsd loads scalar float grids (float, half or double)");
-        // OpenVDB trusts the sizes inside the tree: walk it before OpenVDB reads it
-        vsd_vdbio::scan_grid_tree(p, scan, lookup_name(g));
-        vsd_volume *vol = load_grid(p, g);
+        vsd_volume *vol = load_grid(p, scan, g);
         const vsd_status st = vsd_volume_check_finite(vol, err, errlen);
         if (st != VSD_OK) {
             vsd_volume_destroy(vol);

@@ -5,7 +5,7 @@
  * renderers evicted uploads between their PUT and their RENDER (docs/soak.md). One LRU
  * list; an entry with refs > 0 is in use (a running job, or a renderer pinning its
  * volumes) and never evicted; eviction for one budget takes only that budget's entries.
- * Renderer slots (admission, heap sampling) are in cache_slots.c. */
+ * Renderer slots (admission, sizes learned per method) are in cache_slots.c. */
 #define _GNU_SOURCE
 #include "cache_internal.h"
 #include "loader.h"
@@ -23,7 +23,7 @@
 
 static const char *const kind_names[ENT_KINDS] = {"blobs", "volumes", "envs", "renderers"};
 
-vsdd_cache_state g_cache = {.lock = PTHREAD_MUTEX_INITIALIZER, .room = PTHREAD_COND_INITIALIZER};
+vsdd_cache_state g_cache = {.lock = PTHREAD_MUTEX_INITIALIZER, .room = PTHREAD_COND_INITIALIZER, .owner_fd = -1};
 
 static void lru_unlink(vsdd_entry *e)
 {
@@ -242,7 +242,7 @@ void vsdd_cache_shutdown(void)
     }
     pthread_mutex_unlock(&g_cache.lock);
     if (g_daemon.cfg.cache_dir[0]) remove_dir(g_daemon.cfg.cache_dir);
-    if (g_cache.owner_fd > 0) close(g_cache.owner_fd);
+    if (g_cache.owner_fd >= 0) close(g_cache.owner_fd);
     g_cache.owner_fd = -1;
 }
 

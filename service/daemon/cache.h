@@ -44,7 +44,6 @@ typedef struct vsdd_slot {
     int64_t held;                  /* heap bytes the renderer was seen to keep (sum of the
                                       allocator's in-use growth over its create and renders) */
     uint64_t heap_start;           /* the heap in use at the render's begin */
-    uint64_t peak;                 /* the most it was seen to hold, this job */
 } vsdd_slot;
 /* The renderer's progress callback; `user` is the slot. Passed in by the jobs layer, so
  * the cache does not call up into it. */

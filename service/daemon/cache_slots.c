@@ -65,25 +65,29 @@ void vsdd_cache_render_begin(vsdd_slot *s)
     uint64_t heap = vsdd_heap_in_use();
     pthread_mutex_lock(&g_cache.lock);
     s->heap_start = heap;
-    s->peak = s->held > 0 ? (uint64_t)s->held : 0;
     pthread_mutex_unlock(&g_cache.lock);
 }
 
 void vsdd_cache_render_end(vsdd_slot *s, int64_t framebuffer_bytes, int ok)
 {
-    uint64_t heap = vsdd_heap_in_use(), *l;
+    uint64_t heap = vsdd_heap_in_use(), *l, size;
+    int64_t before;
     pthread_mutex_lock(&g_cache.lock);
+    before = s->held;
     if (ok) {
         /* what it keeps: the growth over the render, less the framebuffer it made */
         s->held += (int64_t)heap - (int64_t)s->heap_start - framebuffer_bytes;
         if (s->held < 0) s->held = 0;
-        if ((uint64_t)s->held > s->peak) s->peak = (uint64_t)s->held;
-        /* the next new renderer of this method is first estimated at this one's working
-         * size: a rise taken at once, a fall slowly */
-        l = learned_bytes(s->method);
-        if (l) *l = s->peak >= *l ? s->peak : (*l * 3 + s->peak) / 4;
     }
-    grow_entry(s->self, s->peak);
+    /* its size for this job: the more of what it held before and after */
+    size = (uint64_t)(s->held > before ? s->held : before > 0 ? before : 0);
+    if (ok) {
+        /* the next new renderer of this method is first estimated at this size: a rise
+         * taken at once, a fall slowly */
+        l = learned_bytes(s->method);
+        if (l) *l = size >= *l ? size : (*l * 3 + size) / 4;
+    }
+    grow_entry(s->self, size);
     pthread_mutex_unlock(&g_cache.lock);
 }
 

@@ -11,13 +11,16 @@ enum { DIRS = 6, CH = 3 };
 static const int32_t dir_axis[DIRS] = {0, 0, 1, 1, 2, 2};
 static const int32_t dir_sign[DIRS] = {1, -1, 1, -1, 1, -1};
 
+/* whichever layout's populations exist */
+static int allocated(const vsd_lbl_lattice *l) { return l->f || l->blocked.f || l->q18.f; }
+
 vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], const vsd_lbl_layout *layout, char *err,
                                 size_t errlen)
 {
     static const vsd_lbl_layout global = {0, 0};
     size_t cells = (size_t)res[0] * res[1] * res[2];
     if (!layout) layout = &global;
-    if ((l->f || l->blocked.f || l->q18.f) && memcmp(l->res, res, sizeof l->res) == 0 &&
+    if (allocated(l) && memcmp(l->res, res, sizeof l->res) == 0 &&
         memcmp(&l->layout, layout, sizeof *layout) == 0)
         return VSD_OK;
     vsd_lbl_lattice_free(l);
@@ -153,24 +156,35 @@ static void step_job_free(step_job *job)
     free(job->gain);
 }
 
+/* Ready lattice l (whichever layout) for steps with this material: the global lattice's
+ * step job and scratch, or the blocked and D3Q18 lattices' copies of the material. */
+static vsd_status prepare(vsd_lbl_lattice *l, step_job *job, const float *collide, const float albedo[3],
+                          const float *source, char *err, size_t errlen)
+{
+    memset(job, 0, sizeof *job);
+    if (l->layout.block_steps > 0) return vsd_lbl_blocked_set_material(&l->blocked, collide, source, err, errlen);
+    if (l->layout.d3q18) {
+        vsd_lbl_q18_set_material(&l->q18, collide, source);
+        return VSD_OK;
+    }
+    if (!step_job_init(job, l, collide, albedo, source))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lattice's collision buffers");
+    return VSD_OK;
+}
+
+/* One iteration of the prepared lattice: a step, or block_steps steps of a blocked one. */
+static vsd_status advance(vsd_lbl_lattice *l, step_job *job, const float albedo[3], int threads)
+{
+    if (l->layout.block_steps > 0) return vsd_lbl_blocked_iterate(&l->blocked, albedo, threads);
+    if (l->layout.d3q18) return vsd_lbl_q18_step(&l->q18, albedo, threads);
+    return run_step(job, threads);
+}
+
 void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source)
 {
     step_job job;
-    if (l->layout.block_steps > 0) {
-        if (vsd_lbl_blocked_set_material(&l->blocked, collide, source, NULL, 0) == VSD_OK)
-            vsd_lbl_blocked_iterate(&l->blocked, albedo, 1);
-        return;
-    }
-    if (l->layout.d3q18) {
-        vsd_lbl_q18_set_material(&l->q18, collide, source);
-        vsd_lbl_q18_step(&l->q18, albedo, 1);
-        return;
-    }
-    if (!l->f) return;
-    if (step_job_init(&job, l, collide, albedo, source)) {
-        collide_slices(&job, 0, 0, l->res[2], 1);
-        stream_slices(&job, 0, 0, l->res[2], 1);
-    }
+    memset(&job, 0, sizeof job);
+    if (allocated(l) && prepare(l, &job, collide, albedo, source, NULL, 0) == VSD_OK) advance(l, &job, albedo, 1);
     step_job_free(&job);
 }
 
@@ -225,25 +239,23 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     vsd_status st = VSD_OK;
     size_t c;
     int k, ch;
-    const int blocked = l->layout.block_steps > 0, q18 = l->layout.d3q18, per = blocked ? l->layout.block_steps : 1;
+    const int per = l->layout.block_steps > 0 ? l->layout.block_steps : 1;
     int next_check = per > 8 ? per : 8;
     memset(stats, 0, sizeof *stats);
-    memset(&job, 0, sizeof job);
-    if (!l->f && !blocked && !q18) return VSD_OK;
-    if (blocked && (st = vsd_lbl_blocked_set_material(&l->blocked, collide, source, err, errlen))) return st;
-    if (q18) vsd_lbl_q18_set_material(&l->q18, collide, source);
-    probes = malloc(((l->cells + 6) / 7) * CH * sizeof *probes);
-    if ((!blocked && !q18 && !step_job_init(&job, l, collide, albedo, source)) || !probes) {
+    if (!allocated(l)) return VSD_OK;
+    if ((st = prepare(l, &job, collide, albedo, source, err, errlen))) {
         step_job_free(&job);
-        free(probes);
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lattice's collision buffers");
+        return st;
+    }
+    probes = malloc(((l->cells + 6) / 7) * CH * sizeof *probes);
+    if (!probes) {
+        step_job_free(&job);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lattice's convergence probes");
     }
     /* k counts lattice steps; a blocked lattice advances block_steps per iteration, and the
      * convergence test runs every 8 steps or every iteration, whichever is longer */
     for (k = 0; k < max_steps; k += per) {
-        if ((st = blocked ? vsd_lbl_blocked_iterate(&l->blocked, albedo, threads)
-                  : q18   ? vsd_lbl_q18_step(&l->q18, albedo, threads)
-                          : run_step(&job, threads))) {
+        if ((st = advance(l, &job, albedo, threads))) {
             st = vsd_fail(st, err, errlen, "lbl diffusion cancelled");
             break;
         }
