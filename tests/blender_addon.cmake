@@ -25,7 +25,7 @@ if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
   find_program(BLENDER_EXE blender)
   find_program(XVFB_RUN xvfb-run)
   if(BLENDER_EXE)
-    foreach(t render stream options ior)
+    foreach(t render stream options ior lights)
       add_test(NAME blender_addon_${t}
                COMMAND ${BLENDER_EXE} --background --factory-startup --python-exit-code 1
                        --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_${t}.py --

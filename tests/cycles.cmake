@@ -13,6 +13,12 @@ if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
              --cycles-spp 256 --dir ${VSD_TEST_TMP}/cycles_crosscheck_fire)
     set_tests_properties(test_cycles_crosscheck_fire PROPERTIES LABELS "blender;slow" TIMEOUT 2400
                          SKIP_RETURN_CODE 77)
+    # The scene's lights (a point of radius 0.1, a spot with a soft edge, a sun with a
+    # 2-degree disc) over a dimmed map: Cycles' light units and spot mask. About 30 s.
+    add_test(NAME test_cycles_crosscheck_lights COMMAND test_cycles_crosscheck --scene lights --vsd-spp 1024
+             --cycles-spp 256 --dir ${VSD_TEST_TMP}/cycles_crosscheck_lights)
+    set_tests_properties(test_cycles_crosscheck_lights PROPERTIES LABELS "blender;slow" TIMEOUT 2400
+                         SKIP_RETURN_CODE 77)
     target_compile_definitions(test_cycles_crosscheck PRIVATE
       VSD_BLENDER_EXE="${BLENDER_EXE}"
       VSD_CYCLES_SCRIPT="${CMAKE_CURRENT_SOURCE_DIR}/cycles/cycles_scene.py")

@@ -7,3 +7,6 @@ vsd_add_test(test_lbl SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_lbl.c LIBS vsd_te
 # Bent rays (medium.ior): the ray equation in a linear index field, Snell's law through a
 # ball, n = 1 stepping unbiased, and the path tracer's background seen through a ball.
 vsd_add_test(test_refraction SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_refraction.c LIBS vsd_test_render LABELS integration render lbl)
+# The scene's lights (sun, point, spot): reference's single scattering against a quadrature
+# for each type, lbl against reference, a moved light, the errors.
+vsd_add_test(test_lights SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_lights.c LIBS vsd_test_render LABELS integration render lbl)

@@ -114,7 +114,7 @@ static void march_box(const float light_dir[3], float *trans, int32_t *records)
     g.sigma = sigma;
     memset(g.to_grid, 0, sizeof g.to_grid);
     g.to_grid[0] = g.to_grid[4] = g.to_grid[8] = 16.0;   /* 16 cells per world unit */
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, 0.5f, 0.25f, records, 0, trans, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, NULL, 0, 0.5f, 0.25f, records, 0, trans, NULL, NULL, 0) == VSD_OK);
 }
 
 static void test_march(void)

@@ -331,8 +331,32 @@ static void test_errors(void)
         EXPECT_ERR(with(big), VSD_ERR_INVALID, "render.options: too long (5008 bytes serialised, max 4095)");
     }
     EXPECT_ERR(with("\"frames\": {\"start\": 5, \"end\": 1}"), VSD_ERR_INVALID, "frames.end: 1 is before frames.start (5)");
-    EXPECT_ERR(with("\"lights\": [{\"type\": \"sun\"}]"), VSD_ERR_UNSUPPORTED,
-               "lights: extra lights are not supported yet (the environment is the light)");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"sun\", \"power\": 3}]"), VSD_ERR_INVALID,
+               "lights[0].power: a sun light has no 'power' (its strength is in W/m^2)");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"sun\"}, {\"type\": \"point\", \"strength\": 3}]"), VSD_ERR_INVALID,
+               "lights[1].strength: a point light has no 'strength' (its power is in watts)");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"point\", \"spot_size\": 1}]"), VSD_ERR_INVALID,
+               "lights[0].spot_size: a point light has no 'spot_size'");
+    EXPECT_ERR(with("\"lights\": [{\"power\": 3}]"), VSD_ERR_INVALID, "lights[0].type: required");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"area\"}]"), VSD_ERR_INVALID,
+               "lights[0].type: \"area\" is not one of \"sun\", \"point\", \"spot\"");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"spot\", \"direction\": [0,0,0]}]"), VSD_ERR_INVALID,
+               "lights[0].direction: must not be the zero vector");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"spot\", \"spot_blend\": 2}]"), VSD_ERR_INVALID,
+               "lights[0].spot_blend: 2 is out of range 0..1");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"point\", \"power\": -1}]"), VSD_ERR_INVALID,
+               "lights[0].power: -1 is out of range (must be >= 0)");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"point\", \"colour\": [1,1,1]}]"), VSD_ERR_INVALID,
+               "lights[0].colour: unknown key (known: type, color, strength, power, position, direction, radius, angle, "
+               "spot_size, spot_blend)");
+    EXPECT_ERR(with("\"lights\": [3]"), VSD_ERR_TYPE, "lights[0]: expected object");
+    {
+        char many[2048] = "\"lights\": [";
+        int i;
+        for (i = 0; i < VSD_MAX_LIGHTS + 1; i++) strcat(many, i ? ", {\"type\": \"sun\"}" : "{\"type\": \"sun\"}");
+        strcat(many, "]");
+        EXPECT_ERR(with(many), VSD_ERR_UNSUPPORTED, "lights: 17 lights; at most 16 are supported (the environment is the main light)");
+    }
     EXPECT_ERR(with("\"lights\": {}"), VSD_ERR_TYPE, "lights: expected array");
     EXPECT_ERR(with("\"output\": {\"passes\": [\"Combined\", \"Foo\"]}"), VSD_ERR_INVALID,
                "output.passes[1]: unknown pass \"Foo\" (known: Combined, VolumeDir, VolumeInd, Emit, Transmittance, Depth)");
@@ -402,6 +426,17 @@ static void test_values(void)
     CHECK(!strcmp(s.environment.file, "") && !strcmp(s.output.preview_png, ""));
     CHECK_MSG(parse(with("\"lights\": []"), &s) == VSD_OK, "%s", err);
     CHECK(s.light_count == 0);
+    /* the three types, with their defaults (docs/scene-file.md) and the direction normalised */
+    CHECK_MSG(parse(with("\"lights\": [{\"type\": \"sun\", \"strength\": 3, \"direction\": [0, 3, -4], \"angle\": 0.1},"
+                         " {\"type\": \"point\", \"position\": [1, 2, 3], \"color\": [1, 0.5, 0.25]},"
+                         " {\"type\": \"spot\", \"power\": 50, \"radius\": 0.1}]"), &s) == VSD_OK, "%s", err);
+    CHECK(s.light_count == 3);
+    CHECK(s.lights[0].type == VSD_LIGHT_SUN && s.lights[0].strength == 3.0f && s.lights[0].angle == 0.1f);
+    CHECK(fabs(s.lights[0].direction[1] - 0.6) < 1e-12 && fabs(s.lights[0].direction[2] + 0.8) < 1e-12);
+    CHECK(s.lights[1].type == VSD_LIGHT_POINT && s.lights[1].power == 1000.0f && s.lights[1].position[2] == 3.0 &&
+          s.lights[1].color[1] == 0.5f && s.lights[1].radius == 0.0f);
+    CHECK(s.lights[2].type == VSD_LIGHT_SPOT && s.lights[2].power == 50.0f && s.lights[2].direction[2] == -1.0 &&
+          fabs(s.lights[2].spot_size - 0.785398) < 1e-5 && s.lights[2].spot_blend == 0.15f);
     CHECK_MSG(parse(with("\"frames\": {\"start\": -3, \"end\": -3}"), &s) == VSD_OK, "%s", err);
     CHECK(s.frames.start == -3);
     /* Integers may be written with an exponent or a ".0" */

@@ -32,12 +32,16 @@
 #include "kernel_camera.h"
 #include "kernel_march.h"
 #include "kernel_phase.h"
+#include "kernel_lights.h"
 #include "src/sh/sh_kernel.h"
 #include "device/device_pass.h"
 
 enum { VSD_RECORDS_SH_SCALAR = 0, VSD_RECORDS_SH_RGB = 1, VSD_RECORDS_BAKED = 2, VSD_RECORDS_LIGHTS = 3 };
 enum { VSD_RECORDS_NEAREST = 0, VSD_RECORDS_TRILINEAR = 1, VSD_RECORDS_LOG_TRILINEAR = 2 };
 enum { VSD_RECORDS_MAX_LIGHTS = 64 };
+/* The per-ray weights (vsd_records_light_weights): 3 x VSD_RECORDS_MAX_LIGHTS, then the
+ * ray's direction and g at VSD_RECORDS_PH_DIR (what the local lights' phase needs). */
+enum { VSD_RECORDS_PH_DIR = 3 * VSD_RECORDS_MAX_LIGHTS, VSD_RECORDS_PH_FLOATS = 3 * VSD_RECORDS_MAX_LIGHTS + 4 };
 
 /* The record grid as kernels see it; kd is the scene's. Grid coordinates: cell (i,j,k) spans
  * [i, i+1) x ... ; g = world_to_grid(p). */
@@ -57,6 +61,12 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
      * emission scattered once, which Cycles counts as direct (VolumeDir); added linearly to
      * the in-scattered radiance the records give */
     const float *records_ms_dir;
+    /* [local_count * VSD_KLIGHT_FLOATS] the scene's point and spot lights (kernel_lights.h),
+     * and [record_count * local_count] each one's transmittance to the record times its
+     * falloff there (vsd_light_falloff): their term sum_k phase(d . w_k(x)) I_k t_k, with w_k
+     * toward the light from the record's position (record_pos) */
+    const float *local_lights;
+    const float *local_trans;
     vsd_affine world_to_grid;
     int32_t res[3];
     int32_t order, n2, stride;    /* stride = n2 (scalar) or 3 n2 (RGB) */
@@ -66,7 +76,8 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     int32_t record_count;
     float record_step;            /* quadrature step of the record marches (world) */
     int32_t light_count;          /* 0..VSD_RECORDS_MAX_LIGHTS; 0 = the paper's pure SH form */
-    float pad_[2];
+    int32_t local_count;          /* 0..VSD_MAX_LIGHTS */
+    float pad_[3];
 } vsd_krecord_grid;
 VSD_STATIC_ASSERT(sizeof(vsd_krecord_grid) % 16 == 0, "vsd_krecord_grid must stay 16-byte aligned");
 
@@ -86,10 +97,15 @@ VSD_DEVICE float vsd_records_dot(const float *a, const float *b, int32_t n)
 /* Per-ray weights of the directional lights: ph[c * VSD_RECORDS_MAX_LIGHTS + k] = phase(d .
  * w_k) E_kc (planar, so the per-record sums are contiguous dot products). The lights are
  * directional and d is fixed along a ray, so this runs once per ray; an isotropic phase
- * (g = 0) makes it independent of d, which is what lets records be baked. */
+ * (g = 0) makes it independent of d, which is what lets records be baked. d and g go to
+ * ph[VSD_RECORDS_PH_DIR..] for the local lights. ph holds VSD_RECORDS_PH_FLOATS. */
 VSD_DEVICE void vsd_records_light_weights(const float *lights, int32_t count, vsd_f3 d, float g, float *ph)
 {
     int32_t k;
+    ph[VSD_RECORDS_PH_DIR] = d.x;
+    ph[VSD_RECORDS_PH_DIR + 1] = d.y;
+    ph[VSD_RECORDS_PH_DIR + 2] = d.z;
+    ph[VSD_RECORDS_PH_DIR + 3] = g;
     for (k = 0; k < count; k++) {
         const float *l = lights + 8 * (size_t)k;
         float pk = vsd_hg_eval(f3_dot(d, f3(l[0], l[1], l[2])), g);
@@ -119,6 +135,19 @@ VSD_DEVICE vsd_f3 vsd_records_radiance(const vsd_krecord_grid *g, int32_t rec, c
     if (g->light_count > 0) {
         const float *t = g->light_trans + (size_t)rec * g->light_count;
         for (c = 0; c < 3; c++) s[c] += vsd_records_dot(t, ph + c * VSD_RECORDS_MAX_LIGHTS, g->light_count);
+    }
+    if (g->local_count > 0) {
+        const float *t = g->local_trans + (size_t)rec * g->local_count, *x = g->record_pos + 4 * (size_t)rec;
+        vsd_f3 d = f3(ph[VSD_RECORDS_PH_DIR], ph[VSD_RECORDS_PH_DIR + 1], ph[VSD_RECORDS_PH_DIR + 2]);
+        int32_t k;
+        for (k = 0; k < g->local_count; k++) {
+            const float *l = g->local_lights + (size_t)VSD_KLIGHT_FLOATS * k;
+            float f;
+            if (!(t[k] > 0.0f)) continue;
+            f = vsd_hg_eval(f3_dot(d, f3_normalize(f3(l[0] - x[0], l[1] - x[1], l[2] - x[2]))),
+                            ph[VSD_RECORDS_PH_DIR + 3]) * t[k];
+            for (c = 0; c < 3; c++) s[c] += f * l[4 + c];
+        }
     }
     return f3(s[0], s[1], s[2]);
 }
@@ -238,7 +267,7 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel(const vsd_krecord_grid *g, int32_
     vsd_march_acc acc;
     vsd_f3 o, d;
     float t0 = 0.0f, t1 = 0.0f;
-    float w[VSD_SH_MAX_COEFFS], ph[3 * VSD_RECORDS_MAX_LIGHTS];
+    float w[VSD_SH_MAX_COEFFS], ph[VSD_RECORDS_PH_FLOATS];
     vsd_records_corners corners;
     corners.filled = 0;
     corners.valid = 0;

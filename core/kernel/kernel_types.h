@@ -128,13 +128,17 @@ typedef struct VSD_ALIGN16 vsd_kernel_data {
      * importance-sampled directions, constellation's median-cut lights): per light 8 floats,
      * direction xyz, 0, then radiance weight rgb (already divided by count and pdf), 0. */
     const float *lights;
+    /* The scene's lights[] (sun, point, spot): kernel_lights.h's layout, VSD_KLIGHT_FLOATS
+     * per light; NULL when there are none. */
+    const float *scene_lights;
     int32_t light_count;
+    int32_t scene_light_count;
     int32_t transparent;      /* film: 1 = environment not composited behind */
     int32_t seed;
     int32_t max_bounces;
     float march_step;         /* ray-march step in world units (raymarch) */
     float march_stop;         /* view marches stop once transmittance is below this (0 = never) */
-    int32_t pad_[2];
+    int32_t pad_[1];
 } vsd_kernel_data;
 
 VSD_STATIC_ASSERT(sizeof(vsd_kvolume) % 16 == 0, "vsd_kvolume must stay 16-byte aligned");

@@ -591,6 +591,79 @@ def map_camera(cam_ob, w, h, m):
     return out
 
 
+# ---- lights -------------------------------------------------------------------------------
+
+# the methods that render the scene's lights (docs/scene-file.md, "lights")
+LIGHT_METHODS = ("reference", "lbl")
+MAX_LIGHTS = 16
+
+
+def _unit(v):
+    n = math.sqrt(sum(x * x for x in v))
+    return [float(x / n) for x in v] if n > 0 else [0.0, 0.0, -1.0]
+
+
+def map_light(light, mw, m):
+    """One Blender light (data, matrix_world) as a lights[] entry, or None (with a note) for
+    what vsd does not render. Cycles' units: a sun's Strength is W/m^2, a point's or spot's
+    Power is watts; the light shines down its local -Z."""
+    name = light.name
+    color = [max(0.0, float(c)) for c in light.color]
+    direction = _unit([-mw[0][2], -mw[1][2], -mw[2][2]])
+    position = [float(mw[0][3]), float(mw[1][3]), float(mw[2][3])]
+    if getattr(light, "use_nodes", False):
+        m.warn("light '%s': its node tree is not read (Color and Strength/Power are used)" % name)
+    if light.type == "SUN":
+        return {"type": "sun", "color": color, "strength": float(light.energy), "direction": direction,
+                "angle": float(min(max(light.angle, 0.0), 3.14159))}
+    if light.type in ("POINT", "SPOT"):
+        out = {"type": light.type.lower(), "color": color, "power": float(light.energy), "position": position,
+               "radius": float(max(light.shadow_soft_size, 0.0))}
+        if light.type == "SPOT":
+            sx, sy = mw.to_scale()[0], mw.to_scale()[1]
+            if abs(sx - sy) > 1e-4 * max(abs(sx), abs(sy), 1e-9):
+                m.warn("spot light '%s': a non-uniform scale (an elliptic cone) is rendered as a round cone" % name)
+            out.update({"direction": direction, "spot_size": float(min(max(light.spot_size, 1e-4), math.pi)),
+                        "spot_blend": float(min(max(light.spot_blend, 0.0), 1.0))})
+        return out
+    m.warn("light '%s': %s lights are not supported: ignored" % (name, light.type.lower()))
+    return None
+
+
+def map_lights(depsgraph, method, refracts, m, viewport=False):
+    """The scene's visible lights as lights[] (at most MAX_LIGHTS, the strongest first):
+    a final render or an export leaves out lights disabled in renders (hide_render, also
+    when the depsgraph is the viewport's, as the export's is), the viewport shows what it
+    shows. A method that does not render lights, or a refracting medium, gets none, with a
+    note: the renderer would refuse the scene."""
+    found = []
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        if ob.type != "LIGHT":
+            continue
+        if not viewport and ob.original.hide_render:
+            continue
+        entry = map_light(ob.data, inst.matrix_world, m)
+        if entry is not None and max(entry["color"]) > 0 and entry.get("strength", entry.get("power", 0)) > 0:
+            found.append(entry)
+    if not found:
+        return []
+    if method not in LIGHT_METHODS:
+        m.warn("method %s does not render lights: %d ignored (%s render them)"
+               % (method, len(found), " and ".join(LIGHT_METHODS)))
+        return []
+    if refracts:
+        m.warn("lights through a refracting medium are not supported: %d ignored (the environment lights it)"
+               % len(found))
+        return []
+    if len(found) > MAX_LIGHTS:
+        # a sun's W/m^2 and a lamp's W are not comparable: suns first, then lamps by power
+        found.sort(key=lambda e: (e["type"] != "sun", -e.get("strength", e.get("power", 0)) * max(e["color"])))
+        m.warn("%d lights: the %d strongest are rendered" % (len(found), MAX_LIGHTS))
+        found = found[:MAX_LIGHTS]
+    return found
+
+
 # ---- the whole scene ---------------------------------------------------------------------
 
 def render_block(settings, viewport=False):
@@ -669,6 +742,8 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
         "volume": volume,
         "medium": medium,
         "environment": map_world(scene, m),
+        "lights": map_lights(depsgraph, scene.vsd.viewport_method if viewport else scene.vsd.method, refracts, m,
+                             viewport),
         "camera": map_camera(cam_ob, w, h, m) if not viewport else {},
         "film": {"width": int(w), "height": int(h), "transparent": bool(r.film_transparent)},
         "render": render_block(scene.vsd, viewport),

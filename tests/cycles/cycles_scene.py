@@ -22,6 +22,8 @@
 # * world: Environment Texture (Closest: vsd looks up the nearest texel) fed by Texture
 #   Coordinate Generated through a Mapping node (Point) with Z rotation = rotation_z,
 #   Background Strength = strength; or a uniform Background colour.
+# * lights: one Blender light per lights[] entry, its values as they are (Strength, Power,
+#   Radius, Angle, Spot Size, Blend, Color), the object turned so its -Z is `direction`.
 # * camera: camera-to-world matrix from the three camera forms exactly as
 #   core/src/scene/scene.c builds it (look-at: right = f x up, up' = right x f, back = -f);
 #   sensor fit AUTO and cam.angle = fov (so the angle spans the larger image dimension).
@@ -249,6 +251,29 @@ def build_world(sc, scene, base):
     return world
 
 
+def build_lights(sc, scene):
+    """lights[] (docs/scene-file.md) as Blender lights: the keys are Blender's own values
+    (Strength W/m^2, Power W, Radius, Angle, Spot Size, Blend); a light shines down its
+    local -Z, so the object's -Z is turned to `direction`."""
+    for i, l in enumerate(sc.get("lights", [])):
+        kind = l["type"].upper()
+        data = bpy.data.lights.new("light%d" % i, kind)
+        data.color = tuple(l.get("color", [1.0, 1.0, 1.0]))
+        if kind == "SUN":
+            data.energy = float(l.get("strength", 1.0))
+            data.angle = float(l.get("angle", 0.0))
+        else:
+            data.energy = float(l.get("power", 1000.0))
+            data.shadow_soft_size = float(l.get("radius", 0.0))
+        if kind == "SPOT":
+            data.spot_size = float(l.get("spot_size", math.pi / 4))
+            data.spot_blend = float(l.get("spot_blend", 0.15))
+        ob = bpy.data.objects.new("light%d" % i, data)
+        scene.collection.objects.link(ob)
+        rot = mathutils.Vector(l.get("direction", [0.0, 0.0, -1.0])).to_track_quat("-Z", "Y").to_matrix().to_4x4()
+        ob.matrix_world = mathutils.Matrix.Translation(l.get("position", [0.0, 0.0, 0.0])) @ rot
+
+
 def build_camera(sc, scene, width, height):
     cam_desc = sc.get("camera", {})
     rows, fov = camera_matrix(cam_desc)
@@ -337,8 +362,6 @@ def main():
         sc = json.load(f)
     if sc.get("version") != 1:
         raise SystemExit(f"{args.scene}: version: expected 1")
-    if sc.get("lights"):
-        raise SystemExit(f"{args.scene}: lights: extra lights are not supported")
     base = os.path.dirname(os.path.abspath(args.scene))
     film = sc.get("film", {})
     rnd = sc.get("render", {})
@@ -354,6 +377,7 @@ def main():
     ob, grid, vdb_path = build_volume(sc, scene, base, frame, args.voxel_centres)
     build_material(sc, ob, grid)
     build_world(sc, scene, base)
+    build_lights(sc, scene)
     build_camera(sc, scene, width, height)
     configure_cycles(scene, args, samples, seed, width, height, film.get("transparent", True))
 

@@ -43,6 +43,7 @@ enum vsd_cuda_scene_slot {
     VSD_SLOT_EMISSION_BRICKS, VSD_SLOT_EMISSION_VOXELS, VSD_SLOT_EMISSION_MAX,
     VSD_SLOT_ENV_RGB, VSD_SLOT_ENV_ROWS, VSD_SLOT_ENV_COLS,
     VSD_SLOT_LIGHTS,
+    VSD_SLOT_SCENE_LIGHTS,                            /* the scene's lights[] (kernel_lights.h) */
     VSD_SLOT_ACCUM,                                   /* view: per-pixel sums (doubles) */
     VSD_SLOT_METHOD,                                  /* first of the method's slots */
     VSD_SLOT_COUNT = VSD_SLOT_METHOD + 24

@@ -20,6 +20,26 @@ extern "C" {
 
 typedef enum vsd_env_interpolation { VSD_ENV_LINEAR = 0, VSD_ENV_CLOSEST = 1 } vsd_env_interpolation;
 typedef enum vsd_camera_type { VSD_CAMERA_PERSPECTIVE = 0, VSD_CAMERA_ORTHOGRAPHIC = 1 } vsd_camera_type;
+typedef enum vsd_light_type { VSD_LIGHT_SUN = 0, VSD_LIGHT_POINT = 1, VSD_LIGHT_SPOT = 2 } vsd_light_type;
+
+/* At most this many entries in lights[] (a scene's few key lights; the environment is the
+ * main light). */
+#define VSD_MAX_LIGHTS 16
+
+/* One entry of lights[]: a Blender light with Cycles' units (docs/scene-file.md). */
+typedef struct vsd_scene_light {
+    vsd_light_type type;
+    float color[3];                      /* default 1,1,1 */
+    float strength;                      /* sun: irradiance in W/m^2 at normal incidence (default 1) */
+    float power;                         /* point, spot: watts (default 1000), intensity power/4pi W/sr */
+    double position[3];                  /* point, spot: world position */
+    double direction[3];                 /* sun, spot: the direction the light travels (Blender's
+                                            local -Z), normalised; default 0,0,-1 */
+    float radius;                        /* point, spot: radius of the emitting sphere (default 0) */
+    float angle;                         /* sun: angular diameter, radians (default 0) */
+    float spot_size;                     /* spot: full cone angle, radians (default 45 degrees) */
+    float spot_blend;                    /* spot: 0..1, softness of the cone's edge (default 0.15) */
+} vsd_scene_light;
 
 typedef struct vsd_scene {
     int version;                         /* 1 */
@@ -57,7 +77,8 @@ typedef struct vsd_scene {
                                             Texture default) or VSD_ENV_CLOSEST */
     } environment;
 
-    int light_count;                     /* lights[] must be empty in this version */
+    int light_count;                     /* entries of lights[] (0..VSD_MAX_LIGHTS) */
+    vsd_scene_light lights[VSD_MAX_LIGHTS];
 
     struct {
         vsd_camera_type type;            /* default perspective */

@@ -391,5 +391,5 @@ static void cst_destroy(void *state)
 
 const vsd_method vsd_method_constellation = {
     "constellation", VSD_OPTION_TABLE(cst_option_rows, cst_options), cst_create, cst_prepare_frame, cst_prepare_lighting, cst_render,
-    cst_destroy,
+    cst_destroy, 0,
 };

@@ -617,5 +617,5 @@ static void crm_destroy(void *state)
 
 const vsd_method vsd_method_crm = {
     "crm", VSD_OPTION_TABLE(crm_option_rows, crm_options), crm_create, crm_prepare_frame, crm_prepare_lighting,
-    crm_render, crm_destroy,
+    crm_render, crm_destroy, 0,
 };

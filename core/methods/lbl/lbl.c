@@ -5,11 +5,12 @@
  *                     every non-empty cell) and each cell's sigma_t (the mean of 27
  *                     samples of the density): the paper's material volume (§III-A);
  *   prepare_lighting  the environment as directional lights (the light constellation,
- *                     vsd/lighting.h, rebuilt only when the map's content changes); the
+ *                     vsd/lighting.h, rebuilt only when the map's content changes), the
+ *                     scene's suns among them, and its point and spot lights; the
  *                     marching pass (§III-B, lbl_march.h): each light's transmittance at
- *                     every cell; the first-scattered light deposited per cell; the
- *                     diffusion pass (§III-C, lbl_lattice.h) to convergence, warm-started
- *                     from the last solve;
+ *                     every cell (rays from a point light's position); the first-scattered
+ *                     light deposited per cell; the diffusion pass (§III-C, lbl_lattice.h)
+ *                     to convergence, warm-started from the last solve;
  *   render            the view pass (§III-D) on the record grid's shared view march:
  *                     VolumeDir from the lights' term, sum_k HG(d . w_k) T_k E_k (the
  *                     direct deposit, with the phase function: our media are not
@@ -17,16 +18,16 @@
  *                     isotropic), plus Emit, Transmittance and Depth from the march.
  * With medium.ior != 1 the frame stage also builds the n field (src/render/refraction.h)
  * and the light and view rays bend through it (lbl_march.c, lbl_kernel.h; CPU only).
- * Not built yet (issue 14): volume.ior_grid and medium.ior_from, the paper's 4^3 blocks
- * with interface buffers and the D3Q18 lattice, overlapping march and diffusion, and a
- * device path for the lighting stages (the unbent view runs on CUDA through the record
- * grid).
+ * The paper's 4^3 blocks (lbl_blocked.c) and the D3Q18 lattice (lbl_d3q18.c) are options.
+ * Not built yet (issue 14): overlapping march and diffusion, and a device path for the
+ * lighting stages (the unbent view runs on CUDA through the record grid).
  * docs/methods/lbl.md has the measurements. */
 #include "src/render/method.h"
 #include "src/render/record_grid.h"
 #include "src/render/kernel_setup.h"
 #include "kernel/kernel_record_grid.h"
 #include "vsd/lighting.h"
+#include "kernel/kernel_lights.h"
 #include "src/common/clock.h"
 #include "lbl_march.h"
 #include "lbl_lattice.h"
@@ -94,8 +95,15 @@ typedef struct lbl_state {
     double cell_world;            /* edge of a cube of a cell's world volume */
     double g2w[16];               /* grid -> world (the record grid's world_to_grid inverted) */
     /* lighting */
-    vsd_constellation_cache cc;   /* the lights, kernel layout */
-    float *light_trans;           /* [records * lights] */
+    vsd_constellation_cache cc;   /* the environment's lights, kernel layout */
+    /* the directional lights: the environment's, then the scene's suns (8 floats each, the
+     * record grid's layout); the scene's point and spot lights (kernel_lights.h layout) */
+    float dir_lights[8 * VSD_RECORDS_MAX_LIGHTS];
+    int dir_count;
+    float local_lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
+    int local_count;
+    float *light_trans;           /* [records * dir_count] */
+    float *local_trans;           /* [records * local_count] transmittance times falloff */
     float *source;                /* [3][cells] */
     float *fluence;               /* [3][cells] */
     float *ms;                    /* [records * 3] VolumeInd source per unit sigma_s */
@@ -125,6 +133,8 @@ static vsd_status lbl_create(void **state, const vsd_scene *scene, const void *o
 static void free_lighting(lbl_state *s)
 {
     free(s->light_trans);
+    free(s->local_trans);
+    s->local_trans = NULL;
     free(s->source);
     free(s->fluence);
     free(s->ms);
@@ -228,13 +238,21 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
                  * the entering value measured worse against the path tracer (smoke128
                  * VolumeInd 11.7% -> 21.6%, smoke64 frame 1 31.9% -> 21.7%): the lattice
                  * over-counts elsewhere and the two cancel on our smoke (docs/methods/lbl.md) */
-                if (rec >= 0)
-                    for (k = 0; k < s->cc.count; k++) {
-                        float t = s->light_trans[(size_t)rec * s->cc.count + k];
-                        e[0] += t * s->cc.lights[8 * k + 4];
-                        e[1] += t * s->cc.lights[8 * k + 5];
-                        e[2] += t * s->cc.lights[8 * k + 6];
+                if (rec >= 0) {
+                    for (k = 0; k < s->dir_count; k++) {
+                        float t = s->light_trans[(size_t)rec * s->dir_count + k];
+                        e[0] += t * s->dir_lights[8 * k + 4];
+                        e[1] += t * s->dir_lights[8 * k + 5];
+                        e[2] += t * s->dir_lights[8 * k + 6];
                     }
+                    /* point and spot lights: their irradiance, falloff included */
+                    for (k = 0; k < s->local_count; k++) {
+                        float t = s->local_trans[(size_t)rec * s->local_count + k];
+                        e[0] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 4];
+                        e[1] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 5];
+                        e[2] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 6];
+                    }
+                }
                 s->source[c] = (float)(m->albedo.x * e[0] * s->collide[c] * area);
                 s->source[n + c] = (float)(m->albedo.y * e[1] * s->collide[c] * area);
                 s->source[2 * n + c] = (float)(m->albedo.z * e[2] * s->collide[c] * area);
@@ -250,6 +268,25 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
             }
 }
 
+/* The scene's point and spot lights into s->local_lights; *suns = how many suns it has (they
+ * join the directional lights). */
+static vsd_status split_scene_lights(lbl_state *s, const vsd_kernel_data *kd, int *suns)
+{
+    int k;
+    s->local_count = 0;
+    *suns = 0;
+    for (k = 0; k < kd->scene_light_count; k++) {
+        const float *l = kd->scene_lights + (size_t)VSD_KLIGHT_FLOATS * k;
+        if ((int)l[3] == VSD_LIGHT_SUN) {
+            ++*suns;
+        } else {
+            if (s->local_count >= VSD_MAX_LIGHTS) return VSD_ERR_INTERNAL;
+            memcpy(s->local_lights + (size_t)VSD_KLIGHT_FLOATS * s->local_count++, l, VSD_KLIGHT_FLOATS * sizeof(float));
+        }
+    }
+    return *suns < VSD_RECORDS_MAX_LIGHTS ? VSD_OK : VSD_ERR_INTERNAL;
+}
+
 static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     lbl_state *s = state;
@@ -262,12 +299,32 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     vsd_status st;
     int a, q;
     size_t c;
+    int suns;
     free_lighting(s);
-    if ((st = vsd_constellation_cache_update(&s->cc, ctx->env, s->opt.lights, VSD_LIGHTS_MEDIAN_CUT,
-                                             sc->environment.strength, sc->environment.rotation_z, err, errlen)))
+    if ((st = split_scene_lights(s, &ctx->kd, &suns))) return vsd_fail(st, err, errlen, "lbl: internal: too many lights");
+    /* the record grid's per-ray weights hold VSD_RECORDS_MAX_LIGHTS directional lights,
+     * the scene's suns among them */
+    if ((st = vsd_constellation_cache_update(&s->cc, ctx->env, s->opt.lights + suns > VSD_RECORDS_MAX_LIGHTS
+                                                                  ? VSD_RECORDS_MAX_LIGHTS - suns : s->opt.lights,
+                                             VSD_LIGHTS_MEDIAN_CUT, sc->environment.strength,
+                                             sc->environment.rotation_z, err, errlen)))
         return st;
+    s->dir_count = 0;
+    for (a = 0; a < s->cc.count && s->dir_count < VSD_RECORDS_MAX_LIGHTS; a++)
+        memcpy(s->dir_lights + 8 * s->dir_count++, s->cc.lights + 8 * a, 8 * sizeof(float));
+    for (a = 0; a < ctx->kd.scene_light_count && s->dir_count < VSD_RECORDS_MAX_LIGHTS; a++) {
+        const float *l = ctx->kd.scene_lights + (size_t)VSD_KLIGHT_FLOATS * a;
+        float *d = s->dir_lights + 8 * s->dir_count;
+        if ((int)l[3] != VSD_LIGHT_SUN) continue;
+        /* a sun as a directional light of irradiance S (its angle is left out: a real sun's
+         * half degree blurs nothing at the cells' scale) */
+        d[0] = l[0], d[1] = l[1], d[2] = l[2], d[3] = 0.0f;
+        d[4] = l[4], d[5] = l[5], d[6] = l[6], d[7] = 0.0f;
+        s->dir_count++;
+    }
     if (n == 0 || recs == 0) return VSD_OK;
-    s->light_trans = calloc(recs * (size_t)(s->cc.count > 0 ? s->cc.count : 1), sizeof *s->light_trans);
+    s->light_trans = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *s->light_trans);
+    s->local_trans = calloc(recs * (size_t)(s->local_count > 0 ? s->local_count : 1), sizeof *s->local_trans);
     s->source = malloc(3 * n * sizeof *s->source);
     s->fluence = malloc(3 * n * sizeof *s->fluence);
     s->ms = malloc(3 * recs * sizeof *s->ms);
@@ -276,7 +333,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         s->fluence_e = malloc(3 * n * sizeof *s->fluence_e);
         s->ms_dir = malloc(3 * recs * sizeof *s->ms_dir);
     }
-    if (!s->light_trans || !s->source || !s->fluence || !s->ms ||
+    if (!s->light_trans || !s->local_trans || !s->source || !s->fluence || !s->ms ||
         (ctx->kd.medium.has_emission && (!s->source_e || !s->fluence_e || !s->ms_dir)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lighting of %zu cells", n);
     /* marching pass */
@@ -288,10 +345,17 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     grid.world_to_grid = s->rg.world_to_grid;
     for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)s->g2w[a];
     t0 = vsd_clock_seconds();
-    if ((st = vsd_lbl_march_lights(&grid, s->cc.lights, s->cc.count, (float)s->opt.ray_spacing,
-                                   (float)s->opt.light_step, s->rg.cell_record, ctx->threads, s->light_trans, err,
-                                   errlen)))
+    if ((st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
+                                   (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record, ctx->threads,
+                                   s->light_trans, s->local_trans, err, errlen)))
         return st;
+    /* the point and spot lights' falloff (1/d^2, the sphere, the spot's mask) at each record */
+    for (c = 0; c < recs; c++)
+        for (q = 0; q < s->local_count; q++) {
+            const float *x = s->rg.record_pos + 4 * c;
+            s->local_trans[c * s->local_count + q] *=
+                vsd_light_falloff(s->local_lights + (size_t)VSD_KLIGHT_FLOATS * q, f3(x[0], x[1], x[2]));
+        }
     s->march_seconds = vsd_clock_seconds() - t0;
     deposit(s, ctx);
     /* diffusion pass, from the last solve's state */
@@ -367,8 +431,8 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     lbl_state *s = state;
     vsd_krecord_grid g;
     memset(&g, 0, sizeof g);
-    ctx->kd.lights = s->cc.lights;
-    ctx->kd.light_count = s->cc.count;
+    ctx->kd.lights = s->dir_lights;
+    ctx->kd.light_count = s->dir_count;
     g.kd = &ctx->kd;
     g.cell_record = s->rg.cell_record;
     g.world_to_grid = s->rg.world_to_grid;
@@ -376,9 +440,13 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     g.record_count = s->rg.count;
     g.interp = s->opt.interp;
     g.kind = VSD_RECORDS_LIGHTS;
-    g.lights = s->cc.lights;
+    g.lights = s->dir_lights;
     g.light_trans = s->light_trans;
-    g.light_count = s->light_trans ? s->cc.count : 0;
+    g.light_count = s->light_trans ? s->dir_count : 0;
+    g.local_lights = s->local_lights;
+    g.local_trans = s->local_trans;
+    g.local_count = s->local_trans ? s->local_count : 0;
+    g.record_pos = s->rg.record_pos;
     g.records_ms = s->ms;
     g.records_ms_dir = s->ms_dir;
     /* on the CPU the lights' term is baked per view; the device keeps its arrays per
@@ -394,12 +462,13 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
         g.lights = NULL;
         g.light_trans = NULL;
         g.light_count = 0;
+        g.local_count = 0;
     }
     if (ctx->info && ctx->info_len)
         snprintf(ctx->info, ctx->info_len,
                  "cells=%dx%dx%d records=%d lights=%d march_seconds=%.3f diffusion_steps=%d diffusion_converged=%d "
                  "diffusion_change=%.3g diffusion_seconds=%.3f emission_steps=%d",
-                 s->rg.res[0], s->rg.res[1], s->rg.res[2], (int)s->rg.count, s->cc.count, s->march_seconds,
+                 s->rg.res[0], s->rg.res[1], s->rg.res[2], (int)s->rg.count, s->dir_count + s->local_count, s->march_seconds,
                  s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds,
                  s->emission_steps);
     if (s->refraction.k.ng) return render_bent(s, ctx, fb, &g, samples, err, errlen);
@@ -420,5 +489,5 @@ static void lbl_destroy(void *state)
 
 const vsd_method vsd_method_lbl = {
     "lbl", VSD_OPTION_TABLE(lbl_option_rows, lbl_options), lbl_create, lbl_prepare_frame, lbl_prepare_lighting,
-    lbl_render, lbl_destroy,
+    lbl_render, lbl_destroy, 1,
 };

@@ -2,6 +2,7 @@
 #include "device/cpu/cpu_tiles.h"
 #include "src/render/padded_grid.h"
 #include "kernel/kernel_refract.h"
+#include "kernel/kernel_lights.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,6 +15,9 @@ typedef struct march_job {
     const vsd_lbl_grid *g;
     const float *lights;
     int light_count;
+    const float *points;     /* point and spot lights, kernel_lights.h layout */
+    int point_count;
+    float *point_trans;
     float spacing, step;
     const int32_t *cell_record;
     const vsd_padded_grid *pad;
@@ -99,13 +103,112 @@ static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const 
     }
 }
 
+/* Each record's T: the weighted mean of what the rays left at its cell's centre (0 where
+ * nothing reached it), into out[rec * count + k]. */
+static void store(const march_job *j, const float *acc, float *out, int count, int k)
+{
+    const vsd_lbl_grid *g = j->g;
+    const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
+    int32_t ci, cj, ck;
+    for (ck = 0; ck < g->res[2]; ck++)
+        for (cj = 0; cj < g->res[1]; cj++)
+            for (ci = 0; ci < g->res[0]; ci++) {
+                int32_t rec = j->cell_record[((size_t)ck * g->res[1] + cj) * g->res[0] + ci];
+                const float *a2 = acc + 2 * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
+                if (rec >= 0) out[(size_t)rec * count + k] = a2[1] > 0.0f ? a2[0] / a2[1] : 0.0f;
+            }
+}
+
+/* March one straight ray o + t u (grid units, |u| = 1) over [t0, t1), world_step the world
+ * length of a grid step of j->step along u, depositing its transmittance at every step's
+ * middle. */
+static void march_straight(const march_job *j, const vsd_padded_grid *pad, const float o[3], const float u[3], float t0,
+                           float t1, float world_step, size_t sx, size_t sy, float *acc)
+{
+    float t, tr = 1.0f;
+    int ax;
+    for (t = t0; t < t1 && tr > LBL_T_MIN; t += j->step) {
+        float h = fminf(j->step, t1 - t), x[3], half;
+        for (ax = 0; ax < 3; ax++) x[ax] = o[ax] + (t + 0.5f * h) * u[ax];
+        half = expf(-0.5f * sigma_at(pad, x) * world_step * (h / j->step));
+        /* the transmittance at the step's middle is what the cells there see */
+        tr *= half;
+        splat(sx, sy, x, tr, acc);
+        tr *= half;
+    }
+}
+
+/* A point (or spot) light: rays from its position through a cube of directions around it,
+ * each face a square lattice of directions whose spacing, at the farthest corner of the
+ * box, is j->spacing cells (nearer cells get denser rays); a face's lattice covers only
+ * the box's image on it when the whole box lies in front of it. Rays start at the light, or
+ * where they enter the box. */
+static void march_point(const march_job *j, const vsd_padded_grid *pad, int k, float *acc)
+{
+    const vsd_lbl_grid *g = j->g;
+    const float *l = j->points + (size_t)VSD_KLIGHT_FLOATS * k;
+    const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
+    vsd_f3 pw = vsd_affine_point(&g->world_to_grid, f3(l[0], l[1], l[2]));
+    float o[3] = {pw.x, pw.y, pw.z}, far2 = 0.0f, delta;
+    int face, c;
+    memset(acc, 0, 2 * sy * ((size_t)g->res[2] + 2) * sizeof *acc);
+    for (c = 0; c < 8; c++) {
+        float dx = (float)((c & 1) ? g->res[0] : 0) - o[0], dy = (float)((c & 2) ? g->res[1] : 0) - o[1],
+              dz = (float)((c & 4) ? g->res[2] : 0) - o[2];
+        far2 = fmaxf(far2, dx * dx + dy * dy + dz * dz);
+    }
+    if (!(far2 > 0.0f) || !isfinite(far2)) goto done;
+    delta = j->spacing / sqrtf(far2);   /* on a face at distance 1: the angle between rays */
+    for (face = 0; face < 6; face++) {
+        int a = face >> 1, b = (a + 1) % 3, cc = (a + 2) % 3;
+        float sgn = (face & 1) ? -1.0f : 1.0f, lo[2] = {-1.0f, -1.0f}, hi[2] = {1.0f, 1.0f}, x, y;
+        int in_front = 1;
+        float plo[2] = {1e30f, 1e30f}, phi[2] = {-1e30f, -1e30f};
+        for (c = 0; c < 8; c++) {
+            float q[3] = {(float)((c & 1) ? g->res[0] : 0) - o[0], (float)((c & 2) ? g->res[1] : 0) - o[1],
+                          (float)((c & 4) ? g->res[2] : 0) - o[2]};
+            float depth = sgn * q[a];
+            if (depth <= 0.0f) { in_front = 0; break; }
+            plo[0] = fminf(plo[0], q[b] / depth);
+            phi[0] = fmaxf(phi[0], q[b] / depth);
+            plo[1] = fminf(plo[1], q[cc] / depth);
+            phi[1] = fmaxf(phi[1], q[cc] / depth);
+        }
+        if (in_front) {
+            int q;
+            for (q = 0; q < 2; q++) {
+                lo[q] = fmaxf(lo[q], plo[q] - delta);
+                hi[q] = fminf(hi[q], phi[q] + delta);
+            }
+            if (lo[0] > hi[0] || lo[1] > hi[1]) continue;
+        }
+        for (x = lo[0]; x <= hi[0]; x += delta)
+            for (y = lo[1]; y <= hi[1]; y += delta) {
+                float u[3], n, t0, t1;
+                vsd_f3 uw;
+                u[a] = sgn;
+                u[b] = x;
+                u[cc] = y;
+                n = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+                u[0] /= n;
+                u[1] /= n;
+                u[2] /= n;
+                if (!clip(g->res, o, u, &t0, &t1) || t1 <= 0.0f) continue;
+                /* a grid step of j->step along u is j->step / |u| in the world's length */
+                uw = vsd_affine_vector(&g->grid_to_world, f3(u[0], u[1], u[2]));
+                march_straight(j, pad, o, u, fmaxf(t0, 0.0f), t1, j->step * sqrtf(f3_dot(uw, uw)), sx, sy, acc);
+            }
+    }
+done:
+    store(j, acc, j->point_trans, j->point_count, k);
+}
+
 static void march_light(const march_job *j, const vsd_padded_grid *pad, int k, float *acc)
 {
     const vsd_lbl_grid *g = j->g;
     const float *l = j->lights + 8 * (size_t)k;
     const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
     double v[3], len;
-    int32_t ci, cj, ck;
     float u[3], e1[3], e2[3], centre[3], radius, a, b;
     int ax;
     /* the rays travel away from the light: -w in the grid */
@@ -132,31 +235,17 @@ static void march_light(const march_job *j, const vsd_padded_grid *pad, int k, f
         radius = 0.5f * sqrtf((float)g->res[0] * g->res[0] + (float)g->res[1] * g->res[1] + (float)g->res[2] * g->res[2]) + 1.0f;
         for (a = -radius; a <= radius; a += j->spacing)
             for (b = -radius; b <= radius; b += j->spacing) {
-                float o[3], t0, t1, t, tr = 1.0f;
+                float o[3], t0, t1;
                 for (ax = 0; ax < 3; ax++) o[ax] = centre[ax] + a * e1[ax] + b * e2[ax];
                 if (!clip(g->res, o, u, &t0, &t1)) continue;
                 if (g->refract) {
                     march_bent(g, pad, o, u, t0, (float)(j->step / len), sx, sy, acc);
                     continue;
                 }
-                for (t = t0; t < t1 && tr > LBL_T_MIN; t += j->step) {
-                    float h = fminf(j->step, t1 - t), x[3], half;
-                    for (ax = 0; ax < 3; ax++) x[ax] = o[ax] + (t + 0.5f * h) * u[ax];
-                    half = expf(-0.5f * sigma_at(pad, x) * world_step * (h / j->step));
-                    /* the transmittance at the step's middle is what the cells there see */
-                    tr *= half;
-                    splat(sx, sy, x, tr, acc);
-                    tr *= half;
-                }
+                march_straight(j, pad, o, u, t0, t1, world_step, sx, sy, acc);
             }
     }
-    for (ck = 0; ck < g->res[2]; ck++)
-        for (cj = 0; cj < g->res[1]; cj++)
-            for (ci = 0; ci < g->res[0]; ci++) {
-                int32_t rec = j->cell_record[((size_t)ck * g->res[1] + cj) * g->res[0] + ci];
-                const float *a2 = acc + 2 * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
-                if (rec >= 0) j->trans[(size_t)rec * j->light_count + k] = a2[1] > 0.0f ? a2[0] / a2[1] : 0.0f;
-            }
+    store(j, acc, j->trans, j->light_count, k);
 }
 
 /* Lights [k0, k1) as the x range of a count x 1 job of the CPU pool. */
@@ -171,13 +260,17 @@ static void run(void *arg, int k0, int y0, int k1, int y1)
     if (!acc) {
         j->st = VSD_ERR_NOMEM;
     } else {
-        for (k = k0; k < k1; k++) march_light(j, j->pad, k, acc);
+        for (k = k0; k < k1; k++) {
+            if (k < j->light_count) march_light(j, j->pad, k, acc);
+            else march_point(j, j->pad, k - j->light_count, acc);
+        }
     }
     free(acc);
 }
 
-vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, float spacing, float step,
-                                const int32_t *cell_record, int threads, float *trans, char *err, size_t errlen)
+vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, const float *points,
+                                int point_count, float spacing, float step, const int32_t *cell_record, int threads,
+                                float *trans, float *point_trans, char *err, size_t errlen)
 {
     march_job job;
     vsd_padded_grid pad;
@@ -185,10 +278,13 @@ vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int 
     if (!(spacing > 0.0f && spacing <= 1.0f) || !(step > 0.0f && step <= 1.0f))
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl marching: ray spacing %g and step %g must be in (0, 1] cells",
                         (double)spacing, (double)step);
-    if (light_count <= 0 || (size_t)g->res[0] * g->res[1] * g->res[2] == 0) return VSD_OK;
+    if (light_count + point_count <= 0 || (size_t)g->res[0] * g->res[1] * g->res[2] == 0) return VSD_OK;
     job.g = g;
     job.lights = lights;
     job.light_count = light_count;
+    job.points = points;
+    job.point_count = point_count;
+    job.point_trans = point_trans;
     job.spacing = spacing;
     job.step = step;
     job.trans = trans;
@@ -196,7 +292,7 @@ vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int 
     job.st = VSD_OK;
     if (!vsd_padded_grid_build(&pad, g->res, g->sigma)) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl light marching: no memory");
     job.pad = &pad;
-    st = vsd_cpu_run_items(light_count, threads, run, &job, "lbl light marching");
+    st = vsd_cpu_run_items(light_count + point_count, threads, run, &job, "lbl light marching");
     vsd_padded_grid_free(&pad);
     if (st) return vsd_fail(st, err, errlen, "lbl light marching cancelled");
     if (job.st) return vsd_fail(job.st, err, errlen, "lbl light marching: no memory for the deposit grids");

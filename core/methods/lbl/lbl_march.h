@@ -38,9 +38,13 @@ typedef struct vsd_lbl_grid {
 } vsd_lbl_grid;
 
 /* lights: kernel layout (8 floats: world direction xyz toward the light, 0, weight rgb, 0);
- * cell_record: the record of each cell, -1 for none (the record grid's); trans[r *
- * light_count + k]: T_k at record r's cell centre. threads: CPU threads (0 = all). */
-vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, float spacing, float step,
-                                const int32_t *cell_record, int threads, float *trans, char *err, size_t errlen);
+ * points: the scene's point and spot lights (kernel/kernel_lights.h layout: world position
+ * first), marched by rays from the position, without refraction (the scene refuses lights
+ * through a refracting medium); cell_record: the record of each cell, -1 for none (the
+ * record grid's); trans[r * light_count + k] and point_trans[r * point_count + k]: the
+ * transmittance from light k to record r's cell centre. threads: CPU threads (0 = all). */
+vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, const float *points,
+                                int point_count, float spacing, float step, const int32_t *cell_record, int threads,
+                                float *trans, float *point_trans, char *err, size_t errlen);
 
 #endif

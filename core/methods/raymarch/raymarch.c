@@ -83,5 +83,5 @@ static void raymarch_destroy(void *state)
 
 const vsd_method vsd_method_raymarch = {
     "raymarch", VSD_OPTION_TABLE(raymarch_option_rows, raymarch_options), raymarch_create, NULL, raymarch_prepare_lighting, raymarch_render,
-    raymarch_destroy,
+    raymarch_destroy, 0,
 };

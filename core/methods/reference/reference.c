@@ -153,5 +153,5 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
 
 const vsd_method vsd_method_reference = {
     "reference", VSD_OPTION_TABLE(reference_option_rows, reference_options), reference_create, reference_prepare_frame,
-    NULL, reference_render, reference_destroy,
+    NULL, reference_render, reference_destroy, 1,
 };

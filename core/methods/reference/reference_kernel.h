@@ -4,7 +4,8 @@
  * scatters with weight albedo (sigma_s / sigma_t, since the medium's extinction is grey);
  * next-event estimation samples the environment by importance and weighs it against HG
  * phase sampling with the power heuristic (MIS); unoccluded phase-sampled escapes add the
- * other half. Transmittance of shadow rays uses ratio tracking. Emission uses the
+ * other half; the scene's lights (sun, point, spot: kernel_lights.h) by NEE alone.
+ * Transmittance of shadow rays uses ratio tracking. Emission uses the
  * track-length estimator: the integral of L_e over each free-flight segment, which is
  * unbiased for the integral of T * L_e because P(segment longer than t) = T(t).
  *
@@ -22,6 +23,7 @@
 #include "kernel/kernel_phase.h"
 #include "kernel/kernel_camera.h"
 #include "kernel/kernel_refract.h"
+#include "kernel/kernel_lights.h"
 
 VSD_DEVICE float vsd_power_heuristic(float a, float b)
 {
@@ -196,6 +198,22 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
                 float w = (bounce >= kd->max_bounces) ? 1.0f : vsd_power_heuristic(pdf_l, ph);
                 if (tr > 0.0f)
                     vsd_add_path_light(&res, bounce, f3_scale(f3_mul(throughput, le), ph * tr * w / pdf_l));
+            }
+        }
+        /* next-event estimation toward each of the scene's lights (NEE only: a phase-sampled
+         * ray never hits one, so each gets its full weight); the scene refuses lights with
+         * refraction (vsd_method_check_lights), so these rays are straight */
+        if (!r) {
+            int32_t k;
+            for (k = 0; k < kd->scene_light_count; k++) {
+                vsd_f3 wl, weight;
+                float dist, u1 = vsd_rng_float(&rng), u2 = vsd_rng_float(&rng);
+                if (vsd_light_sample(kd->scene_lights + (size_t)VSD_KLIGHT_FLOATS * k, o, u1, u2, &wl, &dist, &weight)) {
+                    float tr = vsd_ratio_track(&kd->density, o, wl, dist, &rng);
+                    if (tr > 0.0f)
+                        vsd_add_path_light(&res, bounce,
+                                           f3_scale(f3_mul(throughput, weight), vsd_hg_eval(f3_dot(d, wl), g) * tr));
+                }
             }
         }
         if (bounce >= kd->max_bounces) break;

@@ -497,5 +497,5 @@ static void shgrid_destroy(void *state)
 
 const vsd_method vsd_method_shgrid = {
     "shgrid", VSD_OPTION_TABLE(shgrid_option_rows, shgrid_options), shgrid_create, shgrid_prepare_frame, shgrid_prepare_lighting, shgrid_render,
-    shgrid_destroy,
+    shgrid_destroy, 0,
 };

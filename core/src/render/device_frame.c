@@ -1,4 +1,5 @@
 #include "device_frame.h"
+#include "kernel/kernel_lights.h"
 #include <string.h>
 
 uint64_t vsd_device_key(uint64_t gen, const void *host)
@@ -71,6 +72,10 @@ vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_dat
                                (size_t)kd->light_count * 8 * sizeof(float), &d, err, errlen)))
         return st;
     dev->lights = d;
+    if ((st = vsd_device_array(ctx, VSD_SLOT_SCENE_LIGHTS, ctx->lighting_gen, kd->scene_lights,
+                               (size_t)kd->scene_light_count * VSD_KLIGHT_FLOATS * sizeof(float), &d, err, errlen)))
+        return st;
+    dev->scene_lights = d;
     return VSD_OK;
 }
 

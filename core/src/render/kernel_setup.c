@@ -1,4 +1,5 @@
 #include "kernel_setup.h"
+#include "kernel/kernel_lights.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -176,6 +177,28 @@ void vsd_kcamera_setup(vsd_kcamera *kc, const vsd_scene *scene)
     kc->height = scene->film.height;
     kc->clip_start = (float)scene->camera.clip_start;
     kc->clip_end = (float)scene->camera.clip_end;
+}
+
+int vsd_kscene_lights_setup(float *out, const vsd_scene *scene)
+{
+    int i, c;
+    memset(out, 0, (size_t)VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS * sizeof *out);
+    for (i = 0; i < scene->light_count; i++) {
+        const vsd_scene_light *s = &scene->lights[i];
+        float *l = out + (size_t)VSD_KLIGHT_FLOATS * i;
+        /* Cycles: a sun's strength is irradiance; a point's power P radiates P / 4pi per sr */
+        float k = s->type == VSD_LIGHT_SUN ? s->strength : s->power / (4.0f * 3.14159265358979f);
+        for (c = 0; c < 3; c++) {
+            l[c] = (float)(s->type == VSD_LIGHT_SUN ? -s->direction[c] : s->position[c]);
+            l[4 + c] = k * s->color[c];
+            l[8 + c] = (float)s->direction[c];
+        }
+        l[3] = (float)s->type;
+        l[7] = s->type == VSD_LIGHT_SUN ? cosf(0.5f * s->angle) : s->radius;
+        l[11] = cosf(0.5f * s->spot_size);
+        l[12] = (1.0f - l[11]) * s->spot_blend;
+    }
+    return scene->light_count;
 }
 
 void vsd_kernel_data_from_scene(vsd_kernel_data *kd, const vsd_scene *scene)

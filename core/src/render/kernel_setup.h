@@ -29,6 +29,9 @@ void vsd_kenv_setup(vsd_kenv *ke, const vsd_env *env, const vsd_env_tables *t, i
 vsd_status vsd_kvolume_setup(vsd_kvolume *kv, const vsd_volume *vol, const double object_matrix[16],
                              float scale, char *err, size_t errlen);
 void vsd_kcamera_setup(vsd_kcamera *kc, const vsd_scene *scene);
+/* The scene's lights[] in kernel layout (kernel/kernel_lights.h) into out[VSD_KLIGHT_FLOATS *
+ * VSD_MAX_LIGHTS]; returns how many. */
+int vsd_kscene_lights_setup(float *out, const vsd_scene *scene);
 /* Medium, film and camera from the scene (volumes and env set separately). */
 void vsd_kernel_data_from_scene(vsd_kernel_data *kd, const vsd_scene *scene);
 

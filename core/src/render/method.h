@@ -50,7 +50,12 @@ typedef struct vsd_method {
     vsd_status (*render)(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                          char *err, size_t errlen);
     void (*destroy)(void *state);
+    int scene_lights;                  /* 1: renders the scene's lights[] (sun, point, spot) */
 } vsd_method;
+
+/* Whether m renders sc's lights[]: an error naming the methods that do when it does not,
+ * or when the lights would have to shine through a refracting medium. */
+vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, char *err, size_t errlen);
 
 extern const vsd_method vsd_method_reference;
 extern const vsd_method vsd_method_raymarch;

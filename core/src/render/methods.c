@@ -2,6 +2,7 @@
  * all list the same methods. */
 #include "method.h"
 #include "device/cpu/cpu_tiles.h"
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <cjson/cJSON.h>
@@ -25,6 +26,24 @@ const vsd_method *vsd_method_find(const char *name)
     for (i = 0; i < REGISTRY_COUNT; i++)
         if (strcmp(registry[i]->name, name) == 0) return registry[i];
     return NULL;
+}
+
+vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, char *err, size_t errlen)
+{
+    char which[256] = "";
+    size_t i;
+    if (sc->light_count == 0) return VSD_OK;
+    if (sc->medium.ior != 1.0f || vsd_scene_ior_grid(sc)[0])
+        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                        "lights: extra lights through a refracting medium (medium.ior, volume.ior_grid) are not "
+                        "supported yet: a bent ray cannot be aimed at a point or a sun");
+    if (m->scene_lights) return VSD_OK;
+    for (i = 0; i < REGISTRY_COUNT; i++)
+        if (registry[i]->scene_lights)
+            snprintf(which + strlen(which), sizeof which - strlen(which), "%s%s", which[0] ? ", " : "",
+                     registry[i]->name);
+    return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                    "lights: method '%s' does not render extra lights (sun, point, spot); %s do", m->name, which);
 }
 
 vsd_status vsd_method_parse_options(const vsd_method *m, const vsd_scene *scene, void **options, char *err,

@@ -123,7 +123,7 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
  * record. */
 static void bake_into(const vsd_krecord_grid *g, const float *record_pos, const vsd_kcamera *cam, float *out)
 {
-    float ph[3 * VSD_RECORDS_MAX_LIGHTS];
+    float ph[VSD_RECORDS_PH_FLOATS];
     vsd_f3 eye = f3s(0.0f), forward = f3(0.0f, 0.0f, 1.0f);
     int32_t r;
     if (cam) {

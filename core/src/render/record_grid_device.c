@@ -38,6 +38,12 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
         PUT(records_ms, VSD_SLOT_RG_RECORDS_MS, g->records_ms ? recs * 3 * sizeof(float) : 0);
         PUT(records_ms_dir, VSD_SLOT_RG_RECORDS_MS_DIR, g->records_ms_dir ? recs * 3 * sizeof(float) : 0);
         d->record_pos = d->dirs = d->basis = d->dir_radiance = NULL;
+        if (g->local_count > 0) {
+            /* the local lights' phase is toward the light from each record's position */
+            PUT(local_lights, VSD_SLOT_RG_LOCAL_LIGHTS, (size_t)g->local_count * VSD_KLIGHT_FLOATS * sizeof(float));
+            PUT(local_trans, VSD_SLOT_RG_LOCAL_TRANS, recs * (size_t)g->local_count * sizeof(float));
+            PUT(record_pos, VSD_SLOT_RG_POS, recs * 4 * sizeof(float));
+        }
     } else {
         PUT(record_pos, VSD_SLOT_RG_POS, recs * 4 * sizeof(float));
         PUT(dirs, VSD_SLOT_RG_DIRS, dirs * 4 * sizeof(float));
@@ -47,6 +53,7 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
         d->light_trans = NULL;
         d->records_ms = NULL;
         d->records_ms_dir = NULL;
+        d->local_lights = d->local_trans = NULL;
     }
 #undef PUT
     return VSD_OK;
@@ -62,6 +69,12 @@ void vsd_record_grid_arrays(const vsd_krecord_grid *g, int view, int lights, vsd
         if (g->records_ms) visit(user, g->records_ms, rc * 3 * sizeof(float), "records.records_ms");
         if (g->records_ms_dir) visit(user, g->records_ms_dir, rc * 3 * sizeof(float), "records.records_ms_dir");
         if (g->kind == VSD_RECORDS_SH_SCALAR) visit(user, g->light, 3 * n2 * sizeof(float), "records.light");
+        if (g->local_count > 0) {
+            size_t lo = (size_t)g->local_count;
+            visit(user, g->local_lights, lo * VSD_KLIGHT_FLOATS * sizeof(float), "records.local_lights");
+            visit(user, g->local_trans, rc * lo * sizeof(float), "records.local_trans");
+            visit(user, g->record_pos, rc * 4 * sizeof(float), "records.record_pos");
+        }
     } else {
         visit(user, g->record_pos, rc * 4 * sizeof(float), "records.record_pos");
         if (!lights) {

@@ -6,11 +6,13 @@
 #include "vsd/vdbio.h"
 #include "method.h"
 #include "kernel_setup.h"
+#include "kernel/kernel_lights.h"
 #include "device/cpu/cpu_tiles.h"
 #include "device/cuda/cuda_backend.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <xxhash.h>
 #include "src/common/clock.h"
 
 #define KEY_LEN 4096
@@ -41,6 +43,9 @@ struct vsd_renderer {
     /* bumped by use_volumes / use_env and part of their cache keys: new contents may sit
      * at a freed object's address */
     unsigned long volumes_serial, env_serial;
+    /* the scene's lights[] in kernel layout; kd.scene_lights points here, so the device
+     * copy's key (lighting generation, address) stays valid between renders */
+    float scene_lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
 };
 
 const char *vsd_version(void) { return VSD_VERSION_STRING; }
@@ -67,6 +72,7 @@ static vsd_status pick_method(vsd_renderer *r, char *err, size_t errlen)
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "render.method: unknown method '%s' (available: %s)", sc->render.method, known);
     }
+    if ((st = vsd_method_check_lights(m, sc, err, errlen))) return st;
     void *options;
     st = vsd_method_parse_options(m, sc, &options, err, errlen);
     if (st) return st;
@@ -231,9 +237,13 @@ static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key
     int n = snprintf(frame_key, KEY_LEN, "%s|%g|%g|", r->volume_key, sc->medium.density, sc->medium.ior);
     int i;
     for (i = 0; i < 16 && n < KEY_LEN - 32; i++) n += snprintf(frame_key + n, KEY_LEN - n, "%.9g,", m[i]);
-    snprintf(lighting_key, KEY_LEN, "%.3000s|%.900s|%g|%g|%g,%g,%g|%g|%g,%g,%g,%g", frame_key, r->env_key,
+    float lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
+    int count = vsd_kscene_lights_setup(lights, sc);
+    /* the lights by the hash of their kernel layout (every float of it defined) */
+    snprintf(lighting_key, KEY_LEN, "%.3000s|%.900s|%g|%g|%g,%g,%g|%g|%g,%g,%g,%g|%d:%016llx", frame_key, r->env_key,
              sc->environment.strength, sc->environment.rotation_z, a[0], a[1], a[2], sc->medium.anisotropy,
-             e[0], e[1], e[2], sc->medium.emission_strength);
+             e[0], e[1], e[2], sc->medium.emission_strength, count,
+             (unsigned long long)XXH3_64bits(lights, (size_t)count * VSD_KLIGHT_FLOATS * sizeof *lights));
 }
 
 vsd_status vsd_render_cuda_probe(char *name, size_t namelen, char *err, size_t errlen)
@@ -354,6 +364,8 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     ctx.info_len = sizeof stats->method_info;
     stats->threads = ctx.threads;
     vsd_kernel_data_from_scene(&ctx.kd, sc);
+    ctx.kd.scene_light_count = vsd_kscene_lights_setup(r->scene_lights, sc);
+    ctx.kd.scene_lights = ctx.kd.scene_light_count ? r->scene_lights : NULL;
     st = vsd_kvolume_setup(&ctx.kd.density, r->density, sc->volume.matrix, sc->medium.density, err, errlen);
     if (!st) st = vsd_kvolume_setup(&ctx.kd.emission, r->emission, sc->volume.matrix, 1.0f, err, errlen);
     if (st) return st;

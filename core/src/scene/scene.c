@@ -42,6 +42,7 @@ typedef struct scene_ext {
         double position[3], look_at[3], up[3], matrix[16];
         double lens, sensor_width;
     } cam;
+    vsd_scene_light light;   /* the lights[] entry being read, copied into s.lights */
 } scene_ext;
 
 typedef struct parser {
@@ -138,6 +139,7 @@ static vsd_status environment_finish(parser *p, const cJSON *obj, const char *pa
 static vsd_status camera_finish(parser *p, const cJSON *obj, const char *path);
 static vsd_status film_finish(parser *p, const cJSON *obj, const char *path);
 static vsd_status frames_finish(parser *p, const cJSON *obj, const char *path);
+static vsd_status light_finish(parser *p, const cJSON *obj, const char *path);
 
 static const double default_position[3] = {0, -6, 1};
 static const double default_look_at[3] = {0, 0, 0};
@@ -147,6 +149,25 @@ static const char *const devices[] = {"auto", "cpu", "cuda", NULL};
 static const char *const ior_sources[] = {"none", "temperature", NULL};
 /* Blender's Environment Texture interpolations vsd reads (index = vsd_env_interpolation). */
 static const char *const env_interpolations[] = {"linear", "closest", NULL};
+
+static const char *const light_types[] = {"sun", "point", "spot", NULL};
+static const double default_light_position[3] = {0, 0, 0};
+static const double default_light_direction[3] = {0, 0, -1};
+
+/* One table for the three types; light_finish refuses the keys a type does not have. */
+static const field light_fields[] = {
+    {.key = "type", .kind = K_ENUM, AT(light.type), .choices = light_types, .flags = F_REQUIRED},
+    F_RGB("color", light.color, 1, GE0, 0, 0),
+    F_NUM("strength", light.strength, 1, GE0, 0, 0),
+    F_NUM("power", light.power, 1000, GE0, 0, 0),
+    F_VEC3("position", light.position, default_light_position),
+    F_VEC3("direction", light.direction, default_light_direction),
+    F_NUM("radius", light.radius, 0, GE0, 0, 0),
+    F_NUM("angle", light.angle, 0, R_MIN | R_MAX | R_HI_OPEN, 0, PI),
+    F_NUM("spot_size", light.spot_size, PI / 4, R_MIN | R_MAX | R_LO_OPEN, 0, PI),
+    F_NUM("spot_blend", light.spot_blend, 0.15, UNIT, 0, 1),
+};
+TABLE(light, light_finish);
 
 static const field volume_fields[] = {
     F_PATH("file", s.volume.file, "", F_REQUIRED | F_FRAMES),
@@ -665,9 +686,58 @@ static vsd_status apply_lights(parser *p, const field *f, const cJSON *item, con
         return VSD_OK;
     if (!cJSON_IsArray(item))
         return fail(p, VSD_ERR_TYPE, path, "expected array");
-    if (cJSON_GetArraySize(item) > 0)
-        return fail(p, VSD_ERR_UNSUPPORTED, path,
-                    "extra lights are not supported yet (the environment is the light)");
+    if (cJSON_GetArraySize(item) > VSD_MAX_LIGHTS)
+        return fail(p, VSD_ERR_UNSUPPORTED, path, "%d lights; at most %d are supported (the environment is the main light)",
+                    cJSON_GetArraySize(item), VSD_MAX_LIGHTS);
+    const cJSON *e;
+    cJSON_ArrayForEach(e, item) {
+        char sub[KEYPATH_LEN];
+        vsd_status st;
+        snprintf(sub, sizeof sub, "%s[%d]", path, p->out->s.light_count);
+        if (!cJSON_IsObject(e))
+            return fail(p, VSD_ERR_TYPE, sub, "expected object");
+        if ((st = walk(p, &light_table, e, sub)))
+            return st;
+        p->out->s.lights[p->out->s.light_count++] = p->out->light;
+    }
+    return VSD_OK;
+}
+
+/* What each type has (Blender's light properties): a sun has a strength (W/m^2), a
+ * direction and an angle; a point a power (W), a position and a radius; a spot a point's
+ * keys plus a direction, spot_size and spot_blend. A key of another type is an error, so
+ * a sun given "power" is not silently lit at the default strength. */
+static vsd_status light_finish(parser *p, const cJSON *obj, const char *path)
+{
+    static const char *const sun_keys[] = {"type", "color", "strength", "direction", "angle", NULL};
+    static const char *const point_keys[] = {"type", "color", "power", "position", "radius", NULL};
+    static const char *const spot_keys[] = {"type", "color", "power", "position", "radius", "direction",
+                                            "spot_size", "spot_blend", NULL};
+    static const char *const *const keys[] = {sun_keys, point_keys, spot_keys};
+    vsd_scene_light *l = &p->out->light;
+    const cJSON *item;
+    cJSON_ArrayForEach(item, obj) {
+        const char *const *k;
+        for (k = keys[l->type]; *k && strcmp(*k, item->string); k++)
+            ;
+        if (!*k) {
+            char sub[KEYPATH_LEN];
+            join_path(sub, sizeof sub, path, item->string);
+            return fail(p, VSD_ERR_INVALID, sub, "a %s light has no '%s'%s", light_types[l->type], item->string,
+                        l->type == VSD_LIGHT_SUN && !strcmp(item->string, "power") ? " (its strength is in W/m^2)"
+                        : l->type != VSD_LIGHT_SUN && !strcmp(item->string, "strength") ? " (its power is in watts)"
+                                                                                           : "");
+        }
+    }
+    double *d = l->direction, n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(n > 1e-12)) {
+        char sub[KEYPATH_LEN];
+        join_path(sub, sizeof sub, path, "direction");
+        return fail(p, VSD_ERR_INVALID, sub, "must not be the zero vector");
+    }
+    d[0] /= n;
+    d[1] /= n;
+    d[2] /= n;
     return VSD_OK;
 }
 
