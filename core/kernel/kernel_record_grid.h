@@ -77,7 +77,9 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     float record_step;            /* quadrature step of the record marches (world) */
     int32_t light_count;          /* 0..VSD_RECORDS_MAX_LIGHTS; 0 = the paper's pure SH form */
     int32_t local_count;          /* 0..VSD_MAX_LIGHTS */
-    float pad_[3];
+    int32_t records_log;          /* BAKED with LOG_TRILINEAR: the records hold log radiance
+                                     (vsd_record_grid_bake_view), so the corners take no logf */
+    float pad_[2];
 } vsd_krecord_grid;
 VSD_STATIC_ASSERT(sizeof(vsd_krecord_grid) % 16 == 0, "vsd_krecord_grid must stay 16-byte aligned");
 
@@ -201,7 +203,7 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
         rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
         if (rec < 0) continue;
         v = vsd_records_radiance(g, rec, w, ph);
-        if (logi) v = f3(logf(fmaxf(v.x, VSD_RECORDS_LOG_FLOOR)), logf(fmaxf(v.y, VSD_RECORDS_LOG_FLOOR)),
+        if (logi && !g->records_log) v = f3(logf(fmaxf(v.x, VSD_RECORDS_LOG_FLOOR)), logf(fmaxf(v.y, VSD_RECORDS_LOG_FLOOR)),
                          logf(fmaxf(v.z, VSD_RECORDS_LOG_FLOOR)));
         c->v[a] = v;
         if (g->records_ms) {

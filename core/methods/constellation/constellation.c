@@ -318,7 +318,7 @@ static vsd_status render_cached(cst_state *s, vsd_frame_ctx *ctx, vsd_framebuffe
     ctx->kd.lights = s->cc.lights;
     ctx->kd.light_count = s->cc.count;
     records_view(s, &ctx->kd, &g);
-    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, samples,
+    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, NULL, samples,
                                   err, errlen);
 }
 

@@ -47,6 +47,7 @@ typedef struct crm_options {
     int rbf_count, fit_iterations, order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
     int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell, decode;
     double node_spacing, step, early_termination, error_ratio;
+    vsd_view_sampling view;
 } crm_options;
 
 static const char *const residual_names[] = {"full", "source", "none", NULL};
@@ -116,6 +117,7 @@ static const vsd_option_spec crm_option_rows[] = {
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = one voxel)",
      offsetof(crm_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
     VSD_OPTION_PIXEL_SAMPLES(crm_options),
+    VSD_OPTION_VIEW_SPACING(crm_options, view.spacing, view.threshold),
     VSD_OPTION_EARLY_TERMINATION(crm_options, "view ray"),
 };
 
@@ -595,8 +597,8 @@ static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
         memcpy(kc.dims, one, sizeof one);
         memcpy(kc.node_res, one, sizeof one);
     }
-    return vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, &vsd_crm_view_pass, vsd_crm_view_struct, &kc,
-                                        samples, err, errlen);
+    return vsd_method_render_view(ctx, fb, s->opt.pixel_samples, &s->opt.view, &vsd_crm_view_pass, vsd_crm_view_struct,
+                                  &kc, samples, err, errlen);
 }
 
 static void crm_destroy(void *state)

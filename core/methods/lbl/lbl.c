@@ -44,6 +44,7 @@
 typedef struct lbl_options {
     int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice;
     double ray_spacing, light_step, tolerance, slice, early_termination;
+    vsd_view_sampling view;
 } lbl_options;
 
 static const char *const lbl_lattice_names[] = {"d3q6", "d3q18", NULL};
@@ -84,6 +85,7 @@ static const vsd_option_spec lbl_option_rows[] = {
      offsetof(lbl_options, view_bake), 0, NULL},
     VSD_OPTION_EARLY_TERMINATION(lbl_options, "view ray"),
     VSD_OPTION_PIXEL_SAMPLES(lbl_options),
+    VSD_OPTION_VIEW_SPACING(lbl_options, view.spacing, view.threshold),
 };
 
 typedef struct lbl_state {
@@ -420,7 +422,8 @@ static vsd_status render_bent(lbl_state *s, vsd_frame_ctx *ctx, vsd_framebuffer 
     b.r = s->refraction.k;
     ctx->kd.march_stop = (float)s->opt.early_termination;
     ctx->cuda = NULL;
-    st = vsd_method_render_stratified(ctx, fb, s->opt.pixel_samples, &bent_view_pass, NULL, &b, samples, err, errlen);
+    st = vsd_method_render_view(ctx, fb, s->opt.pixel_samples, &s->opt.view, &bent_view_pass, NULL, &b, samples, err,
+                                errlen);
     ctx->cuda = cuda;
     return st;
 }
@@ -457,6 +460,7 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
             return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d view records", (int)s->rg.count);
         vsd_record_grid_bake_view(&g, s->rg.record_pos, s->view_baked);
         g.kind = VSD_RECORDS_BAKED;
+        g.records_log = g.interp == VSD_RECORDS_LOG_TRILINEAR;
         g.records = s->view_baked;
         g.stride = 3;
         g.lights = NULL;
@@ -472,7 +476,7 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
                  s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds,
                  s->emission_steps);
     if (s->refraction.k.ng) return render_bent(s, ctx, fb, &g, samples, err, errlen);
-    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, samples,
+    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, &s->opt.view, samples,
                                   err, errlen);
 }
 

@@ -477,7 +477,7 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
     shgrid_state *s = state;
     vsd_krecord_grid g;
     kernel_grid(s, &ctx->kd, s->kind, &g);
-    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, samples,
+    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, NULL, samples,
                                   err, errlen);
 }
 

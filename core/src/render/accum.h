@@ -16,6 +16,14 @@ typedef struct vsd_accum {
 vsd_status vsd_accum_init(vsd_accum *a, int width, int height, char *err, size_t errlen);
 void vsd_accum_free(vsd_accum *a);
 void vsd_accum_add(vsd_accum *a, int x, int y, const vsd_sample_result *r);
+/* The adaptive view (adaptive_view.c): acc filled for vs->spacing > 1 on the CPU threads;
+ * *traced_permille = the share of blocks traced ray by ray. */
+struct vsd_frame_ctx;
+struct vsd_view_sampling;
+struct vsd_device_pass;
+vsd_status vsd_adaptive_view(struct vsd_frame_ctx *ctx, vsd_accum *acc, int n, const struct vsd_view_sampling *vs,
+                             const struct vsd_device_pass *pass, const void *kernel, int *traced_permille, char *err,
+                             size_t errlen);
 /* Write the mean over `samples` samples per pixel into fb. */
 void vsd_accum_resolve(const vsd_accum *a, int samples, int transparent, vsd_framebuffer *fb);
 

@@ -97,6 +97,30 @@ vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb,
                                         const struct vsd_device_pass *pass, vsd_device_struct_fn to_device,
                                         const void *kernel, int *samples, char *err, size_t errlen);
 
+/* Adaptive view sampling (adaptive_view.c): spacing s > 1 traces every s-th pixel first and
+ * interpolates the blocks between them whose anchors agree within `threshold`; 1 traces
+ * every pixel; 0 picks s from the film's resolution against the volume's
+ * (vsd_view_auto_spacing: 1 where a voxel covers under 3 pixels). CPU only: a device pass
+ * traces every pixel. */
+typedef struct vsd_view_sampling {
+    int spacing;
+    double threshold;
+} vsd_view_sampling;
+#define VSD_OPTION_VIEW_SPACING(type, field_spacing, field_threshold) \
+    {"view_spacing", VSD_OPT_INT, 0, 8, 0, NULL, \
+     "CPU view: trace every n-th pixel first and interpolate between them where they agree (1 = trace all; " \
+     "0 = from the film's resolution against the volume's: 2/3 of a voxel's footprint, at most 4)", \
+     offsetof(type, field_spacing), VSD_OPT_ZERO_AUTO, NULL}, \
+    {"view_threshold", VSD_OPT_NUMBER, 0, 1, 0.15, NULL, \
+     "with view_spacing > 1: trace a block when its corner pixels differ by more than this (relative)", \
+     offsetof(type, field_threshold), 0, NULL}
+int vsd_view_auto_spacing(const vsd_frame_ctx *ctx);
+/* The same as vsd_method_render_stratified with adaptive sampling vs (NULL = every pixel);
+ * ctx->info gets " view_traced=<fraction of blocks traced>" appended when it applies. */
+vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, const vsd_view_sampling *vs,
+                                  const struct vsd_device_pass *pass, vsd_device_struct_fn to_device,
+                                  const void *kernel, int *samples, char *err, size_t errlen);
+
 /* World-space march step: `option` when > 0, else half the smallest voxel of the density
  * grid (of the emission grid when there is no density). */
 float vsd_method_march_step(const vsd_frame_ctx *ctx, double option);

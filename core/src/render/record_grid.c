@@ -161,13 +161,19 @@ vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *er
 void vsd_record_grid_bake_view(const vsd_krecord_grid *g, const float *record_pos, float *out)
 {
     bake_into(g, record_pos, &g->kd->camera, out);
+    if (g->interp == VSD_RECORDS_LOG_TRILINEAR) {
+        /* the log the view's corners would take, once per record instead of per corner visit */
+        size_t i;
+        for (i = 0; i < 3 * (size_t)g->record_count; i++) out[i] = logf(fmaxf(out[i], VSD_RECORDS_LOG_FLOOR));
+    }
 }
 
 vsd_status vsd_record_grid_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *g, int n,
-                                  double step, double stop, int *samples, char *err, size_t errlen)
+                                  double step, double stop, const vsd_view_sampling *vs, int *samples, char *err,
+                                  size_t errlen)
 {
     ctx->kd.march_step = step > 0 ? (float)step : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_stop = (float)stop;
-    return vsd_method_render_stratified(ctx, fb, n, &vsd_record_grid_view_pass, vsd_record_grid_view_struct, g, samples,
-                                        err, errlen);
+    return vsd_method_render_view(ctx, fb, n, vs, &vsd_record_grid_view_pass, vsd_record_grid_view_struct, g, samples,
+                                  err, errlen);
 }

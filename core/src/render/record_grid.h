@@ -36,7 +36,8 @@ vsd_status vsd_record_grid_bake(const struct vsd_krecord_grid *g, float **out, c
  * is orthographic). A ray through a cell sees its records within cell size / distance of
  * that direction, a fraction of a degree at our framings; the march then reads one RGB
  * triple per corner instead of summing the lights per record it crosses. record_pos: the
- * grid's (4 floats per record); out: 3 floats per record. */
+ * grid's (4 floats per record); out: 3 floats per record, their logs when g->interp is
+ * VSD_RECORDS_LOG_TRILINEAR (set the grid's records_log to read them). */
 void vsd_record_grid_bake_view(const struct vsd_krecord_grid *g, const float *record_pos, float *out);
 
 /* The view pass of every record-grid method, on the CPU tiles or the CUDA device of ctx:
@@ -46,7 +47,10 @@ void vsd_record_grid_bake_view(const struct vsd_krecord_grid *g, const float *re
  * docs/tte.md), stopping below transmittance `stop`. g->kd must be &ctx->kd. */
 struct vsd_frame_ctx;
 struct vsd_framebuffer;
+struct vsd_view_sampling;
+/* vs: adaptive view sampling (method.h), NULL = every pixel. */
 vsd_status vsd_record_grid_render(struct vsd_frame_ctx *ctx, struct vsd_framebuffer *fb, const struct vsd_krecord_grid *g,
-                                  int n, double step, double stop, int *samples, char *err, size_t errlen);
+                                  int n, double step, double stop, const struct vsd_view_sampling *vs, int *samples,
+                                  char *err, size_t errlen);
 
 #endif

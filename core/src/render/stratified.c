@@ -7,6 +7,7 @@
 #include "device_frame.h"
 #include "device/cpu/cpu_tiles.h"
 #include "device/device_pass.h"
+#include <stdio.h>
 #include <string.h>
 
 typedef struct stratified_pass {
@@ -56,6 +57,13 @@ vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb,
                                         vsd_device_struct_fn to_device, const void *kernel, int *samples, char *err,
                                         size_t errlen)
 {
+    return vsd_method_render_view(ctx, fb, n, NULL, pass, to_device, kernel, samples, err, errlen);
+}
+
+vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, const vsd_view_sampling *vs,
+                                  const vsd_device_pass *pass, vsd_device_struct_fn to_device, const void *kernel,
+                                  int *samples, char *err, size_t errlen)
+{
     vsd_accum acc;
     stratified_pass sp;
     vsd_tile_job job;
@@ -63,6 +71,17 @@ vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb,
     if (st) return st;
     if (ctx->cuda) {
         st = stratified_device(ctx, &acc, n, pass, to_device, kernel, err, errlen);
+    } else if (vs && (vs->spacing > 1 || (vs->spacing == 0 && vsd_view_auto_spacing(ctx) > 1))) {
+        vsd_view_sampling eff = *vs;
+        int permille = 0;
+        if (eff.spacing == 0) eff.spacing = vsd_view_auto_spacing(ctx);
+        st = vsd_adaptive_view(ctx, &acc, n, &eff, pass, kernel, &permille, err, errlen);
+        if (ctx->info && ctx->info_len) {
+            size_t used = strlen(ctx->info);
+            if (used < ctx->info_len)
+                snprintf(ctx->info + used, ctx->info_len - used, "%sview_spacing=%d view_traced=%.3f", used ? " " : "",
+                         eff.spacing, permille / 1000.0);
+        }
     } else {
         sp.pass = pass;
         sp.kernel = kernel;
