@@ -16,6 +16,7 @@
  *      state in an infinite homogeneous medium is the balance lbl_d3q18.h derives (the
  *      same check as 2). */
 #include "test_common.h"
+#include "src/common/clock.h"
 #include "methods/lbl/lbl_lattice.h"
 #include "methods/lbl/lbl_march.h"
 #include <math.h>
@@ -303,8 +304,67 @@ static void test_d3q18(void)
     free(source);
 }
 
+/* Part 8: leaps over empty cells (lbl_march.h, empty_d2) change nothing: a 40^3 grid, a
+ * ball of medium (radius 6 cells) off its centre, records on the ball's cells only; the
+ * transmittance toward an oblique directional light and toward a point light outside the
+ * box, with and without leaps, bit for bit; and the leaps do skip steps (the march is
+ * faster by a margin). */
+static void test_leaps(void)
+{
+    enum { N = 40 };
+    static float sigma[N * N * N], d2[N * N * N], with[2][N * N * N], without[2][N * N * N];
+    static int32_t records[N * N * N];
+    const float lights[8] = {0.48f, 0.6f, 0.64f, 0.0f, 1.0f, 1.0f, 1.0f, 0.0f};
+    float point[16] = {0};
+    vsd_lbl_grid g;
+    int32_t x, y, z, rec = 0, i;
+    double t_with, t_without;
+    for (z = 0; z < N; z++)
+        for (y = 0; y < N; y++)
+            for (x = 0; x < N; x++) {
+                double dx = x + 0.5 - 24, dy = y + 0.5 - 15, dz = z + 0.5 - 22;
+                size_t c = ((size_t)z * N + y) * N + x;
+                sigma[c] = dx * dx + dy * dy + dz * dz < 36.0 ? 1.5f : 0.0f;
+                records[c] = sigma[c] > 0.0f ? rec++ : -1;
+            }
+    /* a point light at grid (-8, 20, 30), world = grid / 10 */
+    point[0] = -0.8f, point[1] = 2.0f, point[2] = 3.0f, point[3] = 1.0f, point[4] = point[5] = point[6] = 1.0f;
+    memset(&g, 0, sizeof g);
+    g.res[0] = g.res[1] = g.res[2] = N;
+    g.sigma = sigma;
+    g.to_grid[0] = g.to_grid[4] = g.to_grid[8] = 10.0;
+    for (i = 0; i < 12; i++) g.world_to_grid.m[i] = g.grid_to_world.m[i] = 0.0f;
+    g.world_to_grid.m[0] = g.world_to_grid.m[5] = g.world_to_grid.m[10] = 10.0f;
+    g.grid_to_world.m[0] = g.grid_to_world.m[5] = g.grid_to_world.m[10] = 0.1f;
+    CHECK(vsd_lbl_empty_distance(g.res, sigma, records, 0, d2));
+    t_without = vsd_clock_seconds();
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, without[0], without[1], NULL, 0) ==
+          VSD_OK);
+    t_without = vsd_clock_seconds() - t_without;
+    g.empty_d2 = d2;
+    t_with = vsd_clock_seconds();
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, with[0], with[1], NULL, 0) == VSD_OK);
+    t_with = vsd_clock_seconds() - t_with;
+    printf("[8] leaps over empty cells: %d records, T identical: directional %s, point %s; %.3f s -> %.3f s\n", rec,
+           memcmp(with[0], without[0], (size_t)rec * sizeof(float)) ? "NO" : "yes",
+           memcmp(with[1], without[1], (size_t)rec * sizeof(float)) ? "NO" : "yes", t_without, t_with);
+    CHECK_MSG(memcmp(with[0], without[0], (size_t)rec * sizeof(float)) == 0, "leaps changed the directional light's T");
+    CHECK_MSG(memcmp(with[1], without[1], (size_t)rec * sizeof(float)) == 0, "leaps changed the point light's T");
+    {
+        /* and the ball is lit: its near side sees T near 1, some cells are shadowed */
+        double lo = 1.0, hi = 0.0;
+        for (i = 0; i < rec; i++) {
+            lo = fmin(lo, with[0][i]);
+            hi = fmax(hi, with[0][i]);
+        }
+        CHECK_MSG(hi > 0.8 && lo < 0.3, "the ball's T spans %.3f..%.3f (optical diameter 1.8)", lo, hi);
+    }
+    CHECK_MSG(t_with < 0.8 * t_without, "leaps did not shorten the march (%.3f s against %.3f s)", t_with, t_without);
+}
+
 int main(void)
 {
+    test_leaps();
     test_conservation();
     test_infinite_medium(NULL, "[2] D3Q6");
     test_march();

@@ -42,7 +42,7 @@
 #define PI_D 3.14159265358979323846
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -62,6 +62,9 @@ static const vsd_option_spec lbl_option_rows[] = {
      offsetof(lbl_options, ray_spacing), 0, NULL},
     {"light_step", VSD_OPT_NUMBER, 0.25, 1, 1, NULL, "light rays' integration step (the paper's delta), in cells",
      offsetof(lbl_options, light_step), 0, NULL},
+    {"leaps", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "light rays leap over empty cells to just before the medium (the same result; 0 = march every step)",
+     offsetof(lbl_options, leaps), 0, NULL},
     {"tolerance", VSD_OPT_NUMBER, 1e-7, 0.1, 1e-3, NULL,
      "diffusion: stop when the probes' fluence has less than this (relative) still to change",
      offsetof(lbl_options, tolerance), 0, NULL},
@@ -94,6 +97,7 @@ typedef struct lbl_state {
     vsd_record_grid rg;
     float *sigma;                 /* [cells] sigma_t per world unit */
     float *collide;               /* [cells] collision probability per lattice step */
+    float *empty_d2;              /* [cells] squared distance to the medium (lbl_march.h) */
     double cell_world;            /* edge of a cube of a cell's world volume */
     double g2w[16];               /* grid -> world (the record grid's world_to_grid inverted) */
     /* lighting */
@@ -155,7 +159,8 @@ static void free_frame(lbl_state *s)
     vsd_record_grid_free(&s->rg);
     free(s->sigma);
     free(s->collide);
-    s->sigma = s->collide = NULL;
+    free(s->empty_d2);
+    s->sigma = s->collide = s->empty_d2 = NULL;
     free_lighting(s);
 }
 
@@ -216,6 +221,9 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
                 s->sigma[c] = (float)fmin(sum / 27.0, 1e20);
                 s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
             }
+    if (!(s->empty_d2 = malloc(n * sizeof *s->empty_d2)) ||
+        !vsd_lbl_empty_distance(s->rg.res, s->sigma, s->rg.cell_record, ctx->threads, s->empty_d2))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the distance map of %zu cells", n);
     return VSD_OK;
 }
 
@@ -344,6 +352,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     for (a = 0; a < 3; a++)
         for (q = 0; q < 3; q++) grid.to_grid[3 * a + q] = s->rg.world_to_grid.m[4 * a + q];
     grid.refract = s->refraction.k.ng ? &s->refraction.k : NULL;
+    grid.empty_d2 = s->opt.leaps ? s->empty_d2 : NULL;
     grid.world_to_grid = s->rg.world_to_grid;
     for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)s->g2w[a];
     t0 = vsd_clock_seconds();

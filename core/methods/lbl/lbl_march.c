@@ -3,6 +3,7 @@
 #include "src/render/padded_grid.h"
 #include "kernel/kernel_refract.h"
 #include "kernel/kernel_lights.h"
+#include "src/render/distance_map.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -103,6 +104,19 @@ static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const 
     }
 }
 
+int vsd_lbl_empty_distance(const int32_t res[3], const float *sigma, const int32_t *cell_record, int threads,
+                           float *d2)
+{
+    size_t c, n = (size_t)res[0] * res[1] * res[2];
+    uint8_t *occ = malloc(n ? n : 1);
+    int ok;
+    if (!occ) return 0;
+    for (c = 0; c < n; c++) occ[c] = sigma[c] > 0.0f || cell_record[c] >= 0;
+    ok = vsd_edt_squared(occ, res, d2, threads);
+    free(occ);
+    return ok;
+}
+
 /* Each record's T: the weighted mean of what the rays left at its cell's centre (0 where
  * nothing reached it), into out[rec * count + k]. */
 static void store(const march_job *j, const float *acc, float *out, int count, int k)
@@ -125,10 +139,33 @@ static void store(const march_job *j, const float *acc, float *out, int count, i
 static void march_straight(const march_job *j, const vsd_padded_grid *pad, const float o[3], const float u[3], float t0,
                            float t1, float world_step, size_t sx, size_t sy, float *acc)
 {
+    const vsd_lbl_grid *g = j->g;
     float t, tr = 1.0f;
     int ax;
     for (t = t0; t < t1 && tr > LBL_T_MIN; t += j->step) {
-        float h = fminf(j->step, t1 - t), x[3], half;
+        float h, x[3], half;
+        if (g->empty_d2) {
+            /* A step's middle reaches medium or a record only within sqrt(3) cells of a
+             * cell centre that has one (the trilinear lookup and the splat read the 8
+             * centres around it); from the step's start, D - 0.87 (the start's distance
+             * to its cell centre at most) - 0.5 step further on is still that far, so whole
+             * steps inside that radius add a factor exp(-0) = 1 and splat only onto empty
+             * cells: they are skipped, whole, so the steps after stay where they were. */
+            int32_t c[3];
+            for (ax = 0; ax < 3; ax++) {
+                float p = o[ax] + t * u[ax];
+                c[ax] = p <= 0.0f ? 0 : p >= (float)g->res[ax] ? g->res[ax] - 1 : (int32_t)p;
+            }
+            {
+                float d2 = g->empty_d2[((size_t)c[2] * g->res[1] + c[1]) * g->res[0] + c[0]];
+                float r = sqrtf(d2) - 2.61f - 0.5f * j->step;
+                if (r >= j->step) {
+                    t += floorf(r / j->step) * j->step;
+                    if (!(t < t1)) break;
+                }
+            }
+        }
+        h = fminf(j->step, t1 - t);
         for (ax = 0; ax < 3; ax++) x[ax] = o[ax] + (t + 0.5f * h) * u[ax];
         half = expf(-0.5f * sigma_at(pad, x) * world_step * (h / j->step));
         /* the transmittance at the step's middle is what the cells there see */

@@ -1,7 +1,8 @@
-/* lbl_march.h — the marching pass of Bernabei et al. 2012 (§III-B), with n = 1 (straight
- * rays; refraction is not built yet): light rays start outside the medium's box and march
- * through it along each directional light, and the transmittance they carry is left
- * behind in the cells they cross.
+/* lbl_march.h — the marching pass of Bernabei et al. 2012 (§III-B): light rays start
+ * outside the medium's box and march through it from each light (parallel rays for a
+ * directional light, rays from the position of a point or spot light), and the
+ * transmittance they carry is left behind in the cells they cross. Straight rays leap over
+ * empty cells to just before the medium (empty_d2).
  *
  * Per light k (world direction w_k toward the light, so the rays travel along -w_k): a
  * square lattice of parallel rays `spacing` cells apart on the plane across -w_k covers the
@@ -35,7 +36,17 @@ typedef struct vsd_lbl_grid {
      * world space between the grid's and the world's coordinates */
     const struct vsd_krefract *refract;
     vsd_affine world_to_grid, grid_to_world;
+    /* NULL, or [cells] the squared distance (in cells, centre to centre) to the nearest cell
+     * with medium or a record (vsd_lbl_empty_distance): straight rays leap over the steps
+     * that cannot reach one — the paper starts its rays just before the medium, from a
+     * depth map — with the same steps and the same result as marching them */
+    const float *empty_d2;
 } vsd_lbl_grid;
+
+/* The squared distance map of vsd_lbl_grid.empty_d2 into d2 [cells]: 0 where sigma > 0 or
+ * cell_record >= 0. Returns 0 when out of memory. */
+int vsd_lbl_empty_distance(const int32_t res[3], const float *sigma, const int32_t *cell_record, int threads,
+                           float *d2);
 
 /* lights: kernel layout (8 floats: world direction xyz toward the light, 0, weight rgb, 0);
  * points: the scene's point and spot lights (kernel/kernel_lights.h layout: world position
