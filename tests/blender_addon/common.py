@@ -10,6 +10,7 @@
 # * build_scene(): a smoke64 Volume sequence + studio.exr world + camera, from ../shared/data;
 # * read_exr(): a small stdlib-only OpenEXR reader (scanline, NONE/ZIPS/ZIP, HALF/FLOAT)
 #   for comparing pixels (Blender's Python has no numpy here).
+import json
 import math
 import os
 import shutil
@@ -299,6 +300,21 @@ def run_blender_render(write_path=None, animation=False):
     except RuntimeError as e:
         return str(e)
     return None
+
+
+def export_and_render(vsd, tmp, name):
+    """File > Export > vsd scene (current frame) to TMP/export/NAME.json, checked to finish,
+    then `vsd render` of the export. Returns (the exported scene dict, the render's
+    CompletedProcess)."""
+    scene_json = os.path.join(tmp, "export", name + ".json")
+    os.makedirs(os.path.dirname(scene_json), exist_ok=True)
+    res = bpy.ops.export_scene.vsd(filepath=scene_json, frame_range=False)
+    check(res == {"FINISHED"}, "export operator finished (%s)" % res)
+    with open(scene_json) as f:
+        ex = json.load(f)
+    r = subprocess.run([vsd, "render", scene_json, "--output", os.path.join(tmp, name + "_cli_####.exr"), "--quiet"],
+                       capture_output=True, text=True)
+    return ex, r
 
 
 def vsd_stats(sock):

@@ -15,9 +15,7 @@
 # * F12 through the daemon: a heat-haze render of fire96 (it has Blender's "temperature"
 #   grid) with `reference` at 16x9 works; a grid the file lacks, for either grid source, is a
 #   Blender error naming it (the renderer's message).
-import json
 import os
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -152,14 +150,8 @@ def main():
             img, w, h = common.read_exr(out)
             check((w, h) == (16, 9) and any(k.endswith("Combined.R") for k in img), "the heat-haze EXR came back")
 
-        scene_json = os.path.join(tmp, "export", "haze.json")
-        os.makedirs(os.path.dirname(scene_json))
-        res = bpy.ops.export_scene.vsd(filepath=scene_json, frame_range=False)
-        check(res == {"FINISHED"}, "export operator finished (%s)" % res)
-        ex = json.load(open(scene_json))
+        ex, r = common.export_and_render(vsd, tmp, "haze")
         check(ior_fields(ex) == ior_fields(sc), "the export carries the same fields (%s)" % ior_fields(ex))
-        r = subprocess.run([vsd, "render", scene_json, "--output", os.path.join(tmp, "cli_####.exr"), "--quiet"],
-                           capture_output=True, text=True)
         check(r.returncode == 0, "vsd render accepts the exported heat-haze scene (%s)" % r.stderr.strip())
 
         # --- a grid the file lacks: the renderer's error, naming it, reaches the user ------

@@ -12,10 +12,8 @@
 # * F12 through the daemon with reference: the point light brightens VolumeDir against the
 #   same render without it; File > Export > vsd scene carries the lights and `vsd render`
 #   renders the export.
-import json
 import math
 import os
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -138,15 +136,9 @@ def main():
             print("VolumeDir red sum with the lamp %.4g, without %.4g" % (sa, sb))
             check(sa > 1.5 * sb, "the 3000 W lamp brightens VolumeDir (%.4g vs %.4g)" % (sa, sb))
 
-        scene_json = os.path.join(tmp, "export", "lights.json")
-        os.makedirs(os.path.dirname(scene_json))
-        res = bpy.ops.export_scene.vsd(filepath=scene_json, frame_range=False)
-        check(res == {"FINISHED"}, "export operator finished (%s)" % res)
-        ex = json.load(open(scene_json))
+        ex, r = common.export_and_render(vsd, tmp, "lights")
         check(len(ex.get("lights", [])) == 1 and ex["lights"][0]["type"] == "point" and ex["lights"][0]["power"] == 3000.0,
               "the export carries the visible light (%s)" % ex.get("lights"))
-        r = subprocess.run([vsd, "render", scene_json, "--output", os.path.join(tmp, "cli_####.exr"), "--quiet"],
-                           capture_output=True, text=True)
         check(r.returncode == 0, "vsd render renders the exported lights (%s)" % r.stderr.strip())
         check(d.alive(), "daemon still serving")
     finally:

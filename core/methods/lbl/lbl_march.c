@@ -140,6 +140,9 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
                            float t1, float world_step, size_t sx, size_t sy, float *acc)
 {
     const vsd_lbl_grid *g = j->g;
+    /* a leap needs sqrt(D^2) - 2.61 - 0.5 step >= step (below): D^2 against this first,
+     * so a step that cannot leap takes no square root */
+    const float leap2 = (2.61f + 1.5f * j->step) * (2.61f + 1.5f * j->step);
     float t, tr = 1.0f;
     int ax;
     for (t = t0; t < t1 && tr > LBL_T_MIN; t += j->step) {
@@ -158,7 +161,7 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
             }
             {
                 float d2 = g->empty_d2[((size_t)c[2] * g->res[1] + c[1]) * g->res[0] + c[0]];
-                float r = sqrtf(d2) - 2.61f - 0.5f * j->step;
+                float r = d2 >= leap2 ? sqrtf(d2) - 2.61f - 0.5f * j->step : 0.0f;
                 if (r >= j->step) {
                     t += floorf(r / j->step) * j->step;
                     if (!(t < t1)) break;
@@ -186,13 +189,13 @@ static void march_point(const march_job *j, const vsd_padded_grid *pad, int k, f
     const float *l = j->points + (size_t)VSD_KLIGHT_FLOATS * k;
     const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
     vsd_f3 pw = vsd_affine_point(&g->world_to_grid, f3(l[0], l[1], l[2]));
-    float o[3] = {pw.x, pw.y, pw.z}, far2 = 0.0f, delta;
-    int face, c;
+    float o[3] = {pw.x, pw.y, pw.z}, far2 = 0.0f, delta, corner[8][3];
+    int face, c, ax;
     memset(acc, 0, 2 * sy * ((size_t)g->res[2] + 2) * sizeof *acc);
+    /* the box's corners relative to the light */
     for (c = 0; c < 8; c++) {
-        float dx = (float)((c & 1) ? g->res[0] : 0) - o[0], dy = (float)((c & 2) ? g->res[1] : 0) - o[1],
-              dz = (float)((c & 4) ? g->res[2] : 0) - o[2];
-        far2 = fmaxf(far2, dx * dx + dy * dy + dz * dz);
+        for (ax = 0; ax < 3; ax++) corner[c][ax] = (float)((c >> ax) & 1 ? g->res[ax] : 0) - o[ax];
+        far2 = fmaxf(far2, corner[c][0] * corner[c][0] + corner[c][1] * corner[c][1] + corner[c][2] * corner[c][2]);
     }
     if (!(far2 > 0.0f) || !isfinite(far2)) goto done;
     delta = j->spacing / sqrtf(far2);   /* on a face at distance 1: the angle between rays */
@@ -202,8 +205,7 @@ static void march_point(const march_job *j, const vsd_padded_grid *pad, int k, f
         int in_front = 1;
         float plo[2] = {1e30f, 1e30f}, phi[2] = {-1e30f, -1e30f};
         for (c = 0; c < 8; c++) {
-            float q[3] = {(float)((c & 1) ? g->res[0] : 0) - o[0], (float)((c & 2) ? g->res[1] : 0) - o[1],
-                          (float)((c & 4) ? g->res[2] : 0) - o[2]};
+            const float *q = corner[c];
             float depth = sgn * q[a];
             if (depth <= 0.0f) { in_front = 0; break; }
             plo[0] = fminf(plo[0], q[b] / depth);

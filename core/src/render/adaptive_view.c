@@ -61,30 +61,31 @@ static void anchor_fn(void *user, int i0, int j0, int i1, int j1)
                         a->anchors + ((size_t)j * a->nxa + i) * VSD_ACC_N);
 }
 
+/* The lowest and highest of sum q over the four corners. */
+static void corner_range(const double *const c[4], int q, double *lo, double *hi)
+{
+    int k;
+    *lo = *hi = c[0][q];
+    for (k = 1; k < 4; k++) {
+        *lo = fmin(*lo, c[k][q]);
+        *hi = fmax(*hi, c[k][q]);
+    }
+}
+
 /* Whether the four anchor sums c[4] differ by more than the threshold (see the top). */
 static int needs_tracing(const adaptive_view *a, const double *const c[4])
 {
     const double inv = 1.0 / (double)(a->n * a->n);
-    int q, k, last = a->transparent ? VSD_ACC_BG : VSD_ACC_T;
+    double lo, hi;
+    int q, last = a->transparent ? VSD_ACC_BG : VSD_ACC_T;
     for (q = VSD_ACC_DIR; q < last; q++) {
-        double lo = c[0][q], hi = c[0][q], big;
-        for (k = 1; k < 4; k++) {
-            lo = fmin(lo, c[k][q]);
-            hi = fmax(hi, c[k][q]);
-        }
-        big = fmax(fabs(lo), fabs(hi)) * inv;
-        if ((hi - lo) * inv > a->threshold * fmax(big, a->floor)) return 1;
+        corner_range(c, q, &lo, &hi);
+        if ((hi - lo) * inv > a->threshold * fmax(fmax(fabs(lo), fabs(hi)) * inv, a->floor)) return 1;
     }
-    {
-        double lo = c[0][VSD_ACC_T], hi = lo;
-        for (k = 1; k < 4; k++) {
-            lo = fmin(lo, c[k][VSD_ACC_T]);
-            hi = fmax(hi, c[k][VSD_ACC_T]);
-            if (c[k][VSD_ACC_DEPTH_N] != c[0][VSD_ACC_DEPTH_N]) return 1;
-        }
-        if ((hi - lo) * inv > a->threshold) return 1;
-    }
-    return 0;
+    corner_range(c, VSD_ACC_DEPTH_N, &lo, &hi);
+    if (lo != hi) return 1;   /* a silhouette */
+    corner_range(c, VSD_ACC_T, &lo, &hi);
+    return (hi - lo) * inv > a->threshold;
 }
 
 /* Block (bi, bj): the pixels from anchor (bi, bj) up to, not including, the next anchors,

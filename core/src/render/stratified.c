@@ -67,14 +67,15 @@ vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n
     vsd_accum acc;
     stratified_pass sp;
     vsd_tile_job job;
+    /* vs with an automatic spacing resolved (1 = trace every pixel) */
+    vsd_view_sampling eff = {1, vs ? vs->threshold : 0.0};
     vsd_status st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
+    if (vs) eff.spacing = vs->spacing ? vs->spacing : vsd_view_auto_spacing(ctx);
     if (st) return st;
     if (ctx->cuda) {
         st = stratified_device(ctx, &acc, n, pass, to_device, kernel, err, errlen);
-    } else if (vs && (vs->spacing > 1 || (vs->spacing == 0 && vsd_view_auto_spacing(ctx) > 1))) {
-        vsd_view_sampling eff = *vs;
+    } else if (eff.spacing > 1) {
         int permille = 0;
-        if (eff.spacing == 0) eff.spacing = vsd_view_auto_spacing(ctx);
         st = vsd_adaptive_view(ctx, &acc, n, &eff, pass, kernel, &permille, err, errlen);
         if (ctx->info && ctx->info_len) {
             size_t used = strlen(ctx->info);
