@@ -14,7 +14,10 @@
  *      one step per exchange and with four (fluence averaged over an iteration);
  *   7. Geist's D3Q18 lattice: a step with albedo 1 conserves the photons, and the steady
  *      state in an infinite homogeneous medium is the balance lbl_d3q18.h derives (the
- *      same check as 2). */
+ *      same check as 2);
+ *   8. leaps over empty cells change no T;
+ *   9. the march in rounds of a ray history (diffusion meanwhile) gives every record's T
+ *      once, equal to the sequential march's. */
 #include "test_common.h"
 #include "src/common/clock.h"
 #include "methods/lbl/lbl_lattice.h"
@@ -115,7 +118,7 @@ static void march_box(const float light_dir[3], float *trans, int32_t *records)
     g.sigma = sigma;
     memset(g.to_grid, 0, sizeof g.to_grid);
     g.to_grid[0] = g.to_grid[4] = g.to_grid[8] = 16.0;   /* 16 cells per world unit */
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, NULL, 0, 0.5f, 0.25f, records, 0, trans, NULL, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, NULL, 0, 0.5f, 0.25f, records, 0, trans, NULL, NULL, NULL, 0) == VSD_OK);
 }
 
 static void test_march(void)
@@ -309,41 +312,55 @@ static void test_d3q18(void)
  * transmittance toward an oblique directional light and toward a point light outside the
  * box, with and without leaps, bit for bit; and the leaps do skip steps (the march is
  * faster by a margin). */
-static void test_leaps(void)
+enum { BALL_N = 40 };
+static float ball_sigma[BALL_N * BALL_N * BALL_N];
+static int32_t ball_records[BALL_N * BALL_N * BALL_N];
+static const float ball_light[8] = {0.48f, 0.6f, 0.64f, 0.0f, 1.0f, 1.0f, 1.0f, 0.0f};
+
+/* The grid of parts 8 and 9 (a ball off the centre of a 40^3 grid, world = grid / 10) and
+ * its point light at grid (-8, 20, 30); returns the record count. */
+static int32_t ball_setup(vsd_lbl_grid *g, float point[16])
 {
-    enum { N = 40 };
-    static float sigma[N * N * N], d2[N * N * N], with[2][N * N * N], without[2][N * N * N];
-    static int32_t records[N * N * N];
-    const float lights[8] = {0.48f, 0.6f, 0.64f, 0.0f, 1.0f, 1.0f, 1.0f, 0.0f};
-    float point[16] = {0};
-    vsd_lbl_grid g;
+    const int32_t N = BALL_N;
     int32_t x, y, z, rec = 0, i;
-    double t_with, t_without;
     for (z = 0; z < N; z++)
         for (y = 0; y < N; y++)
             for (x = 0; x < N; x++) {
                 double dx = x + 0.5 - 24, dy = y + 0.5 - 15, dz = z + 0.5 - 22;
                 size_t c = ((size_t)z * N + y) * N + x;
-                sigma[c] = dx * dx + dy * dy + dz * dz < 36.0 ? 1.5f : 0.0f;
-                records[c] = sigma[c] > 0.0f ? rec++ : -1;
+                ball_sigma[c] = dx * dx + dy * dy + dz * dz < 36.0 ? 1.5f : 0.0f;
+                ball_records[c] = ball_sigma[c] > 0.0f ? rec++ : -1;
             }
-    /* a point light at grid (-8, 20, 30), world = grid / 10 */
+    memset(point, 0, 16 * sizeof *point);
     point[0] = -0.8f, point[1] = 2.0f, point[2] = 3.0f, point[3] = 1.0f, point[4] = point[5] = point[6] = 1.0f;
-    memset(&g, 0, sizeof g);
-    g.res[0] = g.res[1] = g.res[2] = N;
-    g.sigma = sigma;
-    g.to_grid[0] = g.to_grid[4] = g.to_grid[8] = 10.0;
-    for (i = 0; i < 12; i++) g.world_to_grid.m[i] = g.grid_to_world.m[i] = 0.0f;
-    g.world_to_grid.m[0] = g.world_to_grid.m[5] = g.world_to_grid.m[10] = 10.0f;
-    g.grid_to_world.m[0] = g.grid_to_world.m[5] = g.grid_to_world.m[10] = 0.1f;
-    CHECK(vsd_lbl_empty_distance(g.res, sigma, records, 0, d2));
+    memset(g, 0, sizeof *g);
+    g->res[0] = g->res[1] = g->res[2] = N;
+    g->sigma = ball_sigma;
+    g->to_grid[0] = g->to_grid[4] = g->to_grid[8] = 10.0;
+    for (i = 0; i < 12; i++) g->world_to_grid.m[i] = g->grid_to_world.m[i] = 0.0f;
+    g->world_to_grid.m[0] = g->world_to_grid.m[5] = g->world_to_grid.m[10] = 10.0f;
+    g->grid_to_world.m[0] = g->grid_to_world.m[5] = g->grid_to_world.m[10] = 0.1f;
+    return rec;
+}
+
+static void test_leaps(void)
+{
+    enum { N = BALL_N };
+    static float d2[N * N * N], with[2][N * N * N], without[2][N * N * N];
+    const int32_t *records = ball_records;
+    const float *lights = ball_light;
+    float point[16];
+    vsd_lbl_grid g;
+    int32_t rec = ball_setup(&g, point), i;
+    double t_with, t_without;
+    CHECK(vsd_lbl_empty_distance(g.res, ball_sigma, records, 0, d2));
     t_without = vsd_clock_seconds();
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, without[0], without[1], NULL, 0) ==
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, without[0], without[1], NULL, NULL, 0) ==
           VSD_OK);
     t_without = vsd_clock_seconds() - t_without;
     g.empty_d2 = d2;
     t_with = vsd_clock_seconds();
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, with[0], with[1], NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, with[0], with[1], NULL, NULL, 0) == VSD_OK);
     t_with = vsd_clock_seconds() - t_with;
     printf("[8] leaps over empty cells: %d records, T identical: directional %s, point %s; %.3f s -> %.3f s\n", rec,
            memcmp(with[0], without[0], (size_t)rec * sizeof(float)) ? "NO" : "yes",
@@ -362,8 +379,84 @@ static void test_leaps(void)
     CHECK_MSG(t_with < 0.5 * t_without, "leaps did not shorten the march (%.3f s against %.3f s)", t_with, t_without);
 }
 
+/* Part 9: marching in rounds with the diffusion meanwhile (lbl_march.h, vsd_lbl_overlap):
+ * on part 8's ball, with leaps, a ray history of 4 steps gives each record's T exactly once
+ * per light, handed to the deposit with the value stored, equal to the sequential march's
+ * up to the order of the float sums; `during` runs once per round, and there are several. */
+typedef struct overlap_probe {
+    int during_calls, bad_light;
+    unsigned char *seen;     /* [2 lights][records] */
+    const float *stored[2];
+    int32_t records;
+    double worst_handed;     /* largest |handed T - stored T| */
+} overlap_probe;
+
+static void probe_during(void *user) { ((overlap_probe *)user)->during_calls++; }
+
+static void probe_deposit(void *user, int light, size_t cell, int32_t rec, float t)
+{
+    overlap_probe *p = user;
+    (void)cell;
+    if (light < 0 || light > 1 || rec < 0 || rec >= p->records) {
+        p->bad_light++;
+        return;
+    }
+    p->seen[(size_t)light * p->records + rec]++;
+    p->worst_handed = fmax(p->worst_handed, fabs(t - p->stored[light][rec]));
+}
+
+static void test_overlap(void)
+{
+    enum { N = BALL_N };
+    static float d2[N * N * N], seq[2][N * N * N], rounds[2][N * N * N];
+    float point[16];
+    vsd_lbl_grid g;
+    int32_t rec = ball_setup(&g, point), i;
+    overlap_probe p;
+    vsd_lbl_overlap ov;
+    double worst = 0.0;
+    int once = 1;
+    CHECK(vsd_lbl_empty_distance(g.res, ball_sigma, ball_records, 0, d2));
+    g.empty_d2 = d2;
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, seq[0], seq[1], NULL, NULL,
+                               0) == VSD_OK);
+    memset(&p, 0, sizeof p);
+    p.seen = calloc(2 * (size_t)rec, 1);
+    p.stored[0] = rounds[0];
+    p.stored[1] = rounds[1];
+    p.records = rec;
+    ov.history = 4;
+    ov.during = probe_during;
+    ov.deposit = probe_deposit;
+    ov.user = &p;
+    ov.rounds = 0;
+    CHECK(p.seen != NULL);
+    if (!p.seen) return;
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, rounds[0], rounds[1], &ov,
+                               NULL, 0) == VSD_OK);
+    for (i = 0; i < rec; i++) {
+        worst = fmax(worst, fabs(rounds[0][i] - seq[0][i]) / fmax(seq[0][i], 1e-3));
+        worst = fmax(worst, fabs(rounds[1][i] - seq[1][i]) / fmax(seq[1][i], 1e-3));
+        once &= p.seen[i] == 1 && p.seen[rec + i] == 1;
+    }
+    printf("[9] rounds of 4 steps: %d rounds, during %d times, every record's T handed once: %s, "
+           "worst T against the sequential march %.2g (relative), handed against stored %.2g\n",
+           ov.rounds, p.during_calls, once ? "yes" : "NO", worst, p.worst_handed);
+    CHECK_MSG(ov.rounds >= 8, "a ray history of 4 steps took %d rounds over a 40^3 grid", ov.rounds);
+    CHECK_MSG(p.during_calls == ov.rounds, "during ran %d times in %d rounds", p.during_calls, ov.rounds);
+    CHECK_MSG(once && p.bad_light == 0, "a record's T was handed to the deposit other than once per light");
+    CHECK_MSG(p.worst_handed == 0.0, "the deposit got a T other than the one stored (by %.3g)", p.worst_handed);
+    CHECK_MSG(worst < 1e-5, "rounds changed T by %.3g relative to the sequential march", worst);
+    /* a history of 0 is not a history */
+    ov.history = 0;
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, rounds[0], rounds[1], &ov,
+                               NULL, 0) == VSD_ERR_INVALID);
+    free(p.seen);
+}
+
 int main(void)
 {
+    test_overlap();
     test_leaps();
     test_conservation();
     test_infinite_medium(NULL, "[2] D3Q6");

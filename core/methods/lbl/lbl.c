@@ -19,7 +19,8 @@
  * With medium.ior != 1 the frame stage also builds the n field (src/render/refraction.h)
  * and the light and view rays bend through it (lbl_march.c, lbl_kernel.h; CPU only).
  * The paper's 4^3 blocks (lbl_blocked.c) and the D3Q18 lattice (lbl_d3q18.c) are options.
- * Not built yet (issue 14): overlapping march and diffusion, and a device path for the
+ * Marching and diffusion overlap in rounds of a ray history (option `history`, the paper's
+ * k; off by default: slower on the CPU). Not built yet (issue 14): a device path for the
  * lighting stages (the unbent view runs on CUDA through the record grid).
  * docs/methods/lbl.md has the measurements. */
 #include "src/render/method.h"
@@ -42,7 +43,7 @@
 #define PI_D 3.14159265358979323846
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -65,6 +66,11 @@ static const vsd_option_spec lbl_option_rows[] = {
     {"leaps", VSD_OPT_BOOL, 0, 1, 1, NULL,
      "light rays leap over empty cells to just before the medium (the same result; 0 = march every step)",
      offsetof(lbl_options, leaps), 0, NULL},
+    {"history", VSD_OPT_INT, 0, 4096, 0, NULL,
+     "light rays advance this many steps per round while the lattice diffuses 8 steps on what they have left so far "
+     "(the paper's ray history k, Fig. 1a; its best was 16); 0 = march every light, then diffuse (faster on the CPU: "
+     "docs/methods/lbl.md, Table I)",
+     offsetof(lbl_options, history), 0, NULL},
     {"tolerance", VSD_OPT_NUMBER, 1e-7, 0.1, 1e-3, NULL,
      "diffusion: stop when the probes' fluence has less than this (relative) still to change",
      offsetof(lbl_options, tolerance), 0, NULL},
@@ -121,7 +127,8 @@ typedef struct lbl_state {
     float *view_baked;            /* [records * 3] the lights' term toward this view's camera */
     vsd_lbl_lattice lattice;      /* kept between lighting changes: the warm start */
     vsd_lbl_diffusion_stats diffusion;
-    double march_seconds;
+    double march_seconds;         /* with a ray history, the lattice's steps meanwhile too */
+    int history_rounds, history_steps; /* the overlap's rounds, and the lattice steps during them */
     int emission_steps;           /* lattice steps of the emission's solve (0: no emission) */
     vsd_refraction_field refraction; /* medium.ior != 1: the view rays bend (lbl_kernel.h) */
 } lbl_state;
@@ -231,51 +238,102 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
  * watts: albedo * E_k T_k * (1 - e^{-sigma lambda}) lambda^2 summed over the lights (a beam
  * of irradiance E T_k through a cell of cross-section lambda^2, T_k at the centre), plus
  * the emission, 4pi L_e lambda^3 (L_e per unit length and steradian). */
-static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
+static void emission_source(lbl_state *s, const vsd_frame_ctx *ctx)
 {
     const size_t n = cell_count(s);
-    const double area = s->cell_world * s->cell_world, vol = area * s->cell_world;
+    const double vol = s->cell_world * s->cell_world * s->cell_world;
     const vsd_kmedium *m = &ctx->kd.medium;
     size_t c;
     int32_t x, y, z;
     for (z = 0, c = 0; z < s->rg.res[2]; z++)
         for (y = 0; y < s->rg.res[1]; y++)
             for (x = 0; x < s->rg.res[0]; x++, c++) {
-                int32_t rec = s->rg.cell_record[c], k;
-                double e[3] = {0.0, 0.0, 0.0};
-                /* T_k is the transmittance at the cell's centre. A beam entering the cell
-                 * brings T_k e^{x/2} (x = sigma lambda) and loses (1 - e^-x) of that; using
-                 * the entering value measured worse against the path tracer (smoke128
-                 * VolumeInd 11.7% -> 21.6%, smoke64 frame 1 31.9% -> 21.7%): the lattice
-                 * over-counts elsewhere and the two cancel on our smoke (docs/methods/lbl.md) */
-                if (rec >= 0) {
-                    for (k = 0; k < s->dir_count; k++) {
-                        float t = s->light_trans[(size_t)rec * s->dir_count + k];
-                        e[0] += t * s->dir_lights[8 * k + 4];
-                        e[1] += t * s->dir_lights[8 * k + 5];
-                        e[2] += t * s->dir_lights[8 * k + 6];
-                    }
-                    /* point and spot lights: their irradiance, falloff included */
-                    for (k = 0; k < s->local_count; k++) {
-                        float t = s->local_trans[(size_t)rec * s->local_count + k];
-                        e[0] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 4];
-                        e[1] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 5];
-                        e[2] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 6];
-                    }
-                }
-                s->source[c] = (float)(m->albedo.x * e[0] * s->collide[c] * area);
-                s->source[n + c] = (float)(m->albedo.y * e[1] * s->collide[c] * area);
-                s->source[2 * n + c] = (float)(m->albedo.z * e[2] * s->collide[c] * area);
-                if (m->has_emission) {
-                    double le = vsd_kvolume_at(&ctx->kd.emission, grid_point(s, x + 0.5, y + 0.5, z + 0.5)) * 4.0 * PI_D * vol;
-                    s->source_e[c] = (float)(le * m->emission.x);
-                    s->source_e[n + c] = (float)(le * m->emission.y);
-                    s->source_e[2 * n + c] = (float)(le * m->emission.z);
-                    s->source[c] += s->source_e[c];
-                    s->source[n + c] += s->source_e[n + c];
-                    s->source[2 * n + c] += s->source_e[2 * n + c];
-                }
+                double le = vsd_kvolume_at(&ctx->kd.emission, grid_point(s, x + 0.5, y + 0.5, z + 0.5)) * 4.0 * PI_D * vol;
+                s->source_e[c] = (float)(le * m->emission.x);
+                s->source_e[n + c] = (float)(le * m->emission.y);
+                s->source_e[2 * n + c] = (float)(le * m->emission.z);
             }
+}
+
+static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
+{
+    const size_t n = cell_count(s);
+    const double area = s->cell_world * s->cell_world;
+    const vsd_kmedium *m = &ctx->kd.medium;
+    size_t c;
+    if (m->has_emission) emission_source(s, ctx);
+    for (c = 0; c < n; c++) {
+        int32_t rec = s->rg.cell_record[c], k;
+        double e[3] = {0.0, 0.0, 0.0};
+        /* T_k is the transmittance at the cell's centre. A beam entering the cell
+         * brings T_k e^{x/2} (x = sigma lambda) and loses (1 - e^-x) of that; using
+         * the entering value measured worse against the path tracer (smoke128
+         * VolumeInd 11.7% -> 21.6%, smoke64 frame 1 31.9% -> 21.7%): the lattice
+         * over-counts elsewhere and the two cancel on our smoke (docs/methods/lbl.md) */
+        if (rec >= 0) {
+            for (k = 0; k < s->dir_count; k++) {
+                float t = s->light_trans[(size_t)rec * s->dir_count + k];
+                e[0] += t * s->dir_lights[8 * k + 4];
+                e[1] += t * s->dir_lights[8 * k + 5];
+                e[2] += t * s->dir_lights[8 * k + 6];
+            }
+            /* point and spot lights: their irradiance, falloff included */
+            for (k = 0; k < s->local_count; k++) {
+                float t = s->local_trans[(size_t)rec * s->local_count + k];
+                e[0] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 4];
+                e[1] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 5];
+                e[2] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 6];
+            }
+        }
+        s->source[c] = (float)(m->albedo.x * e[0] * s->collide[c] * area);
+        s->source[n + c] = (float)(m->albedo.y * e[1] * s->collide[c] * area);
+        s->source[2 * n + c] = (float)(m->albedo.z * e[2] * s->collide[c] * area);
+        if (m->has_emission) {
+            s->source[c] += s->source_e[c];
+            s->source[n + c] += s->source_e[n + c];
+            s->source[2 * n + c] += s->source_e[2 * n + c];
+        }
+    }
+}
+
+/* Marching and diffusion overlapped (option `history`): the lattice steps on the source
+ * deposited so far while the rays march; each record's T, once final, adds its light to
+ * the source. deposit() rebuilds the whole source after the march, so the steady state is
+ * the sequential one's; only the warm state the rest of the solve starts from differs. */
+#define LBL_STEPS_PER_ROUND 8   /* the paper's */
+typedef struct overlap_ctx {
+    lbl_state *s;
+    const vsd_frame_ctx *ctx;
+    float albedo[3];
+    int steps;
+} overlap_ctx;
+
+static void diffuse_during_march(void *user)
+{
+    overlap_ctx *o = user;
+    int i;
+    for (i = 0; i < LBL_STEPS_PER_ROUND; i++) vsd_lbl_lattice_step(&o->s->lattice, o->s->collide, o->albedo, o->s->source);
+    o->steps += LBL_STEPS_PER_ROUND;
+}
+
+static void deposit_record(void *user, int light, size_t c, int32_t rec, float t)
+{
+    overlap_ctx *o = user;
+    lbl_state *s = o->s;
+    const size_t n = cell_count(s);
+    const float *e;
+    float w;
+    if (light < s->dir_count) {
+        e = s->dir_lights + 8 * light + 4;
+    } else {
+        const float *l = s->local_lights + (size_t)VSD_KLIGHT_FLOATS * (light - s->dir_count), *x = s->rg.record_pos + 4 * (size_t)rec;
+        e = l + 4;
+        t *= vsd_light_falloff(l, f3(x[0], x[1], x[2]));
+    }
+    w = (float)(t * s->collide[c] * s->cell_world * s->cell_world);
+    s->source[c] += o->albedo[0] * e[0] * w;
+    s->source[n + c] += o->albedo[1] * e[1] * w;
+    s->source[2 * n + c] += o->albedo[2] * e[2] * w;
 }
 
 /* The scene's point and spot lights into s->local_lights; *suns = how many suns it has (they
@@ -355,11 +413,31 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     grid.empty_d2 = s->opt.leaps ? s->empty_d2 : NULL;
     grid.world_to_grid = s->rg.world_to_grid;
     for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)s->g2w[a];
+    /* the lattice first: with a ray history it steps while the rays march */
+    if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
+    albedo[0] = ctx->kd.medium.albedo.x;
+    albedo[1] = ctx->kd.medium.albedo.y;
+    albedo[2] = ctx->kd.medium.albedo.z;
     t0 = vsd_clock_seconds();
-    if ((st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
-                                   (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record, ctx->threads,
-                                   s->light_trans, s->local_trans, err, errlen)))
-        return st;
+    {
+        overlap_ctx oc;
+        vsd_lbl_overlap ov = {s->opt.history, diffuse_during_march, deposit_record, &oc, 0};
+        oc.s = s;
+        oc.ctx = ctx;
+        memcpy(oc.albedo, albedo, sizeof albedo);
+        oc.steps = 0;
+        if (s->opt.history > 0) {
+            if (s->source_e) emission_source(s, ctx);
+            for (c = 0; c < 3 * n; c++) s->source[c] = s->source_e ? s->source_e[c] : 0.0f;
+        }
+        if ((st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
+                                       (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record,
+                                       ctx->threads, s->light_trans, s->local_trans,
+                                       s->opt.history > 0 ? &ov : NULL, err, errlen)))
+            return st;
+        s->history_rounds = s->opt.history > 0 ? ov.rounds : 0;
+        s->history_steps = oc.steps;
+    }
     /* the point and spot lights' falloff (1/d^2, the sphere, the spot's mask) at each record */
     for (c = 0; c < recs; c++)
         for (q = 0; q < s->local_count; q++) {
@@ -369,14 +447,12 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         }
     s->march_seconds = vsd_clock_seconds() - t0;
     deposit(s, ctx);
-    /* diffusion pass, from the last solve's state */
-    if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
-    albedo[0] = ctx->kd.medium.albedo.x;
-    albedo[1] = ctx->kd.medium.albedo.y;
-    albedo[2] = ctx->kd.medium.albedo.z;
-    if ((st = vsd_lbl_diffuse(&s->lattice, s->collide, albedo, s->source, s->opt.tolerance, s->opt.max_steps,
+    /* diffusion pass to the steady state, from the last solve's state (or the overlap's) */
+    if ((st = vsd_lbl_diffuse(&s->lattice, s->collide, albedo, s->source, s->opt.tolerance,
+                              s->opt.max_steps - s->history_steps > 8 ? s->opt.max_steps - s->history_steps : 8,
                               ctx->threads, s->fluence, &s->diffusion, err, errlen)))
         return st;
+    s->diffusion.steps += s->history_steps;   /* all the lattice's steps of this solve */
     if (s->source_e) {
         /* The emission's fluence before any scattering: the same lattice without scattering
          * (albedo 0), fed by the emission alone. Scattered toward the camera it is light
@@ -480,10 +556,10 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     if (ctx->info && ctx->info_len)
         snprintf(ctx->info, ctx->info_len,
                  "cells=%dx%dx%d records=%d lights=%d march_seconds=%.3f diffusion_steps=%d diffusion_converged=%d "
-                 "diffusion_change=%.3g diffusion_seconds=%.3f emission_steps=%d",
+                 "diffusion_change=%.3g diffusion_seconds=%.3f emission_steps=%d history_rounds=%d history_steps=%d",
                  s->rg.res[0], s->rg.res[1], s->rg.res[2], (int)s->rg.count, s->dir_count + s->local_count, s->march_seconds,
                  s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds,
-                 s->emission_steps);
+                 s->emission_steps, s->history_rounds, s->history_steps);
     if (s->refraction.k.ng) return render_bent(s, ctx, fb, &g, samples, err, errlen);
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, &s->opt.view, samples,
                                   err, errlen);

@@ -5,6 +5,7 @@
 #include "kernel/kernel_lights.h"
 #include "src/render/distance_map.h"
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -12,19 +13,6 @@
  * light they brought. */
 #define LBL_T_MIN 1e-4f
 
-typedef struct march_job {
-    const vsd_lbl_grid *g;
-    const float *lights;
-    int light_count;
-    const float *points;     /* point and spot lights, kernel_lights.h layout */
-    int point_count;
-    float *point_trans;
-    float spacing, step;
-    const int32_t *cell_record;
-    const vsd_padded_grid *pad;
-    float *trans;
-    vsd_status st;
-} march_job;
 
 /* trilinear sigma at grid point x inside the box (cell centres at +0.5) */
 static float sigma_at(const vsd_padded_grid *p, const float x[3])
@@ -117,35 +105,224 @@ int vsd_lbl_empty_distance(const int32_t res[3], const float *sigma, const int32
     return ok;
 }
 
-/* Each record's T: the weighted mean of what the rays left at its cell's centre (0 where
- * nothing reached it), into out[rec * count + k]. */
-static void store(const march_job *j, const float *acc, float *out, int count, int k)
+/* A cell centre is read by a splat at a step's middle m only within one cell of m per
+ * axis, so within sqrt(3) of it: once every step still to come starts at t >= front, the
+ * cells whose centres lie nearer than front - FRONT_REACH (along the rays' t) are final. */
+#define FRONT_REACH 1.75f
+
+/* The rays of one light, enumerable by index in the order the sequential march took them,
+ * with their origins rebuilt exactly (the same float accumulation), so a ray resumed in a
+ * later round is the same ray. */
+typedef struct light_rays {
+    int point;                   /* 0: parallel rays of a directional light; 1: from a position */
+    int count;
+    float u[3], e1[3], e2[3], centre[3], world_step;  /* directional */
+    int na;
+    float *across;               /* [na] the lattice's offsets across u, on both axes */
+    float o[3];                  /* point: the light's position in the grid */
+    int face_first[7], face_n[6][2];
+    float *face_vals[6][2];      /* point: each face's lattice coordinates */
+    int axis[6][3];              /* point: the face's normal axis and its two lattice axes */
+    float sign[6];
+} light_rays;
+
+/* One light on its way through the rounds. */
+typedef struct light_march {
+    int index;                   /* 0..light_count-1 directional, then the point lights */
+    light_rays rays;
+    float *acc;                  /* [2 x padded cells] sum w T, sum w */
+    float *ray_t, *ray_tr;       /* per ray: the next step's start (NAN: not started, INF: done), T */
+    float t_begin;               /* no step starts before this t */
+    float front;                 /* cells with d < front are final and stored */
+    int done;
+} light_march;
+
+typedef struct march_job {
+    const vsd_lbl_grid *g;
+    const float *lights;
+    int light_count;
+    const float *points;     /* point and spot lights, kernel_lights.h layout */
+    int point_count;
+    float *point_trans;
+    float spacing, step;
+    const int32_t *cell_record;
+    const vsd_padded_grid *pad;
+    float *trans;
+    light_march *batch;
+    int batch_count;
+    float round_end;         /* this round's steps start before t_begin + round_end; INF: all */
+    vsd_lbl_overlap *overlap;
+    vsd_status st;
+} march_job;
+
+static void rays_free(light_rays *r)
 {
-    const vsd_lbl_grid *g = j->g;
-    const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
-    int32_t ci, cj, ck;
-    for (ck = 0; ck < g->res[2]; ck++)
-        for (cj = 0; cj < g->res[1]; cj++)
-            for (ci = 0; ci < g->res[0]; ci++) {
-                int32_t rec = j->cell_record[((size_t)ck * g->res[1] + cj) * g->res[0] + ci];
-                const float *a2 = acc + 2 * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
-                if (rec >= 0) out[(size_t)rec * count + k] = a2[1] > 0.0f ? a2[0] / a2[1] : 0.0f;
-            }
+    int f;
+    free(r->across);
+    for (f = 0; f < 6; f++) free(r->face_vals[f][0]), free(r->face_vals[f][1]);
+    memset(r, 0, sizeof *r);
 }
 
-/* March one straight ray o + t u (grid units, |u| = 1) over [t0, t1), world_step the world
- * length of a grid step of j->step along u, depositing its transmittance at every step's
- * middle. */
-static void march_straight(const march_job *j, const vsd_padded_grid *pad, const float o[3], const float u[3], float t0,
-                           float t1, float world_step, size_t sx, size_t sy, float *acc)
+/* v[0..n) = lo, lo + d, ... while <= hi, accumulated as the sequential loops did; NULL when
+ * out of memory (n = 0 gives a 1-element array) */
+static float *lattice_values(float lo, float hi, float d, int *n)
+{
+    float x, *v;
+    int c = 0;
+    for (x = lo; x <= hi; x += d) c++;
+    v = malloc(sizeof *v * (size_t)(c ? c : 1));
+    if (!v) return NULL;
+    *n = c;
+    c = 0;
+    for (x = lo; x <= hi; x += d) v[c++] = x;
+    return v;
+}
+
+/* The parallel rays of directional light k: a square lattice `spacing` apart across -w_k
+ * over the grid's bounding sphere. */
+static int rays_directional(const march_job *j, int k, light_rays *r, float *t_begin)
+{
+    const vsd_lbl_grid *g = j->g;
+    const float *l = j->lights + 8 * (size_t)k;
+    double v[3], len;
+    float radius;
+    int ax;
+    memset(r, 0, sizeof *r);
+    /* the rays travel away from the light: -w in the grid */
+    for (ax = 0; ax < 3; ax++)
+        v[ax] = -(g->to_grid[3 * ax] * l[0] + g->to_grid[3 * ax + 1] * l[1] + g->to_grid[3 * ax + 2] * l[2]);
+    len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    *t_begin = 0.0f;
+    if (!(len > 0.0)) return 1;   /* no rays */
+    /* a grid step of `step` along u is step / len world units long */
+    r->world_step = (float)(j->step / len);
+    for (ax = 0; ax < 3; ax++) r->u[ax] = (float)(v[ax] / len);
+    {
+        const float *u = r->u;
+        float h[3] = {fabsf(u[0]) < 0.9f ? 1.0f : 0.0f, fabsf(u[0]) < 0.9f ? 0.0f : 1.0f, 0.0f}, d, n;
+        d = h[0] * u[0] + h[1] * u[1] + h[2] * u[2];
+        for (ax = 0; ax < 3; ax++) r->e1[ax] = h[ax] - d * u[ax];
+        n = sqrtf(r->e1[0] * r->e1[0] + r->e1[1] * r->e1[1] + r->e1[2] * r->e1[2]);
+        for (ax = 0; ax < 3; ax++) r->e1[ax] /= n;
+        r->e2[0] = u[1] * r->e1[2] - u[2] * r->e1[1];
+        r->e2[1] = u[2] * r->e1[0] - u[0] * r->e1[2];
+        r->e2[2] = u[0] * r->e1[1] - u[1] * r->e1[0];
+    }
+    for (ax = 0; ax < 3; ax++) r->centre[ax] = 0.5f * (float)g->res[ax];
+    radius = 0.5f * sqrtf((float)g->res[0] * g->res[0] + (float)g->res[1] * g->res[1] + (float)g->res[2] * g->res[2]) + 1.0f;
+    if (!(r->across = lattice_values(-radius, radius, j->spacing, &r->na))) return 0;
+    r->count = r->na * r->na;
+    /* t is measured from the plane across u through the centre: no ray starts before -radius */
+    *t_begin = -radius;
+    return 1;
+}
+
+/* A point (or spot) light: rays from its position through a cube of directions around it,
+ * each face a square lattice of directions whose spacing, at the farthest corner of the
+ * box, is j->spacing cells (nearer cells get denser rays); a face's lattice covers only
+ * the box's image on it when the whole box lies in front of it. */
+static int rays_point(const march_job *j, int k, light_rays *r, float *t_begin)
+{
+    const vsd_lbl_grid *g = j->g;
+    const float *l = j->points + (size_t)VSD_KLIGHT_FLOATS * k;
+    vsd_f3 pw = vsd_affine_point(&g->world_to_grid, f3(l[0], l[1], l[2]));
+    float far2 = 0.0f, near2 = 0.0f, delta, corner[8][3];
+    int face, c, ax;
+    memset(r, 0, sizeof *r);
+    r->point = 1;
+    r->o[0] = pw.x, r->o[1] = pw.y, r->o[2] = pw.z;
+    *t_begin = 0.0f;
+    /* the box's corners relative to the light */
+    for (c = 0; c < 8; c++) {
+        for (ax = 0; ax < 3; ax++) corner[c][ax] = (float)((c >> ax) & 1 ? g->res[ax] : 0) - r->o[ax];
+        far2 = fmaxf(far2, corner[c][0] * corner[c][0] + corner[c][1] * corner[c][1] + corner[c][2] * corner[c][2]);
+    }
+    if (!(far2 > 0.0f) || !isfinite(far2)) return 1;   /* no rays */
+    /* rays start at the light or where they enter the box: not before the box's distance */
+    for (ax = 0; ax < 3; ax++) {
+        float e = fmaxf(fmaxf(-r->o[ax], r->o[ax] - (float)g->res[ax]), 0.0f);
+        near2 += e * e;
+    }
+    *t_begin = sqrtf(near2);
+    delta = j->spacing / sqrtf(far2);   /* on a face at distance 1: the angle between rays */
+    for (face = 0; face < 6; face++) {
+        int a = face >> 1, b = (a + 1) % 3, cc = (a + 2) % 3, in_front = 1, q;
+        float sgn = (face & 1) ? -1.0f : 1.0f, lo[2] = {-1.0f, -1.0f}, hi[2] = {1.0f, 1.0f};
+        float plo[2] = {1e30f, 1e30f}, phi[2] = {-1e30f, -1e30f};
+        r->axis[face][0] = a, r->axis[face][1] = b, r->axis[face][2] = cc;
+        r->sign[face] = sgn;
+        r->face_first[face] = r->count;
+        for (c = 0; c < 8; c++) {
+            const float *p = corner[c];
+            float depth = sgn * p[a];
+            if (depth <= 0.0f) { in_front = 0; break; }
+            plo[0] = fminf(plo[0], p[b] / depth);
+            phi[0] = fmaxf(phi[0], p[b] / depth);
+            plo[1] = fminf(plo[1], p[cc] / depth);
+            phi[1] = fmaxf(phi[1], p[cc] / depth);
+        }
+        if (in_front) {
+            for (q = 0; q < 2; q++) {
+                lo[q] = fmaxf(lo[q], plo[q] - delta);
+                hi[q] = fminf(hi[q], phi[q] + delta);
+            }
+            if (lo[0] > hi[0] || lo[1] > hi[1]) continue;
+        }
+        for (q = 0; q < 2; q++)
+            if (!(r->face_vals[face][q] = lattice_values(lo[q], hi[q], delta, &r->face_n[face][q]))) return 0;
+        r->count += r->face_n[face][0] * r->face_n[face][1];
+    }
+    r->face_first[6] = r->count;
+    return 1;
+}
+
+/* Ray i of r: origin o, unit direction u (grid units), the span [*t0, *t1) inside the box
+ * and the world length of a grid step; 0 when it misses the box. */
+static int ray_at(const march_job *j, const light_rays *r, int i, float o[3], float u[3], float *t0, float *t1,
+                  float *world_step)
+{
+    int ax;
+    if (!r->point) {
+        float a = r->across[i / r->na], b = r->across[i % r->na];
+        for (ax = 0; ax < 3; ax++) o[ax] = r->centre[ax] + a * r->e1[ax] + b * r->e2[ax];
+        memcpy(u, r->u, sizeof r->u);
+        *world_step = r->world_step;
+        return clip(j->g->res, o, u, t0, t1);
+    }
+    {
+        int face = 0, q;
+        float n;
+        vsd_f3 uw;
+        while (i >= r->face_first[face + 1]) face++;
+        q = i - r->face_first[face];
+        u[r->axis[face][0]] = r->sign[face];
+        u[r->axis[face][1]] = r->face_vals[face][0][q / r->face_n[face][1]];
+        u[r->axis[face][2]] = r->face_vals[face][1][q % r->face_n[face][1]];
+        n = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        for (ax = 0; ax < 3; ax++) u[ax] /= n, o[ax] = r->o[ax];
+        if (!clip(j->g->res, o, u, t0, t1) || *t1 <= 0.0f) return 0;
+        *t0 = fmaxf(*t0, 0.0f);
+        /* a grid step of j->step along u is j->step / |u| in the world's length */
+        uw = vsd_affine_vector(&j->g->grid_to_world, f3(u[0], u[1], u[2]));
+        *world_step = j->step * sqrtf(f3_dot(uw, uw));
+        return 1;
+    }
+}
+
+/* March one straight ray o + t u (grid units, |u| = 1) from *t while t < t1 and the step
+ * starts before t_end, depositing its transmittance *tr at every step's middle; *t and *tr
+ * are left where it stopped (a round's end, or t >= t1, or T < LBL_T_MIN). world_step is
+ * the world length of a grid step of j->step along u. */
+static void march_straight(const march_job *j, const vsd_padded_grid *pad, const float o[3], const float u[3], float *tp,
+                           float t1, float t_end, float world_step, float *trp, size_t sx, size_t sy, float *acc)
 {
     const vsd_lbl_grid *g = j->g;
     /* a leap needs sqrt(D^2) - 2.61 - 0.5 step >= step (below): D^2 against this first,
      * so a step that cannot leap takes no square root */
     const float leap2 = (2.61f + 1.5f * j->step) * (2.61f + 1.5f * j->step);
-    float t, tr = 1.0f;
+    float t = *tp, tr = *trp;
     int ax;
-    for (t = t0; t < t1 && tr > LBL_T_MIN; t += j->step) {
+    for (; t < t1 && t < t_end && tr > LBL_T_MIN; t += j->step) {
         float h, x[3], half;
         if (g->empty_d2) {
             /* A step's middle reaches medium or a record only within sqrt(3) cells of a
@@ -164,7 +341,7 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
                 float r = d2 >= leap2 ? sqrtf(d2) - 2.61f - 0.5f * j->step : 0.0f;
                 if (r >= j->step) {
                     t += floorf(r / j->step) * j->step;
-                    if (!(t < t1)) break;
+                    if (!(t < t1) || !(t < t_end)) break;
                 }
             }
         }
@@ -176,140 +353,227 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
         splat(sx, sy, x, tr, acc);
         tr *= half;
     }
+    *tp = t;
+    *trp = tr;
 }
 
-/* A point (or spot) light: rays from its position through a cube of directions around it,
- * each face a square lattice of directions whose spacing, at the farthest corner of the
- * box, is j->spacing cells (nearer cells get denser rays); a face's lattice covers only
- * the box's image on it when the whole box lies in front of it. Rays start at the light, or
- * where they enter the box. */
-static void march_point(const march_job *j, const vsd_padded_grid *pad, int k, float *acc)
+/* Advances every ray of light m whose next step starts before t_begin + j->round_end.
+ * Bent rays (refraction) have no front: they march to the end in the first round. */
+static void advance(const march_job *j, light_march *m)
 {
     const vsd_lbl_grid *g = j->g;
-    const float *l = j->points + (size_t)VSD_KLIGHT_FLOATS * k;
     const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
-    vsd_f3 pw = vsd_affine_point(&g->world_to_grid, f3(l[0], l[1], l[2]));
-    float o[3] = {pw.x, pw.y, pw.z}, far2 = 0.0f, delta, corner[8][3];
-    int face, c, ax;
-    memset(acc, 0, 2 * sy * ((size_t)g->res[2] + 2) * sizeof *acc);
-    /* the box's corners relative to the light */
-    for (c = 0; c < 8; c++) {
-        for (ax = 0; ax < 3; ax++) corner[c][ax] = (float)((c >> ax) & 1 ? g->res[ax] : 0) - o[ax];
-        far2 = fmaxf(far2, corner[c][0] * corner[c][0] + corner[c][1] * corner[c][1] + corner[c][2] * corner[c][2]);
-    }
-    if (!(far2 > 0.0f) || !isfinite(far2)) goto done;
-    delta = j->spacing / sqrtf(far2);   /* on a face at distance 1: the angle between rays */
-    for (face = 0; face < 6; face++) {
-        int a = face >> 1, b = (a + 1) % 3, cc = (a + 2) % 3;
-        float sgn = (face & 1) ? -1.0f : 1.0f, lo[2] = {-1.0f, -1.0f}, hi[2] = {1.0f, 1.0f}, x, y;
-        int in_front = 1;
-        float plo[2] = {1e30f, 1e30f}, phi[2] = {-1e30f, -1e30f};
-        for (c = 0; c < 8; c++) {
-            const float *q = corner[c];
-            float depth = sgn * q[a];
-            if (depth <= 0.0f) { in_front = 0; break; }
-            plo[0] = fminf(plo[0], q[b] / depth);
-            phi[0] = fmaxf(phi[0], q[b] / depth);
-            plo[1] = fminf(plo[1], q[cc] / depth);
-            phi[1] = fmaxf(phi[1], q[cc] / depth);
+    const float t_end = m->t_begin + j->round_end;
+    int i, live = 0;
+    for (i = 0; i < m->rays.count; i++) {
+        float o[3], u[3], t0, t1, ws, t = m->ray_t ? m->ray_t[i] : NAN, tr = m->ray_tr ? m->ray_tr[i] : 1.0f;
+        if (isinf(t)) continue;
+        if (!ray_at(j, &m->rays, i, o, u, &t0, &t1, &ws)) {
+            t = INFINITY;
+        } else if (g->refract && !m->rays.point) {
+            march_bent(g, j->pad, o, u, t0, ws, sx, sy, m->acc);
+            t = INFINITY;
+        } else {
+            if (isnan(t)) t = t0;
+            march_straight(j, j->pad, o, u, &t, t1, t_end, ws, &tr, sx, sy, m->acc);
+            if (!(t < t1) || !(tr > LBL_T_MIN)) t = INFINITY;
         }
-        if (in_front) {
-            int q;
-            for (q = 0; q < 2; q++) {
-                lo[q] = fmaxf(lo[q], plo[q] - delta);
-                hi[q] = fminf(hi[q], phi[q] + delta);
-            }
-            if (lo[0] > hi[0] || lo[1] > hi[1]) continue;
-        }
-        for (x = lo[0]; x <= hi[0]; x += delta)
-            for (y = lo[1]; y <= hi[1]; y += delta) {
-                float u[3], n, t0, t1;
-                vsd_f3 uw;
-                u[a] = sgn;
-                u[b] = x;
-                u[cc] = y;
-                n = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-                u[0] /= n;
-                u[1] /= n;
-                u[2] /= n;
-                if (!clip(g->res, o, u, &t0, &t1) || t1 <= 0.0f) continue;
-                /* a grid step of j->step along u is j->step / |u| in the world's length */
-                uw = vsd_affine_vector(&g->grid_to_world, f3(u[0], u[1], u[2]));
-                march_straight(j, pad, o, u, fmaxf(t0, 0.0f), t1, j->step * sqrtf(f3_dot(uw, uw)), sx, sy, acc);
-            }
+        if (m->ray_t) m->ray_t[i] = t, m->ray_tr[i] = tr;
+        live += !isinf(t);
     }
-done:
-    store(j, acc, j->point_trans, j->point_count, k);
+    m->done = live == 0;
 }
 
-static void march_light(const march_job *j, const vsd_padded_grid *pad, int k, float *acc)
+/* The distance of cell (x, y, z)'s centre along light m's rays' t. */
+static float cell_t(const light_march *m, int32_t x, int32_t y, int32_t z)
+{
+    const light_rays *r = &m->rays;
+    float p[3] = {(float)x + 0.5f, (float)y + 0.5f, (float)z + 0.5f};
+    if (r->point) {
+        float dx = p[0] - r->o[0], dy = p[1] - r->o[1], dz = p[2] - r->o[2];
+        return sqrtf(dx * dx + dy * dy + dz * dz);
+    }
+    return (p[0] - r->centre[0]) * r->u[0] + (p[1] - r->centre[1]) * r->u[1] + (p[2] - r->centre[2]) * r->u[2];
+}
+
+/* Stores light m's T at the records of the cells whose t lies in [lo, hi) — the weighted
+ * mean of what the rays left at the cell's centre, 0 where nothing reached it — and hands
+ * each to the overlap's deposit. */
+static void transfer(const march_job *j, const light_march *m, float lo, float hi)
 {
     const vsd_lbl_grid *g = j->g;
-    const float *l = j->lights + 8 * (size_t)k;
     const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
-    double v[3], len;
-    float u[3], e1[3], e2[3], centre[3], radius, a, b;
-    int ax;
-    /* the rays travel away from the light: -w in the grid */
-    for (ax = 0; ax < 3; ax++)
-        v[ax] = -(g->to_grid[3 * ax] * l[0] + g->to_grid[3 * ax + 1] * l[1] + g->to_grid[3 * ax + 2] * l[2]);
-    len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    memset(acc, 0, 2 * sy * ((size_t)g->res[2] + 2) * sizeof *acc);
-    if (len > 0.0) {
-        /* a grid step of `step` along u is step / len world units long */
-        const float world_step = (float)(j->step / len);
-        for (ax = 0; ax < 3; ax++) u[ax] = (float)(v[ax] / len);
-        /* e1, e2: an orthonormal frame across u */
-        {
-            float h[3] = {fabsf(u[0]) < 0.9f ? 1.0f : 0.0f, fabsf(u[0]) < 0.9f ? 0.0f : 1.0f, 0.0f}, d, n;
-            d = h[0] * u[0] + h[1] * u[1] + h[2] * u[2];
-            for (ax = 0; ax < 3; ax++) e1[ax] = h[ax] - d * u[ax];
-            n = sqrtf(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-            for (ax = 0; ax < 3; ax++) e1[ax] /= n;
-            e2[0] = u[1] * e1[2] - u[2] * e1[1];
-            e2[1] = u[2] * e1[0] - u[0] * e1[2];
-            e2[2] = u[0] * e1[1] - u[1] * e1[0];
-        }
-        for (ax = 0; ax < 3; ax++) centre[ax] = 0.5f * (float)g->res[ax];
-        radius = 0.5f * sqrtf((float)g->res[0] * g->res[0] + (float)g->res[1] * g->res[1] + (float)g->res[2] * g->res[2]) + 1.0f;
-        for (a = -radius; a <= radius; a += j->spacing)
-            for (b = -radius; b <= radius; b += j->spacing) {
-                float o[3], t0, t1;
-                for (ax = 0; ax < 3; ax++) o[ax] = centre[ax] + a * e1[ax] + b * e2[ax];
-                if (!clip(g->res, o, u, &t0, &t1)) continue;
-                if (g->refract) {
-                    march_bent(g, pad, o, u, t0, (float)(j->step / len), sx, sy, acc);
-                    continue;
+    const int point = m->index >= j->light_count, k = point ? m->index - j->light_count : m->index;
+    const int count = point ? j->point_count : j->light_count;
+    float *out = point ? j->point_trans : j->trans;
+    int32_t ci, cj, ck;
+    for (ck = 0; ck < g->res[2]; ck++)
+        for (cj = 0; cj < g->res[1]; cj++) {
+            /* the row's cells in the window: t is linear in x (parallel rays) or, from a
+             * point, within hi where (x - o)^2 <= hi^2 - (row's distance)^2; one cell of
+             * margin each side, then the exact test */
+            int32_t x0 = 0, x1 = g->res[0] - 1;
+            if (isfinite(hi) || isfinite(lo)) {
+                const light_rays *r = &m->rays;
+                if (r->point) {
+                    float dy = (float)cj + 0.5f - r->o[1], dz = (float)ck + 0.5f - r->o[2], r2 = dy * dy + dz * dz;
+                    if (isfinite(hi)) {
+                        float half;
+                        if (hi * hi <= r2) continue;
+                        half = sqrtf(hi * hi - r2);
+                        x0 = (int32_t)fmaxf(0.0f, floorf(r->o[0] - 0.5f - half) - 1.0f);
+                        x1 = (int32_t)fminf((float)(g->res[0] - 1), ceilf(r->o[0] - 0.5f + half) + 1.0f);
+                    }
+                } else if (fabsf(r->u[0]) > 1e-6f) {
+                    float d0 = cell_t(m, 0, cj, ck), a = (lo - d0) / r->u[0], b = (hi - d0) / r->u[0], s;
+                    if (a > b) s = a, a = b, b = s;
+                    a = fmaxf(a - 1.0f, 0.0f);
+                    b = fminf(b + 1.0f, (float)(g->res[0] - 1));
+                    if (a > b) continue;
+                    x0 = (int32_t)a, x1 = (int32_t)ceilf(b);
                 }
-                march_straight(j, pad, o, u, t0, t1, world_step, sx, sy, acc);
             }
-    }
-    store(j, acc, j->trans, j->light_count, k);
+            for (ci = x0; ci <= x1; ci++) {
+                size_t c = ((size_t)ck * g->res[1] + cj) * g->res[0] + ci;
+                int32_t rec = j->cell_record[c];
+                const float *a2;
+                float t, d;
+                if (rec < 0) continue;
+                d = cell_t(m, ci, cj, ck);
+                if (!(d >= lo && d < hi)) continue;
+                a2 = m->acc + 2 * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
+                t = a2[1] > 0.0f ? a2[0] / a2[1] : 0.0f;
+                out[(size_t)rec * count + k] = t;
+                if (j->overlap && j->overlap->deposit) j->overlap->deposit(j->overlap->user, m->index, c, rec, t);
+            }
+        }
 }
 
-/* Lights [k0, k1) as the x range of a count x 1 job of the CPU pool. */
-static void run(void *arg, int k0, int y0, int k1, int y1)
+/* Lights [k0, k1) of the batch as the x range of a count x 1 job of the CPU pool. */
+static void advance_items(void *arg, int k0, int y0, int k1, int y1)
 {
     march_job *j = arg;
-    size_t cells = ((size_t)j->g->res[0] + 2) * ((size_t)j->g->res[1] + 2) * ((size_t)j->g->res[2] + 2);
-    float *acc = malloc(2 * cells * sizeof *acc);
     int k;
     (void)y0;
     (void)y1;
-    if (!acc) {
-        j->st = VSD_ERR_NOMEM;
-    } else {
-        for (k = k0; k < k1; k++) {
-            if (k < j->light_count) march_light(j, j->pad, k, acc);
-            else march_point(j, j->pad, k - j->light_count, acc);
-        }
+    for (k = k0; k < k1; k++)
+        if (!j->batch[k].done) advance(j, &j->batch[k]);
+}
+
+static void light_free(light_march *m)
+{
+    rays_free(&m->rays);
+    free(m->acc);
+    free(m->ray_t);
+    free(m->ray_tr);
+    memset(m, 0, sizeof *m);
+}
+
+/* Light `index` ready to march: its rays, its zeroed accumulator, and (in rounds) each
+ * ray's state. 0 when out of memory. */
+static int light_begin(const march_job *j, int index, int rounds, light_march *m)
+{
+    const vsd_lbl_grid *g = j->g;
+    size_t cells = ((size_t)g->res[0] + 2) * ((size_t)g->res[1] + 2) * ((size_t)g->res[2] + 2);
+    int ok, i;
+    memset(m, 0, sizeof *m);
+    m->index = index;
+    m->front = -INFINITY;
+    ok = index < j->light_count ? rays_directional(j, index, &m->rays, &m->t_begin)
+                                : rays_point(j, index - j->light_count, &m->rays, &m->t_begin);
+    m->acc = calloc(2 * cells, sizeof *m->acc);
+    if (!ok || !m->acc) return 0;
+    if (rounds && m->rays.count > 0) {
+        m->ray_t = malloc(sizeof *m->ray_t * (size_t)m->rays.count);
+        m->ray_tr = malloc(sizeof *m->ray_tr * (size_t)m->rays.count);
+        if (!m->ray_t || !m->ray_tr) return 0;
+        for (i = 0; i < m->rays.count; i++) m->ray_t[i] = NAN, m->ray_tr[i] = 1.0f;
     }
-    free(acc);
+    return 1;
+}
+
+/* Sequential: each item marches whole lights, one accumulator at a time. */
+static void whole_lights(void *arg, int k0, int y0, int k1, int y1)
+{
+    march_job *j = arg;
+    int k;
+    (void)y0;
+    (void)y1;
+    for (k = k0; k < k1; k++) {
+        light_march m;
+        if (!light_begin(j, k, 0, &m)) {
+            j->st = VSD_ERR_NOMEM;
+        } else {
+            advance(j, &m);
+            transfer(j, &m, -INFINITY, INFINITY);
+        }
+        light_free(&m);
+    }
+}
+
+typedef struct during_thread {
+    vsd_lbl_overlap *ov;
+    pthread_t thread;
+    int started;
+} during_thread;
+
+static void *during_main(void *arg)
+{
+    during_thread *d = arg;
+    d->ov->during(d->ov->user);
+    return NULL;
+}
+
+/* Batches of lights advanced in rounds of `history` steps; after every round each light's
+ * newly final cells are transferred, and the overlap's `during` runs on a thread of its
+ * own while a round marches. */
+static vsd_status march_rounds(march_job *j, int threads)
+{
+    const vsd_lbl_grid *g = j->g;
+    const int total = j->light_count + j->point_count, history = j->overlap->history;
+    const size_t cells = ((size_t)g->res[0] + 2) * ((size_t)g->res[1] + 2) * ((size_t)g->res[2] + 2);
+    const size_t per_light = 2 * cells * sizeof(float) + ((size_t)2 << 20);   /* + ray state, roughly */
+    int batch = (int)fmin((double)total, fmax(1.0, floor((double)VSD_LBL_OVERLAP_BYTES / (double)per_light)));
+    int first, k, march_threads = vsd_cpu_thread_count(threads);
+    vsd_status st = VSD_OK;
+    if (march_threads > 1 && j->overlap->during) march_threads--;   /* one thread diffuses */
+    j->batch = calloc((size_t)batch, sizeof *j->batch);
+    if (!j->batch) return VSD_ERR_NOMEM;
+    j->overlap->rounds = 0;
+    for (first = 0; first < total && st == VSD_OK; first += batch) {
+        int n = total - first < batch ? total - first : batch, round, left;
+        j->batch_count = n;
+        for (k = 0; k < n; k++)
+            if (!light_begin(j, first + k, 1, &j->batch[k])) st = VSD_ERR_NOMEM;
+        for (round = 0, left = n; st == VSD_OK && left > 0; round++) {
+            during_thread d = {j->overlap, 0, 0};
+            if (j->overlap->during) d.started = pthread_create(&d.thread, NULL, during_main, &d) == 0;
+            j->round_end = (float)(round + 1) * (float)history * j->step;
+            st = vsd_cpu_run_items(n, march_threads, advance_items, j, "lbl light marching");
+            if (j->overlap->during) {
+                if (d.started) pthread_join(d.thread, NULL);
+                else j->overlap->during(j->overlap->user);   /* no thread to spare: in turn */
+            }
+            j->overlap->rounds++;
+            /* the transfer: what no step still to come can touch */
+            for (k = 0, left = 0; k < n; k++) {
+                light_march *m = &j->batch[k];
+                float front = m->done ? INFINITY : m->t_begin + j->round_end - FRONT_REACH;
+                if (g->refract && !m->rays.point && !m->done) front = -INFINITY;
+                if (front > m->front) transfer(j, m, m->front, front), m->front = front;
+                left += !m->done;
+            }
+        }
+        for (k = 0; k < n; k++) light_free(&j->batch[k]);
+    }
+    free(j->batch);
+    j->batch = NULL;
+    return st ? st : j->st;
 }
 
 vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, const float *points,
                                 int point_count, float spacing, float step, const int32_t *cell_record, int threads,
-                                float *trans, float *point_trans, char *err, size_t errlen)
+                                float *trans, float *point_trans, vsd_lbl_overlap *overlap, char *err, size_t errlen)
 {
     march_job job;
     vsd_padded_grid pad;
@@ -317,7 +581,11 @@ vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int 
     if (!(spacing > 0.0f && spacing <= 1.0f) || !(step > 0.0f && step <= 1.0f))
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl marching: ray spacing %g and step %g must be in (0, 1] cells",
                         (double)spacing, (double)step);
+    if (overlap && overlap->history < 1)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl marching: a ray history of %d steps (at least 1)",
+                        overlap->history);
     if (light_count + point_count <= 0 || (size_t)g->res[0] * g->res[1] * g->res[2] == 0) return VSD_OK;
+    memset(&job, 0, sizeof job);
     job.g = g;
     job.lights = lights;
     job.light_count = light_count;
@@ -328,12 +596,15 @@ vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int 
     job.step = step;
     job.trans = trans;
     job.cell_record = cell_record;
+    job.overlap = overlap;
+    job.round_end = INFINITY;
     job.st = VSD_OK;
     if (!vsd_padded_grid_build(&pad, g->res, g->sigma)) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl light marching: no memory");
     job.pad = &pad;
-    st = vsd_cpu_run_items(light_count + point_count, threads, run, &job, "lbl light marching");
+    st = overlap ? march_rounds(&job, threads)
+                 : vsd_cpu_run_items(light_count + point_count, threads, whole_lights, &job, "lbl light marching");
     vsd_padded_grid_free(&pad);
+    if (st == VSD_ERR_NOMEM || job.st) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl light marching: no memory for the deposit grids");
     if (st) return vsd_fail(st, err, errlen, "lbl light marching cancelled");
-    if (job.st) return vsd_fail(job.st, err, errlen, "lbl light marching: no memory for the deposit grids");
     return VSD_OK;
 }

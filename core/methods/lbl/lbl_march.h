@@ -48,14 +48,37 @@ typedef struct vsd_lbl_grid {
 int vsd_lbl_empty_distance(const int32_t res[3], const float *sigma, const int32_t *cell_record, int threads,
                            float *d2);
 
+/* Marching and diffusion overlapped (the paper's Fig. 1a, §III-B "ray history"): the rays
+ * of all lights in a batch advance `history` steps per round (the paper's k), each light's
+ * front — the t along its rays before which no step is still to come, less the splat's
+ * reach — sweeping through the cells; after each round the cells behind the fronts are
+ * final, their T stored and handed to `deposit` (the paper's transfer into the diffusion
+ * volume), and while the next round marches `during` runs on a thread of its own (the
+ * lattice's steps on the source deposited so far). Parallel rays' t is measured from the
+ * plane across them through the box's centre, a point light's from the light. Bent rays
+ * (refraction) have no front: their lights are transferred whole, in the first round. A
+ * batch holds as many lights as VSD_LBL_OVERLAP_BYTES of accumulators allow. */
+#define VSD_LBL_OVERLAP_BYTES ((size_t)256 << 20)
+typedef struct vsd_lbl_overlap {
+    int history;             /* steps per ray per round, >= 1 */
+    void (*during)(void *user);   /* may be NULL */
+    /* a record's final T from light `light` (directional lights first, then the points);
+     * called on the calling thread between rounds, never while `during` runs */
+    void (*deposit)(void *user, int light, size_t cell, int32_t rec, float t);
+    void *user;
+    int rounds;              /* out: rounds marched */
+} vsd_lbl_overlap;
+
 /* lights: kernel layout (8 floats: world direction xyz toward the light, 0, weight rgb, 0);
  * points: the scene's point and spot lights (kernel/kernel_lights.h layout: world position
  * first), marched by rays from the position, without refraction (the scene refuses lights
  * through a refracting medium); cell_record: the record of each cell, -1 for none (the
  * record grid's); trans[r * light_count + k] and point_trans[r * point_count + k]: the
- * transmittance from light k to record r's cell centre. threads: CPU threads (0 = all). */
+ * transmittance from light k to record r's cell centre. threads: CPU threads (0 = all).
+ * overlap: NULL marches each light whole on the threads, one after another (the same T up
+ * to the order of the float sums). */
 vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, const float *points,
                                 int point_count, float spacing, float step, const int32_t *cell_record, int threads,
-                                float *trans, float *point_trans, char *err, size_t errlen);
+                                float *trans, float *point_trans, vsd_lbl_overlap *overlap, char *err, size_t errlen);
 
 #endif
