@@ -15,6 +15,9 @@
  *      ball under the map and a point, a spot and a sun, the same image as marching first
  *      (VolumeDir to float rounding, VolumeInd to the diffusion's tolerance), in several
  *      rounds with 8 lattice steps each.
+ *   7. the phase on the lattice (collisions, first scattering, readout) in a
+ *      forward-scattering ball (g 0.7) lit by a sun from behind in a black world: VolumeInd
+ *      against `reference`; the paper's isotropic lattice, the control, must fail.
  * The tolerances are ~1.5x the errors measured when this was written (printed on every run). */
 #include "test_common.h"
 #include "test_render_util.h"
@@ -35,6 +38,9 @@
 #define BALL_TOL_COMBINED 0.05
 #define BALL_TOL_DIR 0.05
 #define BALL_TOL_IND 0.11
+/* the backlit ball (part 7): measured VolumeInd 0.118 with the phase (reference noise 0.031),
+ * 0.90 with the paper's isotropic lattice (3x too dark) */
+#define TOL_READOUT 0.18
 
 static void compare(const char *what, const vsd_framebuffer *lbl, const vsd_framebuffer *ref,
                     const vsd_framebuffer *ref2, const double tol[3])
@@ -218,8 +224,48 @@ done:
     vsd_volume_destroy(vol);
 }
 
+static void test_readout(void)
+{
+#define BACKLIT "environment.color=[0,0,0]", "medium.anisotropy=0.7", "medium.albedo=[0.95,0.95,0.95]", \
+        "lights=[{\"type\":\"sun\",\"strength\":3,\"direction\":[0.3,-0.9,0.3]}]"
+    const char *ref_ov[] = {BACKLIT, "render.method=reference", "render.samples=1024", "render.seed=1"};
+    const char *ref2_ov[] = {BACKLIT, "render.method=reference", "render.samples=1024", "render.seed=5"};
+    const char *phase_ov[] = {BACKLIT, "render.method=lbl", "render.options.readout=phase"};
+    const char *iso_ov[] = {BACKLIT, "render.method=lbl", "render.options.readout=isotropic",
+                            "render.options.lattice_phase=isotropic"};
+#undef BACKLIT
+    vsd_volume *vol = test_ball_volume();
+    vsd_scene sc[4];
+    vsd_framebuffer *ref = NULL, *ref2 = NULL, *phase = NULL, *iso = NULL;
+    if (!vol || !test_parse_scene(test_ball_json, ref_ov, 7, &sc[0]) || !test_parse_scene(test_ball_json, ref2_ov, 7, &sc[1]) ||
+        !test_parse_scene(test_ball_json, phase_ov, 6, &sc[2]) || !test_parse_scene(test_ball_json, iso_ov, 7, &sc[3]))
+        goto done;
+    ref = test_render_fresh(&sc[0], NULL, vol, NULL, 1, NULL);
+    ref2 = test_render_fresh(&sc[1], NULL, vol, NULL, 1, NULL);
+    phase = test_render_fresh(&sc[2], NULL, vol, NULL, 1, NULL);
+    iso = test_render_fresh(&sc[3], NULL, vol, NULL, 1, NULL);
+    if (ref && ref2 && phase && iso) {
+        double e = test_rel_err(phase, ref, VSD_PASS_VOLUME_IND), c = test_rel_err(iso, ref, VSD_PASS_VOLUME_IND);
+        double noise = test_rel_err(ref2, ref, VSD_PASS_VOLUME_IND);
+        printf("[7] backlit ball, g 0.7: VolumeInd with the phase %.4f, the paper's isotropic lattice %.4f, reference noise %.4f "
+               "(means %.4g / %.4g / %.4g)\n",
+               e, c, noise, test_pass_sum(phase, VSD_PASS_VOLUME_IND), test_pass_sum(iso, VSD_PASS_VOLUME_IND),
+               test_pass_sum(ref, VSD_PASS_VOLUME_IND));
+        CHECK_MSG(e < TOL_READOUT, "VolumeInd with the phase %.4f >= %.2f", e, TOL_READOUT);
+        CHECK_MSG(c > TOL_READOUT, "the isotropic lattice (%.4f) passes the tolerance the phase must meet", c);
+        CHECK_MSG(TOL_READOUT > 3 * noise, "reference noise %.4f too close to the tolerance", noise);
+    }
+done:
+    vsd_framebuffer_destroy(ref);
+    vsd_framebuffer_destroy(ref2);
+    vsd_framebuffer_destroy(phase);
+    vsd_framebuffer_destroy(iso);
+    vsd_volume_destroy(vol);
+}
+
 int main(void)
 {
+    test_readout();
     test_history();
     test_emission_split();
     test_smoke();

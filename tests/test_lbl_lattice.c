@@ -17,11 +17,15 @@
  *      same check as 2);
  *   8. leaps over empty cells change no T;
  *   9. the march in rounds of a ray history (diffusion meanwhile) gives every record's T
- *      once, equal to the sequential march's. */
+ *      once, equal to the sequential march's;
+ *  10. the phase readout's cone weights: 1/6 each for isotropic scattering, summing to 1,
+ *      and each the integral of HG over its cube-face cone by an independent quadrature. */
 #include "test_common.h"
 #include "src/common/clock.h"
 #include "methods/lbl/lbl_lattice.h"
 #include "methods/lbl/lbl_march.h"
+#include "methods/lbl/lbl_readout.h"
+#include "kernel/kernel_phase.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -454,8 +458,60 @@ static void test_overlap(void)
     free(p.seen);
 }
 
+/* Part 10: lbl_readout.h's weights. The independent quadrature: a midpoint grid in
+ * (cos theta, phi) about the z axis, each point given to the cone of its largest component. */
+static void test_readout(void)
+{
+    static vsd_lbl_readout t;
+    const vsd_f3 ds[3] = {{0.0625f, 0.0625f, -1.0f}, {0.3f, -0.8f, 0.2f}, {-1.0f, 0.55f, 0.3f}};
+    float w[6];
+    double worst_iso = 0.0, worst_sum = 0.0, worst_cone = 0.0;
+    int k, i;
+    t.g = NAN;
+    vsd_lbl_readout_build(&t, 0.0f);
+    for (k = 0; k < 3; k++) {
+        vsd_lbl_readout_weights(&t, ds[k], w);
+        for (i = 0; i < 6; i++) worst_iso = fmax(worst_iso, fabs(w[i] - 1.0 / 6.0));
+    }
+    vsd_lbl_readout_build(&t, 0.7f);
+    for (k = 0; k < 3; k++) {
+        double sum = 0.0;
+        vsd_lbl_readout_weights(&t, ds[k], w);
+        for (i = 0; i < 6; i++) sum += w[i];
+        worst_sum = fmax(worst_sum, fabs(sum - 1.0));
+    }
+    {
+        /* d = (1/16, 1/16, -1), the centre of a table cell: light moving along +z scatters
+         * toward the eye most */
+        enum { NU = 1200, NP = 2400 };
+        vsd_f3 d = f3_normalize(ds[0]);
+        double ref[6] = {0, 0, 0, 0, 0, 0}, total = 0.0;
+        int a, b;
+        for (a = 0; a < NU; a++)
+            for (b = 0; b < NP; b++) {
+                double mu = -1.0 + (a + 0.5) * 2.0 / NU, ph = (b + 0.5) * 2.0 * 3.14159265358979 / NP;
+                double r = sqrt(1.0 - mu * mu), o[3] = {r * cos(ph), r * sin(ph), mu};
+                int ax = fabs(o[0]) >= fabs(o[1]) ? (fabs(o[0]) >= fabs(o[2]) ? 0 : 2) : (fabs(o[1]) >= fabs(o[2]) ? 1 : 2);
+                double h = vsd_hg_eval((float)-(o[0] * d.x + o[1] * d.y + o[2] * d.z), 0.7f);
+                ref[2 * ax + (o[ax] < 0.0)] += h;
+                total += h;
+            }
+        vsd_lbl_readout_weights(&t, ds[0], w);
+        for (i = 0; i < 6; i++) worst_cone = fmax(worst_cone, fabs(w[i] - ref[i] / total));
+        printf("[10] readout g 0.7, view along -z: +z cone %.4f (quadrature %.4f), sides %.4f, -z %.4f\n", w[4],
+               ref[4] / total, w[0], w[5]);
+        CHECK_MSG(w[4] > 0.6 && w[4] > 10.0 * w[5], "the cone toward the eye weighs %.3f, the one away %.3f", w[4], w[5]);
+    }
+    printf("[10] readout: isotropic off 1/6 by %.2g, sums off 1 by %.2g, cones against quadrature %.2g\n", worst_iso,
+           worst_sum, worst_cone);
+    CHECK_MSG(worst_iso < 1e-6, "isotropic cone weights off 1/6 by %.3g", worst_iso);
+    CHECK_MSG(worst_sum < 1e-5, "cone weights sum off 1 by %.3g", worst_sum);
+    CHECK_MSG(worst_cone < 0.005, "cone weights off the quadrature by %.4f", worst_cone);
+}
+
 int main(void)
 {
+    test_readout();
     test_overlap();
     test_leaps();
     test_conservation();

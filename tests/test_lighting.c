@@ -1,11 +1,14 @@
 /* The light constellation (vsd/lighting.h): power conservation, equal energy of the
- * median cut, one bright texel giving a light in its direction, k-means, and rotation
- * without recomputation agreeing with the environment lookup's own rotation. */
+ * median cut, one bright texel giving a light in its direction, k-means, rotation
+ * without recomputation agreeing with the environment lookup's own rotation, and the
+ * sub-lights of a grouped constellation (the same lights, each split again). */
 #include "test_common.h"
 #include "vsd/lighting.h"
 #include "vsd/env.h"
 #include "kernel/kernel_env.h"
 #include <stdlib.h>
+#include <string.h>
+#include <math.h>
 
 static vsd_env *make_env(int w, int h, const float rgb[3])
 {
@@ -217,8 +220,55 @@ static void test_errors(void)
     vsd_env_destroy(u);
 }
 
+/* vsd_constellation_build_grouped: the lights are the ungrouped build's, bit for bit; each
+ * light's sub-lights sum to its power and lie nearer its direction than a region's size;
+ * the kernel layout carries each sub-light's light index in its 8th float. */
+static void test_sub_lights(void)
+{
+    vsd_env *e = smooth_env(256, 128);
+    vsd_light_constellation plain, grouped;
+    float *kl;
+    int i, k, ch, bad_group = 0;
+    double worst_power = 0.0, worst_angle = 0.0;
+    if (!e) return;
+    CHECK(vsd_constellation_build(e, 32, VSD_LIGHTS_MEDIAN_CUT, &plain, NULL, 0) == VSD_OK);
+    CHECK(vsd_constellation_build_grouped(e, 32, 8, VSD_LIGHTS_MEDIAN_CUT, &grouped, NULL, 0) == VSD_OK);
+    CHECK(plain.count == grouped.count && plain.sub_count == 0);
+    CHECK(memcmp(plain.lights, grouped.lights, sizeof *plain.lights * (size_t)plain.count) == 0);
+    CHECK_MSG(grouped.sub_count > 4 * grouped.count && grouped.sub_count <= 8 * grouped.count, "%d sub-lights for %d lights",
+              grouped.sub_count, grouped.count);
+    for (k = 0; k < grouped.count; k++) {
+        double sum[3] = {0, 0, 0};
+        for (i = 0; i < grouped.sub_count; i++) {
+            if (grouped.sub_group[i] != k) continue;
+            for (ch = 0; ch < 3; ch++) sum[ch] += grouped.sub[i].power[ch];
+            /* a region of 1/32 of the map's energy spans well under 90 degrees */
+            worst_angle = fmax(worst_angle, angle_between(grouped.sub[i].dir, grouped.lights[k].dir));
+        }
+        for (ch = 0; ch < 3; ch++)
+            worst_power = fmax(worst_power, fabs(sum[ch] - grouped.lights[k].power[ch]) / grouped.lights[k].power[ch]);
+    }
+    for (i = 0; i < grouped.sub_count; i++) bad_group += grouped.sub_group[i] < 0 || grouped.sub_group[i] >= grouped.count;
+    kl = malloc(sizeof *kl * 8 * (size_t)(grouped.count + grouped.sub_count));
+    if (kl) {
+        vsd_constellation_kernel_lights(&grouped, 1.0f, 0.0f, kl);
+        for (i = 0; i < grouped.sub_count; i++) bad_group += (int)kl[8 * (grouped.count + i) + 7] != grouped.sub_group[i];
+    }
+    printf("sub-lights: %d for %d lights, power per light within %.2g, farthest %.1f deg from its light\n",
+           grouped.sub_count, grouped.count, worst_power, worst_angle * 180.0 / 3.14159265);
+    CHECK_MSG(worst_power < 1e-4, "sub-lights' power off their light's by %.3g", worst_power);
+    CHECK_MSG(worst_angle < 1.2, "a sub-light %.2f rad from its light", worst_angle);
+    CHECK_MSG(bad_group == 0, "%d sub-lights name a wrong light", bad_group);
+    vsd_constellation_free(&plain);
+    CHECK(vsd_constellation_build_grouped(e, 32, 65, VSD_LIGHTS_MEDIAN_CUT, &plain, NULL, 0) == VSD_ERR_INVALID);
+    free(kl);
+    vsd_constellation_free(&grouped);
+    vsd_env_destroy(e);
+}
+
 int main(void)
 {
+    test_sub_lights();
     test_power_conservation();
     test_equal_energy();
     test_bright_texel();

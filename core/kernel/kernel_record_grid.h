@@ -54,7 +54,10 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     const float *basis;           /* [dir_count * n2] y_i(w_j) * 4pi / M */
     const float *dir_radiance;    /* [dir_count * 4] env averaged per HEALPix pixel (product form) */
     const float *light;           /* [3 * n2] environment SH (factored form) */
-    const float *lights;          /* [light_count * 8] extracted lights: world dir xyz, 0, E rgb, 0 */
+    /* [(light_count + sub_count) * 8] directional lights: world dir xyz, 0, E rgb, 0; then,
+     * with sub_count > 0, sub-lights whose 8th float is the light they belong to: the phase
+     * is weighed over the sub-lights' directions, the shadow (light_trans) stays the light's */
+    const float *lights;
     const float *light_trans;     /* [record_count * light_count] T from each record toward each light */
     const float *records_ms;      /* [record_count * 3] multiple scattering (VolumeInd), or NULL */
     /* [record_count * 3] or NULL: light that scattered once and is isotropic there — lbl's
@@ -79,7 +82,9 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     int32_t local_count;          /* 0..VSD_MAX_LIGHTS */
     int32_t records_log;          /* BAKED with LOG_TRILINEAR: the records hold log radiance
                                      (vsd_record_grid_bake_view), so the corners take no logf */
-    float pad_[2];
+    int32_t sub_count;            /* sub-lights after the lights (0 = none) */
+    int32_t records_ms_per_view;  /* records_ms changes with the view (lbl's phase readout):
+                                     the device copies it every render */
 } vsd_krecord_grid;
 VSD_STATIC_ASSERT(sizeof(vsd_krecord_grid) % 16 == 0, "vsd_krecord_grid must stay 16-byte aligned");
 
@@ -101,13 +106,29 @@ VSD_DEVICE float vsd_records_dot(const float *a, const float *b, int32_t n)
  * directional and d is fixed along a ray, so this runs once per ray; an isotropic phase
  * (g = 0) makes it independent of d, which is what lets records be baked. d and g go to
  * ph[VSD_RECORDS_PH_DIR..] for the local lights. ph holds VSD_RECORDS_PH_FLOATS. */
-VSD_DEVICE void vsd_records_light_weights(const float *lights, int32_t count, vsd_f3 d, float g, float *ph)
+VSD_DEVICE void vsd_records_light_weights(const float *lights, int32_t count, int32_t sub_count, vsd_f3 d, float g,
+                                          float *ph)
 {
     int32_t k;
     ph[VSD_RECORDS_PH_DIR] = d.x;
     ph[VSD_RECORDS_PH_DIR + 1] = d.y;
     ph[VSD_RECORDS_PH_DIR + 2] = d.z;
     ph[VSD_RECORDS_PH_DIR + 3] = g;
+    if (sub_count > 0) {
+        /* each light's weight summed over its sub-lights: a strongly forward phase (clouds,
+         * g 0.7) varies across a light's region far more than its shadow does */
+        for (k = 0; k < count; k++) ph[k] = ph[VSD_RECORDS_MAX_LIGHTS + k] = ph[2 * VSD_RECORDS_MAX_LIGHTS + k] = 0.0f;
+        for (k = 0; k < sub_count; k++) {
+            const float *l = lights + 8 * ((size_t)count + k);
+            int32_t j = (int32_t)l[7];
+            float pk = vsd_hg_eval(f3_dot(d, f3(l[0], l[1], l[2])), g);
+            if (j < 0 || j >= count) continue;
+            ph[j] += pk * l[4];
+            ph[VSD_RECORDS_MAX_LIGHTS + j] += pk * l[5];
+            ph[2 * VSD_RECORDS_MAX_LIGHTS + j] += pk * l[6];
+        }
+        return;
+    }
     for (k = 0; k < count; k++) {
         const float *l = lights + 8 * (size_t)k;
         float pk = vsd_hg_eval(f3_dot(d, f3(l[0], l[1], l[2])), g);
@@ -276,7 +297,7 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel(const vsd_krecord_grid *g, int32_
     corners.key[0] = corners.key[1] = corners.key[2] = 0;
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
-    vsd_records_light_weights(g->lights, g->light_count, d, kd->medium.anisotropy, ph);
+    vsd_records_light_weights(g->lights, g->light_count, g->sub_count, d, kd->medium.anisotropy, ph);
     if (g->kind == VSD_RECORDS_SH_RGB) {
         /* convolution with HG toward the viewer: out(d) = sum_lm g^l f_lm y_lm(d) */
         float gl = 1.0f;

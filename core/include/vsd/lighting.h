@@ -37,12 +37,24 @@ typedef struct vsd_env_light {
 typedef struct vsd_light_constellation {
     int count;
     vsd_env_light *lights;
+    /* With sub-lights (vsd_constellation_build_grouped): each light's region cut again by
+     * the same median cut into sub_count lights in all, sub_group[i] the light whose region
+     * sub-light i lies in; the sub-lights of a light sum to its power. Else 0 / NULL. */
+    int sub_count;
+    vsd_env_light *sub;
+    int *sub_group;
     double total_power[3]; /* the map's integral (sum of the lights' powers, in double) */
 } vsd_light_constellation;
 
 /* Split `env` into at most n lights (1..65536). */
 vsd_status vsd_constellation_build(const vsd_env *env, int n, vsd_lights_method method,
                                    vsd_light_constellation *out, char *err, size_t errlen);
+/* The same n lights, and each light's region cut into per_group (1..64) sub-lights: a
+ * method that keeps one shadow per light can still weigh the phase function over the
+ * sub-lights' finer directions (lbl: the record grid's sub-lights). per_group 1 = none;
+ * median cut only (k-means lights get none). */
+vsd_status vsd_constellation_build_grouped(const vsd_env *env, int n, int per_group, vsd_lights_method method,
+                                           vsd_light_constellation *out, char *err, size_t errlen);
 void vsd_constellation_free(vsd_light_constellation *c);
 
 /* A 64-bit hash of the map's size and texel bits: a constellation is reused only for
@@ -58,7 +70,8 @@ void vsd_env_texel_direction(const vsd_env *env, int col, int row, float dir[3])
 /* Kernel lights (8 floats each: world direction xyz, 0, weight rgb, 0 — the layout of
  * vsd_kernel_data.lights) for the environment's strength and rotation_z: the world
  * direction is Rz(-rotation_z) applied to the texture direction (kernel_env.h's mapping),
- * the weight is power * strength. out holds 8 * c->count floats. */
+ * the weight is power * strength. out holds 8 * (c->count + c->sub_count) floats: the
+ * lights, then the sub-lights with their light's index in the 8th float. */
 void vsd_constellation_kernel_lights(const vsd_light_constellation *c, float strength, float rotation_z,
                                      float *out);
 
@@ -70,14 +83,18 @@ void vsd_constellation_kernel_lights(const vsd_light_constellation *c, float str
 typedef struct vsd_constellation_cache {
     vsd_light_constellation cons;
     uint64_t key;
-    int n, method, valid;
-    float *lights;
-    int count;
+    int n, per_group, method, valid;
+    float *lights;           /* count lights, then sub_count sub-lights (kernel layout) */
+    int count, sub_count;
 } vsd_constellation_cache;
 
 vsd_status vsd_constellation_cache_update(vsd_constellation_cache *c, const vsd_env *env, int n,
                                           vsd_lights_method method, float strength, float rotation_z, char *err,
                                           size_t errlen);
+/* The same with sub-lights (vsd_constellation_build_grouped). */
+vsd_status vsd_constellation_cache_update_grouped(vsd_constellation_cache *c, const vsd_env *env, int n, int per_group,
+                                                  vsd_lights_method method, float strength, float rotation_z,
+                                                  char *err, size_t errlen);
 void vsd_constellation_cache_free(vsd_constellation_cache *c);
 
 #ifdef __cplusplus

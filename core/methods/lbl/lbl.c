@@ -33,6 +33,7 @@
 #include "lbl_march.h"
 #include "lbl_lattice.h"
 #include "lbl_kernel.h"
+#include "lbl_readout.h"
 #include "src/render/refraction.h"
 #include <math.h>
 #include <stddef.h>
@@ -41,14 +42,19 @@
 #include <string.h>
 
 #define PI_D 3.14159265358979323846
+#define LBL_MAX_SUB_LIGHTS 16
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
 
 static const char *const lbl_lattice_names[] = {"d3q6", "d3q18", NULL};
+static const char *const lbl_readout_names[] = {"isotropic", "phase", NULL};
+static const char *const lbl_phase_names[] = {"isotropic", "hg", NULL};
+enum { LBL_PHASE_ISOTROPIC, LBL_PHASE_HG };
+enum { LBL_READOUT_ISOTROPIC, LBL_READOUT_PHASE };
 
 /* in VSD_RECORDS_NEAREST.. order */
 static const char *const lbl_interp_names[] = {"nearest", "trilinear", "log", NULL};
@@ -56,6 +62,10 @@ static const char *const lbl_interp_names[] = {"nearest", "trilinear", "log", NU
 static const vsd_option_spec lbl_option_rows[] = {
     {"lights", VSD_OPT_INT, 1, VSD_RECORDS_MAX_LIGHTS, 64, NULL,
      "the environment as N directional lights (median-cut constellation)", offsetof(lbl_options, lights), 0, NULL},
+    {"sub_lights", VSD_OPT_INT, 1, LBL_MAX_SUB_LIGHTS, 8, NULL,
+     "each light's region of the map cut again into N: the view weighs the phase function over their directions, "
+     "the shadow stays the light's (1 = the light's own direction only)",
+     offsetof(lbl_options, sub_lights), 0, NULL},
     {"cells", VSD_OPT_INT, 4, 256, 64, NULL,
      "lattice cells per axis over the density's box (the material, marching and diffusion volumes)",
      offsetof(lbl_options, cells), 0, NULL},
@@ -84,6 +94,14 @@ static const vsd_option_spec lbl_option_rows[] = {
      "diffusion: the paper's 6 axis directions (d3q6), or Geist et al.'s 18 with the in-plane diagonals (d3q18, "
      "3x the memory; not with block_steps)",
      offsetof(lbl_options, lattice), 0, NULL},
+    {"lattice_phase", VSD_OPT_CHOICE, 0, 0, LBL_PHASE_HG, lbl_phase_names,
+     "diffusion: the paper's isotropic scattering, or the medium's phase (Henyey-Greenstein) on the six directions' "
+     "cones, first scattering included (D3Q6 global lattice; lbl_readout.h)",
+     offsetof(lbl_options, lattice_phase), 0, NULL},
+    {"readout", VSD_OPT_CHOICE, 0, 0, LBL_READOUT_PHASE, lbl_readout_names,
+     "view: the diffused light toward the eye, the paper's isotropic fluence / 4pi, or the phase function over the "
+     "lattice's six directions (D3Q6 global lattice; lbl_readout.h)",
+     offsetof(lbl_options, readout), 0, NULL},
     {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, lbl_interp_names,
      "view: the direct light between cell centres, nearest, trilinear, or trilinear in log radiance",
      offsetof(lbl_options, interp), 0, NULL},
@@ -104,19 +122,26 @@ typedef struct lbl_state {
     float *sigma;                 /* [cells] sigma_t per world unit */
     float *collide;               /* [cells] collision probability per lattice step */
     float *empty_d2;              /* [cells] squared distance to the medium (lbl_march.h) */
+    vsd_lbl_readout readout;      /* the phase's cone weights (readout "phase") */
+    float *ms6;                   /* [records][6][3] the populations as cone radiances, or NULL */
+    float *ms_view;               /* [records][3] their light toward this view's eye */
     double cell_world;            /* edge of a cube of a cell's world volume */
     double g2w[16];               /* grid -> world (the record grid's world_to_grid inverted) */
     /* lighting */
     vsd_constellation_cache cc;   /* the environment's lights, kernel layout */
     /* the directional lights: the environment's, then the scene's suns (8 floats each, the
      * record grid's layout); the scene's point and spot lights (kernel_lights.h layout) */
-    float dir_lights[8 * VSD_RECORDS_MAX_LIGHTS];
-    int dir_count;
+    /* the directional lights (the map's, then the scene's suns), then sub_count sub-lights
+     * (kernel_record_grid.h: the phase over finer directions, the shadow the light's) */
+    float dir_lights[8 * VSD_RECORDS_MAX_LIGHTS * (1 + LBL_MAX_SUB_LIGHTS)];
+    int dir_count, sub_count;
     float local_lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
     int local_count;
     float *light_trans;           /* [records * dir_count] */
     float *local_trans;           /* [records * local_count] transmittance times falloff */
-    float *source;                /* [3][cells] */
+    float *source;                /* [3][cells], or with source_dirs [6][3][cells] */
+    int source_dirs;              /* the lattice scatters with the phase (lattice_phase "hg") */
+    float dir_shares[VSD_RECORDS_MAX_LIGHTS][6];  /* each directional light's light_shares */
     float *fluence;               /* [3][cells] */
     float *ms;                    /* [records * 3] VolumeInd source per unit sigma_s */
     /* with emission: the emission alone (source_e), its fluence before any scattering
@@ -139,6 +164,7 @@ static vsd_status lbl_create(void **state, const vsd_scene *scene, const void *o
     (void)scene;
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
     s->opt = *(const lbl_options *)options;
+    s->readout.g = NAN;
     *state = s;
     return VSD_OK;
 }
@@ -152,6 +178,9 @@ static void free_lighting(lbl_state *s)
     free(s->fluence);
     free(s->ms);
     free(s->view_baked);
+    free(s->ms6);
+    free(s->ms_view);
+    s->ms6 = s->ms_view = NULL;
     free(s->source_e);
     free(s->fluence_e);
     free(s->ms_dir);
@@ -238,6 +267,23 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
  * watts: albedo * E_k T_k * (1 - e^{-sigma lambda}) lambda^2 summed over the lights (a beam
  * of irradiance E T_k through a cell of cross-section lambda^2, T_k at the centre), plus
  * the emission, 4pi L_e lambda^3 (L_e per unit length and steradian). */
+/* Floats of the source: [3][cells], or [6][3][cells] per direction. */
+static size_t source_floats(const lbl_state *s) { return (s->source_dirs ? 18 : 3) * cell_count(s); }
+
+/* source += the emission (source_e), a sixth per direction on a lattice with directions */
+static void add_emission(lbl_state *s)
+{
+    const size_t n3 = 3 * cell_count(s);
+    size_t c;
+    int i;
+    if (!s->source_dirs) {
+        for (c = 0; c < n3; c++) s->source[c] += s->source_e[c];
+        return;
+    }
+    for (i = 0; i < 6; i++)
+        for (c = 0; c < n3; c++) s->source[(size_t)i * n3 + c] += s->source_e[c] * (1.0f / 6.0f);
+}
+
 static void emission_source(lbl_state *s, const vsd_frame_ctx *ctx)
 {
     const size_t n = cell_count(s);
@@ -255,44 +301,105 @@ static void emission_source(lbl_state *s, const vsd_frame_ctx *ctx)
             }
 }
 
+/* The share of light k's first scattering that goes into each lattice direction: 1/6 each
+ * on an isotropic lattice; else the phase's cone shares around the light's direction of
+ * travel (lbl_readout.h; a point light's from the record's position). */
+static void light_shares(const lbl_state *s, int light, int32_t rec, float q[6])
+{
+    vsd_f3 w;
+    int i;
+    if (!s->source_dirs) {
+        for (i = 0; i < 6; i++) q[i] = 1.0f / 6.0f;
+        return;
+    }
+    if (light < s->dir_count) {
+        memcpy(q, s->dir_shares[light], 6 * sizeof(float));
+        return;
+    }
+    {
+        /* toward the light from the record: the table's d (the light travels along -d) */
+        const float *l = s->local_lights + (size_t)VSD_KLIGHT_FLOATS * (light - s->dir_count), *x = s->rg.record_pos + 4 * (size_t)rec;
+        w = f3(l[0] - x[0], l[1] - x[1], l[2] - x[2]);
+    }
+    vsd_lbl_readout_weights(&s->readout, vsd_affine_vector(&s->rg.world_to_grid, w), q);
+}
+
+/* Adds light k's first scattering at record rec (cell c), t its transmittance (times the
+ * falloff for a point light), to the source: albedo E T p lambda^2, per direction or all
+ * directions alike. */
+static void add_deposit(lbl_state *s, const float albedo[3], int light, size_t c, int32_t rec, double t)
+{
+    const size_t n = cell_count(s);
+    const float *e = light < s->dir_count ? s->dir_lights + 8 * light + 4
+                                          : s->local_lights + (size_t)VSD_KLIGHT_FLOATS * (light - s->dir_count) + 4;
+    const double w = t * s->collide[c] * s->cell_world * s->cell_world;
+    int ch, i;
+    if (!(w != 0.0)) return;
+    if (!s->source_dirs) {
+        for (ch = 0; ch < 3; ch++) s->source[(size_t)ch * n + c] += (float)(albedo[ch] * e[ch] * w);
+        return;
+    }
+    {
+        float q[6];
+        light_shares(s, light, rec, q);
+        for (i = 0; i < 6; i++)
+            for (ch = 0; ch < 3; ch++) s->source[((size_t)i * 3 + ch) * n + c] += (float)(albedo[ch] * e[ch] * w * q[i]);
+    }
+}
+
+/* The source from scratch: every light's first scattering at every record (the light
+ * each cell scatters out of the direct beams per lattice step, in watts: albedo E_k T_k
+ * (1 - e^{-sigma lambda}) lambda^2, a beam of irradiance E T_k through a cell of
+ * cross-section lambda^2, T_k at the centre), plus the emission, 4pi L_e lambda^3, a
+ * sixth per direction.
+ * T_k is the transmittance at the cell's centre. A beam entering the cell brings
+ * T_k e^{x/2} (x = sigma lambda) and loses (1 - e^-x) of that; using the entering value
+ * measured worse against the path tracer (smoke128 VolumeInd 11.7% -> 21.6%, smoke64 frame
+ * 1 31.9% -> 21.7%): the lattice over-counts elsewhere and the two cancel on our smoke
+ * (docs/methods/lbl.md). */
 static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
 {
     const size_t n = cell_count(s);
-    const double area = s->cell_world * s->cell_world;
     const vsd_kmedium *m = &ctx->kd.medium;
+    const float albedo[3] = {m->albedo.x, m->albedo.y, m->albedo.z};
     size_t c;
-    if (m->has_emission) emission_source(s, ctx);
+    const int nd = s->source_dirs ? 6 : 1, m3 = 3 * nd;
+    const double area = s->cell_world * s->cell_world;
+    float *qe = malloc(sizeof *qe * (size_t)(s->dir_count > 0 ? s->dir_count : 1) * (size_t)m3);
+    memset(s->source, 0, source_floats(s) * sizeof *s->source);
+    /* the directional lights, the bulk: albedo E_k per direction's share, once per light,
+     * then one multiply-add per light, direction and channel at each record */
+    if (qe) {
+        int k, i, ch;
+        for (k = 0; k < s->dir_count; k++) {
+            float q[6];
+            light_shares(s, k, -1, q);
+            for (i = 0; i < nd; i++)
+                for (ch = 0; ch < 3; ch++)
+                    qe[(size_t)k * m3 + 3 * i + ch] = albedo[ch] * s->dir_lights[8 * k + 4 + ch] * (nd > 1 ? q[i] : 1.0f);
+        }
+    }
     for (c = 0; c < n; c++) {
         int32_t rec = s->rg.cell_record[c], k;
-        double e[3] = {0.0, 0.0, 0.0};
-        /* T_k is the transmittance at the cell's centre. A beam entering the cell
-         * brings T_k e^{x/2} (x = sigma lambda) and loses (1 - e^-x) of that; using
-         * the entering value measured worse against the path tracer (smoke128
-         * VolumeInd 11.7% -> 21.6%, smoke64 frame 1 31.9% -> 21.7%): the lattice
-         * over-counts elsewhere and the two cancel on our smoke (docs/methods/lbl.md) */
-        if (rec >= 0) {
-            for (k = 0; k < s->dir_count; k++) {
-                float t = s->light_trans[(size_t)rec * s->dir_count + k];
-                e[0] += t * s->dir_lights[8 * k + 4];
-                e[1] += t * s->dir_lights[8 * k + 5];
-                e[2] += t * s->dir_lights[8 * k + 6];
-            }
-            /* point and spot lights: their irradiance, falloff included */
-            for (k = 0; k < s->local_count; k++) {
-                float t = s->local_trans[(size_t)rec * s->local_count + k];
-                e[0] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 4];
-                e[1] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 5];
-                e[2] += t * s->local_lights[VSD_KLIGHT_FLOATS * k + 6];
-            }
+        if (rec < 0) continue;
+        if (qe) {
+            float acc[18] = {0};
+            const float *t = s->light_trans + (size_t)rec * s->dir_count;
+            int q;
+            for (k = 0; k < s->dir_count; k++)
+                for (q = 0; q < m3; q++) acc[q] += t[k] * qe[(size_t)k * m3 + q];
+            for (q = 0; q < m3; q++) s->source[(size_t)q * n + c] += (float)(acc[q] * s->collide[c] * area);
+        } else {
+            for (k = 0; k < s->dir_count; k++) add_deposit(s, albedo, k, c, rec, s->light_trans[(size_t)rec * s->dir_count + k]);
         }
-        s->source[c] = (float)(m->albedo.x * e[0] * s->collide[c] * area);
-        s->source[n + c] = (float)(m->albedo.y * e[1] * s->collide[c] * area);
-        s->source[2 * n + c] = (float)(m->albedo.z * e[2] * s->collide[c] * area);
-        if (m->has_emission) {
-            s->source[c] += s->source_e[c];
-            s->source[n + c] += s->source_e[n + c];
-            s->source[2 * n + c] += s->source_e[2 * n + c];
-        }
+        /* point and spot lights: their falloff is in local_trans */
+        for (k = 0; k < s->local_count; k++)
+            add_deposit(s, albedo, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k]);
+    }
+    free(qe);
+    if (m->has_emission) {
+        emission_source(s, ctx);
+        add_emission(s);
     }
 }
 
@@ -304,7 +411,8 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
 typedef struct overlap_ctx {
     lbl_state *s;
     const vsd_frame_ctx *ctx;
-    float albedo[3];
+    float albedo[3];              /* the medium's: the source */
+
     int steps;
 } overlap_ctx;
 
@@ -320,20 +428,12 @@ static void deposit_record(void *user, int light, size_t c, int32_t rec, float t
 {
     overlap_ctx *o = user;
     lbl_state *s = o->s;
-    const size_t n = cell_count(s);
-    const float *e;
-    float w;
-    if (light < s->dir_count) {
-        e = s->dir_lights + 8 * light + 4;
-    } else {
+    double w = t;
+    if (light >= s->dir_count) {
         const float *l = s->local_lights + (size_t)VSD_KLIGHT_FLOATS * (light - s->dir_count), *x = s->rg.record_pos + 4 * (size_t)rec;
-        e = l + 4;
-        t *= vsd_light_falloff(l, f3(x[0], x[1], x[2]));
+        w *= vsd_light_falloff(l, f3(x[0], x[1], x[2]));
     }
-    w = (float)(t * s->collide[c] * s->cell_world * s->cell_world);
-    s->source[c] += o->albedo[0] * e[0] * w;
-    s->source[n + c] += o->albedo[1] * e[1] * w;
-    s->source[2 * n + c] += o->albedo[2] * e[2] * w;
+    add_deposit(s, o->albedo, light, c, rec, w);
 }
 
 /* The scene's point and spot lights into s->local_lights; *suns = how many suns it has (they
@@ -355,6 +455,57 @@ static vsd_status split_scene_lights(lbl_state *s, const vsd_kernel_data *kd, in
     return *suns < VSD_RECORDS_MAX_LIGHTS ? VSD_OK : VSD_ERR_INTERNAL;
 }
 
+/* With readout "phase" on the global D3Q6 lattice: each record's six populations (less the
+ * emission's unscattered part) as the cone radiances of lbl_readout.h, per unit sigma_s
+ * and before the cone weights: ms6[rec][i][ch] = 6 f_i / (4 pi lambda^2). */
+static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, const vsd_lbl_layout *layout, char *err,
+                                      size_t errlen)
+{
+    const size_t n = cell_count(s), recs = (size_t)s->rg.count;
+    const double k = 6.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D);
+    size_t c;
+    if (s->opt.readout != LBL_READOUT_PHASE || layout->block_steps > 0 || layout->d3q18 || !s->lattice.f || recs == 0)
+        return VSD_OK;
+    if (!(s->ms6 = malloc(18 * recs * sizeof *s->ms6)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the populations of %zu records", recs);
+    vsd_lbl_readout_build(&s->readout, ctx->kd.medium.anisotropy);
+    for (c = 0; c < n; c++) {
+        int32_t rec = s->rg.cell_record[c];
+        int i, a;
+        if (rec < 0) continue;
+        for (i = 0; i < 6; i++)
+            for (a = 0; a < 3; a++) {
+                size_t at = ((size_t)i * 3 + a) * n + c;
+                double f = s->lattice.f[at] - (s->fluence_e && s->lattice_e.f ? s->lattice_e.f[at] : 0.0f);
+                s->ms6[18 * (size_t)rec + 3 * i + a] = (float)(f > 0.0 ? f * k : 0.0);
+            }
+    }
+    return VSD_OK;
+}
+
+/* The diffused light toward this view's eye per record (readout "phase"), into ms_view. */
+static vsd_status readout_view(lbl_state *s, const vsd_kcamera *cam, char *err, size_t errlen)
+{
+    const float *m = cam->cam_to_world.m;
+    const vsd_f3 eye = f3(m[3], m[7], m[11]), forward = f3_scale(f3(m[2], m[6], m[10]), -1.0f);
+    size_t r, recs = (size_t)s->rg.count;
+    if (!s->ms_view && !(s->ms_view = malloc(3 * (recs ? recs : 1) * sizeof *s->ms_view)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %zu view records", recs);
+    for (r = 0; r < recs; r++) {
+        const float *p = s->rg.record_pos + 4 * r, *f = s->ms6 + 18 * r;
+        vsd_f3 d = cam->orthographic ? forward : f3_sub(f3(p[0], p[1], p[2]), eye);
+        float w[6];
+        int i, a;
+        vsd_lbl_readout_weights(&s->readout, vsd_affine_vector(&s->rg.world_to_grid, d), w);
+        for (a = 0; a < 3; a++) {
+            float v = 0.0f;
+            for (i = 0; i < 6; i++) v += w[i] * f[3 * i + a];
+            s->ms_view[3 * r + a] = v;
+        }
+    }
+    return VSD_OK;
+}
+
 static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     lbl_state *s = state;
@@ -372,10 +523,9 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if ((st = split_scene_lights(s, &ctx->kd, &suns))) return vsd_fail(st, err, errlen, "lbl: internal: too many lights");
     /* the record grid's per-ray weights hold VSD_RECORDS_MAX_LIGHTS directional lights,
      * the scene's suns among them */
-    if ((st = vsd_constellation_cache_update(&s->cc, ctx->env, s->opt.lights + suns > VSD_RECORDS_MAX_LIGHTS
-                                                                  ? VSD_RECORDS_MAX_LIGHTS - suns : s->opt.lights,
-                                             VSD_LIGHTS_MEDIAN_CUT, sc->environment.strength,
-                                             sc->environment.rotation_z, err, errlen)))
+    if ((st = vsd_constellation_cache_update_grouped(
+             &s->cc, ctx->env, s->opt.lights + suns > VSD_RECORDS_MAX_LIGHTS ? VSD_RECORDS_MAX_LIGHTS - suns : s->opt.lights,
+             s->opt.sub_lights, VSD_LIGHTS_MEDIAN_CUT, sc->environment.strength, sc->environment.rotation_z, err, errlen)))
         return st;
     s->dir_count = 0;
     for (a = 0; a < s->cc.count && s->dir_count < VSD_RECORDS_MAX_LIGHTS; a++)
@@ -390,10 +540,25 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         d[4] = l[4], d[5] = l[5], d[6] = l[6], d[7] = 0.0f;
         s->dir_count++;
     }
+    /* the sub-lights: the map's, each naming its light, and every sun as its own */
+    s->sub_count = 0;
+    if (s->cc.sub_count > 0) {
+        float *sub = s->dir_lights + 8 * (size_t)s->dir_count;
+        memcpy(sub, s->cc.lights + 8 * (size_t)s->cc.count, 8 * sizeof(float) * (size_t)s->cc.sub_count);
+        s->sub_count = s->cc.sub_count;
+        for (a = s->cc.count; a < s->dir_count; a++, s->sub_count++) {
+            memcpy(sub + 8 * (size_t)s->sub_count, s->dir_lights + 8 * (size_t)a, 8 * sizeof(float));
+            sub[8 * (size_t)s->sub_count + 7] = (float)a;
+        }
+    }
     if (n == 0 || recs == 0) return VSD_OK;
     s->light_trans = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *s->light_trans);
     s->local_trans = calloc(recs * (size_t)(s->local_count > 0 ? s->local_count : 1), sizeof *s->local_trans);
-    s->source = malloc(3 * n * sizeof *s->source);
+    /* the lattice's phase: with directions the source is per direction */
+    s->source_dirs = s->opt.lattice_phase == LBL_PHASE_HG && ctx->kd.medium.anisotropy != 0.0f &&
+                     layout.block_steps == 0 && !layout.d3q18;
+    vsd_lbl_readout_build(&s->readout, ctx->kd.medium.anisotropy);
+    s->source = malloc(source_floats(s) * sizeof *s->source);
     s->fluence = malloc(3 * n * sizeof *s->fluence);
     s->ms = malloc(3 * recs * sizeof *s->ms);
     if (ctx->kd.medium.has_emission) {
@@ -415,6 +580,18 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)s->g2w[a];
     /* the lattice first: with a ray history it steps while the rays march */
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
+    if (s->source_dirs) {
+        float f, b, sd;
+        vsd_lbl_readout_lattice_phase(ctx->kd.medium.anisotropy, &f, &b, &sd);
+        vsd_lbl_lattice_set_phase(&s->lattice, f, b, sd);
+        for (a = 0; a < s->dir_count; a++) {
+            const float *l = s->dir_lights + 8 * (size_t)a;
+            vsd_lbl_readout_weights(&s->readout, vsd_affine_vector(&s->rg.world_to_grid, f3(l[0], l[1], l[2])),
+                                    s->dir_shares[a]);
+        }
+    } else {
+        vsd_lbl_lattice_set_phase(&s->lattice, 1.0f / 6.0f, 1.0f / 6.0f, 1.0f / 6.0f);
+    }
     albedo[0] = ctx->kd.medium.albedo.x;
     albedo[1] = ctx->kd.medium.albedo.y;
     albedo[2] = ctx->kd.medium.albedo.z;
@@ -427,8 +604,11 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         memcpy(oc.albedo, albedo, sizeof albedo);
         oc.steps = 0;
         if (s->opt.history > 0) {
-            if (s->source_e) emission_source(s, ctx);
-            for (c = 0; c < 3 * n; c++) s->source[c] = s->source_e ? s->source_e[c] : 0.0f;
+            memset(s->source, 0, source_floats(s) * sizeof *s->source);
+            if (s->source_e) {
+                emission_source(s, ctx);
+                add_emission(s);
+            }
         }
         if ((st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
                                        (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record,
@@ -482,7 +662,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             s->ms[3 * (size_t)rec + a] = (float)(phi * k);
         }
     }
-    return VSD_OK;
+    return readout_populations(s, ctx, &layout, err, errlen);
 }
 
 static vsd_sample_result bent_sample(const void *m, int x, int y, int s, int n)
@@ -531,11 +711,18 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     g.lights = s->dir_lights;
     g.light_trans = s->light_trans;
     g.light_count = s->light_trans ? s->dir_count : 0;
+    g.sub_count = s->light_trans ? s->sub_count : 0;
     g.local_lights = s->local_lights;
     g.local_trans = s->local_trans;
     g.local_count = s->local_trans ? s->local_count : 0;
     g.record_pos = s->rg.record_pos;
     g.records_ms = s->ms;
+    if (s->ms6) {
+        vsd_status st = readout_view(s, &ctx->kd.camera, err, errlen);
+        if (st) return st;
+        g.records_ms = s->ms_view;
+        g.records_ms_per_view = 1;
+    }
     g.records_ms_dir = s->ms_dir;
     /* on the CPU the lights' term is baked per view; the device keeps its arrays per
      * lighting generation, so there the march sums the lights per ray (exact phase) */
@@ -551,6 +738,7 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
         g.lights = NULL;
         g.light_trans = NULL;
         g.light_count = 0;
+        g.sub_count = 0;
         g.local_count = 0;
     }
     if (ctx->info && ctx->info_len)

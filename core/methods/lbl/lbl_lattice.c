@@ -44,6 +44,14 @@ vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], const 
     return VSD_OK;
 }
 
+void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward, float side)
+{
+    l->forward = forward;
+    l->backward = backward;
+    l->side = side;
+    l->anisotropic = l->f != NULL && !(forward == backward && forward == side);
+}
+
 void vsd_lbl_lattice_free(vsd_lbl_lattice *l)
 {
     free(l->f);
@@ -60,6 +68,37 @@ typedef struct step_job {
     float *gain;             /* [cells] scratch: what a node scatters into each direction */
 } step_job;
 
+/* The anisotropic collision of nodes [c0, c0 + n): post_i = (1 - p) f_i + albedo p
+ * (side sum_j f_j + (forward - side) f_i + (backward - side) f_opposite(i)) + S_i, the
+ * cube's symmetry making P_ij one of three shares. */
+static void collide_anisotropic(step_job *j, size_t c0, size_t n)
+{
+    const vsd_lbl_lattice *l = j->l;
+    const size_t cells = l->cells;
+    const float fs = l->forward - l->side, bs = l->backward - l->side;
+    float *gain = j->gain + c0;
+    const float *p = j->collide + c0;
+    size_t c;
+    int ch, i;
+    for (ch = 0; ch < CH; ch++) {
+        const float a = j->albedo[ch];
+        for (c = 0; c < n; c++) gain[c] = 0.0f;
+        for (i = 0; i < DIRS; i++) {
+            const float *f = l->f + ((size_t)i * CH + ch) * cells + c0;
+            for (c = 0; c < n; c++) gain[c] += f[c];
+        }
+        for (c = 0; c < n; c++) gain[c] *= l->side;
+        for (i = 0; i < DIRS; i++) {
+            const size_t o = ((size_t)i * CH + ch) * cells + c0, opp = ((size_t)(i ^ 1) * CH + ch) * cells + c0;
+            const float *f = l->f + o, *fo = l->f + opp;
+            const float *src = j->source ? j->source + o : NULL;
+            float *q = j->post + o;
+            for (c = 0; c < n; c++)
+                q[c] = (1.0f - p[c]) * f[c] + a * p[c] * (gain[c] + fs * f[c] + bs * fo[c]) + (src ? src[c] : 0.0f);
+        }
+    }
+}
+
 /* Collision of the nodes in slices [z0, z1): post = Theta f + S / 6. Loops run along the
  * nodes (contiguous per direction and channel) so the compiler vectorises them. */
 static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
@@ -73,6 +112,10 @@ static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
     int ch, i;
     (void)y0;
     (void)y1;
+    if (j->l->anisotropic) {
+        collide_anisotropic(j, c0, n);
+        return;
+    }
     for (ch = 0; ch < CH; ch++) {
         const float a6 = j->albedo[ch] / 6.0f;
         const float *src = j->source ? j->source + (size_t)ch * cells + c0 : NULL;

@@ -5,6 +5,8 @@
  * c_i (RGB). One step collides every node with eq. 4-5's matrix and streams the result one
  * cell along c_i:
  *     f_i(r + c_i, t + 1) = (1 - p) f_i(r, t) + (albedo p / 6) sum_j f_j(r, t) + S(r) / 6
+ * (with an anisotropic phase, vsd_lbl_lattice_set_phase: albedo p sum_j P_ij f_j + S_i(r),
+ * P_ij the forward, backward or side share)
  * where p = 1 - exp(-sigma_t lambda) is the node's collision probability per step (the
  * paper's sigma_t, taken as a probability so thick cells stay stable) and the paper's rest
  * population f_0 — the absorbed part, (1 - albedo) p sum_j f_j — is dropped, not re-emitted:
@@ -46,6 +48,13 @@ typedef struct vsd_lbl_lattice {
     vsd_lbl_layout layout;
     vsd_lbl_blocked blocked; /* when layout.block_steps > 0 */
     vsd_lbl_q18 q18;         /* when layout.d3q18 */
+    /* The scattering between directions (global D3Q6 only; vsd_lbl_lattice_set_phase):
+     * of the light a collision scatters, the share that keeps its direction, that turns
+     * back, and that goes into each of the four sides. Isotropic: 1/6 each (then the
+     * source is [3][cells], injected a sixth per direction); else the source is
+     * [6][3][cells], per direction. */
+    int anisotropic;
+    float forward, backward, side;
 } vsd_lbl_lattice;
 
 typedef struct vsd_lbl_diffusion_stats {
@@ -60,6 +69,11 @@ typedef struct vsd_lbl_diffusion_stats {
 vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], const vsd_lbl_layout *layout, char *err,
                                 size_t errlen);
 void vsd_lbl_lattice_free(vsd_lbl_lattice *l);
+
+/* The phase on the lattice (lbl_readout.h, vsd_lbl_readout_lattice_phase): forward +
+ * backward + 4 side = 1. All three 1/6 (or a blocked or D3Q18 lattice) = isotropic, the
+ * paper's. Call after vsd_lbl_lattice_init, which resets it. */
+void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward, float side);
 
 /* One collide-and-stream step (no threads, for tests; a blocked lattice does one
  * iteration): collide[c] = p per node, albedo RGB, source [3][cells] (NULL = none). */

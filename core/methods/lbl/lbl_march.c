@@ -439,8 +439,10 @@ static void transfer(const march_job *j, const light_march *m, float lo, float h
                 const float *a2;
                 float t, d;
                 if (rec < 0) continue;
-                d = cell_t(m, ci, cj, ck);
-                if (!(d >= lo && d < hi)) continue;
+                if (isfinite(lo) || isfinite(hi)) {
+                    d = cell_t(m, ci, cj, ck);
+                    if (!(d >= lo && d < hi)) continue;
+                }
                 a2 = m->acc + 2 * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
                 t = a2[1] > 0.0f ? a2[0] / a2[1] : 0.0f;
                 out[(size_t)rec * count + k] = t;

@@ -143,15 +143,15 @@ static int find_cut(const double *s, int w, const mc_region *r, int axis, double
 /* Debevec's median cut generalised to any n: a region that must hold n lights is cut
  * across its longer angular side (width measured at its central latitude) so that the
  * two parts hold energy in the ratio floor(n/2) : ceil(n/2), then each part gets that many
- * lights. The leaves are written to `leaves` (at most n; single-texel regions cannot be
- * cut further and keep all their lights in one). */
-static int median_cut(const env_geom *g, const double *s, int n, mc_region *leaves)
+ * lights. The leaves of region `whole` (whole->n lights) are written to `leaves` (at most
+ * whole->n; single-texel regions cannot be cut further and keep all their lights in one). */
+static int median_cut(const env_geom *g, const double *s, const mc_region *whole, mc_region *leaves)
 {
+    const int n = whole->n;
     mc_region *stack = malloc(sizeof(mc_region) * (size_t)(2 * n + 2));
     int sp = 0, nl = 0;
     if (!stack) return -1;
-    stack[sp].x0 = 0; stack[sp].y0 = 0; stack[sp].x1 = g->w; stack[sp].y1 = g->h; stack[sp].n = n;
-    sp++;
+    stack[sp++] = *whole;
     while (sp > 0) {
         mc_region r = stack[--sp], a, b;
         int n1, axis, cut;
@@ -323,8 +323,50 @@ uint64_t vsd_env_content_hash(const vsd_env *env)
     return h;
 }
 
+/* Each light's region cut again into per_group sub-lights (out->sub, the group = the
+ * light's index once the black lights are dropped, as compact() will number them). */
+static int split_groups(const env_geom *g, const vsd_env *env, const double *sat, const mc_region *leaves, int nl,
+                        int per_group, vsd_light_constellation *out)
+{
+    mc_region *sub = malloc(sizeof *sub * (size_t)per_group);
+    int i, kept = 0, ok = 1;
+    out->sub = calloc((size_t)nl * (size_t)per_group, sizeof *out->sub);
+    out->sub_group = calloc((size_t)nl * (size_t)per_group, sizeof *out->sub_group);
+    out->sub_count = 0;
+    if (!sub || !out->sub || !out->sub_group) ok = 0;
+    for (i = 0; ok && i < nl; i++) {
+        const vsd_env_light *l = &out->lights[i];
+        mc_region whole = leaves[i];
+        int ns, q, x, y;
+        if (l->power[0] == 0 && l->power[1] == 0 && l->power[2] == 0) continue;   /* dropped by compact() */
+        whole.n = per_group;
+        if ((ns = median_cut(g, sat, &whole, sub)) < 0) {
+            ok = 0;
+            break;
+        }
+        for (q = 0; q < ns; q++) {
+            light_acc a;
+            vsd_env_light *sl = &out->sub[out->sub_count];
+            memset(&a, 0, sizeof a);
+            for (y = sub[q].y0; y < sub[q].y1; y++)
+                for (x = sub[q].x0; x < sub[q].x1; x++) acc_texel(&a, g, env, x, y);
+            if (!acc_finish(&a, l->dir, sl)) continue;
+            out->sub_group[out->sub_count++] = kept;
+        }
+        kept++;
+    }
+    free(sub);
+    return ok;
+}
+
 vsd_status vsd_constellation_build(const vsd_env *env, int n, vsd_lights_method method,
                                    vsd_light_constellation *out, char *err, size_t errlen)
+{
+    return vsd_constellation_build_grouped(env, n, 1, method, out, err, errlen);
+}
+
+vsd_status vsd_constellation_build_grouped(const vsd_env *env, int n, int per_group, vsd_lights_method method,
+                                           vsd_light_constellation *out, char *err, size_t errlen)
 {
     env_geom g;
     double *sat = NULL;
@@ -336,6 +378,9 @@ vsd_status vsd_constellation_build(const vsd_env *env, int n, vsd_lights_method 
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "light constellation: empty environment map");
     if (n < 1 || n > 65536)
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "light constellation: %d lights is out of range 1..65536", n);
+    if (per_group < 1 || per_group > 64)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "light constellation: %d sub-lights per light is out of range 1..64",
+                        per_group);
     if (method != VSD_LIGHTS_MEDIAN_CUT && method != VSD_LIGHTS_KMEANS)
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "light constellation: unknown method %d", (int)method);
     if (!geom_init(&g, env)) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "%s: no memory for the median cut", env->file);
@@ -343,7 +388,10 @@ vsd_status vsd_constellation_build(const vsd_env *env, int n, vsd_lights_method 
     leaves = malloc(sizeof(mc_region) * (size_t)n);
     out->lights = calloc((size_t)n, sizeof(vsd_env_light));
     if (!sat || !leaves || !out->lights) goto nomem;
-    nl = median_cut(&g, sat, n, leaves);
+    {
+        const mc_region map = {0, 0, g.w, g.h, n};
+        nl = median_cut(&g, sat, &map, leaves);
+    }
     if (nl < 0) goto nomem;
     acc = calloc((size_t)nl, sizeof(light_acc));
     if (!acc) goto nomem;
@@ -355,6 +403,8 @@ vsd_status vsd_constellation_build(const vsd_env *env, int n, vsd_lights_method 
         region_centre(&g, &leaves[i], fb);
         acc_finish(&acc[i], fb, &out->lights[i]);
     }
+    if (method == VSD_LIGHTS_MEDIAN_CUT && per_group > 1 && !split_groups(&g, env, sat, leaves, nl, per_group, out))
+        goto nomem;
     out->count = compact(out->lights, nl);
     if (method == VSD_LIGHTS_KMEANS && out->count > 0) {
         if (!kmeans_refine(&g, env, out->lights, out->count)) goto nomem;
@@ -383,6 +433,8 @@ void vsd_constellation_free(vsd_light_constellation *c)
 {
     if (!c) return;
     free(c->lights);
+    free(c->sub);
+    free(c->sub_group);
     memset(c, 0, sizeof *c);
 }
 
@@ -404,32 +456,53 @@ void vsd_constellation_kernel_lights(const vsd_light_constellation *c, float str
         o[6] = l->power[2] * strength;
         o[7] = 0.0f;
     }
+    for (i = 0; i < c->sub_count; i++) {
+        const vsd_env_light *l = &c->sub[i];
+        float *o = out + 8 * ((size_t)c->count + i);
+        o[0] = cr * l->dir[0] + sr * l->dir[1];
+        o[1] = -sr * l->dir[0] + cr * l->dir[1];
+        o[2] = l->dir[2];
+        o[3] = 0.0f;
+        o[4] = l->power[0] * strength;
+        o[5] = l->power[1] * strength;
+        o[6] = l->power[2] * strength;
+        o[7] = (float)c->sub_group[i];
+    }
 }
 
 vsd_status vsd_constellation_cache_update(vsd_constellation_cache *c, const vsd_env *env, int n,
                                           vsd_lights_method method, float strength, float rotation_z, char *err,
                                           size_t errlen)
 {
+    return vsd_constellation_cache_update_grouped(c, env, n, 1, method, strength, rotation_z, err, errlen);
+}
+
+vsd_status vsd_constellation_cache_update_grouped(vsd_constellation_cache *c, const vsd_env *env, int n, int per_group,
+                                                  vsd_lights_method method, float strength, float rotation_z,
+                                                  char *err, size_t errlen)
+{
     uint64_t key = vsd_env_content_hash(env);
-    if (!c->valid || key != c->key || n != c->n || (int)method != c->method) {
+    if (!c->valid || key != c->key || n != c->n || per_group != c->per_group || (int)method != c->method) {
         vsd_status st;
         free(c->lights);   /* a failed rebuild leaves no lights of the old map behind */
         c->lights = NULL;
         c->count = 0;
         vsd_constellation_free(&c->cons);
         c->valid = 0;
-        if ((st = vsd_constellation_build(env, n, method, &c->cons, err, errlen))) return st;
+        if ((st = vsd_constellation_build_grouped(env, n, per_group, method, &c->cons, err, errlen))) return st;
         c->key = key;
         c->n = n;
+        c->per_group = per_group;
         c->method = (int)method;
         c->valid = 1;
     }
     free(c->lights);
     c->count = 0;
-    if (!(c->lights = malloc(sizeof(float) * 8 * (size_t)(c->cons.count > 0 ? c->cons.count : 1))))
+    if (!(c->lights = malloc(sizeof(float) * 8 * (size_t)(c->cons.count + c->cons.sub_count > 0 ? c->cons.count + c->cons.sub_count : 1))))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d lights", c->cons.count);
     vsd_constellation_kernel_lights(&c->cons, strength, rotation_z, c->lights);
     c->count = c->cons.count;
+    c->sub_count = c->cons.sub_count;
     return VSD_OK;
 }
 

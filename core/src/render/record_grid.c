@@ -131,12 +131,12 @@ static void bake_into(const vsd_krecord_grid *g, const float *record_pos, const 
         eye = f3(m[3], m[7], m[11]);
         forward = f3_scale(f3_normalize(f3(m[2], m[6], m[10])), -1.0f);   /* the camera looks down -Z */
     }
-    if (!cam || cam->orthographic) vsd_records_light_weights(g->lights, g->light_count, forward, cam ? g->kd->medium.anisotropy : 0.0f, ph);
+    if (!cam || cam->orthographic) vsd_records_light_weights(g->lights, g->light_count, g->sub_count, forward, cam ? g->kd->medium.anisotropy : 0.0f, ph);
     for (r = 0; r < g->record_count; r++) {
         vsd_f3 v;
         if (cam && !cam->orthographic) {
             const float *p = record_pos + 4 * (size_t)r;
-            vsd_records_light_weights(g->lights, g->light_count, f3_normalize(f3_sub(f3(p[0], p[1], p[2]), eye)),
+            vsd_records_light_weights(g->lights, g->light_count, g->sub_count, f3_normalize(f3_sub(f3(p[0], p[1], p[2]), eye)),
                                       g->kd->medium.anisotropy, ph);
         }
         v = vsd_records_radiance(g, r, NULL, ph);

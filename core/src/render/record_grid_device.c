@@ -30,12 +30,20 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
     do { if ((st = put(ctx, !with_records, slot, g->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
     PUT(cell_record, VSD_SLOT_RG_CELLS, cells * sizeof(int32_t));
     PUT(light, VSD_SLOT_RG_LIGHT, 3 * n2 * sizeof(float));
-    PUT(lights, VSD_SLOT_RG_LIGHTS, lights * 8 * sizeof(float));
+    PUT(lights, VSD_SLOT_RG_LIGHTS, (lights + (size_t)g->sub_count) * 8 * sizeof(float));
     if (with_records) {
         /* the view pass reads the records, not what made them */
         PUT(records, VSD_SLOT_RG_RECORDS, recs * (size_t)g->stride * sizeof(float));
         PUT(light_trans, VSD_SLOT_RG_LIGHT_TRANS, recs * lights * sizeof(float));
-        PUT(records_ms, VSD_SLOT_RG_RECORDS_MS, g->records_ms ? recs * 3 * sizeof(float) : 0);
+        if (g->records_ms_per_view) {
+            /* a new view brings new values in the same host array: copied every time */
+            if ((st = vsd_device_array(ctx, VSD_SLOT_RG_RECORDS_MS, 0, g->records_ms, recs * 3 * sizeof(float), &p, err,
+                                       errlen)))
+                return st;
+            d->records_ms = p;
+        } else {
+            PUT(records_ms, VSD_SLOT_RG_RECORDS_MS, g->records_ms ? recs * 3 * sizeof(float) : 0);
+        }
         PUT(records_ms_dir, VSD_SLOT_RG_RECORDS_MS_DIR, g->records_ms_dir ? recs * 3 * sizeof(float) : 0);
         d->record_pos = d->dirs = d->basis = d->dir_radiance = NULL;
         if (g->local_count > 0) {
@@ -83,7 +91,7 @@ void vsd_record_grid_arrays(const vsd_krecord_grid *g, int view, int lights, vsd
             if (g->kind == VSD_RECORDS_SH_RGB) visit(user, g->dir_radiance, dc * 4 * sizeof(float), "records.dir_radiance");
         }
     }
-    if (view || lights) visit(user, g->lights, lc * 8 * sizeof(float), "records.lights");
+    if (view || lights) visit(user, g->lights, (lc + (size_t)g->sub_count) * 8 * sizeof(float), "records.lights");
 }
 
 static vsd_sample_result view_sample(const void *g, int x, int y, int s, int n)
