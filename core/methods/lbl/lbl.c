@@ -10,12 +10,15 @@
  *                     marching pass (§III-B, lbl_march.h): each light's transmittance at
  *                     every cell (rays from a point light's position); the first-scattered
  *                     light deposited per cell; the diffusion pass (§III-C, lbl_lattice.h)
- *                     to convergence, warm-started from the last solve;
+ *                     to convergence, warm-started from the last solve; beyond the paper
+ *                     the lattice scatters with the medium's phase over its six
+ *                     directions' cones, the deposit included (lbl_readout.h);
  *   render            the view pass (§III-D) on the record grid's shared view march:
- *                     VolumeDir from the lights' term, sum_k HG(d . w_k) T_k E_k (the
- *                     direct deposit, with the phase function: our media are not
- *                     isotropic), VolumeInd from the diffused fluence (phi / 4pi,
- *                     isotropic), plus Emit, Transmittance and Depth from the march.
+ *                     VolumeDir from the lights' term, sum_k T_k sum_{s in k} HG(d . w_s)
+ *                     E_s over each light's sub-lights (the direct deposit, with the phase
+ *                     function: our media are not isotropic), VolumeInd from the diffused
+ *                     light, the six populations weighed by the phase toward the eye
+ *                     (the paper: phi / 4pi), plus Emit, Transmittance and Depth.
  * With medium.ior != 1 the frame stage also builds the n field (src/render/refraction.h)
  * and the light and view rays bend through it (lbl_march.c, lbl_kernel.h; CPU only).
  * The paper's 4^3 blocks (lbl_blocked.c) and the D3Q18 lattice (lbl_d3q18.c) are options.
@@ -730,7 +733,7 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     if ((!ctx->cuda || s->refraction.k.ng) && (s->opt.view_bake || s->refraction.k.ng) && s->light_trans) {
         if (!s->view_baked && !(s->view_baked = malloc(3 * (size_t)s->rg.count * sizeof *s->view_baked)))
             return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d view records", (int)s->rg.count);
-        vsd_record_grid_bake_view(&g, s->rg.record_pos, s->view_baked);
+        vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, s->view_baked);
         g.kind = VSD_RECORDS_BAKED;
         g.records_log = g.interp == VSD_RECORDS_LOG_TRILINEAR;
         g.records = s->view_baked;

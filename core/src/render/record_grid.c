@@ -1,6 +1,7 @@
 /* The record grid (record_grid.h), moved here from shgrid.c so constellation's cached
  * shadows use the same cells. */
 #include "record_grid.h"
+#include "device/cpu/cpu_tiles.h"
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_record_grid.h"
 #include "method.h"
@@ -118,10 +119,11 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
     return VSD_OK;
 }
 
-/* Every record's radiance into out (3 floats each): with the phase at a fixed direction
- * (cam NULL: g = 0, any direction does), or at the direction from the camera to the
- * record. */
-static void bake_into(const vsd_krecord_grid *g, const float *record_pos, const vsd_kcamera *cam, float *out)
+/* Records [r0, r1)'s radiance into out (3 floats each): with the phase at a fixed
+ * direction (cam NULL: g = 0, any direction does), or at the direction from the camera to
+ * the record. */
+static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const vsd_kcamera *cam, int32_t r0,
+                       int32_t r1, float *out)
 {
     float ph[VSD_RECORDS_PH_FLOATS];
     vsd_f3 eye = f3s(0.0f), forward = f3(0.0f, 0.0f, 1.0f);
@@ -131,8 +133,9 @@ static void bake_into(const vsd_krecord_grid *g, const float *record_pos, const 
         eye = f3(m[3], m[7], m[11]);
         forward = f3_scale(f3_normalize(f3(m[2], m[6], m[10])), -1.0f);   /* the camera looks down -Z */
     }
-    if (!cam || cam->orthographic) vsd_records_light_weights(g->lights, g->light_count, g->sub_count, forward, cam ? g->kd->medium.anisotropy : 0.0f, ph);
-    for (r = 0; r < g->record_count; r++) {
+    if (!cam || cam->orthographic)
+        vsd_records_light_weights(g->lights, g->light_count, g->sub_count, forward, cam ? g->kd->medium.anisotropy : 0.0f, ph);
+    for (r = r0; r < r1; r++) {
         vsd_f3 v;
         if (cam && !cam->orthographic) {
             const float *p = record_pos + 4 * (size_t)r;
@@ -143,7 +146,29 @@ static void bake_into(const vsd_krecord_grid *g, const float *record_pos, const 
         out[3 * (size_t)r] = v.x;
         out[3 * (size_t)r + 1] = v.y;
         out[3 * (size_t)r + 2] = v.z;
+        if (cam && g->interp == VSD_RECORDS_LOG_TRILINEAR) {
+            /* the log the view's corners would take, once per record instead of per corner visit */
+            int a;
+            for (a = 0; a < 3; a++) out[3 * (size_t)r + a] = logf(fmaxf(out[3 * (size_t)r + a], VSD_RECORDS_LOG_FLOOR));
+        }
     }
+}
+
+typedef struct bake_job {
+    const vsd_krecord_grid *g;
+    const float *record_pos;
+    float *out;
+} bake_job;
+
+/* records in blocks of 256 as the items of the CPU pool: the per-record phase weights
+ * (sub-lights: hundreds of phase evaluations a record) are the view's largest per-view cost */
+static void bake_items(void *arg, int b0, int y0, int b1, int y1)
+{
+    const bake_job *j = arg;
+    int32_t r0 = b0 * 256, r1 = b1 * 256 < j->g->record_count ? b1 * 256 : j->g->record_count;
+    (void)y0;
+    (void)y1;
+    bake_range(j->g, j->record_pos, &j->g->kd->camera, r0, r1, j->out);
 }
 
 vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *err, size_t errlen)
@@ -153,19 +178,16 @@ vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *er
     baked = malloc(sizeof(float) * 3 * (size_t)(g->record_count > 0 ? g->record_count : 1));
     if (!baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", (int)g->record_count);
     /* g = 0: the weights are the same for every direction */
-    bake_into(g, NULL, NULL, baked);
+    bake_range(g, NULL, NULL, 0, g->record_count, baked);
     *out = baked;
     return VSD_OK;
 }
 
-void vsd_record_grid_bake_view(const vsd_krecord_grid *g, const float *record_pos, float *out)
+void vsd_record_grid_bake_view(const vsd_krecord_grid *g, const float *record_pos, int threads, float *out)
 {
-    bake_into(g, record_pos, &g->kd->camera, out);
-    if (g->interp == VSD_RECORDS_LOG_TRILINEAR) {
-        /* the log the view's corners would take, once per record instead of per corner visit */
-        size_t i;
-        for (i = 0; i < 3 * (size_t)g->record_count; i++) out[i] = logf(fmaxf(out[i], VSD_RECORDS_LOG_FLOOR));
-    }
+    bake_job job = {g, record_pos, out};
+    if (vsd_cpu_run_items((g->record_count + 255) / 256, threads, bake_items, &job, "record bake") != VSD_OK)
+        bake_range(g, record_pos, &g->kd->camera, 0, g->record_count, out);   /* (the pool cannot fail without cancel) */
 }
 
 vsd_status vsd_record_grid_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *g, int n,

@@ -38,7 +38,7 @@ vsd_status vsd_record_grid_bake(const struct vsd_krecord_grid *g, float **out, c
  * triple per corner instead of summing the lights per record it crosses. record_pos: the
  * grid's (4 floats per record); out: 3 floats per record, their logs when g->interp is
  * VSD_RECORDS_LOG_TRILINEAR (set the grid's records_log to read them). */
-void vsd_record_grid_bake_view(const struct vsd_krecord_grid *g, const float *record_pos, float *out);
+void vsd_record_grid_bake_view(const struct vsd_krecord_grid *g, const float *record_pos, int threads, float *out);
 
 /* The view pass of every record-grid method, on the CPU tiles or the CUDA device of ctx:
  * n x n rays per pixel through the shared march with a step of `step` world units (0 = the
