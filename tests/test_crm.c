@@ -210,6 +210,23 @@ static void test_real_data_and_cache(void)
                   "VolumeInd/VolumeDir: crm %.3f, reference %.3f (measured 0.895 and 0.927)", crm_share, ref_share);
     }
 
+    /* ---- 2b. sky "pixels": the map per HEALPix pixel for the single scattering (src/render/
+     * env_healpix.h) instead of its SH, the same tolerances (the fit comes from the cache) */
+    {
+        const char *px_ov[] = {"frames.start=24", "frames.end=24", "film.width=96", "film.height=54",
+                               "render.method=crm", CRM_FAST, CRM_AREA, "render.options.sky=pixels"};
+        vsd_scene px_sc;
+        vsd_framebuffer *px = NULL;
+        if (test_load_scene(SMOKE, px_ov, 9, &px_sc) && (px = test_render_fresh(&px_sc, cache, NULL, NULL, 24, NULL))) {
+            double c = test_rel_err(px, ref, VSD_PASS_COMBINED), d = test_rel_err(px, ref, VSD_PASS_VOLUME_DIR);
+            printf("[2b] sky \"pixels\": Combined %.4f VolumeDir %.4f (against the SH sky's %.4f / %.4f)\n", c, d,
+                   test_rel_err(crm, ref, VSD_PASS_COMBINED), test_rel_err(crm, ref, VSD_PASS_VOLUME_DIR));
+            CHECK_MSG(c < TOL_COMBINED && d < TOL_DIR, "sky pixels: Combined %.4f, VolumeDir %.4f", c, d);
+            CHECK_MSG(test_rel_err(px, crm, VSD_PASS_VOLUME_DIR) > 1e-4, "sky pixels changed nothing");
+        }
+        vsd_framebuffer_destroy(px);
+    }
+
     /* ---- 3. the fit cache, counted: first renderer fitted and wrote it */
     {
         vsd_render_stats s4, s5;

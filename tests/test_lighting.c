@@ -1,11 +1,15 @@
 /* The light constellation (vsd/lighting.h): power conservation, equal energy of the
  * median cut, one bright texel giving a light in its direction, k-means, rotation
  * without recomputation agreeing with the environment lookup's own rotation, and the
- * sub-lights of a grouped constellation (the same lights, each split again). */
+ * sub-lights of a grouped constellation (the same lights, each split again), and the map
+ * averaged per HEALPix pixel (src/render/env_healpix.h: a constant map stays constant and
+ * the integral is kept). */
 #include "test_common.h"
 #include "vsd/lighting.h"
 #include "vsd/env.h"
 #include "kernel/kernel_env.h"
+#include "src/render/env_healpix.h"
+#include "src/render/kernel_setup.h"
 #include <stdlib.h>
 #include <string.h>
 #include <math.h>
@@ -266,8 +270,39 @@ static void test_sub_lights(void)
     vsd_env_destroy(e);
 }
 
+static void test_healpix_average(void)
+{
+    enum { NSIDE = 4, NPIX = 12 * NSIDE * NSIDE };
+    const float one[3] = {0.5f, 1.0f, 2.0f};
+    static float out[4 * NPIX];
+    vsd_env *flat = make_env(128, 64, one), *sky = smooth_env(512, 256);
+    vsd_kenv ke;
+    double integral[3], sum[3] = {0, 0, 0}, worst_flat = 0.0;
+    int i, c;
+    if (!flat || !sky) return;
+    memset(&ke, 0, sizeof ke);
+    ke.cos_rot = 1.0f;
+    ke.strength = 2.0f;
+    CHECK(vsd_env_healpix_radiance(flat, &ke, NSIDE, out));
+    for (i = 0; i < NPIX; i++)
+        for (c = 0; c < 3; c++) worst_flat = fmax(worst_flat, fabs(out[4 * i + c] - 2.0 * one[c]) / (2.0 * one[c]));
+    CHECK(vsd_env_healpix_radiance(sky, &ke, NSIDE, out));
+    vsd_env_integral(sky, integral);
+    for (i = 0; i < NPIX; i++)
+        for (c = 0; c < 3; c++) sum[c] += out[4 * i + c] * 4.0 * 3.14159265358979 / NPIX;
+    printf("healpix average: constant map off by %.2g; integral %.4f against the map's x2 %.4f\n", worst_flat, sum[1],
+           2.0 * integral[1]);
+    CHECK_MSG(worst_flat < 1e-6, "a constant map averaged per pixel is off by %.3g", worst_flat);
+    for (c = 0; c < 3; c++)
+        CHECK_MSG(fabs(sum[c] - 2.0 * integral[c]) < 0.02 * 2.0 * integral[c], "channel %d: %.4f against %.4f", c, sum[c],
+                  2.0 * integral[c]);
+    vsd_env_destroy(flat);
+    vsd_env_destroy(sky);
+}
+
 int main(void)
 {
+    test_healpix_average();
     test_sub_lights();
     test_power_conservation();
     test_equal_energy();

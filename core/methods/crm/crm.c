@@ -15,6 +15,7 @@
  *   render            §5.5, the compensated march (crm_kernel.h) on CPU tiles or CUDA.
  * Options: the table below (`vsd methods`). */
 #include "src/render/method.h"
+#include "src/render/env_healpix.h"
 #include "vsd/sh.h"
 #include "crm_fit.h"
 #include "crm_fit_cache.h"
@@ -45,12 +46,14 @@
 
 typedef struct crm_options {
     int rbf_count, fit_iterations, order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
-    int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell, decode;
+    int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell, decode, sky;
     double node_spacing, step, early_termination, error_ratio;
     vsd_view_sampling view;
 } crm_options;
 
 static const char *const residual_names[] = {"full", "source", "none", NULL};
+static const char *const sky_names[] = {"pixels", "sh", NULL};
+enum { SKY_PIXELS, SKY_SH };
 enum { DECODE_FRAME, DECODE_VIEW };
 static const char *const decode_names[] = {"frame", "view", NULL};
 enum { MULTIPLE_ORDERS, MULTIPLE_GRID, MULTIPLE_RBF };
@@ -85,6 +88,10 @@ static const vsd_option_spec crm_option_rows[] = {
      "single scattering: grid (at every medium node, marched), or at the RBF centres: direct (transmittance per "
      "direction) or sh (the paper's ZH table + exp*)",
      offsetof(crm_options, single), 0, NULL},
+    {"sky", VSD_OPT_CHOICE, 0, 0, SKY_SH, sky_names,
+     "single grid: the light arriving from each direction, the map averaged per HEALPix pixel (a lamp or a small sun "
+     "shadowed where it is) or the map's order-n SH (the paper's L_in)",
+     offsetof(crm_options, sky), 0, NULL},
     {"directions", VSD_OPT_INT, 12, 3072, 108, NULL, "single grid, direct: HEALPix directions of the transmittance (12 nside^2)",
      offsetof(crm_options, directions), 0, healpix_count_problem},
     {"multiple", VSD_OPT_CHOICE, 0, 0, MULTIPLE_ORDERS, multiple_names,
@@ -499,9 +506,20 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                                             s->opt.directions, ctx->threads, &marched, err, errlen);
             s->transmittance_seconds = marched ? vsd_clock_seconds() - t0 : 0.0;
             s->transmittance_marches += marched;
-            if (!st)
-                st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, albedo, g, order, env_sh, ctx->threads,
-                                         s->nodes.nodes, s->nodes.valid, err, errlen);
+            {
+                float *sky = NULL;
+                if (!st && s->opt.sky == SKY_PIXELS) {
+                    /* the map per HEALPix pixel of the transmittance's directions */
+                    sky = malloc(4 * (size_t)s->opt.directions * sizeof *sky);
+                    if (!sky || !vsd_env_healpix_radiance(ctx->env, &ctx->kd.env, vsd_sh_healpix_nside(s->opt.directions), sky))
+                        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the sky of %d directions",
+                                      s->opt.directions);
+                }
+                if (!st)
+                    st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, albedo, g, order, env_sh, sky,
+                                             ctx->threads, s->nodes.nodes, s->nodes.valid, err, errlen);
+                free(sky);
+            }
             s->single_seconds = vsd_clock_seconds() - t0;
         }
         if (!st && s->opt.multiple == MULTIPLE_GRID) {

@@ -99,8 +99,8 @@ done:
 }
 
 vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const double albedo[3], double g, int order,
-                               const double *env_sh, int threads, float *nodes, uint8_t *valid, char *err,
-                               size_t errlen)
+                               const double *env_sh, const float *sky, int threads, float *nodes, uint8_t *valid,
+                               char *err, size_t errlen)
 {
     size_t n = (size_t)c->res[0] * c->res[1] * c->res[2], i;
     double *j;
@@ -110,7 +110,7 @@ vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const 
     if (c->count == 0) return VSD_OK;
     if (!(j = malloc(c->count * 3 * (size_t)n2 * sizeof *j)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the single scattering of %zu nodes", c->count);
-    if (!(st = vsd_crm_single_from_depths((int)c->count, c->od, scale, albedo, g, order, env_sh, c->directions, threads,
+    if (!(st = vsd_crm_single_from_depths((int)c->count, c->od, scale, albedo, g, order, env_sh, sky, c->directions, threads,
                                           j, err, errlen)))
         for (i = 0; i < c->count; i++) {
             float *ss = nodes + (size_t)c->which[i] * CRM_NODE_FLOATS;

@@ -45,9 +45,10 @@ vsd_status vsd_crm_node_depths_update(vsd_crm_node_depths *c, const int32_t res[
 void vsd_crm_node_depths_free(vsd_crm_node_depths *c);
 
 /* Writes the single-scattering part of every node with density and its CRM_NODE_SINGLE bit
- * (cleared elsewhere), for extinction sigma_t = scale * density. env_sh: 3 * order^2. */
+ * (cleared elsewhere), for extinction sigma_t = scale * density. env_sh: 3 * order^2; sky:
+ * NULL, or the map per HEALPix pixel of the depths' directions (vsd_crm_single_from_depths). */
 vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const double albedo[3], double g, int order,
-                               const double *env_sh, int threads, float *nodes, uint8_t *valid, char *err,
-                               size_t errlen);
+                               const double *env_sh, const float *sky, int threads, float *nodes, uint8_t *valid,
+                               char *err, size_t errlen);
 
 #endif

@@ -145,8 +145,8 @@ vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth
 }
 
 vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3], double g,
-                                      int order, const double *env_sh, int directions, int threads, double *j_ss,
-                                      char *err, size_t errlen)
+                                      int order, const double *env_sh, const float *sky_radiance, int directions,
+                                      int threads, double *j_ss, char *err, size_t errlen)
 {
     long nside = vsd_sh_healpix_nside(directions);
     int n2 = order * order, m = directions, d, c, i;
@@ -167,7 +167,9 @@ vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, c
         vsd_sh_eval(order, dirs + 3 * (size_t)d, y);
         for (c = 0; c < 3; c++) {
             double v = 0.0;
-            for (i = 0; i < n2; i++) v += env_sh[c * n2 + i] * y[i];
+            if (sky_radiance) v = sky_radiance[4 * (size_t)d + c];
+            else
+                for (i = 0; i < n2; i++) v += env_sh[c * n2 + i] * y[i];
             /* not clamped: the SH reconstruction rings below zero where the map is dark, and
              * clamping there would add light (+10% VolumeDir on smoke128's forest map) */
             for (i = 0; i < n2; i++) sky.w[((size_t)d * 3 + c) * n2 + i] = (float)(v * y[i] * 4.0 * PI_D / (double)m);
@@ -229,7 +231,7 @@ vsd_status vsd_crm_single_scatter_points(int count, const double *points, vsd_cr
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm single scattering: no memory for %d x %d optical depths", count,
                         directions);
     if (!(st = vsd_crm_optical_depths(count, points, optical_depth, user, directions, threads, od, err, errlen)))
-        st = vsd_crm_single_from_depths(count, od, 1.0f, albedo, g, order, env_sh, directions, threads, j_ss, err,
+        st = vsd_crm_single_from_depths(count, od, 1.0f, albedo, g, order, env_sh, NULL, directions, threads, j_ss, err,
                                         errlen);
     free(od);
     return st;

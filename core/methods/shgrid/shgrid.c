@@ -26,6 +26,7 @@
 #include "src/render/accum.h"
 #include "src/render/kernel_setup.h"
 #include "src/render/record_grid.h"
+#include "src/render/env_healpix.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/sh.h"
 #include "vsd/lighting.h"
@@ -275,45 +276,6 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
     return VSD_OK;
 }
 
-/* Environment radiance averaged over each HEALPix pixel (solid-angle weighted over the
- * texels whose centres fall in it); pixels no texel centre reaches (maps coarser than the
- * HEALPix grid) take the nearest texel at their centre. */
-static void healpix_radiance(shgrid_state *s, const vsd_env *env, const vsd_kenv *ke)
-{
-    double *acc = calloc(4 * (size_t)s->dirs_count, sizeof(double));
-    long j;
-    int row, col;
-    if (!acc) return;
-    for (row = 0; row < env->height; row++) {
-        double th0 = VSD_PI * (double)row / env->height, th1 = VSD_PI * (row + 1.0) / env->height;
-        double dom = vsd_env_texel_solid_angle(env->width, env->height, row), thc = 0.5 * (th0 + th1);
-        for (col = 0; col < env->width; col++) {
-            const float *p = env->rgb + 3 * ((size_t)row * env->width + col);
-            double u = (col + 0.5) / env->width, phit = (0.5 - u) * 2.0 * VSD_PI;
-            double tx = sin(thc) * cos(phit), ty = sin(thc) * sin(phit);
-            /* world = Rz(-rotation) texture (kernel_env.h) */
-            double wx = ke->cos_rot * tx + ke->sin_rot * ty, wy = -ke->sin_rot * tx + ke->cos_rot * ty;
-            long pix;
-            ang2pix_ring(s->nside, thc, atan2(wy, wx) < 0 ? atan2(wy, wx) + 2.0 * VSD_PI : atan2(wy, wx), &pix);
-            acc[4 * pix + 0] += dom * p[0];
-            acc[4 * pix + 1] += dom * p[1];
-            acc[4 * pix + 2] += dom * p[2];
-            acc[4 * pix + 3] += dom;
-        }
-    }
-    for (j = 0; j < s->dirs_count; j++) {
-        int c;
-        if (acc[4 * j + 3] > 0.0) {
-            for (c = 0; c < 3; c++) s->dir_radiance[4 * j + c] = (float)(acc[4 * j + c] / acc[4 * j + 3] * ke->strength);
-        } else {
-            vsd_f3 l = vsd_env_eval(ke, f3(s->dirs[4 * j], s->dirs[4 * j + 1], s->dirs[4 * j + 2]));
-            s->dir_radiance[4 * j] = l.x; s->dir_radiance[4 * j + 1] = l.y; s->dir_radiance[4 * j + 2] = l.z;
-        }
-        s->dir_radiance[4 * j + 3] = 0.0f;
-    }
-    free(acc);
-}
-
 /* Extension (shgrid_kernel.h): split the map into its bright texels — luminance above
  * light_threshold times the map's mean luminance over the sphere — and the remainder.
  * The bright part becomes at most light_max median-cut lights (texture frame, equal
@@ -443,7 +405,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     }
     if (want_product(s, sc)) {
         /* §4.4 static-media form: T*L per HEALPix direction, projected per record */
-        healpix_radiance(s, sh_env, &ctx->kd.env);
+        vsd_env_healpix_radiance(sh_env, &ctx->kd.env, s->nside, s->dir_radiance);
         s->kind = VSD_RECORDS_SH_RGB;
         return run_records(s, ctx, VSD_RECORDS_SH_RGB, err, errlen);
     }
