@@ -22,5 +22,5 @@ for k in $ks; do
     info=$(printf '%s\n' "$log" | grep 'lbl:')
     val() { printf '%s\n' "$info" | tr ' ' '\n' | sed -n "s/^$1=//p"; }
     m=$(val march_seconds); d=$(val diffusion_seconds)
-    echo "| $k | $(val history_rounds) | $(val diffusion_steps) ($(val history_steps)) | $m | $d | $(echo "$m + $d" | bc) | $(echo "$end - $start" | bc) |"
+    echo "| $k | $(val history_rounds) | $(val diffusion_steps) ($(val history_steps)) | $m | $d | $(awk "BEGIN { print $m + $d }") | $(awk "BEGIN { printf \"%.2f\", $end - $start }") |"
 done
