@@ -467,7 +467,9 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
     const size_t n = cell_count(s), recs = (size_t)s->rg.count;
     const double k = 6.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D);
     size_t c;
-    if (s->opt.readout != LBL_READOUT_PHASE || layout->block_steps > 0 || layout->d3q18 || !s->lattice.f || recs == 0)
+    /* (g = 0: every cone weighs 1/6, the isotropic readout exactly: none needed) */
+    if (s->opt.readout != LBL_READOUT_PHASE || layout->block_steps > 0 || layout->d3q18 || !s->lattice.f || recs == 0 ||
+        ctx->kd.medium.anisotropy == 0.0f)
         return VSD_OK;
     if (!(s->ms6 = malloc(18 * recs * sizeof *s->ms6)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the populations of %zu records", recs);
