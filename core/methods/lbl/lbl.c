@@ -368,38 +368,32 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
     size_t c;
     const int nd = s->source_dirs ? 6 : 1, m3 = 3 * nd;
     const double area = s->cell_world * s->cell_world;
-    float *qe = malloc(sizeof *qe * (size_t)(s->dir_count > 0 ? s->dir_count : 1) * (size_t)m3);
+    /* the directional lights, the bulk: albedo E_k times each direction's share, once per
+     * light, then one multiply-add per light, direction and channel at each record */
+    float qe[VSD_RECORDS_MAX_LIGHTS * 18];
+    int k, i, ch;
     memset(s->source, 0, source_floats(s) * sizeof *s->source);
-    /* the directional lights, the bulk: albedo E_k per direction's share, once per light,
-     * then one multiply-add per light, direction and channel at each record */
-    if (qe) {
-        int k, i, ch;
-        for (k = 0; k < s->dir_count; k++) {
-            float q[6];
-            light_shares(s, k, -1, q);
-            for (i = 0; i < nd; i++)
-                for (ch = 0; ch < 3; ch++)
-                    qe[(size_t)k * m3 + 3 * i + ch] = albedo[ch] * s->dir_lights[8 * k + 4 + ch] * (nd > 1 ? q[i] : 1.0f);
-        }
+    for (k = 0; k < s->dir_count; k++) {
+        float q[6];
+        light_shares(s, k, -1, q);
+        for (i = 0; i < nd; i++)
+            for (ch = 0; ch < 3; ch++)
+                qe[(size_t)k * m3 + 3 * i + ch] = albedo[ch] * s->dir_lights[8 * k + 4 + ch] * (nd > 1 ? q[i] : 1.0f);
     }
     for (c = 0; c < n; c++) {
-        int32_t rec = s->rg.cell_record[c], k;
+        int32_t rec = s->rg.cell_record[c];
+        float acc[18] = {0};
+        const float *t;
+        int q;
         if (rec < 0) continue;
-        if (qe) {
-            float acc[18] = {0};
-            const float *t = s->light_trans + (size_t)rec * s->dir_count;
-            int q;
-            for (k = 0; k < s->dir_count; k++)
-                for (q = 0; q < m3; q++) acc[q] += t[k] * qe[(size_t)k * m3 + q];
-            for (q = 0; q < m3; q++) s->source[(size_t)q * n + c] += (float)(acc[q] * s->collide[c] * area);
-        } else {
-            for (k = 0; k < s->dir_count; k++) add_deposit(s, albedo, k, c, rec, s->light_trans[(size_t)rec * s->dir_count + k]);
-        }
+        t = s->light_trans + (size_t)rec * s->dir_count;
+        for (k = 0; k < s->dir_count; k++)
+            for (q = 0; q < m3; q++) acc[q] += t[k] * qe[(size_t)k * m3 + q];
+        for (q = 0; q < m3; q++) s->source[(size_t)q * n + c] += (float)(acc[q] * s->collide[c] * area);
         /* point and spot lights: their falloff is in local_trans */
         for (k = 0; k < s->local_count; k++)
             add_deposit(s, albedo, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k]);
     }
-    free(qe);
     if (m->has_emission) {
         emission_source(s, ctx);
         add_emission(s);
@@ -473,7 +467,6 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
         return VSD_OK;
     if (!(s->ms6 = malloc(18 * recs * sizeof *s->ms6)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the populations of %zu records", recs);
-    vsd_lbl_readout_build(&s->readout, ctx->kd.medium.anisotropy);
     for (c = 0; c < n; c++) {
         int32_t rec = s->rg.cell_record[c];
         int i, a;

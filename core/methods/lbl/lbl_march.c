@@ -406,6 +406,7 @@ static void transfer(const march_job *j, const light_march *m, float lo, float h
     const int point = m->index >= j->light_count, k = point ? m->index - j->light_count : m->index;
     const int count = point ? j->point_count : j->light_count;
     float *out = point ? j->point_trans : j->trans;
+    const int window = isfinite(lo) || isfinite(hi);   /* else every cell: no test */
     int32_t ci, cj, ck;
     for (ck = 0; ck < g->res[2]; ck++)
         for (cj = 0; cj < g->res[1]; cj++) {
@@ -413,7 +414,7 @@ static void transfer(const march_job *j, const light_march *m, float lo, float h
              * point, within hi where (x - o)^2 <= hi^2 - (row's distance)^2; one cell of
              * margin each side, then the exact test */
             int32_t x0 = 0, x1 = g->res[0] - 1;
-            if (isfinite(hi) || isfinite(lo)) {
+            if (window) {
                 const light_rays *r = &m->rays;
                 if (r->point) {
                     float dy = (float)cj + 0.5f - r->o[1], dz = (float)ck + 0.5f - r->o[2], r2 = dy * dy + dz * dz;
@@ -439,7 +440,7 @@ static void transfer(const march_job *j, const light_march *m, float lo, float h
                 const float *a2;
                 float t, d;
                 if (rec < 0) continue;
-                if (isfinite(lo) || isfinite(hi)) {
+                if (window) {
                     d = cell_t(m, ci, cj, ck);
                     if (!(d >= lo && d < hi)) continue;
                 }

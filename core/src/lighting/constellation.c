@@ -438,36 +438,28 @@ void vsd_constellation_free(vsd_light_constellation *c)
     memset(c, 0, sizeof *c);
 }
 
+/* One light in the kernel layout: texture = Rz(rot) world, so world = Rz(-rot) texture
+ * (kernel_env.h); `last` is the 8th float (a sub-light's light, else 0). */
+static void kernel_light(const vsd_env_light *l, float cr, float sr, float strength, float last, float *o)
+{
+    o[0] = cr * l->dir[0] + sr * l->dir[1];
+    o[1] = -sr * l->dir[0] + cr * l->dir[1];
+    o[2] = l->dir[2];
+    o[3] = 0.0f;
+    o[4] = l->power[0] * strength;
+    o[5] = l->power[1] * strength;
+    o[6] = l->power[2] * strength;
+    o[7] = last;
+}
+
 void vsd_constellation_kernel_lights(const vsd_light_constellation *c, float strength, float rotation_z,
                                      float *out)
 {
-    /* texture = Rz(rot) world, so world = Rz(-rot) texture (kernel_env.h) */
     float cr = cosf(rotation_z), sr = sinf(rotation_z);
     int i;
-    for (i = 0; i < c->count; i++) {
-        const vsd_env_light *l = &c->lights[i];
-        float *o = out + 8 * i;
-        o[0] = cr * l->dir[0] + sr * l->dir[1];
-        o[1] = -sr * l->dir[0] + cr * l->dir[1];
-        o[2] = l->dir[2];
-        o[3] = 0.0f;
-        o[4] = l->power[0] * strength;
-        o[5] = l->power[1] * strength;
-        o[6] = l->power[2] * strength;
-        o[7] = 0.0f;
-    }
-    for (i = 0; i < c->sub_count; i++) {
-        const vsd_env_light *l = &c->sub[i];
-        float *o = out + 8 * ((size_t)c->count + i);
-        o[0] = cr * l->dir[0] + sr * l->dir[1];
-        o[1] = -sr * l->dir[0] + cr * l->dir[1];
-        o[2] = l->dir[2];
-        o[3] = 0.0f;
-        o[4] = l->power[0] * strength;
-        o[5] = l->power[1] * strength;
-        o[6] = l->power[2] * strength;
-        o[7] = (float)c->sub_group[i];
-    }
+    for (i = 0; i < c->count; i++) kernel_light(&c->lights[i], cr, sr, strength, 0.0f, out + 8 * (size_t)i);
+    for (i = 0; i < c->sub_count; i++)
+        kernel_light(&c->sub[i], cr, sr, strength, (float)c->sub_group[i], out + 8 * ((size_t)c->count + i));
 }
 
 vsd_status vsd_constellation_cache_update(vsd_constellation_cache *c, const vsd_env *env, int n,
