@@ -1,8 +1,12 @@
 /* test_lbl_lattice.c — the two lighting passes of method `lbl` against physics:
  *   1. one lattice-Boltzmann step conserves the photons when nothing is absorbed
- *      (albedo 1), and loses exactly the absorbed part albedo < 1 says;
+ *      (albedo 1; also with cell_light "path"), and loses exactly the absorbed part
+ *      albedo < 1 says;
  *   2. the steady state in a homogeneous absorbing medium, far from the boundary, is the
- *      infinite-medium balance sum_i f_i = S / ((1 - albedo) p);
+ *      infinite-medium balance sum_i f_i = S / ((1 - albedo) p) with the paper's cell light
+ *      (counted at the faces: x / p times the true fluence, x = sigma lambda); with the
+ *      photons' path through the cell (cell_light "path") it is the true fluence,
+ *      S / ((1 - albedo) x), for thin and thick cells;
  *   3. the marching pass's transmittance in a homogeneous box along an axis is
  *      Beer-Lambert's exp(-sigma depth) at every cell centre;
  *   4. an oblique light through the same box agrees with the exact path length to the
@@ -66,16 +70,29 @@ static void test_conservation(void)
     printf("[1] albedo 0.5: photons %.6f -> %.6f, absorbed %.6f\n", before, after, absorbed);
     CHECK_MSG(fabs(before - absorbed - after) <= 1e-5 * before, "albedo 0.5 step: %.7g - %.7g != %.7g", before,
               absorbed, after);
+    /* the photons' path through the cell: light born in a cell that collides there again
+     * before it leaves is scattered again, none lost with albedo 1 */
+    memset(l.f, 0, 6 * 3 * 512 * sizeof *l.f);
+    for (z = 2; z < 6; z++)
+        for (y = 2; y < 6; y++)
+            for (x = 2; x < 6; x++)
+                for (i = 0; i < 6; i++) l.f[((size_t)i * 3) * 512 + (z * 8 + y) * 8 + x] = (float)test_urand(&rng);
+    vsd_lbl_lattice_set_cell_light(&l, VSD_LBL_CELL_PATH);
+    before = vsd_lbl_lattice_total(&l, 0);
+    vsd_lbl_lattice_step(&l, collide, ones, NULL);
+    after = vsd_lbl_lattice_total(&l, 0);
+    printf("[1] albedo 1, path in the cell: photons %.6f -> %.6f\n", before, after);
+    CHECK_MSG(fabs(after - before) <= 1e-5 * before, "albedo 1 step, path: %.7g -> %.7g", before, after);
     vsd_lbl_lattice_free(&l);
 }
 
 /* The steady state in a homogeneous absorbing medium far from the boundary: D3Q6's
  * sum_i f_i = S / ((1 - albedo) p), D3Q18's balance of lbl_d3q18.h. */
-static void test_infinite_medium(const vsd_lbl_layout *layout, const char *label)
+static void test_infinite_medium(const vsd_lbl_layout *layout, int cell_light, float p, const char *label)
 {
     const int32_t res[3] = {33, 33, 33};
     const size_t n = 33 * 33 * 33, centre = (16 * 33 + 16) * 33 + 16;
-    const float p = 0.6f, albedo[3] = {0.5f, 0.3f, 0.0f};
+    const float albedo[3] = {0.5f, 0.3f, 0.0f};
     float *collide = malloc(n * sizeof *collide), *source = malloc(3 * n * sizeof *source);
     float *fluence = malloc(3 * n * sizeof *fluence);
     vsd_lbl_lattice l;
@@ -89,13 +106,16 @@ static void test_infinite_medium(const vsd_lbl_layout *layout, const char *label
         for (ch = 0; ch < 3; ch++) source[ch * n + c] = 1.0f;
     }
     CHECK(vsd_lbl_lattice_init(&l, res, layout, NULL, 0) == VSD_OK);
+    vsd_lbl_lattice_set_cell_light(&l, cell_light);
     CHECK(vsd_lbl_diffuse(&l, collide, albedo, source, 1e-7, 20000, 0, fluence, &st, NULL, 0) == VSD_OK);
     printf("%s infinite medium: %d steps (converged %d), centre fluence %.5f %.5f %.5f\n", label, st.steps,
            st.converged, fluence[centre], fluence[n + centre], fluence[2 * n + centre]);
     for (ch = 0; ch < 3; ch++) {
         const double pd = 1.0 - pow(1.0 - p, sqrt(2.0));
-        const double want = layout && layout->d3q18 ? (0.5 / p + sqrt(2.0) * 0.5 / pd) / (1.0 - albedo[ch])
-                                                    : 1.0 / ((1.0 - albedo[ch]) * p);
+        const double x = -log(1.0 - p);
+        const double want = layout && layout->d3q18              ? (0.5 / p + sqrt(2.0) * 0.5 / pd) / (1.0 - albedo[ch])
+                            : cell_light == VSD_LBL_CELL_PATH ? 1.0 / ((1.0 - albedo[ch]) * x)
+                                                              : 1.0 / ((1.0 - albedo[ch]) * p);
         CHECK_MSG(fabs(fluence[ch * n + centre] - want) < 0.01 * want, "%s channel %d: %.5f, infinite medium %.5f",
                   label, ch, fluence[ch * n + centre], want);
     }
@@ -515,14 +535,17 @@ int main(void)
     test_overlap();
     test_leaps();
     test_conservation();
-    test_infinite_medium(NULL, "[2] D3Q6");
+    test_infinite_medium(NULL, VSD_LBL_CELL_FACES, 0.6f, "[2] D3Q6, faces");
+    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.6f, "[2] D3Q6, path (x 0.92)");
+    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.3f, "[2] D3Q6, path (x 0.36)");
+    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.99f, "[2] D3Q6, path (x 4.6)");
     test_march();
     test_blocked_conservation();
     test_blocked_against_global();
     test_d3q18();
     {
         const vsd_lbl_layout q18 = {0, 1};
-        test_infinite_medium(&q18, "[7] D3Q18");
+        test_infinite_medium(&q18, VSD_LBL_CELL_FACES, 0.6f, "[7] D3Q18");
     }
     return test_finish("test_lbl_lattice");
 }

@@ -48,7 +48,7 @@
 #define LBL_MAX_SUB_LIGHTS 16
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -56,6 +56,8 @@ typedef struct lbl_options {
 static const char *const lbl_lattice_names[] = {"d3q6", "d3q18", NULL};
 static const char *const lbl_readout_names[] = {"isotropic", "phase", NULL};
 static const char *const lbl_phase_names[] = {"isotropic", "hg", NULL};
+/* in VSD_LBL_CELL_FACES.. order */
+static const char *const lbl_cell_light_names[] = {"faces", "path", NULL};
 enum { LBL_PHASE_ISOTROPIC, LBL_PHASE_HG };
 enum { LBL_READOUT_ISOTROPIC, LBL_READOUT_PHASE };
 
@@ -101,6 +103,11 @@ static const vsd_option_spec lbl_option_rows[] = {
      "diffusion: the paper's isotropic scattering, or the medium's phase (Henyey-Greenstein) on the six directions' "
      "cones, first scattering included (D3Q6 global lattice; lbl_readout.h)",
      offsetof(lbl_options, lattice_phase), 0, NULL},
+    {"cell_light", VSD_OPT_CHOICE, 0, 0, VSD_LBL_CELL_PATH, lbl_cell_light_names,
+     "diffusion: the light in a cell, the paper's photons counted at the faces they arrive at with what is born "
+     "there leaving whole, or each photon's path through the cell, born light crossing the rest of it (global "
+     "D3Q6 lattice; lbl_lattice.h, docs/methods/lbl.md)",
+     offsetof(lbl_options, cell_light), 0, NULL},
     {"readout", VSD_OPT_CHOICE, 0, 0, LBL_READOUT_PHASE, lbl_readout_names,
      "view: the diffused light toward the eye, the paper's isotropic fluence / 4pi, or the phase function over the "
      "lattice's six directions (D3Q6 global lattice; lbl_readout.h)",
@@ -460,6 +467,8 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
 {
     const size_t n = cell_count(s), recs = (size_t)s->rg.count;
     const double k = 6.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D);
+    const float albedo[3] = {ctx->kd.medium.albedo.x, ctx->kd.medium.albedo.y, ctx->kd.medium.albedo.z};
+    static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
     size_t c;
     /* (g = 0: every cone weighs 1/6, the isotropic readout exactly: none needed) */
     if (s->opt.readout != LBL_READOUT_PHASE || layout->block_steps > 0 || layout->d3q18 || !s->lattice.f || recs == 0 ||
@@ -471,12 +480,16 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
         int32_t rec = s->rg.cell_record[c];
         int i, a;
         if (rec < 0) continue;
-        for (i = 0; i < 6; i++)
-            for (a = 0; a < 3; a++) {
-                size_t at = ((size_t)i * 3 + a) * n + c;
-                double f = s->lattice.f[at] - (s->fluence_e && s->lattice_e.f ? s->lattice_e.f[at] : 0.0f);
+        for (a = 0; a < 3; a++) {
+            float m[6], me[6] = {0};
+            vsd_lbl_lattice_node_means(&s->lattice, s->collide, albedo, s->source, a, c, m);
+            if (s->fluence_e && s->lattice_e.f)
+                vsd_lbl_lattice_node_means(&s->lattice_e, s->collide, no_scattering, s->source_e, a, c, me);
+            for (i = 0; i < 6; i++) {
+                double f = (double)m[i] - me[i];
                 s->ms6[18 * (size_t)rec + 3 * i + a] = (float)(f > 0.0 ? f * k : 0.0);
             }
+        }
     }
     return VSD_OK;
 }
@@ -578,6 +591,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)s->g2w[a];
     /* the lattice first: with a ray history it steps while the rays march */
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
+    vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
     if (s->source_dirs) {
         float f, b, sd;
         vsd_lbl_readout_lattice_phase(ctx->kd.medium.anisotropy, &f, &b, &sd);
@@ -639,6 +653,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
         vsd_lbl_diffusion_stats stats_e;
         if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, &layout, err, errlen))) return st;
+        vsd_lbl_lattice_set_cell_light(&s->lattice_e, s->opt.cell_light);
         if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
                                   s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))
             return st;

@@ -52,6 +52,8 @@ void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward
     l->anisotropic = l->f != NULL && !(forward == backward && forward == side);
 }
 
+void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light) { l->cell_light = cell_light; }
+
 void vsd_lbl_lattice_free(vsd_lbl_lattice *l)
 {
     free(l->f);
@@ -66,7 +68,34 @@ typedef struct step_job {
     float albedo[3];
     float *post;             /* [DIRS][CH][cells] */
     float *gain;             /* [cells] scratch: what a node scatters into each direction */
+    float *esc;              /* [CH][cells] the share of the light born in a node's cell that leaves it (in_cell) */
 } step_job;
+
+/* A photon born at a uniform point of a cell of optical depth x = sigma lambda (the
+ * light a collision scatters, or the source) crosses the rest of the cell first: it
+ * leaves with probability e = (1 - e^-x) / x, else collides there and, with the albedo,
+ * is born again. So of what is born in the cell, esc = e / (1 - albedo (1 - e)) leaves it,
+ * and each photon born there spends credit = ((1 - e) / x) / (1 - albedo (1 - e)) cells of
+ * path in it; a photon arriving at a face spends e. Thin cells: e -> 1 - x/2, esc -> 1,
+ * credit -> 1/2. (The paper's step lets what is born in a cell leave it whole, and counts
+ * only the arriving photons; both are off by the order of x, which made VolumeInd darker the
+ * coarser the lattice, and emission-lit media brighter: docs/methods/lbl.md, "A photon's
+ * path through a cell".) */
+static void in_cell(const vsd_lbl_lattice *l, float p, float albedo, float *arriving, float *esc, float *credit)
+{
+    float x, e, stay;
+    if (l->cell_light != VSD_LBL_CELL_PATH) {
+        *arriving = *esc = 1.0f;
+        *credit = 0.0f;
+        return;
+    }
+    x = p < 1.0f ? -log1pf(-p) : 50.0f;   /* p = 1 - e^-x */
+    e = x > 1e-4f ? p / x : 1.0f - 0.5f * x;
+    stay = 1.0f / (1.0f - albedo * (1.0f - e));
+    *arriving = e;
+    *esc = e * stay;
+    *credit = (x > 1e-4f ? (1.0f - e) / x : 0.5f - x / 6.0f) * stay;
+}
 
 /* The anisotropic collision of nodes [c0, c0 + n): post_i = (1 - p) f_i + albedo p
  * (side sum_j f_j + (forward - side) f_i + (backward - side) f_opposite(i)) + S_i, the
@@ -93,8 +122,9 @@ static void collide_anisotropic(step_job *j, size_t c0, size_t n)
             const float *f = l->f + o, *fo = l->f + opp;
             const float *src = j->source ? j->source + o : NULL;
             float *q = j->post + o;
+            const float *esc = j->esc + (size_t)ch * cells + c0;
             for (c = 0; c < n; c++)
-                q[c] = (1.0f - p[c]) * f[c] + a * p[c] * (gain[c] + fs * f[c] + bs * fo[c]) + (src ? src[c] : 0.0f);
+                q[c] = (1.0f - p[c]) * f[c] + esc[c] * (a * p[c] * (gain[c] + fs * f[c] + bs * fo[c]) + (src ? src[c] : 0.0f));
         }
     }
 }
@@ -124,7 +154,10 @@ static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
             const float *f = j->l->f + ((size_t)i * CH + ch) * cells + c0;
             for (c = 0; c < n; c++) gain[c] += f[c];
         }
-        for (c = 0; c < n; c++) gain[c] = a6 * p[c] * gain[c] + (src ? src[c] * (1.0f / 6.0f) : 0.0f);
+        {
+            const float *esc = j->esc + (size_t)ch * cells + c0;
+            for (c = 0; c < n; c++) gain[c] = esc[c] * (a6 * p[c] * gain[c] + (src ? src[c] * (1.0f / 6.0f) : 0.0f));
+        }
         for (i = 0; i < DIRS; i++) {
             const size_t o = ((size_t)i * CH + ch) * cells + c0;
             const float *f = j->l->f + o;
@@ -190,13 +223,23 @@ static int step_job_init(step_job *job, vsd_lbl_lattice *l, const float *collide
     for (c = 0; c < CH; c++) job->albedo[c] = albedo[c];
     job->post = malloc(l->cells * DIRS * CH * sizeof *job->post);
     job->gain = malloc(l->cells * sizeof *job->gain);
-    return job->post && job->gain;
+    job->esc = malloc(l->cells * CH * sizeof *job->esc);
+    if (!job->post || !job->gain || !job->esc) return 0;
+    for (c = 0; c < CH; c++) {
+        size_t n;
+        for (n = 0; n < l->cells; n++) {
+            float arriving, credit;
+            in_cell(l, collide[n], albedo[c], &arriving, job->esc + (size_t)c * l->cells + n, &credit);
+        }
+    }
+    return 1;
 }
 
 static void step_job_free(step_job *job)
 {
     free(job->post);
     free(job->gain);
+    free(job->esc);
 }
 
 /* Ready lattice l (whichever layout) for steps with this material: the global lattice's
@@ -239,6 +282,39 @@ static float node_sum(const vsd_lbl_lattice *l, int ch, size_t c)
     if (l->layout.block_steps > 0) return vsd_lbl_blocked_node_sum(&l->blocked, ch, c);
     if (l->layout.d3q18) return vsd_lbl_q18_node_fluence(&l->q18, ch, c);
     for (i = 0; i < DIRS; i++) v += l->f[((size_t)i * CH + ch) * l->cells + c];
+    return v;
+}
+
+void vsd_lbl_lattice_node_means(const vsd_lbl_lattice *l, const float *collide, const float albedo[3],
+                                const float *source, int ch, size_t c, float mean[DIRS])
+{
+    const size_t cells = l->cells;
+    const float p = collide[c], a = albedo[ch];
+    float sum = 0.0f, f[DIRS], arriving, esc, credit;
+    int i;
+    in_cell(l, p, a, &arriving, &esc, &credit);
+    for (i = 0; i < DIRS; i++) sum += f[i] = l->f[((size_t)i * CH + ch) * cells + c];
+    for (i = 0; i < DIRS; i++) {
+        /* what is born in the cell toward i: the collision's scattering and the source */
+        float scattered = l->anisotropic ? l->side * sum + (l->forward - l->side) * f[i] + (l->backward - l->side) * f[i ^ 1]
+                                         : sum * (1.0f / 6.0f);
+        float s = !source ? 0.0f
+                  : l->anisotropic ? source[((size_t)i * CH + ch) * cells + c]
+                                   : source[(size_t)ch * cells + c] * (1.0f / 6.0f);
+        mean[i] = arriving * f[i] + credit * (a * p * scattered + s);
+    }
+}
+
+/* The photons in node c's cell, channel ch: the global lattice's cell means summed; the
+ * paper's blocked and Geist's D3Q18 lattices keep their arriving sums. */
+static float node_mean_sum(const vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
+                           int ch, size_t c)
+{
+    float mean[DIRS], v = 0.0f;
+    int i;
+    if (!l->f) return node_sum(l, ch, c);
+    vsd_lbl_lattice_node_means(l, collide, albedo, source, ch, c, mean);
+    for (i = 0; i < DIRS; i++) v += mean[i];
     return v;
 }
 
@@ -322,7 +398,7 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     step_job_free(&job);
     free(probes);
     for (ch = 0; ch < CH; ch++)
-        for (c = 0; c < l->cells; c++) fluence[(size_t)ch * l->cells + c] = node_sum(l, ch, c);
+        for (c = 0; c < l->cells; c++) fluence[(size_t)ch * l->cells + c] = node_mean_sum(l, collide, albedo, source, ch, c);
     stats->seconds = vsd_clock_seconds() - t0;
     return st;
 }

@@ -55,7 +55,13 @@ typedef struct vsd_lbl_lattice {
      * [6][3][cells], per direction. */
     int anisotropic;
     float forward, backward, side;
+    int cell_light;          /* VSD_LBL_CELL_*, global D3Q6 only (vsd_lbl_lattice_set_cell_light) */
 } vsd_lbl_lattice;
+
+/* The light in a cell (global D3Q6 only): the paper's step (FACES: photons counted at the
+ * face they arrive at, what is born in the cell — scattered or the source — leaves it
+ * whole), or each photon's path through the cell (PATH: vsd_lbl_lattice_node_means). */
+enum { VSD_LBL_CELL_FACES = 0, VSD_LBL_CELL_PATH = 1 };
 
 typedef struct vsd_lbl_diffusion_stats {
     int steps;
@@ -75,6 +81,10 @@ void vsd_lbl_lattice_free(vsd_lbl_lattice *l);
  * paper's. Call after vsd_lbl_lattice_init, which resets it. */
 void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward, float side);
 
+/* VSD_LBL_CELL_FACES (the paper's, and what vsd_lbl_lattice_init leaves) or _PATH; call
+ * after vsd_lbl_lattice_init. */
+void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light);
+
 /* One collide-and-stream step (no threads, for tests; a blocked lattice does one
  * iteration): collide[c] = p per node, albedo RGB, source [3][cells] (NULL = none). */
 void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source);
@@ -83,8 +93,17 @@ void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float 
  * a blocked lattice's interface buffers). */
 double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch);
 
-/* Steps from the current state until converged; fluence[3][cells] = sum_i f_i (caller
- * divides by lambda^2; on D3Q18 sum_i |c_i| f_i). stats->steps counts lattice steps
+/* The photons of global D3Q6 node c, channel ch, per direction i, with the same collide,
+ * albedo and source as the steps. FACES: f_i, the population arriving at the face. PATH:
+ * the photons' mean path in the cell, e f_i + credit (born_i), born_i what the collision
+ * scatters and the source adds toward i (lbl_lattice.c, in_cell: e the arriving photon's
+ * path before it collides or leaves, credit the path of one born at a uniform point). */
+void vsd_lbl_lattice_node_means(const vsd_lbl_lattice *l, const float *collide, const float albedo[3],
+                                const float *source, int ch, size_t c, float mean[6]);
+
+/* Steps from the current state until converged; fluence[3][cells] = the cell means of the
+ * photons summed over the directions (vsd_lbl_lattice_node_means; the caller divides by
+ * lambda^2; on D3Q18 sum_i |c_i| f_i). stats->steps counts lattice steps
  * (block_steps per iteration of a blocked lattice). */
 vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
                            double tolerance, int max_steps, int threads, float *fluence, vsd_lbl_diffusion_stats *stats,
