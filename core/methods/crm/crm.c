@@ -46,7 +46,7 @@
 
 typedef struct crm_options {
     int rbf_count, fit_iterations, order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
-    int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell, decode, sky;
+    int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell, decode, sky, orders_phase;
     double node_spacing, step, early_termination, error_ratio;
     vsd_view_sampling view;
 } crm_options;
@@ -57,6 +57,8 @@ enum { SKY_PIXELS, SKY_SH };
 enum { DECODE_FRAME, DECODE_VIEW };
 static const char *const decode_names[] = {"frame", "view", NULL};
 enum { MULTIPLE_ORDERS, MULTIPLE_GRID, MULTIPLE_RBF };
+enum { ORDERS_PHASE_ISOTROPIC, ORDERS_PHASE_HG };
+static const char *const orders_phase_names[] = {"isotropic", "hg", NULL};
 enum { SINGLE_GRID, SINGLE_DIRECT, SINGLE_SH };
 static const char *const single_names[] = {"grid", "direct", "sh", NULL};
 
@@ -104,6 +106,10 @@ static const vsd_option_spec crm_option_rows[] = {
     {"orders", VSD_OPT_INT, 1, 64, 12, NULL,
      "multiple orders: most orders followed before the geometric tail closes the series",
      offsetof(crm_options, orders), 0, NULL},
+    {"orders_phase", VSD_OPT_CHOICE, 0, 0, ORDERS_PHASE_HG, orders_phase_names,
+     "multiple orders: each order scatters with the medium's Henyey-Greenstein phase, its source kept as order-2 SH "
+     "(bands 0-1), or isotropically after the first (band 0 only; docs/methods/crm.md)",
+     offsetof(crm_options, orders_phase), 0, NULL},
     {"order_directions", VSD_OPT_INT, 12, 768, 48, NULL, "multiple orders: HEALPix directions gathered per cell and order",
      offsetof(crm_options, order_directions), 0, healpix_count_problem},
     {"order_cell", VSD_OPT_INT, 1, 8, 2, NULL, "multiple orders: source nodes per cell of the coarse grid",
@@ -537,7 +543,9 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             float *emission = NULL;
             if (ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
             if (!st)
-                st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, albedo, s->nodes.nodes, s->nodes.valid,
+                st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, albedo,
+                                    s->opt.orders_phase == ORDERS_PHASE_HG ? ctx->kd.medium.anisotropy : 0.0,
+                                    s->nodes.nodes, s->nodes.valid,
                                     s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
                                     &s->orders, err, errlen);
             free(emission);

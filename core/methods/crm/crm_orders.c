@@ -9,23 +9,33 @@
 
 #define PI_D 3.14159265358979323846
 
+/* Most SH coefficients per channel of a source: order 2 (bands 0 and 1) */
+enum { NB_MAX = 4, PAD_MAX = 1 + 3 * NB_MAX };
+
 typedef struct coarse_grid {
     int32_t res[3];
     size_t n;
+    int nb;             /* SH coefficients per channel of J: 1 (isotropic) or 4 (order 2) */
     float *sigma;       /* [n] world units */
-    float *j;           /* [n * 3] current order's source */
+    float *j;           /* [n * 3 * nb] current order's source: SH of J(w_out), per channel */
     float *emit;        /* [n * 3] emission per unit length (world), or NULL */
-    float *next;        /* [n * 3] the next order */
+    float *next;        /* [n * 3 * nb] the next order */
     double to_cell[9];  /* world direction -> coarse-grid displacement per world unit */
-    /* (sigma, sigma J) per cell with a zero border (1 cell below, 2 above per axis), rebuilt
-     * per order, so the marches read 8 corners without bounds tests */
+    /* (sigma, sigma J's coefficients) per cell with a zero border (1 cell below, 2 above per
+     * axis), rebuilt per order, so the marches read 8 corners without bounds tests */
     float *pad;
     size_t sx, sy;
 } coarse_grid;
 
+/* floats per padded cell */
+static int pad_floats(const coarse_grid *g) { return 1 + 3 * g->nb; }
+
 typedef struct order_job {
     const coarse_grid *g;
     const double *dirs;
+    const float *y_in;  /* [m * nb] the SH basis at -w: the direction the light from w travels */
+    float weight[NB_MAX]; /* per coefficient: 4 pi g^l / m, l its band (Funk-Hecke: HG's band-l
+                             coefficient is g^l) */
     int m;
     double albedo[3];
 } order_job;
@@ -35,32 +45,38 @@ typedef struct order_job {
  * emission alone (its once-scattered part, which Cycles counts as direct). */
 typedef enum { SOURCE_J, SOURCE_J_EMISSION, SOURCE_EMISSION } source_kind;
 
+/* Y_0^0: an isotropic radiance L has the coefficient L / Y00 */
+#define Y00 0.28209479177387814
+
 static void fill_pad(coarse_grid *g, source_kind kind)
 {
-    int32_t i, j, k, c;
+    const int nb = g->nb, pf = pad_floats(g);
+    int32_t i, j, k, c, l;
     for (k = 0; k < g->res[2]; k++)
         for (j = 0; j < g->res[1]; j++)
             for (i = 0; i < g->res[0]; i++) {
                 size_t n = ((size_t)k * g->res[1] + j) * g->res[0] + i;
-                float *p = g->pad + 4 * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
+                float *p = g->pad + pf * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
                 p[0] = g->sigma[n];
                 for (c = 0; c < 3; c++)
-                    p[1 + c] = (kind == SOURCE_EMISSION ? 0.0f : g->sigma[n] * g->j[3 * n + c]) +
-                               (kind != SOURCE_J && g->emit ? g->emit[3 * n + c] : 0.0f);
+                    for (l = 0; l < nb; l++)
+                        p[1 + c * nb + l] = (kind == SOURCE_EMISSION ? 0.0f : g->sigma[n] * g->j[(3 * n + c) * nb + l]) +
+                                            (l == 0 && kind != SOURCE_J && g->emit ? g->emit[3 * n + c] / (float)Y00 : 0.0f);
             }
 }
 
 /* Trilinear sigma and source per unit length (sigma J, plus emission on the first order) at
  * coarse-index point (x, y, z) in [-1, res], 0 outside: the march divides by sigma, so empty
  * neighbours (J = 0 there, since J is per unit extinction) do not dim the medium's edge. */
-static void sample(const coarse_grid *g, float x, float y, float z, float out[4])
+static void sample(const coarse_grid *g, float x, float y, float z, float out[PAD_MAX])
 {
+    const int pf = pad_floats(g);
     float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz;
     size_t b = (size_t)((int32_t)fz + 1) * g->sy + (size_t)((int32_t)fy + 1) * g->sx + (size_t)((int32_t)fx + 1);
-    const float *c000 = g->pad + 4 * b, *c100 = c000 + 4, *c010 = c000 + 4 * g->sx, *c110 = c010 + 4;
-    const float *c001 = c000 + 4 * g->sy, *c101 = c001 + 4, *c011 = c001 + 4 * g->sx, *c111 = c011 + 4;
+    const float *c000 = g->pad + pf * b, *c100 = c000 + pf, *c010 = c000 + pf * g->sx, *c110 = c010 + pf;
+    const float *c001 = c000 + pf * g->sy, *c101 = c001 + pf, *c011 = c001 + pf * g->sx, *c111 = c011 + pf;
     int q;
-    for (q = 0; q < 4; q++) {
+    for (q = 0; q < pf; q++) {
         float a0 = c000[q] + (c100[q] - c000[q]) * tx, a1 = c010[q] + (c110[q] - c010[q]) * tx;
         float b0 = c001[q] + (c101[q] - c001[q]) * tx, b1 = c011[q] + (c111[q] - c011[q]) * tx;
         float a = a0 + (a1 - a0) * ty, bb = b0 + (b1 - b0) * ty;
@@ -73,19 +89,21 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
 {
     const order_job *job = arg;
     const coarse_grid *g = job->g;
+    const int nb = g->nb;
     size_t n;
     (void)y0;
     (void)y1;
     for (n = (size_t)n0; n < (size_t)n1; n++) {
         double x0 = (double)(n % g->res[0]), y0 = (double)((n / g->res[0]) % g->res[1]);
-        double z0 = (double)(n / ((size_t)g->res[0] * g->res[1])), acc[3] = {0.0, 0.0, 0.0};
-        int d, c;
+        double z0 = (double)(n / ((size_t)g->res[0] * g->res[1])), acc[3 * NB_MAX] = {0.0};
+        int d, c, l;
         if (!(g->sigma[n] > 0.0f)) {
-            g->next[3 * n] = g->next[3 * n + 1] = g->next[3 * n + 2] = 0.0f;
+            for (c = 0; c < 3 * nb; c++) g->next[3 * nb * n + c] = 0.0f;
             continue;
         }
         for (d = 0; d < job->m; d++) {
             const double *w = job->dirs + 3 * (size_t)d;
+            const float *y = job->y_in + (size_t)d * nb;
             double v[3], len;
             int ax;
             /* the world direction in the grid (the volume's transform); a cell step is 1/len long */
@@ -99,34 +117,46 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
                 float ux = (float)v[0], uy = (float)v[1], uz = (float)v[2], inv = (float)(1.0 / len), t = 1.0f, s;
                 float px = (float)x0, py = (float)y0, pz = (float)z0, sum[3] = {0.0f, 0.0f, 0.0f};
                 for (s = 0.5f; t > 1e-3f; s += 1.0f) {
-                    float x = px + s * ux, y = py + s * uy, z = pz + s * uz, smp[4], a;
-                    if (x < -1.0f || y < -1.0f || z < -1.0f || x > (float)g->res[0] || y > (float)g->res[1] ||
+                    float x = px + s * ux, yy = py + s * uy, z = pz + s * uz, smp[PAD_MAX], src[3], a;
+                    if (x < -1.0f || yy < -1.0f || z < -1.0f || x > (float)g->res[0] || yy > (float)g->res[1] ||
                         z > (float)g->res[2])
                         break;
-                    sample(g, x, y, z, smp);
+                    sample(g, x, yy, z, smp);
+                    /* sigma J toward the cell (and emission): the SH at -w; truncated SH rings
+                     * below zero, radiance does not */
+                    for (c = 0; c < 3; c++) {
+                        float v0 = 0.0f;
+                        for (l = 0; l < nb; l++) v0 += smp[1 + c * nb + l] * y[l];
+                        src[c] = v0 > 0.0f ? v0 : 0.0f;
+                    }
                     if (!(smp[0] > 0.0f)) {
                         /* an empty stretch: only emission (first order) adds, over its length */
-                        for (c = 0; c < 3; c++) sum[c] += t * smp[1 + c] * inv;
+                        for (c = 0; c < 3; c++) sum[c] += t * src[c] * inv;
                         continue;
                     }
                     a = 1.0f - expf(-smp[0] * inv);
                     /* the source per unit length over the step's optical path a / sigma */
-                    for (c = 0; c < 3; c++) sum[c] += t * a * (smp[1 + c] / smp[0]);
+                    for (c = 0; c < 3; c++) sum[c] += t * a * (src[c] / smp[0]);
                     t *= 1.0f - a;
                 }
-                for (c = 0; c < 3; c++) acc[c] += sum[c];
+                /* scattered toward w_out with HG: band l of the result gains g^l Y_l(-w) */
+                for (c = 0; c < 3; c++)
+                    for (l = 0; l < nb; l++) acc[c * nb + l] += sum[c] * y[l] * job->weight[l];
             }
         }
-        for (c = 0; c < 3; c++) g->next[3 * n + c] = (float)(job->albedo[c] * acc[c] / (double)job->m);
+        for (c = 0; c < 3; c++)
+            for (l = 0; l < nb; l++) g->next[(3 * n + c) * nb + l] = (float)(job->albedo[c] * acc[c * nb + l]);
     }
 }
 
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
-                          const float *emission, const double albedo[3], float *nodes, uint8_t *valid, int coarse,
-                          int directions, int max_orders, double tolerance,
+                          const float *emission, const double albedo[3], double anisotropy, float *nodes, uint8_t *valid,
+                          int coarse, int directions, int max_orders, double tolerance,
                           int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen)
 {
     double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
+    float *y_in = NULL;
+    int nb, l;
     double prev_sum = 0.0, last_sum = 0.0, tail_sum = 0.0;
     long nside = vsd_sh_healpix_nside(directions);
     float *ms = NULL, *je = NULL; /* je: the emission scattered once, per coarse cell */
@@ -144,23 +174,32 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
                         directions, max_orders, tolerance);
     for (a = 0; a < 3; a++) g.res[a] = (node_res[a] - 1 + coarse - 1) / coarse + 1;
     g.n = (size_t)g.res[0] * g.res[1] * g.res[2];
+    /* g = 0: every order's J is isotropic (band 0); else bands 0-1 carry the phase */
+    g.nb = nb = anisotropy != 0.0 ? NB_MAX : 1;
     for (a = 0; a < 9; a++) g.to_cell[a] = to_node[a] / coarse;
     g.sigma = calloc(g.n, sizeof *g.sigma);
-    g.j = calloc(g.n * 3, sizeof *g.j);
-    g.next = calloc(g.n * 3, sizeof *g.next);
+    g.j = calloc(g.n * 3 * nb, sizeof *g.j);
+    g.next = calloc(g.n * 3 * nb, sizeof *g.next);
     g.emit = emission ? calloc(g.n * 3, sizeof *g.emit) : NULL;
     g.sx = (size_t)g.res[0] + 3;
     g.sy = g.sx * ((size_t)g.res[1] + 3);
-    g.pad = calloc(4 * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
-    ms = calloc(g.n * 3, sizeof *ms);
-    je = emission ? calloc(g.n * 3, sizeof *je) : NULL;
+    g.pad = calloc((size_t)pad_floats(&g) * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
+    ms = calloc(g.n * 3 * nb, sizeof *ms);
+    je = emission ? calloc(g.n * 3 * nb, sizeof *je) : NULL;
     wsum = calloc(g.n, sizeof *wsum);
     dirs = malloc(sizeof *dirs * 3 * (size_t)directions);
-    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs || (emission && (!g.emit || !je))) {
+    y_in = malloc(sizeof *y_in * (size_t)nb * (size_t)directions);
+    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs || !y_in || (emission && (!g.emit || !je))) {
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", g.res[0], g.res[1], g.res[2]);
         goto done;
     }
     if ((st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) goto done;
+    for (k = 0; k < directions; k++) {
+        double back[3] = {-dirs[3 * k], -dirs[3 * k + 1], -dirs[3 * k + 2]}, y[NB_MAX];
+        if (nb > 1) vsd_sh_eval(2, back, y);
+        else y[0] = Y00;
+        for (l = 0; l < nb; l++) y_in[(size_t)k * nb + l] = (float)y[l];
+    }
     /* coarse cells: mean sigma of their fine nodes, J_1 weighted by sigma (J is per unit
      * extinction, so empty nodes must not dilute it) */
     for (i = 0; i < fine; i++) {
@@ -176,10 +215,10 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
             for (c = 0; c < 3; c++) g.emit[3 * n + c] += emission[3 * i + c];
         if (valid[i] & CRM_NODE_SINGLE)
             for (c = 0; c < 3; c++)
-                g.j[3 * n + c] += (float)(s * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N] / (2.0 * sqrt(PI_D)));
+                for (l = 0; l < nb; l++) g.j[(3 * n + c) * nb + l] += (float)(s * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
     }
     for (i = 0; i < g.n; i++) {
-        for (c = 0; c < 3; c++) g.j[3 * i + c] = g.sigma[i] > 0.0f ? g.j[3 * i + c] / g.sigma[i] : 0.0f;
+        for (c = 0; c < 3 * nb; c++) g.j[3 * nb * i + c] = g.sigma[i] > 0.0f ? g.j[3 * nb * i + c] / g.sigma[i] : 0.0f;
         g.sigma[i] = wsum[i] > 0.0 ? (float)(g.sigma[i] / wsum[i]) : 0.0f;
         if (g.emit)
             for (c = 0; c < 3; c++) g.emit[3 * i + c] = wsum[i] > 0.0 ? (float)(g.emit[3 * i + c] / wsum[i]) : 0.0f;
@@ -190,6 +229,8 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     }
     job.g = &g;
     job.dirs = dirs;
+    job.y_in = y_in;
+    for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : anisotropy) / directions);
     job.m = directions;
     for (c = 0; c < 3; c++) job.albedo[c] = albedo[c];
     memset(&tiles, 0, sizeof tiles);
@@ -206,15 +247,15 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
          * and written into the single-scattering band 0, so the view puts it in VolumeDir. */
         fill_pad(&g, SOURCE_EMISSION);
         if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
-        memcpy(je, g.next, sizeof(float) * 3 * g.n);
+        memcpy(je, g.next, sizeof(float) * 3 * nb * g.n);
     }
     for (k = 0; k < max_orders; k++) {
         double sum = 0.0;
         fill_pad(&g, k == 0 ? SOURCE_J_EMISSION : SOURCE_J);
         if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
-        for (i = 0; i < 3 * g.n; i++) {
+        for (i = 0; i < 3 * nb * g.n; i++) {
             ms[i] += g.next[i];
-            sum += g.next[i];
+            if (i % nb == 0) sum += g.next[i];   /* band 0: the order's light */
         }
         prev_sum = last_sum;
         last_sum = sum;
@@ -232,41 +273,46 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         double r = last_sum / prev_sum, f;
         if (r > 0.95) r = 0.95;
         f = r / (1.0 - r);
-        for (i = 0; i < 3 * g.n; i++) ms[i] += (float)(f * g.j[i]);
+        for (i = 0; i < 3 * nb * g.n; i++) ms[i] += (float)(f * g.j[i]);
         stats->tail = tail_sum > 0.0 ? f * last_sum / (tail_sum + f * last_sum) : 0.0;
     }
     if (je)
-        for (i = 0; i < 3 * g.n; i++) ms[i] = ms[i] > je[i] ? ms[i] - je[i] : 0.0f;
-    /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), band 0 only */
+        for (i = 0; i < 3 * nb * g.n; i++)
+            /* band 0 is the light, which cannot go below zero; band 1 its direction */
+            ms[i] = i % nb ? ms[i] - je[i] : ms[i] > je[i] ? ms[i] - je[i] : 0.0f;
+    /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), bands
+     * 0 (and 1) */
     if (je) {
-        memcpy(g.j, je, sizeof(float) * 3 * g.n);
+        memcpy(g.j, je, sizeof(float) * 3 * nb * g.n);
         fill_pad(&g, SOURCE_J);
         for (i = 0; i < fine; i++) {
-            float *ss = nodes + i * CRM_NODE_FLOATS, smp[4];
+            float *ss = nodes + i * CRM_NODE_FLOATS, smp[PAD_MAX];
             double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
             double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse;
             if (!(sigma_t[i] > 0.0f)) continue;
             sample(&g, (float)x, (float)y, (float)z, smp);
             if (!(smp[0] > 0.0f)) continue;
-            for (c = 0; c < 3; c++) ss[c * CRM_SS_N] += (float)(smp[1 + c] / smp[0] * 2.0 * sqrt(PI_D));
+            for (c = 0; c < 3; c++)
+                for (l = 0; l < nb; l++) ss[c * CRM_SS_N + l] += smp[1 + c * nb + l] / smp[0];
             valid[i] |= CRM_NODE_SINGLE;
         }
     }
-    memcpy(g.j, ms, sizeof(float) * 3 * g.n);
+    memcpy(g.j, ms, sizeof(float) * 3 * nb * g.n);
     fill_pad(&g, SOURCE_J);
     for (i = 0; i < fine; i++) {
         float *out = nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;
         double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
-        double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse, j[3];
-        float smp[4];
+        double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse;
+        float smp[PAD_MAX];
         memset(out, 0, sizeof(float) * 3 * CRM_MS_N);
         if (!(sigma_t[i] > 0.0f)) {
             valid[i] &= (uint8_t)~CRM_NODE_MULTIPLE;
             continue;
         }
         sample(&g, (float)x, (float)y, (float)z, smp);
-        for (c = 0; c < 3; c++) j[c] = smp[0] > 0.0f ? smp[1 + c] / smp[0] : 0.0;
-        for (c = 0; c < 3; c++) out[c * CRM_MS_N] = (float)(j[c] * 2.0 * sqrt(PI_D));
+        if (smp[0] > 0.0f)
+            for (c = 0; c < 3; c++)
+                for (l = 0; l < nb; l++) out[c * CRM_MS_N + l] = smp[1 + c * nb + l] / smp[0];
         valid[i] |= CRM_NODE_MULTIPLE;
     }
     for (a = 0; a < 3; a++) stats->res[a] = g.res[a];
@@ -280,6 +326,7 @@ done:
     free(je);
     free(wsum);
     free(dirs);
+    free(y_in);
     stats->seconds = vsd_clock_seconds() - t0;
     return st;
 }
