@@ -10,7 +10,7 @@
 #define PI_D 3.14159265358979323846
 
 /* Most SH coefficients per channel of a source: order 2 (bands 0 and 1) */
-enum { NB_MAX = 4, PAD_MAX = 1 + 3 * NB_MAX };
+enum { NB_MAX = 4 };
 
 typedef struct coarse_grid {
     int32_t res[3];
@@ -21,14 +21,12 @@ typedef struct coarse_grid {
     float *emit;        /* [n * 3] emission per unit length (world), or NULL */
     float *next;        /* [n * 3 * nb] the next order */
     double to_cell[9];  /* world direction -> coarse-grid displacement per world unit */
-    /* (sigma, sigma J's coefficients) per cell with a zero border (1 cell below, 2 above per
-     * axis), rebuilt per order, so the marches read 8 corners without bounds tests */
+    /* (sigma, sigma J toward one direction) per cell with a zero border (1 cell below, 2
+     * above per axis), rebuilt per order (and direction, when J has bands 0-1), so the
+     * marches read 8 corners of 4 floats without bounds tests */
     float *pad;
     size_t sx, sy;
 } coarse_grid;
-
-/* floats per padded cell */
-static int pad_floats(const coarse_grid *g) { return 1 + 3 * g->nb; }
 
 typedef struct order_job {
     const coarse_grid *g;
@@ -37,6 +35,7 @@ typedef struct order_job {
     float weight[NB_MAX]; /* per coefficient: 4 pi g^l / m, l its band (Funk-Hecke: HG's band-l
                              coefficient is g^l) */
     int m;
+    int d0, d1;         /* the directions this pass gathers (the pad holds J toward them) */
     double albedo[3];
 } order_job;
 
@@ -48,35 +47,55 @@ typedef enum { SOURCE_J, SOURCE_J_EMISSION, SOURCE_EMISSION } source_kind;
 /* Y_0^0: an isotropic radiance L has the coefficient L / Y00 */
 #define Y00 0.28209479177387814
 
-static void fill_pad(coarse_grid *g, source_kind kind)
+/* The pad for marches that gather along directions whose light travels along -w: sigma J
+ * evaluated there (y: the SH basis at -w, nb values; J's truncated SH rings below zero at
+ * a cell, radiance does not), plus the emission where kind says. */
+static void fill_pad(coarse_grid *g, source_kind kind, const float *y)
 {
-    const int nb = g->nb, pf = pad_floats(g);
+    const int nb = g->nb;
     int32_t i, j, k, c, l;
     for (k = 0; k < g->res[2]; k++)
         for (j = 0; j < g->res[1]; j++)
             for (i = 0; i < g->res[0]; i++) {
                 size_t n = ((size_t)k * g->res[1] + j) * g->res[0] + i;
-                float *p = g->pad + pf * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
+                float *p = g->pad + 4 * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
                 p[0] = g->sigma[n];
-                for (c = 0; c < 3; c++)
-                    for (l = 0; l < nb; l++)
-                        p[1 + c * nb + l] = (kind == SOURCE_EMISSION ? 0.0f : g->sigma[n] * g->j[(3 * n + c) * nb + l]) +
-                                            (l == 0 && kind != SOURCE_J && g->emit ? g->emit[3 * n + c] / (float)Y00 : 0.0f);
+                for (c = 0; c < 3; c++) {
+                    float v = 0.0f;
+                    if (kind != SOURCE_EMISSION)
+                        for (l = 0; l < nb; l++) v += g->j[(3 * n + c) * nb + l] * y[l];
+                    p[1 + c] = g->sigma[n] * (v > 0.0f ? v : 0.0f) + (kind != SOURCE_J && g->emit ? g->emit[3 * n + c] : 0.0f);
+                }
+            }
+}
+
+/* The pad with (sigma, sigma times coefficient l of v's SH, RGB; v laid out as g->j) per
+ * cell, for carrying v to the fine nodes. */
+static void fill_pad_coefficient(coarse_grid *g, const float *v, int l)
+{
+    const int nb = g->nb;
+    int32_t i, j, k, c;
+    for (k = 0; k < g->res[2]; k++)
+        for (j = 0; j < g->res[1]; j++)
+            for (i = 0; i < g->res[0]; i++) {
+                size_t n = ((size_t)k * g->res[1] + j) * g->res[0] + i;
+                float *p = g->pad + 4 * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
+                p[0] = g->sigma[n];
+                for (c = 0; c < 3; c++) p[1 + c] = g->sigma[n] * v[(3 * n + c) * nb + l];
             }
 }
 
 /* Trilinear sigma and source per unit length (sigma J, plus emission on the first order) at
  * coarse-index point (x, y, z) in [-1, res], 0 outside: the march divides by sigma, so empty
  * neighbours (J = 0 there, since J is per unit extinction) do not dim the medium's edge. */
-static void sample(const coarse_grid *g, float x, float y, float z, float out[PAD_MAX])
+static void sample(const coarse_grid *g, float x, float y, float z, float out[4])
 {
-    const int pf = pad_floats(g);
     float fx = floorf(x), fy = floorf(y), fz = floorf(z), tx = x - fx, ty = y - fy, tz = z - fz;
     size_t b = (size_t)((int32_t)fz + 1) * g->sy + (size_t)((int32_t)fy + 1) * g->sx + (size_t)((int32_t)fx + 1);
-    const float *c000 = g->pad + pf * b, *c100 = c000 + pf, *c010 = c000 + pf * g->sx, *c110 = c010 + pf;
-    const float *c001 = c000 + pf * g->sy, *c101 = c001 + pf, *c011 = c001 + pf * g->sx, *c111 = c011 + pf;
+    const float *c000 = g->pad + 4 * b, *c100 = c000 + 4, *c010 = c000 + 4 * g->sx, *c110 = c010 + 4;
+    const float *c001 = c000 + 4 * g->sy, *c101 = c001 + 4, *c011 = c001 + 4 * g->sx, *c111 = c011 + 4;
     int q;
-    for (q = 0; q < pf; q++) {
+    for (q = 0; q < 4; q++) {
         float a0 = c000[q] + (c100[q] - c000[q]) * tx, a1 = c010[q] + (c110[q] - c010[q]) * tx;
         float b0 = c001[q] + (c101[q] - c001[q]) * tx, b1 = c011[q] + (c111[q] - c011[q]) * tx;
         float a = a0 + (a1 - a0) * ty, bb = b0 + (b1 - b0) * ty;
@@ -97,11 +116,8 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
         double x0 = (double)(n % g->res[0]), y0 = (double)((n / g->res[0]) % g->res[1]);
         double z0 = (double)(n / ((size_t)g->res[0] * g->res[1])), acc[3 * NB_MAX] = {0.0};
         int d, c, l;
-        if (!(g->sigma[n] > 0.0f)) {
-            for (c = 0; c < 3 * nb; c++) g->next[3 * nb * n + c] = 0.0f;
-            continue;
-        }
-        for (d = 0; d < job->m; d++) {
+        if (!(g->sigma[n] > 0.0f)) continue;   /* next stays 0 there */
+        for (d = job->d0; d < job->d1; d++) {
             const double *w = job->dirs + 3 * (size_t)d;
             const float *y = job->y_in + (size_t)d * nb;
             double v[3], len;
@@ -117,18 +133,12 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
                 float ux = (float)v[0], uy = (float)v[1], uz = (float)v[2], inv = (float)(1.0 / len), t = 1.0f, s;
                 float px = (float)x0, py = (float)y0, pz = (float)z0, sum[3] = {0.0f, 0.0f, 0.0f};
                 for (s = 0.5f; t > 1e-3f; s += 1.0f) {
-                    float x = px + s * ux, yy = py + s * uy, z = pz + s * uz, smp[PAD_MAX], src[3], a;
+                    float x = px + s * ux, yy = py + s * uy, z = pz + s * uz, smp[4], *src = smp + 1, a;
                     if (x < -1.0f || yy < -1.0f || z < -1.0f || x > (float)g->res[0] || yy > (float)g->res[1] ||
                         z > (float)g->res[2])
                         break;
+                    /* sigma J toward the cell (and emission) */
                     sample(g, x, yy, z, smp);
-                    /* sigma J toward the cell (and emission): the SH at -w; truncated SH rings
-                     * below zero, radiance does not */
-                    for (c = 0; c < 3; c++) {
-                        float v0 = 0.0f;
-                        for (l = 0; l < nb; l++) v0 += smp[1 + c * nb + l] * y[l];
-                        src[c] = v0 > 0.0f ? v0 : 0.0f;
-                    }
                     if (!(smp[0] > 0.0f)) {
                         /* an empty stretch: only emission (first order) adds, over its length */
                         for (c = 0; c < 3; c++) sum[c] += t * src[c] * inv;
@@ -145,8 +155,40 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
             }
         }
         for (c = 0; c < 3; c++)
-            for (l = 0; l < nb; l++) g->next[(3 * n + c) * nb + l] = (float)(job->albedo[c] * acc[c * nb + l]);
+            for (l = 0; l < nb; l++) g->next[(3 * n + c) * nb + l] += (float)(job->albedo[c] * acc[c * nb + l]);
     }
+}
+
+/* The pad sampled at fine node i (coarse cell coordinates i / coarse); 0 where no medium. */
+static int fine_sample(const coarse_grid *g, const int32_t node_res[3], int coarse, size_t i, float smp[4])
+{
+    double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
+    double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse;
+    sample(g, (float)x, (float)y, (float)z, smp);
+    return smp[0] > 0.0f;
+}
+
+/* One gather of every cell into g->next (zeroed first) from the source kind: with band 0
+ * alone J is the same toward every direction, so one pad serves all; with bands 0-1, one
+ * pad and one pass per direction. */
+static vsd_status gather(coarse_grid *g, order_job *job, vsd_tile_job *tiles, source_kind kind)
+{
+    vsd_status st = VSD_OK;
+    int d;
+    memset(g->next, 0, sizeof(float) * 3 * (size_t)g->nb * g->n);
+    if (g->nb == 1) {
+        fill_pad(g, kind, job->y_in);
+        job->d0 = 0;
+        job->d1 = job->m;
+        return vsd_cpu_run_tiles(tiles);
+    }
+    for (d = 0; d < job->m && !st; d++) {
+        fill_pad(g, kind, job->y_in + (size_t)d * g->nb);
+        job->d0 = d;
+        job->d1 = d + 1;
+        st = vsd_cpu_run_tiles(tiles);
+    }
+    return st;
 }
 
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
@@ -183,7 +225,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     g.emit = emission ? calloc(g.n * 3, sizeof *g.emit) : NULL;
     g.sx = (size_t)g.res[0] + 3;
     g.sy = g.sx * ((size_t)g.res[1] + 3);
-    g.pad = calloc((size_t)pad_floats(&g) * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
+    g.pad = calloc(4 * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
     ms = calloc(g.n * 3 * nb, sizeof *ms);
     je = emission ? calloc(g.n * 3 * nb, sizeof *je) : NULL;
     wsum = calloc(g.n, sizeof *wsum);
@@ -245,14 +287,12 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
          * It is in J_2 (the first order gathers sigma J_1 + emission), but Cycles counts it
          * as direct light (docs/design-notes.md, "Passes"): it is taken out of J_ms below
          * and written into the single-scattering band 0, so the view puts it in VolumeDir. */
-        fill_pad(&g, SOURCE_EMISSION);
-        if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
+        if ((st = gather(&g, &job, &tiles, SOURCE_EMISSION))) goto done;
         memcpy(je, g.next, sizeof(float) * 3 * nb * g.n);
     }
     for (k = 0; k < max_orders; k++) {
         double sum = 0.0;
-        fill_pad(&g, k == 0 ? SOURCE_J_EMISSION : SOURCE_J);
-        if ((st = vsd_cpu_run_tiles(&tiles))) goto done;
+        if ((st = gather(&g, &job, &tiles, k == 0 ? SOURCE_J_EMISSION : SOURCE_J))) goto done;
         for (i = 0; i < 3 * nb * g.n; i++) {
             ms[i] += g.next[i];
             if (i % nb == 0) sum += g.next[i];   /* band 0: the order's light */
@@ -280,40 +320,30 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         for (i = 0; i < 3 * nb * g.n; i++)
             /* band 0 is the light, which cannot go below zero; band 1 its direction */
             ms[i] = i % nb ? ms[i] - je[i] : ms[i] > je[i] ? ms[i] - je[i] : 0.0f;
-    /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), bands
-     * 0 (and 1) */
-    if (je) {
-        memcpy(g.j, je, sizeof(float) * 3 * nb * g.n);
-        fill_pad(&g, SOURCE_J);
-        for (i = 0; i < fine; i++) {
-            float *ss = nodes + i * CRM_NODE_FLOATS, smp[PAD_MAX];
-            double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
-            double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse;
-            if (!(sigma_t[i] > 0.0f)) continue;
-            sample(&g, (float)x, (float)y, (float)z, smp);
-            if (!(smp[0] > 0.0f)) continue;
-            for (c = 0; c < 3; c++)
-                for (l = 0; l < nb; l++) ss[c * CRM_SS_N + l] += smp[1 + c * nb + l] / smp[0];
-            valid[i] |= CRM_NODE_SINGLE;
-        }
-    }
-    memcpy(g.j, ms, sizeof(float) * 3 * nb * g.n);
-    fill_pad(&g, SOURCE_J);
+    /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), each of
+     * bands 0 (and 1)'s coefficients in turn: the emission scattered once onto the single
+     * scattering, J_ms onto the multiple */
     for (i = 0; i < fine; i++) {
-        float *out = nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;
-        double x = (double)(i % node_res[0]) / coarse, y = (double)((i / node_res[0]) % node_res[1]) / coarse;
-        double z = (double)(i / ((size_t)node_res[0] * node_res[1])) / coarse;
-        float smp[PAD_MAX];
-        memset(out, 0, sizeof(float) * 3 * CRM_MS_N);
-        if (!(sigma_t[i] > 0.0f)) {
-            valid[i] &= (uint8_t)~CRM_NODE_MULTIPLE;
-            continue;
+        memset(nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N, 0, sizeof(float) * 3 * CRM_MS_N);
+        if (sigma_t[i] > 0.0f) valid[i] |= CRM_NODE_MULTIPLE;
+        else valid[i] &= (uint8_t)~CRM_NODE_MULTIPLE;
+    }
+    for (l = 0; l < nb; l++) {
+        if (je) {
+            fill_pad_coefficient(&g, je, l);
+            for (i = 0; i < fine; i++) {
+                float *ss = nodes + i * CRM_NODE_FLOATS, smp[4];
+                if (!(sigma_t[i] > 0.0f) || !fine_sample(&g, node_res, coarse, i, smp)) continue;
+                for (c = 0; c < 3; c++) ss[c * CRM_SS_N + l] += smp[1 + c] / smp[0];
+                valid[i] |= CRM_NODE_SINGLE;
+            }
         }
-        sample(&g, (float)x, (float)y, (float)z, smp);
-        if (smp[0] > 0.0f)
-            for (c = 0; c < 3; c++)
-                for (l = 0; l < nb; l++) out[c * CRM_MS_N + l] = smp[1 + c * nb + l] / smp[0];
-        valid[i] |= CRM_NODE_MULTIPLE;
+        fill_pad_coefficient(&g, ms, l);
+        for (i = 0; i < fine; i++) {
+            float *out = nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N, smp[4];
+            if (!(sigma_t[i] > 0.0f) || !fine_sample(&g, node_res, coarse, i, smp)) continue;
+            for (c = 0; c < 3; c++) out[c * CRM_MS_N + l] = smp[1 + c] / smp[0];
+        }
     }
     for (a = 0; a < 3; a++) stats->res[a] = g.res[a];
 done:

@@ -12,9 +12,10 @@
  *     J_k+1(x, w_o) = albedo * (4 pi / M) sum over M HEALPix directions w of L_k(x, w)
  *                     p(w_o . -w), kept as order-2 SH: by Funk-Hecke, band l of HG is g^l,
  *                     so coefficient (l, m) gains g^l Y_lm(-w) L_k(x, w)
- * each march stepping one cell with the cell's sigma_t and J's coefficients taken
- * trilinearly (J evaluated toward the cell, negative values of the truncated SH clamped to
- * 0), stopping where the transmittance is below 1e-3 or the ray leaves the grid. Orders are
+ * each march stepping one cell with sigma_t and sigma J taken trilinearly, J evaluated at
+ * the cells toward -w (negative values of the truncated SH clamped to 0: with bands 0-1
+ * one gather pass per direction, so every pass reads 4 floats per cell as the isotropic
+ * one does), stopping where the transmittance is below 1e-3 or the ray leaves the grid. Orders are
  * added until one adds less than `tolerance` of the sum (band 0), or `max_orders`; the
  * rest is closed with the geometric tail of the last two orders' ratio (below albedo < 1,
  * so it converges). Phase: with anisotropy 0 every J is isotropic (band 0 only, the
