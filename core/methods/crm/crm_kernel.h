@@ -155,7 +155,9 @@ VSD_DEVICE void vsd_crm_view_node(const vsd_kcrm *c, int i, int n, void *out)
         vsd_f3 p = vsd_affine_point(&c->node_to_world, f3((float)x, (float)yy, (float)z));
         w = f3_normalize(f3_sub(f3(m[3], m[7], m[11]), p));
     }
-    vsd_sh_eval_f(c->order, w, y);
+    /* at least order 2: the multiple scattering's band 1 is read whatever the single
+     * scattering's order (y has room for 16) */
+    vsd_sh_eval_f(c->order > 2 ? c->order : 2, w, y);
     vsd_crm_node_source(c, i, y, &ss, &ms);
     /* single scattering falls exponentially into the medium: the view blends its log (the
      * weighted geometric mean), as shgrid's records do */

@@ -89,7 +89,9 @@ static void in_cell(const vsd_lbl_lattice *l, float p, float albedo, float *arri
         *credit = 0.0f;
         return;
     }
-    x = p < 1.0f ? -log1pf(-p) : 50.0f;   /* p = 1 - e^-x */
+    /* p = 1 - e^-x; in float p reaches 1 near x = 17.3 (2^-25), where the cell is opaque
+     * all the same: x is capped there so e stays continuous */
+    x = p < 1.0f ? fminf(-log1pf(-p), 17.3f) : 17.3f;
     e = x > 1e-4f ? p / x : 1.0f - 0.5f * x;
     stay = 1.0f / (1.0f - albedo * (1.0f - e));
     *arriving = e;
