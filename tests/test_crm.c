@@ -419,6 +419,7 @@ static void test_ball(void)
     vsd_renderer *r = NULL;
     vsd_render_stats st;
     double t0 = vsd_clock_seconds();
+    CHECK(vol != NULL);
     if (!vol || !test_parse_scene(test_ball_json, ref_ov, 3, &ref_sc) || !test_parse_scene(test_ball_json, ref2_ov, 3, &ref2_sc) ||
         !test_parse_scene(test_ball_json, crm_ov, 3, &crm_sc))
         goto done;
@@ -618,6 +619,8 @@ static void test_orders_phase(void)
     vsd_volume *vol = test_ball_volume();
     vsd_scene sc[4];
     vsd_framebuffer *ref = NULL, *ref2 = NULL, *hg = NULL, *iso = NULL;
+    /* a volume that failed to build fails the part, as every setup step here does */
+    CHECK(vol != NULL);
     /* the ball of part 2 in the sunset map instead of the uniform one */
     CHECK(at != NULL);
     if (!at) goto done;
@@ -652,13 +655,13 @@ done:
 int main(void)
 {
     double t0 = vsd_clock_seconds();
-    test_orders_phase();
     test_emission_split();
     test_options();
     test_empty();
     test_ball();
     test_edits();
     test_real_data_and_cache();
+    test_orders_phase();
     printf("test_crm: %.1fs\n", vsd_clock_seconds() - t0);
     return test_finish("test_crm");
 }

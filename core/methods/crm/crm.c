@@ -544,7 +544,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             if (ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
             if (!st)
                 st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, albedo,
-                                    s->opt.orders_phase == ORDERS_PHASE_HG ? ctx->kd.medium.anisotropy : 0.0,
+                                    s->opt.orders_phase == ORDERS_PHASE_HG ? g : 0.0,
                                     s->nodes.nodes, s->nodes.valid,
                                     s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
                                     &s->orders, err, errlen);

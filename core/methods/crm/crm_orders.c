@@ -168,15 +168,24 @@ static int fine_sample(const coarse_grid *g, const int32_t node_res[3], int coar
     return smp[0] > 0.0f;
 }
 
-/* One gather of every cell into g->next (zeroed first) from the source kind: with band 0
- * alone J is the same toward every direction, so one pad serves all; with bands 0-1, one
- * pad and one pass per direction. */
+/* Whether the pad of the source kind is the same toward every direction: it depends on the
+ * direction only through J's band 1, so it is with band 0 alone, and for the emission
+ * alone (isotropic: it reads no J at all). */
+static int pad_isotropic(const coarse_grid *g, source_kind kind)
+{
+    return g->nb == 1 || kind == SOURCE_EMISSION;
+}
+
+/* One gather of every cell into g->next (zeroed first) from the source kind: where the pad
+ * is isotropic one pad and one pass serve all directions; else (J's bands 0-1) one pad and
+ * one pass per direction. Either way every coefficient of next is gathered (the emission
+ * scattered once has a band 1 too: the phase gives it one). */
 static vsd_status gather(coarse_grid *g, order_job *job, vsd_tile_job *tiles, source_kind kind)
 {
     vsd_status st = VSD_OK;
     int d;
     memset(g->next, 0, sizeof(float) * 3 * (size_t)g->nb * g->n);
-    if (g->nb == 1) {
+    if (pad_isotropic(g, kind)) {
         fill_pad(g, kind, job->y_in);
         job->d0 = 0;
         job->d1 = job->m;
@@ -189,6 +198,89 @@ static vsd_status gather(coarse_grid *g, order_job *job, vsd_tile_job *tiles, so
         st = vsd_cpu_run_tiles(tiles);
     }
     return st;
+}
+
+/* The orders after the last, as a multiple of it, when each is r times the one before
+ * (|r| < 1): r + r^2 + ... */
+static double tail_factor(double r)
+{
+    return r / (1.0 - r);
+}
+
+/* Band 1's ratio from the last order to the one before (both laid out as g->j), given band
+ * 0's r0: the r that best fits last = r prev over every band-1 coefficient (least squares:
+ * they are signed, so a ratio of sums as band 0's would cancel), within [-r0, r0].
+ * Why its own: the band 1 an order carries over is multiplied by about g r0 per scatter
+ * (Funk-Hecke), while band 0's gradients make new band 1 at band 0's rate, so the ratio
+ * climbs from near g r0 to r0 over the orders (measured, cloud256 g 0.7: 0.53 against r0
+ * 0.80 at the second order, 0.83 against 0.89 at the sixth, 0.907 against 0.899 at the
+ * twelfth): band 0's ratio overestimates band 1's tail when the series stops early
+ * (cloud256 with `orders` 6: Combined 17.9% with it, 14.0% with this; at the default 12,
+ * this clamps to r0 and the image is the same).
+ * Why at most r0: the common slowest mode sets both bands' rate in the end (band 1 nears it
+ * from above, as the faster part it lost fades), and a band 1 outliving band 0 would break
+ * |b1| <= sqrt(3) b0 (bound_band1). Where prev has no band 1 the fit is undefined: g r0, the
+ * rate of the band 1 the phase carries over, the low end, so an unknown band 1 is not
+ * overestimated (a g < 0 flips its sign each order, as r < 0 does: the tail then shrinks it). */
+static double band1_ratio(const coarse_grid *g, const float *last, const float *prev, double r0, double anisotropy)
+{
+    double lp = 0.0, pp = 0.0, r;
+    size_t q;
+    int l;
+    for (q = 0; q < 3 * g->n; q++)
+        for (l = 1; l < g->nb; l++) {
+            lp += (double)last[q * g->nb + l] * prev[q * g->nb + l];
+            pp += (double)prev[q * g->nb + l] * prev[q * g->nb + l];
+        }
+    if (!(pp > 0.0)) return anisotropy * r0;
+    r = lp / pp;
+    return r > r0 ? r0 : r < -r0 ? -r0 : r;
+}
+
+/* The series of orders closed with each band's geometric tail: ms gains, per band, its
+ * tail factor times the last order (g->j; g->next holds the one before). Returns the share
+ * of the tail in band 0 (stats->tail). */
+static double close_series(const coarse_grid *g, float *ms, double last_sum, double prev_sum, double tail_sum,
+                           double anisotropy)
+{
+    double r0 = last_sum / prev_sum, f[NB_MAX];
+    size_t q;
+    int l;
+    if (r0 > 0.95) r0 = 0.95;
+    f[0] = tail_factor(r0);
+    for (l = 1; l < g->nb; l++) f[l] = tail_factor(band1_ratio(g, g->j, g->next, r0, anisotropy));
+    for (q = 0; q < 3 * g->n; q++)
+        for (l = 0; l < g->nb; l++) ms[q * g->nb + l] += (float)(f[l] * g->j[q * g->nb + l]);
+    return tail_sum > 0.0 ? f[0] * last_sum / (tail_sum + f[0] * last_sum) : 0.0;
+}
+
+/* The order-2 SH of any non-negative function has |b1| <= sqrt(3) b0 (|Y_1| <= sqrt(3) Y00
+ * everywhere; a single direction reaches it): scales band 1 (b[1..3]) into that bound, so
+ * a band 0 of zero leaves no band 1, which the view would turn into light toward half the
+ * directions (it clamps the SH's negative half to 0). The looser of the two bounds: the
+ * SH's own non-negativity, |b1| <= b0 / sqrt(3), would cut a g 0.7 lobe's b1 (sqrt(3) g b0). */
+static void bound_band1(float *b)
+{
+    double n = sqrt((double)b[1] * b[1] + (double)b[2] * b[2] + (double)b[3] * b[3]), cap = sqrt(3.0) * b[0];
+    int l;
+    if (n > cap)
+        for (l = 1; l < 4; l++) b[l] = cap > 0.0 ? (float)(b[l] * (cap / n)) : 0.0f;
+}
+
+/* J_ms less the emission scattered once (je, laid out as g->j), per cell and channel: band 0
+ * is the light, which cannot go below zero; band 1, its direction, is kept within what the
+ * remaining band 0 allows. */
+static void subtract_emission(const coarse_grid *g, float *ms, const float *je)
+{
+    size_t q;
+    int l;
+    for (q = 0; q < 3 * g->n; q++) {
+        float *b = ms + q * g->nb;
+        const float *e = je + q * g->nb;
+        b[0] = b[0] > e[0] ? b[0] - e[0] : 0.0f;
+        for (l = 1; l < g->nb; l++) b[l] -= e[l];
+        if (g->nb > 1) bound_band1(b);
+    }
 }
 
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
@@ -286,7 +378,8 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         /* The emission scattered once: one gather with the emission alone as the source.
          * It is in J_2 (the first order gathers sigma J_1 + emission), but Cycles counts it
          * as direct light (docs/design-notes.md, "Passes"): it is taken out of J_ms below
-         * and written into the single-scattering band 0, so the view puts it in VolumeDir. */
+         * and written into the single-scattering bands 0 (and 1, with the phase on the
+         * orders), so the view puts it in VolumeDir. */
         if ((st = gather(&g, &job, &tiles, SOURCE_EMISSION))) goto done;
         memcpy(je, g.next, sizeof(float) * 3 * nb * g.n);
     }
@@ -308,18 +401,10 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         if (k > 0 && sum <= tolerance * (tail_sum += sum, tail_sum)) break;
         if (k == 0) tail_sum = sum;
     }
-    /* close the series with the geometric tail of the last two orders */
-    if (stats->orders >= 2 && prev_sum > 0.0) {
-        double r = last_sum / prev_sum, f;
-        if (r > 0.95) r = 0.95;
-        f = r / (1.0 - r);
-        for (i = 0; i < 3 * nb * g.n; i++) ms[i] += (float)(f * g.j[i]);
-        stats->tail = tail_sum > 0.0 ? f * last_sum / (tail_sum + f * last_sum) : 0.0;
-    }
-    if (je)
-        for (i = 0; i < 3 * nb * g.n; i++)
-            /* band 0 is the light, which cannot go below zero; band 1 its direction */
-            ms[i] = i % nb ? ms[i] - je[i] : ms[i] > je[i] ? ms[i] - je[i] : 0.0f;
+    /* close the series with each band's geometric tail from the last two orders */
+    if (stats->orders >= 2 && prev_sum > 0.0)
+        stats->tail = close_series(&g, ms, last_sum, prev_sum, tail_sum, anisotropy);
+    if (je) subtract_emission(&g, ms, je);
     /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), each of
      * bands 0 (and 1)'s coefficients in turn: the emission scattered once onto the single
      * scattering, J_ms onto the multiple */

@@ -15,16 +15,18 @@
  * each march stepping one cell with sigma_t and sigma J taken trilinearly, J evaluated at
  * the cells toward -w (negative values of the truncated SH clamped to 0: with bands 0-1
  * one gather pass per direction, so every pass reads 4 floats per cell as the isotropic
- * one does), stopping where the transmittance is below 1e-3 or the ray leaves the grid. Orders are
- * added until one adds less than `tolerance` of the sum (band 0), or `max_orders`; the
- * rest is closed with the geometric tail of the last two orders' ratio (below albedo < 1,
- * so it converges). Phase: with anisotropy 0 every J is isotropic (band 0 only, the
- * cheaper march); else bands 0-1 carry the forward scattering order after order (the
- * option's isotropic form measured 18.2% on cloud128_interior, g 0.5, against 9.4% with
- * it: docs/methods/crm.md). J_ms = sum over k >= 2 of J_k is written into the fine nodes'
- * order-2 multiple-scattering SH — less the emission scattered once (the first order's
- * gather of the emission alone), which is added to the single-scattering bands instead:
- * Cycles counts it as direct light (VolumeDir), docs/design-notes.md "Passes". */
+ * one does; the emission alone, isotropic, takes one pass), stopping where the
+ * transmittance is below 1e-3 or the ray leaves the grid. Orders are added until one adds
+ * less than `tolerance` of the sum (band 0), or `max_orders`; the rest is closed with each
+ * band's geometric tail from its own ratio of the last two orders (band 0's below albedo
+ * < 1, so it converges; band 1's at most band 0's: crm_orders.c). Phase: with anisotropy 0
+ * every J is isotropic (band 0 only, the cheaper march); else bands 0-1 carry the forward
+ * scattering order after order (the option's isotropic form measured 18.2% on
+ * cloud128_interior, g 0.5, against 9.4% with it: docs/methods/crm.md). J_ms = sum over
+ * k >= 2 of J_k is written into the fine nodes' order-2 multiple-scattering SH — less the
+ * emission scattered once (the first order's gather of the emission alone), which is added
+ * to the single-scattering bands instead: Cycles counts it as direct light (VolumeDir),
+ * docs/design-notes.md "Passes". */
 #ifndef VSD_CRM_ORDERS_H
 #define VSD_CRM_ORDERS_H
 #include <stdint.h>
