@@ -1,14 +1,18 @@
 /* test_lbl_lattice.c — the two lighting passes of method `lbl` against physics:
  *   1. one lattice-Boltzmann step conserves the photons when nothing is absorbed
  *      (albedo 1; also with cell_light "path"), and loses exactly the absorbed part
- *      albedo < 1 says;
+ *      albedo < 1 says (with the paper's cell light and with the path); with an
+ *      anisotropic phase and the path, one node's outflow is the series of in-cell
+ *      collisions it sums in closed form (the first collision's exits by quadrature over
+ *      where it happened), in cubic cells and in cells shaped as boxes;
  *   2. the steady state in a homogeneous absorbing medium, far from the boundary, is the
  *      infinite-medium balance sum_i f_i = S / ((1 - albedo) p) with the paper's cell light
  *      (counted at the faces: x / p times the true fluence, x = sigma lambda); with the
  *      photons' path through the cell (cell_light "path") it is the true fluence,
- *      S / ((1 - albedo) x), for thin and thick cells;
+ *      S / ((1 - albedo) x), for thin and thick cells and for cells shaped as boxes;
  *   3. the marching pass's transmittance in a homogeneous box along an axis is
- *      Beer-Lambert's exp(-sigma depth) at every cell centre;
+ *      Beer-Lambert's exp(-sigma depth) at every cell centre, and the power its rays lose
+ *      sums down a column to exactly 1 - T through the box (sigma T in each thin cell);
  *   4. an oblique light through the same box agrees with the exact path length to the
  *      box's face;
  *   5. the paper's blocked lattice (4^3 blocks, interface buffers) conserves photons,
@@ -34,6 +38,26 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* A photon that arrived through a cell's face and collided inside (optical depth x): the
+ * probability that, scattered on (forward), back or sideways along the lattice's axes, it
+ * leaves the cell before it collides again — by quadrature over where it collided, an
+ * independent check of lbl_lattice.c's closed forms. */
+static void first_exits(double x, double exits[3])
+{
+    const int steps = 20000;
+    double norm = 0.0, fw = 0.0, bw = 0.0;
+    int k;
+    for (k = 0; k < steps; k++) {
+        double s = (k + 0.5) / steps, w = exp(-x * s);   /* collided at depth s (density x e^-xs) */
+        norm += w;
+        fw += w * exp(-x * (1.0 - s));
+        bw += w * exp(-x * s);
+    }
+    exits[0] = fw / norm;
+    exits[1] = bw / norm;
+    exits[2] = (1.0 - exp(-x)) / x;   /* sideways: across a uniform position in the cell */
+}
+
 static void test_conservation(void)
 {
     const int32_t res[3] = {8, 8, 8};
@@ -54,7 +78,7 @@ static void test_conservation(void)
                 for (i = 0; i < 6; i++)
                     for (ch = 0; ch < 3; ch++) l.f[((size_t)i * 3 + ch) * 512 + (z * 8 + y) * 8 + x] = (float)test_urand(&rng);
     before = vsd_lbl_lattice_total(&l, 0);
-    vsd_lbl_lattice_step(&l, collide, ones, NULL);
+    vsd_lbl_lattice_steps(&l, collide, ones, NULL, 1);
     after = vsd_lbl_lattice_total(&l, 0);
     printf("[1] albedo 1: photons %.6f -> %.6f\n", before, after);
     CHECK_MSG(fabs(after - before) <= 1e-5 * before, "albedo 1 step: %.7g -> %.7g", before, after);
@@ -65,7 +89,7 @@ static void test_conservation(void)
         for (i = 0; i < 6; i++) s += l.f[((size_t)i * 3 + 1) * 512 + c];
         absorbed += 0.5 * collide[c] * s;
     }
-    vsd_lbl_lattice_step(&l, collide, half, NULL);
+    vsd_lbl_lattice_steps(&l, collide, half, NULL, 1);
     after = vsd_lbl_lattice_total(&l, 1);
     printf("[1] albedo 0.5: photons %.6f -> %.6f, absorbed %.6f\n", before, after, absorbed);
     CHECK_MSG(fabs(before - absorbed - after) <= 1e-5 * before, "albedo 0.5 step: %.7g - %.7g != %.7g", before,
@@ -79,16 +103,120 @@ static void test_conservation(void)
                 for (i = 0; i < 6; i++) l.f[((size_t)i * 3) * 512 + (z * 8 + y) * 8 + x] = (float)test_urand(&rng);
     vsd_lbl_lattice_set_cell_light(&l, VSD_LBL_CELL_PATH);
     before = vsd_lbl_lattice_total(&l, 0);
-    vsd_lbl_lattice_step(&l, collide, ones, NULL);
+    vsd_lbl_lattice_steps(&l, collide, ones, NULL, 1);
     after = vsd_lbl_lattice_total(&l, 0);
     printf("[1] albedo 1, path in the cell: photons %.6f -> %.6f\n", before, after);
     CHECK_MSG(fabs(after - before) <= 1e-5 * before, "albedo 1 step, path: %.7g -> %.7g", before, after);
+    /* albedo 0.5 with the path: of what the first collision scatters toward each
+     * direction, its exit probability (first_exits) leaves the cell; the rest collides
+     * there again, scatters with the albedo and, born anywhere, leaves with
+     * esc = e / (1 - albedo (1 - e)) (e = p / x); what does not leave is absorbed */
+    before = vsd_lbl_lattice_total(&l, 0);
+    absorbed = 0.0;
+    for (c = 0; c < 512; c++) {
+        double x = -log(1.0 - collide[c]), e = collide[c] / x, esc = e / (1.0 - 0.5 * (1.0 - e)), exits[3], out = 0.0,
+               again = 0.0, s = 0.0;
+        first_exits(x, exits);
+        for (i = 0; i < 6; i++) s += l.f[((size_t)i * 3) * 512 + c];
+        for (i = 0; i < 6; i++)
+            for (ch = 0; ch < 6; ch++) {   /* from direction ch toward i, isotropic: a sixth each */
+                double born = 0.5 * collide[c] * l.f[((size_t)ch * 3) * 512 + c] / 6.0,
+                       exit = i == ch ? exits[0] : (i ^ 1) == ch ? exits[1] : exits[2];
+                out += born * exit;
+                again += born * (1.0 - exit);
+            }
+        absorbed += collide[c] * s - out - esc * 0.5 * again;
+    }
+    vsd_lbl_lattice_steps(&l, collide, half, NULL, 1);
+    after = vsd_lbl_lattice_total(&l, 0);
+    printf("[1] albedo 0.5, path in the cell: photons %.6f -> %.6f, absorbed %.6f\n", before, after, absorbed);
+    CHECK_MSG(fabs(before - absorbed - after) <= 1e-5 * before, "albedo 0.5 step, path: %.7g - %.7g != %.7g", before,
+              absorbed, after);
+    vsd_lbl_lattice_free(&l);
+}
+
+/* The anisotropic step with the path in the cell, one node against the series it sums, in
+ * a cell of the given shape (each axis's edge over the cube-equivalent edge): a photon
+ * moving along axis a crosses x_a = x shape[a] (x = -ln(1 - p)) and passes with e^-x_a;
+ * what the first collision scatters from j toward i, albedo p_a(j) P_ij f_j, leaves the cell
+ * with its exit probability (first_exits of x along i's axis); the rest collides again, and
+ * each later generation B (born anywhere, with the phase) leaves along i with e_i, the rest
+ * colliding again: e o sum_k (albedo P D)^k B, D = 1 - e — summed here term by term with P
+ * as a 6x6 matrix. The step streams node c's post-collision populations to its six
+ * neighbours, where they are read back. */
+static void test_in_cell_phase(const double shape[3], const char *label)
+{
+    const int32_t res[3] = {5, 5, 5};
+    const size_t n = 125, centre = (2 * 5 + 2) * 5 + 2;
+    const float forward = 0.62f, backward = 0.04f, side = 0.085f, albedo[3] = {0.97f, 0.6f, 1.0f};
+    const size_t neighbour[6] = {centre + 1, centre - 1, centre + 5, centre - 5, centre + 25, centre - 25};
+    float collide[125], f[6];
+    double P[6][6];
+    vsd_lbl_lattice l;
+    unsigned long long rng = 11;
+    int i, j, k, ch;
+    memset(&l, 0, sizeof l);
+    CHECK(vsd_lbl_lattice_init(&l, res, NULL, NULL, 0) == VSD_OK);
+    if (!l.f) return;
+    vsd_lbl_lattice_set_phase(&l, forward, backward, side);
+    vsd_lbl_lattice_set_cell_light(&l, VSD_LBL_CELL_PATH);
+    vsd_lbl_lattice_set_cell_shape(&l, shape);
+    for (i = 0; i < 6; i++)
+        for (j = 0; j < 6; j++) P[i][j] = i == j ? forward : (i ^ 1) == j ? backward : side;
+    for (i = 0; i < (int)n; i++) collide[i] = 0.95f;   /* x = 3: most born light collides in the cell again */
+    for (i = 0; i < 6; i++) f[i] = (float)(0.1 + test_urand(&rng));
+    for (ch = 0; ch < 3; ch++)
+        for (i = 0; i < 6; i++) l.f[((size_t)i * 3 + ch) * n + centre] = f[i];
+    vsd_lbl_lattice_steps(&l, collide, albedo, NULL, 1);
+    for (ch = 0; ch < 3; ch++) {
+        const double x = -log(1.0 - collide[centre]);
+        double pa[6], e[6], exits[6][3], born[6], again[6], sum[6], worst = 0.0;
+        for (i = 0; i < 6; i++) {
+            const double xa = x * shape[i / 2];
+            pa[i] = 1.0 - exp(-xa);
+            e[i] = pa[i] / xa;
+            first_exits(xa, exits[i]);
+            sum[i] = 0.0;
+        }
+        for (i = 0; i < 6; i++) {
+            again[i] = 0.0;
+            for (j = 0; j < 6; j++) {
+                double b = albedo[ch] * pa[j] * P[i][j] * f[j];
+                double exit = i == j ? exits[i][0] : (i ^ 1) == j ? exits[i][1] : e[i];
+                sum[i] += b * exit;
+                again[i] += b * (1.0 - exit);
+            }
+        }
+        for (i = 0; i < 6; i++) {
+            born[i] = 0.0;
+            for (j = 0; j < 6; j++) born[i] += albedo[ch] * P[i][j] * again[j];
+        }
+        for (k = 0; k < 400; k++) {   /* albedo (1 - e) <= 0.69: the terms fall below 1e-60 */
+            double next[6];
+            for (i = 0; i < 6; i++) sum[i] += e[i] * born[i];
+            for (i = 0; i < 6; i++) {
+                next[i] = 0.0;
+                for (j = 0; j < 6; j++) next[i] += albedo[ch] * P[i][j] * (1.0 - e[j]) * born[j];
+            }
+            memcpy(born, next, sizeof born);
+        }
+        for (i = 0; i < 6; i++) {
+            double want = (1.0 - pa[i]) * f[i] + sum[i], got = l.f[((size_t)i * 3 + ch) * n + neighbour[i]];
+            worst = fmax(worst, fabs(got - want) / want);
+        }
+        printf("[1] anisotropic step, path in the cell, %s, albedo %.2f: worst relative difference from the series "
+               "%.2g\n",
+               label, albedo[ch], worst);
+        CHECK_MSG(worst < 1e-5, "%s, albedo %.2f: the step's outflow differs from the in-cell series by %.3g", label,
+                  albedo[ch], worst);
+    }
     vsd_lbl_lattice_free(&l);
 }
 
 /* The steady state in a homogeneous absorbing medium far from the boundary: D3Q6's
  * sum_i f_i = S / ((1 - albedo) p), D3Q18's balance of lbl_d3q18.h. */
-static void test_infinite_medium(const vsd_lbl_layout *layout, int cell_light, float p, const char *label)
+static void test_infinite_medium(const vsd_lbl_layout *layout, int cell_light, float p, const double *shape,
+                                 const char *label)
 {
     const int32_t res[3] = {33, 33, 33};
     const size_t n = 33 * 33 * 33, centre = (16 * 33 + 16) * 33 + 16;
@@ -107,6 +235,7 @@ static void test_infinite_medium(const vsd_lbl_layout *layout, int cell_light, f
     }
     CHECK(vsd_lbl_lattice_init(&l, res, layout, NULL, 0) == VSD_OK);
     vsd_lbl_lattice_set_cell_light(&l, cell_light);
+    vsd_lbl_lattice_set_cell_shape(&l, shape);
     CHECK(vsd_lbl_diffuse(&l, collide, albedo, source, 1e-7, 20000, 0, fluence, &st, NULL, 0) == VSD_OK);
     printf("%s infinite medium: %d steps (converged %d), centre fluence %.5f %.5f %.5f\n", label, st.steps,
            st.converged, fluence[centre], fluence[n + centre], fluence[2 * n + centre]);
@@ -127,7 +256,7 @@ static void test_infinite_medium(const vsd_lbl_layout *layout, int cell_light, f
 }
 
 /* a 16^3 box of sigma 2 per world unit, cells of 1/16 world unit (identity-like grid) */
-static void march_box(const float light_dir[3], float *trans, int32_t *records)
+static void march_box(const float light_dir[3], float *trans, float *lost, int32_t *records)
 {
     static float sigma[16 * 16 * 16];
     vsd_lbl_grid g;
@@ -142,18 +271,19 @@ static void march_box(const float light_dir[3], float *trans, int32_t *records)
     g.sigma = sigma;
     memset(g.to_grid, 0, sizeof g.to_grid);
     g.to_grid[0] = g.to_grid[4] = g.to_grid[8] = 16.0;   /* 16 cells per world unit */
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, NULL, 0, 0.5f, 0.25f, records, 0, trans, NULL, NULL, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, NULL, 0, 0.5f, 0.25f, records, 0, trans, lost, NULL, NULL, NULL, 0) ==
+          VSD_OK);
 }
 
 static void test_march(void)
 {
-    static float trans[4096];
+    static float trans[4096], lost[4096];
     static int32_t records[4096];
     const float down[3] = {0.0f, 0.0f, 1.0f};   /* the light is above: rays travel along -z */
     const float oblique[3] = {0.6f, 0.0f, 0.8f};
-    double worst = 0.0;
+    double worst = 0.0, worst_column = 0.0, worst_rate = 0.0;
     int x, y, z;
-    march_box(down, trans, records);
+    march_box(down, trans, lost, records);
     /* interior cells (the box's sigma is trilinear between cell centres, so the outer half
      * cell tapers to 0): depth below the top face's last centre plus the tapered half cell,
      * [15.5, 16], whose sigma averages 3/4 of the box's: 0.375 cells */
@@ -166,10 +296,28 @@ static void test_march(void)
             }
     printf("[3] axis-aligned light: worst relative error of T against Beer-Lambert %.4f\n", worst);
     CHECK_MSG(worst < 0.005, "marching T off by %.4f", worst);
+    /* the lost power: down an interior column, what the rays lost (over E V) sums to the
+     * column's cross-section over V, 16 per world unit, times 1 - T through the box (the
+     * optical depth 15.75 cells of sigma 2 / 16, the tapered halves as above); in a thin
+     * cell it is sigma T at its centre */
+    for (y = 2; y < 14; y++)
+        for (x = 2; x < 14; x++) {
+            double column = 0.0, want = 16.0 * (1.0 - exp(-2.0 * 15.75 / 16.0));
+            for (z = 0; z < 16; z++) column += lost[(z * 16 + y) * 16 + x];
+            worst_column = fmax(worst_column, fabs(column - want) / want);
+            for (z = 2; z < 14; z++) {
+                const int c = (z * 16 + y) * 16 + x;
+                worst_rate = fmax(worst_rate, fabs(lost[c] / (2.0 * trans[c]) - 1.0));
+            }
+        }
+    printf("[3] axis-aligned light, lost power: worst column against 1 - T %.5f, worst cell against sigma T %.4f\n",
+           worst_column, worst_rate);
+    CHECK_MSG(worst_column < 1e-3, "the lost power of a column is off its 1 - T by %.4f", worst_column);
+    CHECK_MSG(worst_rate < 0.01, "the lost power of a thin cell is off sigma T by %.4f", worst_rate);
     /* oblique: from a cell centre back toward the light the ray leaves through the top
      * face after (16 - zc) / 0.8 cells, through the +x side after (16 - xc) / 0.6; cells
      * clearly on the top's side: depth (15.5 - zc + 0.375) / 0.8 cells (the taper as above) */
-    march_box(oblique, trans, records);
+    march_box(oblique, trans, lost, records);
     worst = 0.0;
     for (z = 1; z < 15; z++)
         for (y = 2; y < 14; y++)
@@ -208,12 +356,12 @@ static void test_blocked_conservation(void)
                 source[(z * 10 + y) * 10 + x] = (float)test_urand(&rng);
                 injected += 2.0 * source[(z * 10 + y) * 10 + x];   /* injected at both steps */
             }
-    vsd_lbl_lattice_step(&l, collide, ones, source);
+    vsd_lbl_lattice_steps(&l, collide, ones, source, 1);
     after = vsd_lbl_lattice_total(&l, 0);
     printf("[5] blocked, 2 steps per exchange: injected %.6f, in lattice and buffers %.6f\n", injected, after);
     CHECK_MSG(fabs(after - injected) <= 1e-5 * injected, "blocked injection: %.7g of %.7g", after, injected);
     before = after;
-    vsd_lbl_lattice_step(&l, collide, ones, NULL);
+    vsd_lbl_lattice_steps(&l, collide, ones, NULL, 1);
     after = vsd_lbl_lattice_total(&l, 0);
     printf("[5] blocked, albedo 1, no source: %.6f -> %.6f\n", before, after);
     CHECK_MSG(fabs(after - before) <= 1e-5 * before, "blocked albedo 1 step: %.7g -> %.7g", before, after);
@@ -319,9 +467,9 @@ static void test_d3q18(void)
                 source[(z * 10 + y) * 10 + x] = (float)test_urand(&rng);
                 injected += source[(z * 10 + y) * 10 + x];
             }
-    vsd_lbl_lattice_step(&l, collide, ones, source);
+    vsd_lbl_lattice_steps(&l, collide, ones, source, 1);
     before = vsd_lbl_lattice_total(&l, 0);
-    vsd_lbl_lattice_step(&l, collide, ones, NULL);
+    vsd_lbl_lattice_steps(&l, collide, ones, NULL, 1);
     after = vsd_lbl_lattice_total(&l, 0);
     printf("[7] D3Q18: injected %.6f, after one step %.6f, after another (albedo 1) %.6f\n", injected, before, after);
     CHECK_MSG(fabs(before - injected) <= 1e-5 * injected, "D3Q18 injection: %.7g of %.7g", before, injected);
@@ -379,12 +527,12 @@ static void test_leaps(void)
     double t_with, t_without;
     CHECK(vsd_lbl_empty_distance(g.res, ball_sigma, records, 0, d2));
     t_without = vsd_clock_seconds();
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, without[0], without[1], NULL, NULL, 0) ==
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, without[0], NULL, without[1], NULL, NULL, 0) ==
           VSD_OK);
     t_without = vsd_clock_seconds() - t_without;
     g.empty_d2 = d2;
     t_with = vsd_clock_seconds();
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, with[0], with[1], NULL, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, with[0], NULL, with[1], NULL, NULL, 0) == VSD_OK);
     t_with = vsd_clock_seconds() - t_with;
     printf("[8] leaps over empty cells: %d records, T identical: directional %s, point %s; %.3f s -> %.3f s\n", rec,
            memcmp(with[0], without[0], (size_t)rec * sizeof(float)) ? "NO" : "yes",
@@ -417,10 +565,11 @@ typedef struct overlap_probe {
 
 static void probe_during(void *user) { ((overlap_probe *)user)->during_calls++; }
 
-static void probe_deposit(void *user, int light, size_t cell, int32_t rec, float t)
+static void probe_deposit(void *user, int light, size_t cell, int32_t rec, float t, float lost)
 {
     overlap_probe *p = user;
     (void)cell;
+    (void)lost;
     if (light < 0 || light > 1 || rec < 0 || rec >= p->records) {
         p->bad_light++;
         return;
@@ -442,7 +591,7 @@ static void test_overlap(void)
     int once = 1;
     CHECK(vsd_lbl_empty_distance(g.res, ball_sigma, ball_records, 0, d2));
     g.empty_d2 = d2;
-    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, seq[0], seq[1], NULL, NULL,
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, seq[0], NULL, seq[1], NULL, NULL,
                                0) == VSD_OK);
     memset(&p, 0, sizeof p);
     p.seen = calloc(2 * (size_t)rec, 1);
@@ -456,7 +605,7 @@ static void test_overlap(void)
     ov.rounds = 0;
     CHECK(p.seen != NULL);
     if (!p.seen) return;
-    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, rounds[0], rounds[1], &ov,
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, rounds[0], NULL, rounds[1], &ov,
                                NULL, 0) == VSD_OK);
     for (i = 0; i < rec; i++) {
         worst = fmax(worst, fabs(rounds[0][i] - seq[0][i]) / fmax(seq[0][i], 1e-3));
@@ -473,7 +622,7 @@ static void test_overlap(void)
     CHECK_MSG(worst < 1e-5, "rounds changed T by %.3g relative to the sequential march", worst);
     /* a history of 0 is not a history */
     ov.history = 0;
-    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, rounds[0], rounds[1], &ov,
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, rounds[0], NULL, rounds[1], &ov,
                                NULL, 0) == VSD_ERR_INVALID);
     free(p.seen);
 }
@@ -535,17 +684,27 @@ int main(void)
     test_overlap();
     test_leaps();
     test_conservation();
-    test_infinite_medium(NULL, VSD_LBL_CELL_FACES, 0.6f, "[2] D3Q6, faces");
-    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.6f, "[2] D3Q6, path (x 0.92)");
-    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.3f, "[2] D3Q6, path (x 0.36)");
-    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.99f, "[2] D3Q6, path (x 4.6)");
+    {
+        static const double cubes[3] = {1.0, 1.0, 1.0}, boxes[3] = {1.6, 1.0, 1.0 / 1.6};
+        test_in_cell_phase(cubes, "cubic cells");
+        test_in_cell_phase(boxes, "cells 1.6 x 1 x 1/1.6");
+    }
+    test_infinite_medium(NULL, VSD_LBL_CELL_FACES, 0.6f, NULL, "[2] D3Q6, faces");
+    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.6f, NULL, "[2] D3Q6, path (x 0.92)");
+    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.3f, NULL, "[2] D3Q6, path (x 0.36)");
+    test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.99f, NULL, "[2] D3Q6, path (x 4.6)");
+    {
+        /* cells shaped as boxes: the same fluence, collisions per path being sigma whatever the axis */
+        static const double boxes[3] = {1.6, 1.0, 1.0 / 1.6};
+        test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.6f, boxes, "[2] D3Q6, path, cells 1.6 x 1 x 1/1.6 (x 0.92)");
+    }
     test_march();
     test_blocked_conservation();
     test_blocked_against_global();
     test_d3q18();
     {
         const vsd_lbl_layout q18 = {0, 1};
-        test_infinite_medium(&q18, VSD_LBL_CELL_FACES, 0.6f, "[7] D3Q18");
+        test_infinite_medium(&q18, VSD_LBL_CELL_FACES, 0.6f, NULL, "[7] D3Q18");
     }
     return test_finish("test_lbl_lattice");
 }

@@ -47,8 +47,11 @@
 #define PI_D 3.14159265358979323846
 #define LBL_MAX_SUB_LIGHTS 16
 
+/* the albedo of the emission's own solve: its light before any scattering */
+static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
+
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -58,6 +61,10 @@ static const char *const lbl_readout_names[] = {"isotropic", "phase", NULL};
 static const char *const lbl_phase_names[] = {"isotropic", "hg", NULL};
 /* in VSD_LBL_CELL_FACES.. order */
 static const char *const lbl_cell_light_names[] = {"faces", "path", NULL};
+enum { LBL_DEPOSIT_CENTRE, LBL_DEPOSIT_LOST };
+static const char *const lbl_deposit_names[] = {"centre", "lost", NULL};
+enum { LBL_SHAPE_CUBES, LBL_SHAPE_BOXES };
+static const char *const lbl_shape_names[] = {"cubes", "boxes", NULL};
 enum { LBL_PHASE_ISOTROPIC, LBL_PHASE_HG };
 enum { LBL_READOUT_ISOTROPIC, LBL_READOUT_PHASE };
 
@@ -108,6 +115,15 @@ static const vsd_option_spec lbl_option_rows[] = {
      "there leaving whole, or each photon's path through the cell, born light crossing the rest of it (global "
      "D3Q6 lattice; lbl_lattice.h, docs/methods/lbl.md)",
      offsetof(lbl_options, cell_light), 0, NULL},
+    {"light_deposit", VSD_OPT_CHOICE, 0, 0, LBL_DEPOSIT_CENTRE, lbl_deposit_names,
+     "marching: what a cell scatters out of a directional light's rays, the paper's albedo E T p lambda^2 with the "
+     "rays' T at its centre, or albedo E times the power the rays lost in it (exact for thick cells; lbl_march.h)",
+     offsetof(lbl_options, light_deposit), 0, NULL},
+    {"cell_shape", VSD_OPT_CHOICE, 0, 0, LBL_SHAPE_CUBES, lbl_shape_names,
+     "diffusion, with cell_light \"path\": every cell taken as the cube of its volume (as the paper's lattice), or as "
+     "the box it is, light crossing sigma times each axis's own edge (docs/methods/lbl.md, \"Cells that are not "
+     "cubes\")",
+     offsetof(lbl_options, cell_shape), 0, NULL},
     {"readout", VSD_OPT_CHOICE, 0, 0, LBL_READOUT_PHASE, lbl_readout_names,
      "view: the diffused light toward the eye, the paper's isotropic fluence / 4pi, or the phase function over the "
      "lattice's six directions (D3Q6 global lattice; lbl_readout.h)",
@@ -136,6 +152,7 @@ typedef struct lbl_state {
     float *ms6;                   /* [records][6][3] the populations as cone radiances, or NULL */
     float *ms_view;               /* [records][3] their light toward this view's eye */
     double cell_world;            /* edge of a cube of a cell's world volume */
+    double cell_shape[3];         /* each grid axis's cell edge (world) over cell_world */
     double g2w[16];               /* grid -> world (the record grid's world_to_grid inverted) */
     /* lighting */
     vsd_constellation_cache cc;   /* the environment's lights, kernel layout */
@@ -148,6 +165,7 @@ typedef struct lbl_state {
     float local_lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
     int local_count;
     float *light_trans;           /* [records * dir_count] */
+    float *light_lost;            /* [records * dir_count] the power the rays lost (lbl_march.h), or NULL */
     float *local_trans;           /* [records * local_count] transmittance times falloff */
     float *source;                /* [3][cells], or with source_dirs [6][3][cells] */
     int source_dirs;              /* the lattice scatters with the phase (lattice_phase "hg") */
@@ -182,6 +200,8 @@ static vsd_status lbl_create(void **state, const vsd_scene *scene, const void *o
 static void free_lighting(lbl_state *s)
 {
     free(s->light_trans);
+    free(s->light_lost);
+    s->light_lost = NULL;
     free(s->local_trans);
     s->local_trans = NULL;
     free(s->source);
@@ -224,6 +244,7 @@ static vsd_status grid_to_world(lbl_state *s, char *err, size_t errlen)
     if (!vsd_mat4_invert(m, s->g2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl: the volume's transform is singular");
     s->cell_world = cbrt(fabs(o[0] * (o[5] * o[10] - o[6] * o[9]) - o[1] * (o[4] * o[10] - o[6] * o[8]) +
                               o[2] * (o[4] * o[9] - o[5] * o[8])));
+    for (a = 0; a < 3; a++) s->cell_shape[a] = sqrt(o[a] * o[a] + o[4 + a] * o[4 + a] + o[8 + a] * o[8 + a]) / s->cell_world;
     return VSD_OK;
 }
 
@@ -335,14 +356,16 @@ static void light_shares(const lbl_state *s, int light, int32_t rec, float q[6])
 }
 
 /* Adds light k's first scattering at record rec (cell c), t its transmittance (times the
- * falloff for a point light), to the source: albedo E T p lambda^2, per direction or all
+ * falloff for a point light), to the source: albedo E T p lambda^2, or with lost power
+ * (light_deposit "lost", directional lights) albedo E lost lambda^3, per direction or all
  * directions alike. */
-static void add_deposit(lbl_state *s, const float albedo[3], int light, size_t c, int32_t rec, double t)
+static void add_deposit(lbl_state *s, const float albedo[3], int light, size_t c, int32_t rec, double t, double lost)
 {
     const size_t n = cell_count(s);
     const float *e = light < s->dir_count ? s->dir_lights + 8 * light + 4
                                           : s->local_lights + (size_t)VSD_KLIGHT_FLOATS * (light - s->dir_count) + 4;
-    const double w = t * s->collide[c] * s->cell_world * s->cell_world;
+    const double w = s->light_lost && isfinite(lost) ? lost * s->cell_world * s->cell_world * s->cell_world
+                                                      : t * s->collide[c] * s->cell_world * s->cell_world;
     int ch, i;
     if (!(w != 0.0)) return;
     if (!s->source_dirs) {
@@ -362,11 +385,12 @@ static void add_deposit(lbl_state *s, const float albedo[3], int light, size_t c
  * (1 - e^{-sigma lambda}) lambda^2, a beam of irradiance E T_k through a cell of
  * cross-section lambda^2, T_k at the centre), plus the emission, 4pi L_e lambda^3, a
  * sixth per direction.
- * T_k is the transmittance at the cell's centre. A beam entering the cell brings
- * T_k e^{x/2} (x = sigma lambda) and loses (1 - e^-x) of that; using the entering value
- * measured worse against the path tracer (smoke128 VolumeInd 11.7% -> 21.6%, smoke64 frame
- * 1 31.9% -> 21.7%): the lattice over-counts elsewhere and the two cancel on our smoke
- * (docs/methods/lbl.md). */
+ * T_k is the transmittance at the cell's centre (light_deposit "centre"): a beam entering
+ * the cell brings T_k e^{x/2} (x = sigma lambda) and loses (1 - e^-x) of that, so this is
+ * low by about x/2. With light_deposit "lost" the march's exact loss in the cell replaces
+ * T_k (1 - e^-x) lambda^2; it measured worse on the clouds, whose lattice keeps too much
+ * light near the lit surface (D3Q6's escape: docs/methods/lbl.md, "What a cell scatters
+ * out of the rays"). */
 static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
 {
     const size_t n = cell_count(s);
@@ -393,13 +417,16 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
         const float *t;
         int q;
         if (rec < 0) continue;
-        t = s->light_trans + (size_t)rec * s->dir_count;
+        /* with the lost power (light_deposit "lost") the rays' loss in the cell, else their
+         * T at its centre times the cell's collision probability */
+        t = (s->light_lost ? s->light_lost : s->light_trans) + (size_t)rec * s->dir_count;
         for (k = 0; k < s->dir_count; k++)
             for (q = 0; q < m3; q++) acc[q] += t[k] * qe[(size_t)k * m3 + q];
-        for (q = 0; q < m3; q++) s->source[(size_t)q * n + c] += (float)(acc[q] * s->collide[c] * area);
+        for (q = 0; q < m3; q++)
+            s->source[(size_t)q * n + c] += (float)(acc[q] * (s->light_lost ? area * s->cell_world : s->collide[c] * area));
         /* point and spot lights: their falloff is in local_trans */
         for (k = 0; k < s->local_count; k++)
-            add_deposit(s, albedo, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k]);
+            add_deposit(s, albedo, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k], NAN);
     }
     if (m->has_emission) {
         emission_source(s, ctx);
@@ -423,12 +450,11 @@ typedef struct overlap_ctx {
 static void diffuse_during_march(void *user)
 {
     overlap_ctx *o = user;
-    int i;
-    for (i = 0; i < LBL_STEPS_PER_ROUND; i++) vsd_lbl_lattice_step(&o->s->lattice, o->s->collide, o->albedo, o->s->source);
+    vsd_lbl_lattice_steps(&o->s->lattice, o->s->collide, o->albedo, o->s->source, LBL_STEPS_PER_ROUND);
     o->steps += LBL_STEPS_PER_ROUND;
 }
 
-static void deposit_record(void *user, int light, size_t c, int32_t rec, float t)
+static void deposit_record(void *user, int light, size_t c, int32_t rec, float t, float lost)
 {
     overlap_ctx *o = user;
     lbl_state *s = o->s;
@@ -437,7 +463,7 @@ static void deposit_record(void *user, int light, size_t c, int32_t rec, float t
         const float *l = s->local_lights + (size_t)VSD_KLIGHT_FLOATS * (light - s->dir_count), *x = s->rg.record_pos + 4 * (size_t)rec;
         w *= vsd_light_falloff(l, f3(x[0], x[1], x[2]));
     }
-    add_deposit(s, o->albedo, light, c, rec, w);
+    add_deposit(s, o->albedo, light, c, rec, w, lost);
 }
 
 /* The scene's point and spot lights into s->local_lights; *suns = how many suns it has (they
@@ -468,7 +494,6 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
     const size_t n = cell_count(s), recs = (size_t)s->rg.count;
     const double k = 6.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D);
     const float albedo[3] = {ctx->kd.medium.albedo.x, ctx->kd.medium.albedo.y, ctx->kd.medium.albedo.z};
-    static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
     size_t c;
     /* (g = 0: every cone weighs 1/6, the isotropic readout exactly: none needed) */
     if (s->opt.readout != LBL_READOUT_PHASE || layout->block_steps > 0 || layout->d3q18 || !s->lattice.f || recs == 0 ||
@@ -565,6 +590,9 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if (n == 0 || recs == 0) return VSD_OK;
     s->light_trans = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *s->light_trans);
     s->local_trans = calloc(recs * (size_t)(s->local_count > 0 ? s->local_count : 1), sizeof *s->local_trans);
+    if (s->opt.light_deposit == LBL_DEPOSIT_LOST &&
+        !(s->light_lost = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *s->light_lost)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lost power of %zu records", recs);
     /* the lattice's phase: with directions the source is per direction */
     s->source_dirs = s->opt.lattice_phase == LBL_PHASE_HG && ctx->kd.medium.anisotropy != 0.0f &&
                      layout.block_steps == 0 && !layout.d3q18;
@@ -592,6 +620,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     /* the lattice first: with a ray history it steps while the rays march */
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
     vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
+    vsd_lbl_lattice_set_cell_shape(&s->lattice, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
     if (s->source_dirs) {
         float f, b, sd;
         vsd_lbl_readout_lattice_phase(ctx->kd.medium.anisotropy, &f, &b, &sd);
@@ -624,7 +653,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         }
         if ((st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
                                        (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record,
-                                       ctx->threads, s->light_trans, s->local_trans,
+                                       ctx->threads, s->light_trans, s->light_lost, s->local_trans,
                                        s->opt.history > 0 ? &ov : NULL, err, errlen)))
             return st;
         s->history_rounds = s->opt.history > 0 ? ov.rounds : 0;
@@ -650,17 +679,17 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
          * (albedo 0), fed by the emission alone. Scattered toward the camera it is light
          * that scattered once: VolumeDir, as Cycles counts it (docs/design-notes.md,
          * "Passes"); the rest of the fluence scatters again before it gets there. */
-        static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
         vsd_lbl_diffusion_stats stats_e;
         if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, &layout, err, errlen))) return st;
         vsd_lbl_lattice_set_cell_light(&s->lattice_e, s->opt.cell_light);
+        vsd_lbl_lattice_set_cell_shape(&s->lattice_e, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
         if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
                                   s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))
             return st;
         s->diffusion.seconds += stats_e.seconds;
         s->emission_steps = stats_e.steps;
     }
-    /* VolumeInd's source per unit sigma_s: phi / 4pi, phi = sum_i f_i / lambda^2 (less the
+    /* VolumeInd's source per unit sigma_s: phi / 4pi, phi = the cell's photons / lambda^2 (less the
      * emission's unscattered fluence, VolumeDir's ms_dir) */
     for (c = 0; c < n; c++) {
         int32_t rec = s->rg.cell_record[c];

@@ -43,7 +43,7 @@ vsd_status vsd_lbl_blocked_init(vsd_lbl_blocked *b, const int32_t res[3], int bl
 void vsd_lbl_blocked_free(vsd_lbl_blocked *b);
 
 /* The material for the next iterations, in the caller's node order (x fastest): collide[c]
- * = p per node, source [3][cells] or NULL (as vsd_lbl_lattice_step). */
+ * = p per node, source [3][cells] or NULL (as vsd_lbl_lattice_steps). */
 vsd_status vsd_lbl_blocked_set_material(vsd_lbl_blocked *b, const float *collide, const float *source, char *err,
                                         size_t errlen);
 

@@ -24,6 +24,7 @@ vsd_status vsd_lbl_lattice_init(vsd_lbl_lattice *l, const int32_t res[3], const 
         memcmp(&l->layout, layout, sizeof *layout) == 0)
         return VSD_OK;
     vsd_lbl_lattice_free(l);
+    vsd_lbl_lattice_set_cell_shape(l, NULL);
     if (cells == 0) return VSD_OK;
     if (layout->block_steps > 0 && layout->d3q18)
         return vsd_fail(VSD_ERR_INVALID, err, errlen,
@@ -54,6 +55,12 @@ void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward
 
 void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light) { l->cell_light = cell_light; }
 
+void vsd_lbl_lattice_set_cell_shape(vsd_lbl_lattice *l, const double shape[3])
+{
+    int a;
+    for (a = 0; a < 3; a++) l->shape[a] = shape ? shape[a] : 1.0;
+}
+
 void vsd_lbl_lattice_free(vsd_lbl_lattice *l)
 {
     free(l->f);
@@ -67,72 +74,245 @@ typedef struct step_job {
     const float *collide, *source;
     float albedo[3];
     float *post;             /* [DIRS][CH][cells] */
-    float *gain;             /* [cells] scratch: what a node scatters into each direction */
-    float *esc;              /* [CH][cells] the share of the light born in a node's cell that leaves it (in_cell) */
+    float *gain;             /* [2][cells] scratch: per-node sums */
+    float *recollide;        /* [DIRS][cells] scratch (path in the cell): the first collision's light
+                                that collides in the cell again, then the next births' parts */
+    float *axes;             /* [AXIS_FIELDS][3][cells] (path in the cell): each node's cell_axes */
 } step_job;
 
-/* A photon born at a uniform point of a cell of optical depth x = sigma lambda (the
- * light a collision scatters, or the source) crosses the rest of the cell first: it
- * leaves with probability e = (1 - e^-x) / x, else collides there and, with the albedo,
- * is born again. So of what is born in the cell, esc = e / (1 - albedo (1 - e)) leaves it,
- * and each photon born there spends credit = ((1 - e) / x) / (1 - albedo (1 - e)) cells of
- * path in it; a photon arriving at a face spends e. Thin cells: e -> 1 - x/2, esc -> 1,
- * credit -> 1/2. (The paper's step lets what is born in a cell leave it whole, and counts
- * only the arriving photons; both are off by the order of x, which made VolumeInd darker the
- * coarser the lattice, and emission-lit media brighter: docs/methods/lbl.md, "A photon's
- * path through a cell".) */
-static void in_cell(const vsd_lbl_lattice *l, float p, float albedo, float *arriving, float *esc, float *credit)
+/* The light in a cell with its photons' path (cell_light "path"; the paper's step is the
+ * limit of thin cells). The cell's optical depth along axis a is x_a = sigma lambda_a
+ * (lambda_a its edge: cells are boxes, as long as the volume's box over `cells` per axis;
+ * vsd_lbl_lattice_set_cell_shape), p_a = 1 - e^-x_a, and a photon moving along a:
+ * - arriving at a face, passes with 1 - p_a, else collides;
+ * - collided at depth s from the face it came in by (density x_a e^-x_a s / p_a) and
+ *   scattered back, leaves through that face with E_b = (1 - e^-2x_a) / (2 p_a), scattered
+ *   on through the far face with E_f = x_a e^-x_a / p_a, and scattered onto another axis b
+ *   with e_b = p_b / x_b (its position across b is uniform). So in a thick cell what collides
+ *   near the face it came in by mostly goes back out of it: the lattice's walk slows to the
+ *   medium's diffusion (letting it leave every way alike, as the paper does, diffuses
+ *   x / (2 tanh(x / 2)) times too fast: 1.66x at x = 3);
+ * - what collides in the cell again (and the source) is taken as born at a uniform point:
+ *   toward an axis-b direction it leaves with e_b, else collides again (d_b = 1 - e_b) and
+ *   is born again with the phase P. Of such a birth B, E (I - albedo P D)^-1 B leaves (E, D
+ *   diagonal: e and d by each direction's axis). P keeps the vectors odd along an axis
+ *   (f_+ = -f_-) in place, times forward - backward, so that part divides by 1 - albedo
+ *   (forward - backward) d_b; on the even vectors (one value v_a per axis) P D is
+ *   (forward + backward - 2 side) d_a v_a + 2 side sum_b d_b v_b, a diagonal plus a rank
+ *   one, inverted by Sherman-Morrison (resolve_even).
+ * Every photon's path before it leaves or collides is its collision probability over sigma:
+ * in units of the cube-equivalent cell lambda = V^(1/3) (x = sigma lambda), a node's light
+ * toward k is (p_b f_k + (first collision's light toward k that stays) + d_b z_k) / x, z the
+ * births summed over the generations (vsd_lbl_lattice_node_means). Cubic cells: x_a = x.
+ * The paper's step lets what is born in a cell leave it whole and counts the arriving
+ * photons only; that is off by the order of x, which made VolumeInd darker the coarser the
+ * lattice, and emission-lit media brighter (docs/methods/lbl.md, "A photon's path through a
+ * cell"). */
+enum { AXIS_P = 0, AXIS_E = 1, AXIS_EF = 2, AXIS_EB = 3, AXIS_FIELDS = 4 };
+typedef struct cell_axes {
+    float x;                 /* sigma lambda, lambda the cube-equivalent edge */
+    float v[AXIS_FIELDS][3]; /* per axis: p, e, E_f, E_b */
+} cell_axes;
+
+/* The three shares of the lattice's phase: the set ones, or isotropic. */
+static void phase_shares(const vsd_lbl_lattice *l, float *forward, float *backward, float *side)
 {
-    float x, e, stay;
-    if (l->cell_light != VSD_LBL_CELL_PATH) {
-        *arriving = *esc = 1.0f;
-        *credit = 0.0f;
-        return;
+    if (l->anisotropic) {
+        *forward = l->forward, *backward = l->backward, *side = l->side;
+    } else {
+        *forward = *backward = *side = 1.0f / 6.0f;
     }
-    /* p = 1 - e^-x; in float p reaches 1 near x = 17.3 (2^-25), where the cell is opaque
-     * all the same: x is capped there so e stays continuous */
-    x = p < 1.0f ? fminf(-log1pf(-p), 17.3f) : 17.3f;
-    e = x > 1e-4f ? p / x : 1.0f - 0.5f * x;
-    stay = 1.0f / (1.0f - albedo * (1.0f - e));
-    *arriving = e;
-    *esc = e * stay;
-    *credit = (x > 1e-4f ? (1.0f - e) / x : 0.5f - x / 6.0f) * stay;
 }
 
-/* The anisotropic collision of nodes [c0, c0 + n): post_i = (1 - p) f_i + albedo p
- * (side sum_j f_j + (forward - side) f_i + (backward - side) f_opposite(i)) + S_i, the
- * cube's symmetry making P_ij one of three shares. */
-static void collide_anisotropic(step_job *j, size_t c0, size_t n)
+/* Cell c's axes from its cube-equivalent collision probability p = 1 - e^-x. */
+static void cell_axes_of(const vsd_lbl_lattice *l, float p, cell_axes *ca)
+{
+    /* in float p reaches 1 near x = 17.3 (2^-25), where the cell is opaque all the same: x
+     * is capped there so everything stays continuous */
+    const double x = p < 1.0f ? fmin(-log1p(-(double)p), 17.3) : 17.3;
+    int a;
+    ca->x = (float)x;
+    for (a = 0; a < 3; a++) {
+        const double xa = x * l->shape[a];
+        if (xa > 1e-3) {
+            const double pa = -expm1(-xa);
+            ca->v[AXIS_P][a] = (float)pa;
+            ca->v[AXIS_E][a] = (float)(pa / xa);
+            ca->v[AXIS_EF][a] = (float)(xa * exp(-xa) / pa);
+            ca->v[AXIS_EB][a] = (float)(-expm1(-2.0 * xa) / (2.0 * pa));
+        } else {   /* the series: every exit 1 - x_a/2 */
+            ca->v[AXIS_P][a] = (float)(xa - 0.5 * xa * xa);
+            ca->v[AXIS_E][a] = ca->v[AXIS_EF][a] = ca->v[AXIS_EB][a] = (float)(1.0 - 0.5 * xa);
+        }
+    }
+}
+
+/* collide_path's first collision toward the directions of one axis (k = +, k^1 = -) over n
+ * nodes (restrict: separate arrays, so the loop vectorises): g = p f per arriving direction
+ * (gp, gm this axis's, gsum all six), e/ef/eb this axis's exits; what leaves goes into q
+ * (after the photons that pass, f (1 - p)), what collides again into m and its sum into
+ * msum. */
+static void first_collision(size_t n, float a, float fw, float bw, float sd, const float *restrict fp,
+                            const float *restrict fm, const float *restrict pax, const float *restrict gsum,
+                            const float *restrict e, const float *restrict ef, const float *restrict eb,
+                            float *restrict qp, float *restrict qm, float *restrict mp, float *restrict mm,
+                            float *restrict msum)
+{
+    size_t c;
+    for (c = 0; c < n; c++) {
+        const float gp = pax[c] * fp[c], gm = pax[c] * fm[c], rest = a * sd * (gsum[c] - gp - gm);
+        const float fwd_p = a * fw * gp, back_p = a * bw * gm, fwd_m = a * fw * gm, back_m = a * bw * gp;
+        const float out_p = fwd_p * ef[c] + back_p * eb[c] + rest * e[c];
+        const float out_m = fwd_m * ef[c] + back_m * eb[c] + rest * e[c];
+        qp[c] = fp[c] - gp + out_p;
+        qm[c] = fm[c] - gm + out_m;
+        mp[c] = fwd_p + back_p + rest - out_p;
+        mm[c] = fwd_m + back_m + rest - out_m;
+        msum[c] += mp[c] + mm[c];
+    }
+}
+
+/* The next births along one axis: B = albedo P m + S, into its even and odd parts (over m's
+ * arrays: mp := (B_+ + B_-) / 2, mm := (B_+ - B_-) / 2). sp/sm the source per direction, or
+ * NULL: then s6 (a sixth of the isotropic source) both ways. */
+static void births_axis(size_t n, float a, float fw, float bw, float sd, const float *restrict msum,
+                        const float *restrict sp, const float *restrict sm, const float *restrict s6,
+                        float *restrict mp, float *restrict mm)
+{
+    size_t c;
+    if (!sp) sp = sm = s6;   /* (the same array both ways, read only) */
+    if (!sp) {
+        for (c = 0; c < n; c++) {
+            const float common = a * sd * msum[c];
+            const float bp = common + a * ((fw - sd) * mp[c] + (bw - sd) * mm[c]);
+            const float bm = common + a * ((fw - sd) * mm[c] + (bw - sd) * mp[c]);
+            mp[c] = 0.5f * (bp + bm);
+            mm[c] = 0.5f * (bp - bm);
+        }
+        return;
+    }
+    for (c = 0; c < n; c++) {
+        const float common = a * sd * msum[c];
+        const float bp = common + a * ((fw - sd) * mp[c] + (bw - sd) * mm[c]) + sp[c];
+        const float bm = common + a * ((fw - sd) * mm[c] + (bw - sd) * mp[c]) + sm[c];
+        mp[c] = 0.5f * (bp + bm);
+        mm[c] = 0.5f * (bp - bm);
+    }
+}
+
+/* Sherman-Morrison for the even parts: z_b = (y_b + K) / M_b, M_b = 1 - albedo (fw + bw -
+ * 2 sd) d_b, K = 2 albedo sd A / (1 - 2 albedo sd Bs), A = sum_b d_b y_b / M_b, Bs = sum_b
+ * d_b / M_b. Accumulates A and Bs of one axis (y its even part, e its exit) over n nodes. */
+static void even_sums(size_t n, float a_even, const float *restrict e, const float *restrict y, float *restrict as,
+                      float *restrict bs)
+{
+    size_t c;
+    for (c = 0; c < n; c++) {
+        const float d = 1.0f - e[c], w = d / (1.0f - a_even * d);
+        as[c] += w * y[c];
+        bs[c] += w;
+    }
+}
+
+/* What leaves along one axis: q_+- += e (z_even +- z_odd), z_even = (even + K) / M, z_odd =
+ * odd / (1 - albedo (fw - bw) d); k2 = 2 albedo sd. as/bs from even_sums. */
+static void leave_axis(size_t n, float a_even, float a_odd, float k2, const float *restrict e,
+                       const float *restrict even, const float *restrict odd, const float *restrict as,
+                       const float *restrict bs, float *restrict qp, float *restrict qm)
+{
+    size_t c;
+    for (c = 0; c < n; c++) {
+        const float d = 1.0f - e[c], k = k2 * as[c] / (1.0f - k2 * bs[c]);
+        const float ze = (even[c] + k) / (1.0f - a_even * d), zo = odd[c] / (1.0f - a_odd * d);
+        qp[c] += e[c] * (ze + zo);
+        qm[c] += e[c] * (ze - zo);
+    }
+}
+
+/* One channel's collision of nodes [c0, c0 + n) with the path in the cell (above): the
+ * photons that pass, the first collision's light that leaves, and what leaves of the later
+ * births (what collided again, and the source: per direction on an anisotropic lattice,
+ * else a sixth of it each way). */
+static void collide_path(step_job *j, int ch, size_t c0, size_t n)
 {
     const vsd_lbl_lattice *l = j->l;
     const size_t cells = l->cells;
-    const float fs = l->forward - l->side, bs = l->backward - l->side;
+    const float a = j->albedo[ch];
+    float fw, bw, sd;
+    float *sum1 = j->gain + c0, *sum2 = j->gain + cells + c0;
+    size_t c;
+    int i, axis;
+#define AX(field, axis) (j->axes + ((size_t)(field) * 3 + (axis)) * cells + c0)
+#define POP(arr, dir) ((arr) + ((size_t)(dir) * CH + ch) * cells + c0)
+    phase_shares(l, &fw, &bw, &sd);
+    /* sum1 := the collided light of all six directions, sum_i p_axis(i) f_i */
+    for (c = 0; c < n; c++) sum1[c] = sum2[c] = 0.0f;
+    for (i = 0; i < DIRS; i++) {
+        const float *f = POP(l->f, i), *pa = AX(AXIS_P, dir_axis[i]);
+        for (c = 0; c < n; c++) sum1[c] += pa[c] * f[c];
+    }
+    /* the first collision; sum2 := what of it collides again */
+    for (axis = 0; axis < 3; axis++)
+        first_collision(n, a, fw, bw, sd, POP(l->f, 2 * axis), POP(l->f, 2 * axis + 1), AX(AXIS_P, axis), sum1,
+                        AX(AXIS_E, axis), AX(AXIS_EF, axis), AX(AXIS_EB, axis), POP(j->post, 2 * axis),
+                        POP(j->post, 2 * axis + 1), j->recollide + (size_t)(2 * axis) * cells + c0,
+                        j->recollide + (size_t)(2 * axis + 1) * cells + c0, sum2);
+    /* the next births, even and odd per axis; sum1 := the isotropic source's sixth */
+    if (j->source && !l->anisotropic) {
+        const float *src = j->source + (size_t)ch * cells + c0;
+        for (c = 0; c < n; c++) sum1[c] = src[c] * (1.0f / 6.0f);
+    }
+    for (axis = 0; axis < 3; axis++)
+        births_axis(n, a, fw, bw, sd, sum2, j->source && l->anisotropic ? POP(j->source, 2 * axis) : NULL,
+                    j->source && l->anisotropic ? POP(j->source, 2 * axis + 1) : NULL,
+                    j->source && !l->anisotropic ? sum1 : NULL, j->recollide + (size_t)(2 * axis) * cells + c0,
+                    j->recollide + (size_t)(2 * axis + 1) * cells + c0);
+    /* what of them leaves: sum1, sum2 := Sherman-Morrison's A and Bs */
+    {
+        const float a_even = a * (fw + bw - 2.0f * sd), a_odd = a * (fw - bw), k2 = 2.0f * a * sd;
+        for (c = 0; c < n; c++) sum1[c] = sum2[c] = 0.0f;
+        for (axis = 0; axis < 3; axis++)
+            even_sums(n, a_even, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0, sum1, sum2);
+        for (axis = 0; axis < 3; axis++)
+            leave_axis(n, a_even, a_odd, k2, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0,
+                       j->recollide + (size_t)(2 * axis + 1) * cells + c0, sum1, sum2, POP(j->post, 2 * axis),
+                       POP(j->post, 2 * axis + 1));
+    }
+#undef AX
+#undef POP
+}
+
+/* The anisotropic collision of nodes [c0, c0 + n) with the paper's cell light: post_i =
+ * (1 - p) f_i + albedo p (side sum_j f_j + (forward - side) f_i + (backward - side)
+ * f_opposite(i)) + S_i, the cube's symmetry making P_ij one of three shares. */
+static void collide_anisotropic_faces(step_job *j, int ch, size_t c0, size_t n)
+{
+    const vsd_lbl_lattice *l = j->l;
+    const size_t cells = l->cells;
+    const float fs = l->forward - l->side, bs = l->backward - l->side, a = j->albedo[ch];
     float *gain = j->gain + c0;
     const float *p = j->collide + c0;
     size_t c;
-    int ch, i;
-    for (ch = 0; ch < CH; ch++) {
-        const float a = j->albedo[ch];
-        for (c = 0; c < n; c++) gain[c] = 0.0f;
-        for (i = 0; i < DIRS; i++) {
-            const float *f = l->f + ((size_t)i * CH + ch) * cells + c0;
-            for (c = 0; c < n; c++) gain[c] += f[c];
-        }
-        for (c = 0; c < n; c++) gain[c] *= l->side;
-        for (i = 0; i < DIRS; i++) {
-            const size_t o = ((size_t)i * CH + ch) * cells + c0, opp = ((size_t)(i ^ 1) * CH + ch) * cells + c0;
-            const float *f = l->f + o, *fo = l->f + opp;
-            const float *src = j->source ? j->source + o : NULL;
-            float *q = j->post + o;
-            const float *esc = j->esc + (size_t)ch * cells + c0;
-            for (c = 0; c < n; c++)
-                q[c] = (1.0f - p[c]) * f[c] + esc[c] * (a * p[c] * (gain[c] + fs * f[c] + bs * fo[c]) + (src ? src[c] : 0.0f));
-        }
+    int i;
+    for (c = 0; c < n; c++) gain[c] = 0.0f;
+    for (i = 0; i < DIRS; i++) {
+        const float *f = l->f + ((size_t)i * CH + ch) * cells + c0;
+        for (c = 0; c < n; c++) gain[c] += f[c];
+    }
+    for (c = 0; c < n; c++) gain[c] *= l->side;
+    for (i = 0; i < DIRS; i++) {
+        const size_t o = ((size_t)i * CH + ch) * cells + c0, opp = ((size_t)(i ^ 1) * CH + ch) * cells + c0;
+        const float *f = l->f + o, *fo = l->f + opp;
+        const float *src = j->source ? j->source + o : NULL;
+        float *q = j->post + o;
+        for (c = 0; c < n; c++)
+            q[c] = (1.0f - p[c]) * f[c] + a * p[c] * (gain[c] + fs * f[c] + bs * fo[c]) + (src ? src[c] : 0.0f);
     }
 }
 
-/* Collision of the nodes in slices [z0, z1): post = Theta f + S / 6. Loops run along the
- * nodes (contiguous per direction and channel) so the compiler vectorises them. */
+/* Collision of the nodes in slices [z0, z1): post = Theta f + S / 6 (the paper's
+ * isotropic step), or with the phase or the path in the cell. Loops run along the nodes
+ * (contiguous per direction and channel) so the compiler vectorises them. */
 static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
 {
     step_job *j = arg;
@@ -144,22 +324,23 @@ static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
     int ch, i;
     (void)y0;
     (void)y1;
-    if (j->l->anisotropic) {
-        collide_anisotropic(j, c0, n);
-        return;
-    }
     for (ch = 0; ch < CH; ch++) {
         const float a6 = j->albedo[ch] / 6.0f;
         const float *src = j->source ? j->source + (size_t)ch * cells + c0 : NULL;
+        if (j->l->cell_light == VSD_LBL_CELL_PATH) {
+            collide_path(j, ch, c0, n);
+            continue;
+        }
+        if (j->l->anisotropic) {
+            collide_anisotropic_faces(j, ch, c0, n);
+            continue;
+        }
         for (c = 0; c < n; c++) gain[c] = 0.0f;
         for (i = 0; i < DIRS; i++) {
             const float *f = j->l->f + ((size_t)i * CH + ch) * cells + c0;
             for (c = 0; c < n; c++) gain[c] += f[c];
         }
-        {
-            const float *esc = j->esc + (size_t)ch * cells + c0;
-            for (c = 0; c < n; c++) gain[c] = esc[c] * (a6 * p[c] * gain[c] + (src ? src[c] * (1.0f / 6.0f) : 0.0f));
-        }
+        for (c = 0; c < n; c++) gain[c] = a6 * p[c] * gain[c] + (src ? src[c] * (1.0f / 6.0f) : 0.0f);
         for (i = 0; i < DIRS; i++) {
             const size_t o = ((size_t)i * CH + ch) * cells + c0;
             const float *f = j->l->f + o;
@@ -213,26 +394,31 @@ static vsd_status run_step(step_job *job, int threads)
     return st ? st : vsd_cpu_run_items(job->l->res[2], threads, stream_slices, job, "lbl diffusion");
 }
 
-/* A step job over l with its scratch (post-collision populations, per-node gain); 0 when
- * that scratch could not be allocated (step_job_free in either case). */
+/* A step job over l with its scratch (post-collision populations, per-node sums) and, with
+ * the path in the cell, each node's cell_axes; 0 when that could not be allocated
+ * (step_job_free in either case). */
 static int step_job_init(step_job *job, vsd_lbl_lattice *l, const float *collide, const float albedo[3],
                          const float *source)
 {
-    int c;
+    const size_t cells = l->cells;
+    size_t n;
+    int c, k, a;
     job->l = l;
     job->collide = collide;
     job->source = source;
     for (c = 0; c < CH; c++) job->albedo[c] = albedo[c];
-    job->post = malloc(l->cells * DIRS * CH * sizeof *job->post);
-    job->gain = malloc(l->cells * sizeof *job->gain);
-    job->esc = malloc(l->cells * CH * sizeof *job->esc);
-    if (!job->post || !job->gain || !job->esc) return 0;
-    for (c = 0; c < CH; c++) {
-        size_t n;
-        for (n = 0; n < l->cells; n++) {
-            float arriving, credit;
-            in_cell(l, collide[n], albedo[c], &arriving, job->esc + (size_t)c * l->cells + n, &credit);
-        }
+    job->post = malloc(cells * DIRS * CH * sizeof *job->post);
+    job->gain = malloc(2 * cells * sizeof *job->gain);
+    if (!job->post || !job->gain) return 0;
+    if (l->cell_light != VSD_LBL_CELL_PATH) return 1;
+    job->recollide = malloc(cells * DIRS * sizeof *job->recollide);
+    job->axes = malloc(cells * 3 * AXIS_FIELDS * sizeof *job->axes);
+    if (!job->recollide || !job->axes) return 0;
+    for (n = 0; n < cells; n++) {
+        cell_axes ca;
+        cell_axes_of(l, collide[n], &ca);
+        for (k = 0; k < AXIS_FIELDS; k++)
+            for (a = 0; a < 3; a++) job->axes[((size_t)k * 3 + a) * cells + n] = ca.v[k][a];
     }
     return 1;
 }
@@ -241,7 +427,8 @@ static void step_job_free(step_job *job)
 {
     free(job->post);
     free(job->gain);
-    free(job->esc);
+    free(job->recollide);
+    free(job->axes);
 }
 
 /* Ready lattice l (whichever layout) for steps with this material: the global lattice's
@@ -268,11 +455,14 @@ static vsd_status advance(vsd_lbl_lattice *l, step_job *job, const float albedo[
     return run_step(job, threads);
 }
 
-void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source)
+void vsd_lbl_lattice_steps(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
+                           int steps)
 {
     step_job job;
+    int k;
     memset(&job, 0, sizeof job);
-    if (allocated(l) && prepare(l, &job, collide, albedo, source, NULL, 0) == VSD_OK) advance(l, &job, albedo, 1);
+    if (allocated(l) && prepare(l, &job, collide, albedo, source, NULL, 0) == VSD_OK)
+        for (k = 0; k < steps; k++) advance(l, &job, albedo, 1);
     step_job_free(&job);
 }
 
@@ -291,19 +481,49 @@ void vsd_lbl_lattice_node_means(const vsd_lbl_lattice *l, const float *collide, 
                                 const float *source, int ch, size_t c, float mean[DIRS])
 {
     const size_t cells = l->cells;
-    const float p = collide[c], a = albedo[ch];
-    float sum = 0.0f, f[DIRS], arriving, esc, credit;
-    int i;
-    in_cell(l, p, a, &arriving, &esc, &credit);
-    for (i = 0; i < DIRS; i++) sum += f[i] = l->f[((size_t)i * CH + ch) * cells + c];
+    const double a = albedo[ch];
+    double f[DIRS], g[DIRS], m[DIRS], born[DIRS], gsum = 0.0, msum = 0.0, as = 0.0, bs = 0.0;
+    float fw, bw, sd;
+    cell_axes ca;
+    int i, axis;
+    for (i = 0; i < DIRS; i++) f[i] = l->f[((size_t)i * CH + ch) * cells + c];
+    if (l->cell_light != VSD_LBL_CELL_PATH) {   /* the paper's: the arriving photons */
+        for (i = 0; i < DIRS; i++) mean[i] = (float)f[i];
+        return;
+    }
+    cell_axes_of(l, collide[c], &ca);
+    phase_shares(l, &fw, &bw, &sd);
+    for (i = 0; i < DIRS; i++) gsum += g[i] = ca.v[AXIS_P][dir_axis[i]] * f[i];
+    /* the first collision's light toward i that collides in the cell again */
     for (i = 0; i < DIRS; i++) {
-        /* what is born in the cell toward i: the collision's scattering and the source */
-        float scattered = l->anisotropic ? l->side * sum + (l->forward - l->side) * f[i] + (l->backward - l->side) * f[i ^ 1]
-                                         : sum * (1.0f / 6.0f);
-        float s = !source ? 0.0f
-                  : l->anisotropic ? source[((size_t)i * CH + ch) * cells + c]
-                                   : source[(size_t)ch * cells + c] * (1.0f / 6.0f);
-        mean[i] = arriving * f[i] + credit * (a * p * scattered + s);
+        const int b = dir_axis[i];
+        const double fwd = a * fw * g[i], back = a * bw * g[i ^ 1], rest = a * sd * (gsum - g[i] - g[i ^ 1]);
+        m[i] = fwd * (1.0 - ca.v[AXIS_EF][b]) + back * (1.0 - ca.v[AXIS_EB][b]) + rest * (1.0 - ca.v[AXIS_E][b]);
+        msum += m[i];
+    }
+    /* the next births and, summed over their generations, z (the resolvent of collide_path) */
+    for (i = 0; i < DIRS; i++) {
+        born[i] = a * (sd * msum + (fw - sd) * m[i] + (bw - sd) * m[i ^ 1]);
+        if (source)
+            born[i] += l->anisotropic ? source[((size_t)i * CH + ch) * cells + c]
+                                      : source[(size_t)ch * cells + c] * (1.0 / 6.0);
+    }
+    for (axis = 0; axis < 3; axis++) {
+        const double d = 1.0 - ca.v[AXIS_E][axis], w = d / (1.0 - a * (fw + bw - 2.0 * sd) * d);
+        as += w * 0.5 * (born[2 * axis] + born[2 * axis + 1]);
+        bs += w;
+    }
+    for (axis = 0; axis < 3; axis++) {
+        const double d = 1.0 - ca.v[AXIS_E][axis], k = 2.0 * a * sd * as / (1.0 - 2.0 * a * sd * bs);
+        const double ze = (0.5 * (born[2 * axis] + born[2 * axis + 1]) + k) / (1.0 - a * (fw + bw - 2.0 * sd) * d);
+        const double zo = 0.5 * (born[2 * axis] - born[2 * axis + 1]) / (1.0 - a * (fw - bw) * d);
+        /* the path: collisions over x (thin cells: its limits, f_i lambda_a / lambda and half
+         * a cell for what is born) */
+        for (i = 2 * axis; i < 2 * axis + 2; i++) {
+            const double z = i == 2 * axis ? ze + zo : ze - zo;
+            mean[i] = (float)(ca.x > 1e-6f ? (g[i] + m[i] + d * z) / ca.x
+                                           : l->shape[axis] * (f[i] + 0.5 * z));
+        }
     }
 }
 

@@ -16,9 +16,11 @@
  * absorbed part (tests/test_lbl.c). S is the light the marching pass deposited, injected
  * isotropically every step; populations that stream out of the lattice are gone (vacuum).
  *
- * Iterated to the steady state, sum_i f_i at a node is the fluence there times the cell's
- * cross-section: with S in watts (the power the node scatters out of the direct beams, or
- * emits), phi = sum_i f_i / lambda^2. Convergence watches, as the paper does, the fluence
+ * Iterated to the steady state, the photons in a node's cell summed over the directions
+ * (the paper's cell light: sum_i f_i; with the path in the cell, the cell means of
+ * vsd_lbl_lattice_node_means) are the fluence there times the cell's cross-section: with S
+ * in watts (the power the node scatters out of the direct beams, or emits), phi = that sum
+ * / lambda^2. Convergence watches, as the paper does, the fluence
  * of a sparse set of probe nodes (every 7th node), every 8 steps — the sum of the probes'
  * absolute changes over their summed fluence, so light moving between probes counts —; it
  * stops when the change still to come — the last window's change plus its geometric continuation at the
@@ -56,6 +58,7 @@ typedef struct vsd_lbl_lattice {
     int anisotropic;
     float forward, backward, side;
     int cell_light;          /* VSD_LBL_CELL_*, global D3Q6 only (vsd_lbl_lattice_set_cell_light) */
+    double shape[3];         /* each axis's cell edge over the cube-equivalent edge (product 1; path only) */
 } vsd_lbl_lattice;
 
 /* The light in a cell (global D3Q6 only): the paper's step (FACES: photons counted at the
@@ -85,9 +88,19 @@ void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward
  * after vsd_lbl_lattice_init. */
 void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light);
 
-/* One collide-and-stream step (no threads, for tests; a blocked lattice does one
- * iteration): collide[c] = p per node, albedo RGB, source [3][cells] (NULL = none). */
-void vsd_lbl_lattice_step(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source);
+/* The cells' shape for the path in the cell: each axis's edge over the cube-equivalent
+ * edge V^(1/3) (their product 1; NULL = cubes, what vsd_lbl_lattice_init leaves). The
+ * collision probabilities the steps are given are the cube-equivalent cell's, 1 -
+ * e^-(sigma V^(1/3)); a photon moving along axis a crosses sigma V^(1/3) shape[a]. */
+void vsd_lbl_lattice_set_cell_shape(vsd_lbl_lattice *l, const double shape[3]);
+
+/* `steps` collide-and-stream steps on the calling thread (for tests, and the steps while
+ * the rays march; a blocked lattice does `steps` iterations): collide[c] = p per node,
+ * albedo RGB, source [3][cells] (NULL = none; the global lattice reads it every step, the
+ * blocked and D3Q18 lattices copy it once per call: a source still being deposited counts
+ * as it grows, per step or per call). */
+void vsd_lbl_lattice_steps(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
+                           int steps);
 
 /* Sum of all populations of channel ch (the photons in the lattice, with those waiting in
  * a blocked lattice's interface buffers). */
@@ -95,9 +108,9 @@ double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch);
 
 /* The photons of global D3Q6 node c, channel ch, per direction i, with the same collide,
  * albedo and source as the steps. FACES: f_i, the population arriving at the face. PATH:
- * the photons' mean path in the cell, e f_i + credit (born_i), born_i what the collision
- * scatters and the source adds toward i (lbl_lattice.c, in_cell: e the arriving photon's
- * path before it collides or leaves, credit the path of one born at a uniform point). */
+ * the photons' path in the cell toward i, in cube-equivalent cells: its collisions toward i
+ * over x = sigma lambda — the arriving photons', the first collision's light that stays,
+ * and the later births' (lbl_lattice.c, the comment above cell_axes). */
 void vsd_lbl_lattice_node_means(const vsd_lbl_lattice *l, const float *collide, const float albedo[3],
                                 const float *source, int ch, size_t c, float mean[6]);
 

@@ -20,23 +20,35 @@ static float sigma_at(const vsd_padded_grid *p, const float x[3])
     return vsd_padded_at(p, x[0] - 0.5f, x[1] - 0.5f, x[2] - 0.5f);
 }
 
-/* value v with weight 1 onto the eight cell centres around x, into an accumulator with a
- * one-cell border (strides sx, sy; interior cell (i,j,k) at (i+1, j+1, k+1)): acc[2c] += w v,
- * acc[2c+1] += w. Points are inside the box, so the corners are inside the border. */
-static void splat(size_t sx, size_t sy, const float x[3], float v, float *acc)
+/* A step's middle x (T there v, the step's lost power `lost`) onto the eight cell centres
+ * around it, into an accumulator with a one-cell border (strides sx, sy; interior cell
+ * (i,j,k) at (i+1, j+1, k+1)), ACC floats per cell: += w v, += w (w the trilinear weight),
+ * and the lost power shared as the step's extinction is, the corner's sigma w over
+ * sum sigma w (pad: the sigma grid), so what is lost lands where the medium took it.
+ * Points are inside the box, so the corners are inside the border. */
+enum { ACC_WT = 0, ACC_W = 1, ACC_LOST = 2, ACC = 3 };
+static void splat(size_t sx, size_t sy, const vsd_padded_grid *pad, const float x[3], float v, float lost, float *acc)
 {
     float fx = x[0] - 0.5f, fy = x[1] - 0.5f, fz = x[2] - 0.5f, ix = floorf(fx), iy = floorf(fy), iz = floorf(fz);
     float tx = fx - ix, ty = fy - iy, tz = fz - iz;
-    float *a = acc + 2 * ((size_t)((int32_t)iz + 1) * sy + (size_t)((int32_t)iy + 1) * sx + (size_t)((int32_t)ix + 1));
+    const size_t cell = (size_t)((int32_t)iz + 1) * sy + (size_t)((int32_t)iy + 1) * sx + (size_t)((int32_t)ix + 1);
+    float *a = acc + ACC * cell;
+    const float *sg = pad->v + (size_t)((int32_t)iz + 1) * pad->sy + (size_t)((int32_t)iy + 1) * pad->sx + (size_t)((int32_t)ix + 1);
     float w00 = (1.0f - ty) * (1.0f - tz), w10 = ty * (1.0f - tz), w01 = (1.0f - ty) * tz, w11 = ty * tz;
     float w[8] = {(1.0f - tx) * w00, tx * w00, (1.0f - tx) * w10, tx * w10,
                   (1.0f - tx) * w01, tx * w01, (1.0f - tx) * w11, tx * w11};
-    size_t off[8] = {0, 2, 2 * sx, 2 * sx + 2, 2 * sy, 2 * sy + 2, 2 * (sy + sx), 2 * (sy + sx) + 2};
+    size_t off[8] = {0, 1, sx, sx + 1, sy, sy + 1, sy + sx, sy + sx + 1};
+    size_t poff[8] = {0, 1, pad->sx, pad->sx + 1, pad->sy, pad->sy + 1, pad->sy + pad->sx, pad->sy + pad->sx + 1};
+    float sw[8], sum = 0.0f;
     int q;
     for (q = 0; q < 8; q++) {
-        a[off[q]] += w[q] * v;
-        a[off[q] + 1] += w[q];
+        a[ACC * off[q] + ACC_WT] += w[q] * v;
+        a[ACC * off[q] + ACC_W] += w[q];
     }
+    if (!(lost > 0.0f)) return;   /* (also when the lost power is not wanted: 0) */
+    for (q = 0; q < 8; q++) sum += sw[q] = sg[poff[q]] * w[q];
+    if (sum > 0.0f)
+        for (q = 0; q < 8; q++) a[ACC * off[q] + ACC_LOST] += lost * (sw[q] / sum);
 }
 
 /* The ray o + t u (grid units) clipped to the box [0, res]: 0 when it misses. */
@@ -65,7 +77,7 @@ static int clip(const int32_t res[3], const float o[3], const float u[3], float 
  * the n field (eq. 2-3), each step's middle mapped into the grid for sigma and the deposit,
  * until it leaves the box or dies. */
 static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const float o[3], const float u[3], float t0,
-                       float h, size_t sx, size_t sy, float *acc)
+                       float h, float lost_scale, size_t sx, size_t sy, float *acc)
 {
     const vsd_krefract *r = g->refract;
     float q[3], tr = 1.0f;
@@ -85,9 +97,9 @@ static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const 
               m.z <= (float)g->res[2]))
             break;   /* (also for a NaN position) */
         half = expf(-0.5f * sigma_at(pad, xm) * h);
-        tr *= half;
-        splat(sx, sy, xm, tr, acc);
-        tr *= half;
+        /* what the step loses, tr (1 - half^2), and T at its middle */
+        splat(sx, sy, pad, xm, tr * half, tr * (1.0f - half * half) * lost_scale, acc);
+        tr *= half * half;
         vsd_refract_step(r, &x, &v, &d, h);
     }
 }
@@ -130,7 +142,7 @@ typedef struct light_rays {
 typedef struct light_march {
     int index;                   /* 0..light_count-1 directional, then the point lights */
     light_rays rays;
-    float *acc;                  /* [2 x padded cells] sum w T, sum w */
+    float *acc;                  /* [ACC x padded cells] sum w T, sum w, lost power (splat) */
     float *ray_t, *ray_tr;       /* per ray: the next step's start (NAN: not started, INF: done), T */
     float t_begin;               /* no step starts before this t */
     float front;                 /* cells with d < front are final and stored */
@@ -148,12 +160,24 @@ typedef struct march_job {
     const int32_t *cell_record;
     const vsd_padded_grid *pad;
     float *trans;
+    float *lost;             /* [records * light_count] or NULL */
     light_march *batch;
     int batch_count;
     float round_end;         /* this round's steps start before t_begin + round_end; INF: all */
     vsd_lbl_overlap *overlap;
     vsd_status st;
 } march_job;
+
+/* A directional light's ray stands for a beam of world cross-section A = V spacing^2 step /
+ * world_step (its rays are spacing cells apart across it, and a step of `step` cells
+ * sweeps spacing^2 step cells' volume V in world_step of length); a step that lowers its T
+ * by dT takes E A dT out of it. The lost power is accumulated divided by E V, so that a
+ * cell's sum reads like sigma T (per world length), the thin cell's rate. 0 when the march
+ * was not asked for the lost power (the splat then skips it). */
+static float lost_per_transmittance(const march_job *j, float world_step)
+{
+    return j->lost ? j->spacing * j->spacing * j->step / world_step : 0.0f;   /* 0: not wanted */
+}
 
 static void rays_free(light_rays *r)
 {
@@ -317,6 +341,7 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
                            float t1, float t_end, float world_step, float *trp, size_t sx, size_t sy, float *acc)
 {
     const vsd_lbl_grid *g = j->g;
+    const float lost_scale = lost_per_transmittance(j, world_step);
     /* a leap needs sqrt(D^2) - 2.61 - 0.5 step >= step (below): D^2 against this first,
      * so a step that cannot leap takes no square root */
     const float leap2 = (2.61f + 1.5f * j->step) * (2.61f + 1.5f * j->step);
@@ -348,10 +373,10 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
         h = fminf(j->step, t1 - t);
         for (ax = 0; ax < 3; ax++) x[ax] = o[ax] + (t + 0.5f * h) * u[ax];
         half = expf(-0.5f * sigma_at(pad, x) * world_step * (h / j->step));
-        /* the transmittance at the step's middle is what the cells there see */
-        tr *= half;
-        splat(sx, sy, x, tr, acc);
-        tr *= half;
+        /* the transmittance at the step's middle is what the cells there see; what the
+         * step loses, tr (1 - half^2), is the light the medium takes out of the ray */
+        splat(sx, sy, pad, x, tr * half, tr * (1.0f - half * half) * lost_scale, acc);
+        tr *= half * half;
     }
     *tp = t;
     *trp = tr;
@@ -371,7 +396,7 @@ static void advance(const march_job *j, light_march *m)
         if (!ray_at(j, &m->rays, i, o, u, &t0, &t1, &ws)) {
             t = INFINITY;
         } else if (g->refract && !m->rays.point) {
-            march_bent(g, j->pad, o, u, t0, ws, sx, sy, m->acc);
+            march_bent(g, j->pad, o, u, t0, ws, lost_per_transmittance(j, ws), sx, sy, m->acc);
             t = INFINITY;
         } else {
             if (isnan(t)) t = t0;
@@ -438,16 +463,18 @@ static void transfer(const march_job *j, const light_march *m, float lo, float h
                 size_t c = ((size_t)ck * g->res[1] + cj) * g->res[0] + ci;
                 int32_t rec = j->cell_record[c];
                 const float *a2;
-                float t, d;
+                float t, d, lost;
                 if (rec < 0) continue;
                 if (window) {
                     d = cell_t(m, ci, cj, ck);
                     if (!(d >= lo && d < hi)) continue;
                 }
-                a2 = m->acc + 2 * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
-                t = a2[1] > 0.0f ? a2[0] / a2[1] : 0.0f;
+                a2 = m->acc + ACC * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
+                t = a2[ACC_W] > 0.0f ? a2[ACC_WT] / a2[ACC_W] : 0.0f;
                 out[(size_t)rec * count + k] = t;
-                if (j->overlap && j->overlap->deposit) j->overlap->deposit(j->overlap->user, m->index, c, rec, t);
+                lost = point ? NAN : a2[ACC_LOST];
+                if (!point && j->lost) j->lost[(size_t)rec * count + k] = lost;
+                if (j->overlap && j->overlap->deposit) j->overlap->deposit(j->overlap->user, m->index, c, rec, t, lost);
             }
         }
 }
@@ -484,7 +511,7 @@ static int light_begin(const march_job *j, int index, int rounds, light_march *m
     m->front = -INFINITY;
     ok = index < j->light_count ? rays_directional(j, index, &m->rays, &m->t_begin)
                                 : rays_point(j, index - j->light_count, &m->rays, &m->t_begin);
-    m->acc = calloc(2 * cells, sizeof *m->acc);
+    m->acc = calloc(ACC * cells, sizeof *m->acc);
     if (!ok || !m->acc) return 0;
     if (rounds && m->rays.count > 0) {
         m->ray_t = malloc(sizeof *m->ray_t * (size_t)m->rays.count);
@@ -535,7 +562,7 @@ static vsd_status march_rounds(march_job *j, int threads)
     const vsd_lbl_grid *g = j->g;
     const int total = j->light_count + j->point_count, history = j->overlap->history;
     const size_t cells = ((size_t)g->res[0] + 2) * ((size_t)g->res[1] + 2) * ((size_t)g->res[2] + 2);
-    const size_t per_light = 2 * cells * sizeof(float) + ((size_t)2 << 20);   /* + ray state, roughly */
+    const size_t per_light = ACC * cells * sizeof(float) + ((size_t)2 << 20);   /* + ray state, roughly */
     int batch = (int)fmin((double)total, fmax(1.0, floor((double)VSD_LBL_OVERLAP_BYTES / (double)per_light)));
     int first, k, march_threads = vsd_cpu_thread_count(threads);
     vsd_status st = VSD_OK;
@@ -576,7 +603,8 @@ static vsd_status march_rounds(march_job *j, int threads)
 
 vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, const float *points,
                                 int point_count, float spacing, float step, const int32_t *cell_record, int threads,
-                                float *trans, float *point_trans, vsd_lbl_overlap *overlap, char *err, size_t errlen)
+                                float *trans, float *lost, float *point_trans, vsd_lbl_overlap *overlap, char *err,
+                                size_t errlen)
 {
     march_job job;
     vsd_padded_grid pad;
@@ -598,6 +626,7 @@ vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int 
     job.spacing = spacing;
     job.step = step;
     job.trans = trans;
+    job.lost = lost;
     job.cell_record = cell_record;
     job.overlap = overlap;
     job.round_end = INFINITY;

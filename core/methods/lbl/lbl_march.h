@@ -62,9 +62,11 @@ int vsd_lbl_empty_distance(const int32_t res[3], const float *sigma, const int32
 typedef struct vsd_lbl_overlap {
     int history;             /* steps per ray per round, >= 1 */
     void (*during)(void *user);   /* may be NULL */
-    /* a record's final T from light `light` (directional lights first, then the points);
-     * called on the calling thread between rounds, never while `during` runs */
-    void (*deposit)(void *user, int light, size_t cell, int32_t rec, float t);
+    /* a record's final T from light `light` (directional lights first, then the points),
+     * and the power its rays lost in the cell (as `lost` of vsd_lbl_march_lights; 0 when
+     * that is NULL, NAN for the points); called on the calling thread between rounds,
+     * never while `during` runs */
+    void (*deposit)(void *user, int light, size_t cell, int32_t rec, float t, float lost);
     void *user;
     int rounds;              /* out: rounds marched */
 } vsd_lbl_overlap;
@@ -74,11 +76,17 @@ typedef struct vsd_lbl_overlap {
  * first), marched by rays from the position, without refraction (the scene refuses lights
  * through a refracting medium); cell_record: the record of each cell, -1 for none (the
  * record grid's); trans[r * light_count + k] and point_trans[r * point_count + k]: the
- * transmittance from light k to record r's cell centre. threads: CPU threads (0 = all).
+ * transmittance from light k to record r's cell centre; lost[r * light_count + k] (or
+ * NULL): the power directional light k's rays lost in record r's cell over E V (E the
+ * light's irradiance, V a cell's world volume), each step's loss shared among the eight
+ * cells around its middle by their part of its extinction — sigma T per world length
+ * where the cell is thin, and exact in total: what a cell scatters is albedo E V lost,
+ * however thick it is. threads: CPU threads (0 = all).
  * overlap: NULL marches each light whole on the threads, one after another (the same T up
  * to the order of the float sums). */
 vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, const float *points,
                                 int point_count, float spacing, float step, const int32_t *cell_record, int threads,
-                                float *trans, float *point_trans, vsd_lbl_overlap *overlap, char *err, size_t errlen);
+                                float *trans, float *lost, float *point_trans, vsd_lbl_overlap *overlap, char *err,
+                                size_t errlen);
 
 #endif
