@@ -27,20 +27,22 @@
 #include <string.h>
 
 #define SMOKE "scenes/smoke64_sunset.json"
-/* smoke64 frame 24 at 96x54: measured lbl Combined 0.042, VolumeDir 0.034, VolumeInd 0.140
- * against reference 1024 spp (noise 0.015 / 0.032 / 0.040; 0.0335 for VolumeDir since the
+/* smoke64 frame 24 at 96x54: measured lbl Combined 0.036, VolumeDir 0.034, VolumeInd 0.107
+ * against reference 1024 spp (noise 0.014 / 0.034 / 0.040; 0.0335 for VolumeDir since the
  * map is read with linear interpolation); VolumeDir's tolerance is set by the noise (3x),
- * as test_crm's */
-#define TOL_COMBINED 0.08
+ * as test_crm's. (Before the box-shaped cells, the exact deposit and the surface escape:
+ * 0.042 / 0.034 / 0.140.) */
+#define TOL_COMBINED 0.055
 #define TOL_DIR 0.11
-#define TOL_IND 0.18
-/* the ball at 32x32: measured lbl Combined 0.032, VolumeDir 0.037, VolumeInd 0.070 */
-#define BALL_TOL_COMBINED 0.05
+#define TOL_IND 0.16
+/* the ball at 32x32: measured lbl Combined 0.018, VolumeDir 0.037, VolumeInd 0.022 (before:
+ * 0.032 / 0.037 / 0.070); VolumeInd's tolerance is 3x the reference noise (0.011) */
+#define BALL_TOL_COMBINED 0.03
 #define BALL_TOL_DIR 0.05
-#define BALL_TOL_IND 0.11
-/* the backlit ball (part 7): measured VolumeInd 0.146 with the phase (reference noise 0.031),
- * 1.05 with the paper's isotropic lattice (its mean 4.7x too dark) */
-#define TOL_READOUT 0.18
+#define BALL_TOL_IND 0.04
+/* the backlit ball (part 7): measured VolumeInd 0.116 with the phase (reference noise 0.031),
+ * 1.04 with the paper's isotropic lattice (its mean 4.5x too dark) */
+#define TOL_READOUT 0.17
 
 static void compare(const char *what, const vsd_framebuffer *lbl, const vsd_framebuffer *ref,
                     const vsd_framebuffer *ref2, const double tol[3])
@@ -186,9 +188,10 @@ static void test_options_and_empty(void)
     vsd_volume_destroy(empty);
 }
 
-/* fire96 in a black world at 64x36 against 256 spp: measured lbl VolumeDir 0.144 and VolumeInd
- * 0.393, means +2.9% / +11.1% (with cell_light "faces": 0.216 / 0.339, +5.5% / +9.0%) */
-static void test_emission_split(void) { test_check_emission_split("[5]", "lbl", 0.4, 0.5, 0.2, 0.2); }
+/* fire96 in a black world at 64x36 against 256 spp: measured lbl VolumeDir 0.102 and VolumeInd
+ * 0.203, means +0.2% / +3.7% (before the surface escape: 0.144 / 0.393, +2.9% / +11.1%; with
+ * cell_light "faces": 0.216 / 0.339, +5.5% / +9.0%) */
+static void test_emission_split(void) { test_check_emission_split("[5]", "lbl", 0.16, 0.3, 0.1, 0.1); }
 
 static void test_history(void)
 {

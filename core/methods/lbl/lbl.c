@@ -38,6 +38,7 @@
 #include "lbl_kernel.h"
 #include "lbl_readout.h"
 #include "src/render/refraction.h"
+#include "lbl_escape.h"
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -51,7 +52,7 @@
 static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape, escape;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -115,15 +116,19 @@ static const vsd_option_spec lbl_option_rows[] = {
      "there leaving whole, or each photon's path through the cell, born light crossing the rest of it (global "
      "D3Q6 lattice; lbl_lattice.h, docs/methods/lbl.md)",
      offsetof(lbl_options, cell_light), 0, NULL},
-    {"light_deposit", VSD_OPT_CHOICE, 0, 0, LBL_DEPOSIT_CENTRE, lbl_deposit_names,
+    {"light_deposit", VSD_OPT_CHOICE, 0, 0, LBL_DEPOSIT_LOST, lbl_deposit_names,
      "marching: what a cell scatters out of a directional light's rays, the paper's albedo E T p lambda^2 with the "
      "rays' T at its centre, or albedo E times the power the rays lost in it (exact for thick cells; lbl_march.h)",
      offsetof(lbl_options, light_deposit), 0, NULL},
-    {"cell_shape", VSD_OPT_CHOICE, 0, 0, LBL_SHAPE_CUBES, lbl_shape_names,
+    {"cell_shape", VSD_OPT_CHOICE, 0, 0, LBL_SHAPE_BOXES, lbl_shape_names,
      "diffusion, with cell_light \"path\": every cell taken as the cube of its volume (as the paper's lattice), or as "
      "the box it is, light crossing sigma times each axis's own edge (docs/methods/lbl.md, \"Cells that are not "
      "cubes\")",
      offsetof(lbl_options, cell_shape), 0, NULL},
+    {"surface_escape", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "diffusion, with cell_light \"path\": what is born near the medium's surface loses at once the light that "
+     "leaves it in every outward direction beyond what the six axes carry out (lbl_escape.h)",
+     offsetof(lbl_options, escape), 0, NULL},
     {"readout", VSD_OPT_CHOICE, 0, 0, LBL_READOUT_PHASE, lbl_readout_names,
      "view: the diffused light toward the eye, the paper's isotropic fluence / 4pi, or the phase function over the "
      "lattice's six directions (D3Q6 global lattice; lbl_readout.h)",
@@ -148,6 +153,7 @@ typedef struct lbl_state {
     float *sigma;                 /* [cells] sigma_t per world unit */
     float *collide;               /* [cells] collision probability per lattice step */
     float *empty_d2;              /* [cells] squared distance to the medium (lbl_march.h) */
+    float *keep;                  /* [cells] what the lattice keeps of each birth (lbl_escape.h), or NULL */
     vsd_lbl_readout readout;      /* the phase's cone weights (readout "phase") */
     float *ms6;                   /* [records][6][3] the populations as cone radiances, or NULL */
     float *ms_view;               /* [records][3] their light toward this view's eye */
@@ -226,7 +232,8 @@ static void free_frame(lbl_state *s)
     free(s->sigma);
     free(s->collide);
     free(s->empty_d2);
-    s->sigma = s->collide = s->empty_d2 = NULL;
+    free(s->keep);
+    s->sigma = s->collide = s->empty_d2 = s->keep = NULL;
     free_lighting(s);
 }
 
@@ -291,6 +298,11 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     if (!(s->empty_d2 = malloc(n * sizeof *s->empty_d2)) ||
         !vsd_lbl_empty_distance(s->rg.res, s->sigma, s->rg.cell_record, ctx->threads, s->empty_d2))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the distance map of %zu cells", n);
+    if (s->opt.escape &&
+        (!(s->keep = malloc(n * sizeof *s->keep)) ||
+         !vsd_lbl_escape_keep(s->rg.res, s->sigma, s->cell_world,
+                              s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL, s->keep)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the surface escape of %zu cells", n);
     return VSD_OK;
 }
 
@@ -385,12 +397,11 @@ static void add_deposit(lbl_state *s, const float albedo[3], int light, size_t c
  * (1 - e^{-sigma lambda}) lambda^2, a beam of irradiance E T_k through a cell of
  * cross-section lambda^2, T_k at the centre), plus the emission, 4pi L_e lambda^3, a
  * sixth per direction.
- * T_k is the transmittance at the cell's centre (light_deposit "centre"): a beam entering
- * the cell brings T_k e^{x/2} (x = sigma lambda) and loses (1 - e^-x) of that, so this is
- * low by about x/2. With light_deposit "lost" the march's exact loss in the cell replaces
- * T_k (1 - e^-x) lambda^2; it measured worse on the clouds, whose lattice keeps too much
- * light near the lit surface (D3Q6's escape: docs/methods/lbl.md, "What a cell scatters
- * out of the rays"). */
+ * T_k is the transmittance at the cell's centre (light_deposit "centre", the paper's): a
+ * beam entering the cell brings T_k e^{x/2} (x = sigma lambda) and loses (1 - e^-x) of
+ * that, so this is low by about x/2. With light_deposit "lost" (default) the march's exact
+ * loss in the cell replaces T_k (1 - e^-x) lambda^2 (docs/methods/lbl.md, "What a cell
+ * scatters out of the rays"). */
 static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
 {
     const size_t n = cell_count(s);
@@ -621,6 +632,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
     vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
     vsd_lbl_lattice_set_cell_shape(&s->lattice, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
+    vsd_lbl_lattice_set_keep(&s->lattice, s->keep);
     if (s->source_dirs) {
         float f, b, sd;
         vsd_lbl_readout_lattice_phase(ctx->kd.medium.anisotropy, &f, &b, &sd);
@@ -683,6 +695,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, &layout, err, errlen))) return st;
         vsd_lbl_lattice_set_cell_light(&s->lattice_e, s->opt.cell_light);
         vsd_lbl_lattice_set_cell_shape(&s->lattice_e, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
+        vsd_lbl_lattice_set_keep(&s->lattice_e, s->keep);
         if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
                                   s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))
             return st;

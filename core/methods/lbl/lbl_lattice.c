@@ -55,6 +55,8 @@ void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward
 
 void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light) { l->cell_light = cell_light; }
 
+void vsd_lbl_lattice_set_keep(vsd_lbl_lattice *l, const float *keep) { l->keep = keep; }
+
 void vsd_lbl_lattice_set_cell_shape(vsd_lbl_lattice *l, const double shape[3])
 {
     int a;
@@ -78,6 +80,8 @@ typedef struct step_job {
     float *recollide;        /* [DIRS][cells] scratch (path in the cell): the first collision's light
                                 that collides in the cell again, then the next births' parts */
     float *axes;             /* [AXIS_FIELDS][3][cells] (path in the cell): each node's cell_axes */
+    const float *keep;       /* [cells] (path in the cell): the lattice's keep, or ones_keep */
+    float *ones_keep;        /* [cells] of 1 when the lattice has none */
 } step_job;
 
 /* The light in a cell with its photons' path (cell_light "path"; the paper's step is the
@@ -152,7 +156,8 @@ static void cell_axes_of(const vsd_lbl_lattice *l, float p, cell_axes *ca)
  * (gp, gm this axis's, gsum all six), e/ef/eb this axis's exits; what leaves goes into q
  * (after the photons that pass, f (1 - p)), what collides again into m and its sum into
  * msum. */
-static void first_collision(size_t n, float a, float fw, float bw, float sd, const float *restrict fp,
+static void first_collision(size_t n, float a0, const float *restrict keep, float fw, float bw, float sd,
+                            const float *restrict fp,
                             const float *restrict fm, const float *restrict pax, const float *restrict gsum,
                             const float *restrict e, const float *restrict ef, const float *restrict eb,
                             float *restrict qp, float *restrict qm, float *restrict mp, float *restrict mm,
@@ -160,6 +165,7 @@ static void first_collision(size_t n, float a, float fw, float bw, float sd, con
 {
     size_t c;
     for (c = 0; c < n; c++) {
+        const float a = a0 * keep[c];
         const float gp = pax[c] * fp[c], gm = pax[c] * fm[c], rest = a * sd * (gsum[c] - gp - gm);
         const float fwd_p = a * fw * gp, back_p = a * bw * gm, fwd_m = a * fw * gm, back_m = a * bw * gp;
         const float out_p = fwd_p * ef[c] + back_p * eb[c] + rest * e[c];
@@ -175,7 +181,8 @@ static void first_collision(size_t n, float a, float fw, float bw, float sd, con
 /* The next births along one axis: B = albedo P m + S, into its even and odd parts (over m's
  * arrays: mp := (B_+ + B_-) / 2, mm := (B_+ - B_-) / 2). sp/sm the source per direction, or
  * NULL: then s6 (a sixth of the isotropic source) both ways. */
-static void births_axis(size_t n, float a, float fw, float bw, float sd, const float *restrict msum,
+static void births_axis(size_t n, float a0, const float *restrict keep, float fw, float bw, float sd,
+                        const float *restrict msum,
                         const float *restrict sp, const float *restrict sm, const float *restrict s6,
                         float *restrict mp, float *restrict mm)
 {
@@ -183,7 +190,7 @@ static void births_axis(size_t n, float a, float fw, float bw, float sd, const f
     if (!sp) sp = sm = s6;   /* (the same array both ways, read only) */
     if (!sp) {
         for (c = 0; c < n; c++) {
-            const float common = a * sd * msum[c];
+            const float a = a0 * keep[c], common = a * sd * msum[c];
             const float bp = common + a * ((fw - sd) * mp[c] + (bw - sd) * mm[c]);
             const float bm = common + a * ((fw - sd) * mm[c] + (bw - sd) * mp[c]);
             mp[c] = 0.5f * (bp + bm);
@@ -192,9 +199,9 @@ static void births_axis(size_t n, float a, float fw, float bw, float sd, const f
         return;
     }
     for (c = 0; c < n; c++) {
-        const float common = a * sd * msum[c];
-        const float bp = common + a * ((fw - sd) * mp[c] + (bw - sd) * mm[c]) + sp[c];
-        const float bm = common + a * ((fw - sd) * mm[c] + (bw - sd) * mp[c]) + sm[c];
+        const float a = a0 * keep[c], common = a * sd * msum[c];
+        const float bp = common + a * ((fw - sd) * mp[c] + (bw - sd) * mm[c]) + keep[c] * sp[c];
+        const float bm = common + a * ((fw - sd) * mm[c] + (bw - sd) * mp[c]) + keep[c] * sm[c];
         mp[c] = 0.5f * (bp + bm);
         mm[c] = 0.5f * (bp - bm);
     }
@@ -203,12 +210,12 @@ static void births_axis(size_t n, float a, float fw, float bw, float sd, const f
 /* Sherman-Morrison for the even parts: z_b = (y_b + K) / M_b, M_b = 1 - albedo (fw + bw -
  * 2 sd) d_b, K = 2 albedo sd A / (1 - 2 albedo sd Bs), A = sum_b d_b y_b / M_b, Bs = sum_b
  * d_b / M_b. Accumulates A and Bs of one axis (y its even part, e its exit) over n nodes. */
-static void even_sums(size_t n, float a_even, const float *restrict e, const float *restrict y, float *restrict as,
-                      float *restrict bs)
+static void even_sums(size_t n, float a_even, const float *restrict keep, const float *restrict e,
+                      const float *restrict y, float *restrict as, float *restrict bs)
 {
     size_t c;
     for (c = 0; c < n; c++) {
-        const float d = 1.0f - e[c], w = d / (1.0f - a_even * d);
+        const float d = 1.0f - e[c], w = d / (1.0f - a_even * keep[c] * d);
         as[c] += w * y[c];
         bs[c] += w;
     }
@@ -216,14 +223,14 @@ static void even_sums(size_t n, float a_even, const float *restrict e, const flo
 
 /* What leaves along one axis: q_+- += e (z_even +- z_odd), z_even = (even + K) / M, z_odd =
  * odd / (1 - albedo (fw - bw) d); k2 = 2 albedo sd. as/bs from even_sums. */
-static void leave_axis(size_t n, float a_even, float a_odd, float k2, const float *restrict e,
-                       const float *restrict even, const float *restrict odd, const float *restrict as,
-                       const float *restrict bs, float *restrict qp, float *restrict qm)
+static void leave_axis(size_t n, float a_even, float a_odd, float k2, const float *restrict keep,
+                       const float *restrict e, const float *restrict even, const float *restrict odd,
+                       const float *restrict as, const float *restrict bs, float *restrict qp, float *restrict qm)
 {
     size_t c;
     for (c = 0; c < n; c++) {
-        const float d = 1.0f - e[c], k = k2 * as[c] / (1.0f - k2 * bs[c]);
-        const float ze = (even[c] + k) / (1.0f - a_even * d), zo = odd[c] / (1.0f - a_odd * d);
+        const float d = 1.0f - e[c], kk = k2 * keep[c], k = kk * as[c] / (1.0f - kk * bs[c]);
+        const float ze = (even[c] + k) / (1.0f - a_even * keep[c] * d), zo = odd[c] / (1.0f - a_odd * keep[c] * d);
         qp[c] += e[c] * (ze + zo);
         qm[c] += e[c] * (ze - zo);
     }
@@ -253,7 +260,7 @@ static void collide_path(step_job *j, int ch, size_t c0, size_t n)
     }
     /* the first collision; sum2 := what of it collides again */
     for (axis = 0; axis < 3; axis++)
-        first_collision(n, a, fw, bw, sd, POP(l->f, 2 * axis), POP(l->f, 2 * axis + 1), AX(AXIS_P, axis), sum1,
+        first_collision(n, a, j->keep + c0, fw, bw, sd, POP(l->f, 2 * axis), POP(l->f, 2 * axis + 1), AX(AXIS_P, axis), sum1,
                         AX(AXIS_E, axis), AX(AXIS_EF, axis), AX(AXIS_EB, axis), POP(j->post, 2 * axis),
                         POP(j->post, 2 * axis + 1), j->recollide + (size_t)(2 * axis) * cells + c0,
                         j->recollide + (size_t)(2 * axis + 1) * cells + c0, sum2);
@@ -263,7 +270,7 @@ static void collide_path(step_job *j, int ch, size_t c0, size_t n)
         for (c = 0; c < n; c++) sum1[c] = src[c] * (1.0f / 6.0f);
     }
     for (axis = 0; axis < 3; axis++)
-        births_axis(n, a, fw, bw, sd, sum2, j->source && l->anisotropic ? POP(j->source, 2 * axis) : NULL,
+        births_axis(n, a, j->keep + c0, fw, bw, sd, sum2, j->source && l->anisotropic ? POP(j->source, 2 * axis) : NULL,
                     j->source && l->anisotropic ? POP(j->source, 2 * axis + 1) : NULL,
                     j->source && !l->anisotropic ? sum1 : NULL, j->recollide + (size_t)(2 * axis) * cells + c0,
                     j->recollide + (size_t)(2 * axis + 1) * cells + c0);
@@ -272,9 +279,9 @@ static void collide_path(step_job *j, int ch, size_t c0, size_t n)
         const float a_even = a * (fw + bw - 2.0f * sd), a_odd = a * (fw - bw), k2 = 2.0f * a * sd;
         for (c = 0; c < n; c++) sum1[c] = sum2[c] = 0.0f;
         for (axis = 0; axis < 3; axis++)
-            even_sums(n, a_even, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0, sum1, sum2);
+            even_sums(n, a_even, j->keep + c0, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0, sum1, sum2);
         for (axis = 0; axis < 3; axis++)
-            leave_axis(n, a_even, a_odd, k2, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0,
+            leave_axis(n, a_even, a_odd, k2, j->keep + c0, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0,
                        j->recollide + (size_t)(2 * axis + 1) * cells + c0, sum1, sum2, POP(j->post, 2 * axis),
                        POP(j->post, 2 * axis + 1));
     }
@@ -414,6 +421,12 @@ static int step_job_init(step_job *job, vsd_lbl_lattice *l, const float *collide
     job->recollide = malloc(cells * DIRS * sizeof *job->recollide);
     job->axes = malloc(cells * 3 * AXIS_FIELDS * sizeof *job->axes);
     if (!job->recollide || !job->axes) return 0;
+    job->keep = l->keep;
+    if (!job->keep) {
+        if (!(job->ones_keep = malloc(cells * sizeof *job->ones_keep))) return 0;
+        for (n = 0; n < cells; n++) job->ones_keep[n] = 1.0f;
+        job->keep = job->ones_keep;
+    }
     for (n = 0; n < cells; n++) {
         cell_axes ca;
         cell_axes_of(l, collide[n], &ca);
@@ -429,6 +442,7 @@ static void step_job_free(step_job *job)
     free(job->gain);
     free(job->recollide);
     free(job->axes);
+    free(job->ones_keep);
 }
 
 /* Ready lattice l (whichever layout) for steps with this material: the global lattice's
@@ -481,7 +495,7 @@ void vsd_lbl_lattice_node_means(const vsd_lbl_lattice *l, const float *collide, 
                                 const float *source, int ch, size_t c, float mean[DIRS])
 {
     const size_t cells = l->cells;
-    const double a = albedo[ch];
+    const double keep = l->keep ? l->keep[c] : 1.0, a = albedo[ch] * keep;
     double f[DIRS], g[DIRS], m[DIRS], born[DIRS], gsum = 0.0, msum = 0.0, as = 0.0, bs = 0.0;
     float fw, bw, sd;
     cell_axes ca;
@@ -505,8 +519,8 @@ void vsd_lbl_lattice_node_means(const vsd_lbl_lattice *l, const float *collide, 
     for (i = 0; i < DIRS; i++) {
         born[i] = a * (sd * msum + (fw - sd) * m[i] + (bw - sd) * m[i ^ 1]);
         if (source)
-            born[i] += l->anisotropic ? source[((size_t)i * CH + ch) * cells + c]
-                                      : source[(size_t)ch * cells + c] * (1.0 / 6.0);
+            born[i] += keep * (l->anisotropic ? source[((size_t)i * CH + ch) * cells + c]
+                                              : source[(size_t)ch * cells + c] * (1.0 / 6.0));
     }
     for (axis = 0; axis < 3; axis++) {
         const double d = 1.0 - ca.v[AXIS_E][axis], w = d / (1.0 - a * (fw + bw - 2.0 * sd) * d);

@@ -59,6 +59,7 @@ typedef struct vsd_lbl_lattice {
     float forward, backward, side;
     int cell_light;          /* VSD_LBL_CELL_*, global D3Q6 only (vsd_lbl_lattice_set_cell_light) */
     double shape[3];         /* each axis's cell edge over the cube-equivalent edge (product 1; path only) */
+    const float *keep;       /* [cells] or NULL (vsd_lbl_lattice_set_keep; the caller's array) */
 } vsd_lbl_lattice;
 
 /* The light in a cell (global D3Q6 only): the paper's step (FACES: photons counted at the
@@ -87,6 +88,11 @@ void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward
 /* VSD_LBL_CELL_FACES (the paper's, and what vsd_lbl_lattice_init leaves) or _PATH; call
  * after vsd_lbl_lattice_init. */
 void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light);
+
+/* keep[cells] (the caller's, alive while the lattice steps; NULL = all 1): the share of
+ * what is born in each cell — scattered or the source — that the lattice keeps, the rest
+ * leaving the medium at once (lbl_escape.h; with the path in the cell only). */
+void vsd_lbl_lattice_set_keep(vsd_lbl_lattice *l, const float *keep);
 
 /* The cells' shape for the path in the cell: each axis's edge over the cube-equivalent
  * edge V^(1/3) (their product 1; NULL = cubes, what vsd_lbl_lattice_init leaves). The

@@ -15,40 +15,51 @@
 
 
 /* trilinear sigma at grid point x inside the box (cell centres at +0.5) */
-static float sigma_at(const vsd_padded_grid *p, const float x[3])
-{
-    return vsd_padded_at(p, x[0] - 0.5f, x[1] - 0.5f, x[2] - 0.5f);
-}
-
-/* A step's middle x (T there v, the step's lost power `lost`) onto the eight cell centres
- * around it, into an accumulator with a one-cell border (strides sx, sy; interior cell
- * (i,j,k) at (i+1, j+1, k+1)), ACC floats per cell: += w v, += w (w the trilinear weight),
- * and the lost power shared as the step's extinction is, the corner's sigma w over
- * sum sigma w (pad: the sigma grid), so what is lost lands where the medium took it.
- * Points are inside the box, so the corners are inside the border. */
+/* An accumulator's floats per cell: sum w T, sum w (the weighted mean T), the lost power. */
 enum { ACC_WT = 0, ACC_W = 1, ACC_LOST = 2, ACC = 3 };
-static void splat(size_t sx, size_t sy, const vsd_padded_grid *pad, const float x[3], float v, float lost, float *acc)
+
+/* A step's middle x and the eight cell centres around it: their trilinear weights, the
+ * sigma at each (pad: the sigma grid, whose trilinear value at x is the step's sigma) and
+ * the first corner's place in an accumulator with a one-cell border (strides sx, sy;
+ * interior cell (i,j,k) at (i+1, j+1, k+1)). Points are inside the box, so the corners are
+ * inside the border. */
+typedef struct step_corners {
+    float *acc;                  /* the accumulator at the first corner */
+    float w[8], sw[8];           /* trilinear weights; sigma times weight */
+    float sigma;                 /* the step's sigma: sum of sw */
+    size_t sx, sy;
+} step_corners;
+
+static void corners_at(const vsd_padded_grid *pad, size_t sx, size_t sy, const float x[3], float *acc, step_corners *k)
 {
     float fx = x[0] - 0.5f, fy = x[1] - 0.5f, fz = x[2] - 0.5f, ix = floorf(fx), iy = floorf(fy), iz = floorf(fz);
     float tx = fx - ix, ty = fy - iy, tz = fz - iz;
-    const size_t cell = (size_t)((int32_t)iz + 1) * sy + (size_t)((int32_t)iy + 1) * sx + (size_t)((int32_t)ix + 1);
-    float *a = acc + ACC * cell;
     const float *sg = pad->v + (size_t)((int32_t)iz + 1) * pad->sy + (size_t)((int32_t)iy + 1) * pad->sx + (size_t)((int32_t)ix + 1);
+    const size_t poff[8] = {0, 1, pad->sx, pad->sx + 1, pad->sy, pad->sy + 1, pad->sy + pad->sx, pad->sy + pad->sx + 1};
     float w00 = (1.0f - ty) * (1.0f - tz), w10 = ty * (1.0f - tz), w01 = (1.0f - ty) * tz, w11 = ty * tz;
-    float w[8] = {(1.0f - tx) * w00, tx * w00, (1.0f - tx) * w10, tx * w10,
-                  (1.0f - tx) * w01, tx * w01, (1.0f - tx) * w11, tx * w11};
-    size_t off[8] = {0, 1, sx, sx + 1, sy, sy + 1, sy + sx, sy + sx + 1};
-    size_t poff[8] = {0, 1, pad->sx, pad->sx + 1, pad->sy, pad->sy + 1, pad->sy + pad->sx, pad->sy + pad->sx + 1};
-    float sw[8], sum = 0.0f;
+    int q;
+    k->w[0] = (1.0f - tx) * w00, k->w[1] = tx * w00, k->w[2] = (1.0f - tx) * w10, k->w[3] = tx * w10;
+    k->w[4] = (1.0f - tx) * w01, k->w[5] = tx * w01, k->w[6] = (1.0f - tx) * w11, k->w[7] = tx * w11;
+    k->sigma = 0.0f;
+    for (q = 0; q < 8; q++) k->sigma += k->sw[q] = sg[poff[q]] * k->w[q];
+    k->acc = acc + ACC * ((size_t)((int32_t)iz + 1) * sy + (size_t)((int32_t)iy + 1) * sx + (size_t)((int32_t)ix + 1));
+    k->sx = sx, k->sy = sy;
+}
+
+/* The step's T at its middle (v) and its lost power onto the corners: += w v, += w (the
+ * weighted mean's parts), and the lost power shared as the step's extinction is, the
+ * corner's sigma w over sum sigma w, so what is lost lands where the medium took it. */
+static void splat(const step_corners *k, float v, float lost)
+{
+    const size_t sx = k->sx, sy = k->sy;
+    const size_t off[8] = {0, 1, sx, sx + 1, sy, sy + 1, sy + sx, sy + sx + 1};
     int q;
     for (q = 0; q < 8; q++) {
-        a[ACC * off[q] + ACC_WT] += w[q] * v;
-        a[ACC * off[q] + ACC_W] += w[q];
+        k->acc[ACC * off[q] + ACC_WT] += k->w[q] * v;
+        k->acc[ACC * off[q] + ACC_W] += k->w[q];
     }
-    if (!(lost > 0.0f)) return;   /* (also when the lost power is not wanted: 0) */
-    for (q = 0; q < 8; q++) sum += sw[q] = sg[poff[q]] * w[q];
-    if (sum > 0.0f)
-        for (q = 0; q < 8; q++) a[ACC * off[q] + ACC_LOST] += lost * (sw[q] / sum);
+    if (!(lost > 0.0f) || !(k->sigma > 0.0f)) return;   /* (lost 0 also when not wanted) */
+    for (q = 0; q < 8; q++) k->acc[ACC * off[q] + ACC_LOST] += lost * (k->sw[q] / k->sigma);
 }
 
 /* The ray o + t u (grid units) clipped to the box [0, res]: 0 when it misses. */
@@ -93,12 +104,14 @@ static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const 
     while (tr > LBL_T_MIN && steps++ < r->max_steps) {
         vsd_f3 m = vsd_affine_point(&g->world_to_grid, f3_madd(x, d, 0.5f * h));
         float xm[3] = {m.x, m.y, m.z}, half;
+        step_corners k;
         if (!(m.x >= 0.0f && m.y >= 0.0f && m.z >= 0.0f && m.x <= (float)g->res[0] && m.y <= (float)g->res[1] &&
               m.z <= (float)g->res[2]))
             break;   /* (also for a NaN position) */
-        half = expf(-0.5f * sigma_at(pad, xm) * h);
+        corners_at(pad, sx, sy, xm, acc, &k);
+        half = expf(-0.5f * k.sigma * h);
         /* what the step loses, tr (1 - half^2), and T at its middle */
-        splat(sx, sy, pad, xm, tr * half, tr * (1.0f - half * half) * lost_scale, acc);
+        splat(&k, tr * half, tr * (1.0f - half * half) * lost_scale);
         tr *= half * half;
         vsd_refract_step(r, &x, &v, &d, h);
     }
@@ -349,6 +362,7 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
     int ax;
     for (; t < t1 && t < t_end && tr > LBL_T_MIN; t += j->step) {
         float h, x[3], half;
+        step_corners k;
         if (g->empty_d2) {
             /* A step's middle reaches medium or a record only within sqrt(3) cells of a
              * cell centre that has one (the trilinear lookup and the splat read the 8
@@ -372,10 +386,11 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
         }
         h = fminf(j->step, t1 - t);
         for (ax = 0; ax < 3; ax++) x[ax] = o[ax] + (t + 0.5f * h) * u[ax];
-        half = expf(-0.5f * sigma_at(pad, x) * world_step * (h / j->step));
+        corners_at(pad, sx, sy, x, acc, &k);
+        half = expf(-0.5f * k.sigma * world_step * (h / j->step));
         /* the transmittance at the step's middle is what the cells there see; what the
          * step loses, tr (1 - half^2), is the light the medium takes out of the ray */
-        splat(sx, sy, pad, x, tr * half, tr * (1.0f - half * half) * lost_scale, acc);
+        splat(&k, tr * half, tr * (1.0f - half * half) * lost_scale);
         tr *= half * half;
     }
     *tp = t;
