@@ -2,7 +2,7 @@
  * camera change uploads only the kernel structs), out-of-memory errors and the `auto`
  * fallback. Exits 77 (ctest SKIP) when no CUDA device answers, saying why.
  *
- * Tolerances. The deterministic methods (raymarch, constellation, shgrid, crm's view) run the same
+ * Tolerances. The deterministic methods (raymarch, constellation, shgrid, crm's and lbl's views) run the same
  * kernel functions on both backends, without fused multiply-adds on the GPU (--fmad=false)
  * and summed in the same order (kernel_accum.h); what remains is CUDA's expf/logf/powf
  * against glibc's (both within 2 ulp of the exact value), so a pass may differ by float
@@ -77,6 +77,8 @@ static void test_deterministic_parity(void)
         {"shgrid", NULL},
         /* crm's frame and lighting stages run on the CPU either way; its view on the device */
         {"crm", "render.options.rbf_count=200"},
+        /* so do lbl's (march, lattice, surface escape); its view on the device (issue 14) */
+        {"lbl", NULL},
     };
     size_t si, mi;
     for (si = 0; si < sizeof scenes / sizeof scenes[0]; si++)
@@ -159,7 +161,7 @@ static void check_equals_fresh(const vsd_scene *sc, const vsd_framebuffer *fb, c
  * re-prepares what depends on it and still equals a fresh render. */
 static void test_camera_change_uploads_only_camera(void)
 {
-    static const char *const methods[] = {"raymarch", "constellation", "shgrid", "crm", "reference"};
+    static const char *const methods[] = {"raymarch", "constellation", "shgrid", "crm", "lbl", "reference"};
     size_t mi;
     for (mi = 0; mi < sizeof methods / sizeof methods[0]; mi++) {
         vsd_scene sc;

@@ -16,9 +16,10 @@
  * box gets weight from some ray.
  *
  * With refraction the rays bend by the ray equation (kernel/kernel_refract.h) from where
- * they enter the box. The deposit stays the weighted mean of the transmittance of the rays
- * through a cell: where bent rays converge (a caustic) the light is not concentrated, only
- * redirected — a limit of this form.
+ * they enter the box. The T deposit stays the weighted mean of the transmittance of the
+ * rays through a cell: where bent rays converge (a caustic) that light is not
+ * concentrated, only redirected — a limit of this form; the lost power (below) is each
+ * ray's own, so it does concentrate.
  *
  * Grid coordinates: cell (i,j,k) spans [i, i+1) x ..., its centre at +0.5 (the record
  * grid's, src/render/record_grid.h). */
