@@ -145,15 +145,18 @@ static void test_conservation(void)
  * with its exit probability (first_exits of x along i's axis); the rest collides again, and
  * each later generation B (born anywhere, with the phase) leaves along i with e_i, the rest
  * colliding again: e o sum_k (albedo P D)^k B, D = 1 - e — summed here term by term with P
- * as a 6x6 matrix. The step streams node c's post-collision populations to its six
- * neighbours, where they are read back. */
+ * as a 6x6 matrix (with a source at the node, born as the later generations are). The
+ * step streams node c's post-collision populations to its six neighbours, where they are
+ * read back. And the readout's light in the cell (vsd_lbl_lattice_node_means, a second
+ * implementation of the same transport, per node) absorbs what the step loses. */
 static void test_in_cell_phase(const double shape[3], const char *label)
 {
     const int32_t res[3] = {5, 5, 5};
     const size_t n = 125, centre = (2 * 5 + 2) * 5 + 2;
     const float forward = 0.62f, backward = 0.04f, side = 0.085f, albedo[3] = {0.97f, 0.6f, 1.0f};
     const size_t neighbour[6] = {centre + 1, centre - 1, centre + 5, centre - 5, centre + 25, centre - 25};
-    float collide[125], f[6];
+    float collide[125], f[6], src[6], mean[3][6];
+    static float source[6 * 3 * 125];   /* per direction, only at the centre */
     double P[6][6];
     vsd_lbl_lattice l;
     unsigned long long rng = 11;
@@ -168,9 +171,16 @@ static void test_in_cell_phase(const double shape[3], const char *label)
         for (j = 0; j < 6; j++) P[i][j] = i == j ? forward : (i ^ 1) == j ? backward : side;
     for (i = 0; i < (int)n; i++) collide[i] = 0.95f;   /* x = 3: most born light collides in the cell again */
     for (i = 0; i < 6; i++) f[i] = (float)(0.1 + test_urand(&rng));
+    for (i = 0; i < 6; i++) src[i] = (float)(0.05 + 0.2 * test_urand(&rng));
+    memset(source, 0, sizeof source);
     for (ch = 0; ch < 3; ch++)
-        for (i = 0; i < 6; i++) l.f[((size_t)i * 3 + ch) * n + centre] = f[i];
-    vsd_lbl_lattice_steps(&l, collide, albedo, NULL, 1);
+        for (i = 0; i < 6; i++) {
+            l.f[((size_t)i * 3 + ch) * n + centre] = f[i];
+            source[((size_t)i * 3 + ch) * n + centre] = src[i];
+        }
+    /* the cell's light before the step, as the readout takes it */
+    for (ch = 0; ch < 3; ch++) vsd_lbl_lattice_node_means(&l, collide, albedo, source, ch, centre, mean[ch]);
+    vsd_lbl_lattice_steps(&l, collide, albedo, source, 1);
     for (ch = 0; ch < 3; ch++) {
         const double x = -log(1.0 - collide[centre]);
         double pa[6], e[6], exits[6][3], born[6], again[6], sum[6], worst = 0.0;
@@ -191,7 +201,7 @@ static void test_in_cell_phase(const double shape[3], const char *label)
             }
         }
         for (i = 0; i < 6; i++) {
-            born[i] = 0.0;
+            born[i] = src[i];   /* the source is born at a uniform point, as what collides again */
             for (j = 0; j < 6; j++) born[i] += albedo[ch] * P[i][j] * again[j];
         }
         for (k = 0; k < 400; k++) {   /* albedo (1 - e) <= 0.69: the terms fall below 1e-60 */
@@ -212,6 +222,22 @@ static void test_in_cell_phase(const double shape[3], const char *label)
                label, albedo[ch], worst);
         CHECK_MSG(worst < 1e-5, "%s, albedo %.2f: the step's outflow differs from the in-cell series by %.3g", label,
                   albedo[ch], worst);
+        {
+            /* the readout's cell light against the step: the light a step loses in the cell
+             * (what arrived and was born there, less what left) is what its collisions
+             * absorb, (1 - albedo) x sum_i mean_i, a collision per 1/sigma of path */
+            double in = 0.0, out = 0.0, path = 0.0;
+            for (i = 0; i < 6; i++) {
+                in += (double)f[i] + src[i];
+                out += l.f[((size_t)i * 3 + ch) * n + neighbour[i]];
+                path += mean[ch][i];
+            }
+            printf("[1]   light lost in the step %.6f, absorbed along the readout's path %.6f\n", in - out,
+                   (1.0 - albedo[ch]) * x * path);
+            CHECK_MSG(fabs(in - out - (1.0 - albedo[ch]) * x * path) < 1e-5 * in,
+                      "%s, albedo %.2f: the step loses %.6g, the readout's path absorbs %.6g", label, albedo[ch],
+                      in - out, (1.0 - albedo[ch]) * x * path);
+        }
     }
     vsd_lbl_lattice_free(&l);
 }

@@ -367,6 +367,13 @@ static void light_shares(const lbl_state *s, int light, int32_t rec, float q[6])
     vsd_lbl_readout_weights(&s->readout, vsd_affine_vector(&s->rg.world_to_grid, w), q);
 }
 
+/* What turns a light's T (times albedo E) at cell c into the watts the cell scatters,
+ * p lambda^2 — or, for the lost power (light_deposit "lost"), lambda^3. */
+static double deposit_scale(const lbl_state *s, size_t c, int lost)
+{
+    return lost ? s->cell_world * s->cell_world * s->cell_world : s->collide[c] * s->cell_world * s->cell_world;
+}
+
 /* Adds light k's first scattering at record rec (cell c), t its transmittance (times the
  * falloff for a point light), to the source: albedo E T p lambda^2, or with lost power
  * (light_deposit "lost", directional lights) albedo E lost lambda^3, per direction or all
@@ -376,8 +383,8 @@ static void add_deposit(lbl_state *s, const float albedo[3], int light, size_t c
     const size_t n = cell_count(s);
     const float *e = light < s->dir_count ? s->dir_lights + 8 * light + 4
                                           : s->local_lights + (size_t)VSD_KLIGHT_FLOATS * (light - s->dir_count) + 4;
-    const double w = s->light_lost && isfinite(lost) ? lost * s->cell_world * s->cell_world * s->cell_world
-                                                      : t * s->collide[c] * s->cell_world * s->cell_world;
+    const int use_lost = s->light_lost && isfinite(lost);
+    const double w = (use_lost ? lost : t) * deposit_scale(s, c, use_lost);
     int ch, i;
     if (!(w != 0.0)) return;
     if (!s->source_dirs) {
@@ -409,7 +416,6 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
     const float albedo[3] = {m->albedo.x, m->albedo.y, m->albedo.z};
     size_t c;
     const int nd = s->source_dirs ? 6 : 1, m3 = 3 * nd;
-    const double area = s->cell_world * s->cell_world;
     /* the directional lights, the bulk: albedo E_k times each direction's share, once per
      * light, then one multiply-add per light, direction and channel at each record */
     float qe[VSD_RECORDS_MAX_LIGHTS * 18];
@@ -433,8 +439,7 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
         t = (s->light_lost ? s->light_lost : s->light_trans) + (size_t)rec * s->dir_count;
         for (k = 0; k < s->dir_count; k++)
             for (q = 0; q < m3; q++) acc[q] += t[k] * qe[(size_t)k * m3 + q];
-        for (q = 0; q < m3; q++)
-            s->source[(size_t)q * n + c] += (float)(acc[q] * (s->light_lost ? area * s->cell_world : s->collide[c] * area));
+        for (q = 0; q < m3; q++) s->source[(size_t)q * n + c] += (float)(acc[q] * deposit_scale(s, c, s->light_lost != NULL));
         /* point and spot lights: their falloff is in local_trans */
         for (k = 0; k < s->local_count; k++)
             add_deposit(s, albedo, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k], NAN);
@@ -454,14 +459,14 @@ typedef struct overlap_ctx {
     lbl_state *s;
     const vsd_frame_ctx *ctx;
     float albedo[3];              /* the medium's: the source */
-
+    vsd_lbl_stepper *stepper;     /* the lattice prepared once for the rounds' steps */
     int steps;
 } overlap_ctx;
 
 static void diffuse_during_march(void *user)
 {
     overlap_ctx *o = user;
-    vsd_lbl_lattice_steps(&o->s->lattice, o->s->collide, o->albedo, o->s->source, LBL_STEPS_PER_ROUND);
+    vsd_lbl_stepper_run(o->stepper, LBL_STEPS_PER_ROUND, 1);
     o->steps += LBL_STEPS_PER_ROUND;
 }
 
@@ -656,18 +661,22 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         oc.ctx = ctx;
         memcpy(oc.albedo, albedo, sizeof albedo);
         oc.steps = 0;
+        oc.stepper = NULL;
         if (s->opt.history > 0) {
             memset(s->source, 0, source_floats(s) * sizeof *s->source);
             if (s->source_e) {
                 emission_source(s, ctx);
                 add_emission(s);
             }
+            if ((st = vsd_lbl_stepper_new(&s->lattice, s->collide, albedo, s->source, &oc.stepper, err, errlen)))
+                return st;
         }
-        if ((st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
-                                       (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record,
-                                       ctx->threads, s->light_trans, s->light_lost, s->local_trans,
-                                       s->opt.history > 0 ? &ov : NULL, err, errlen)))
-            return st;
+        st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
+                                  (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record, ctx->threads,
+                                  s->light_trans, s->light_lost, s->local_trans, s->opt.history > 0 ? &ov : NULL, err,
+                                  errlen);
+        vsd_lbl_stepper_free(oc.stepper);
+        if (st) return st;
         s->history_rounds = s->opt.history > 0 ? ov.rounds : 0;
         s->history_steps = oc.steps;
     }

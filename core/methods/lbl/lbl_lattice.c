@@ -469,15 +469,62 @@ static vsd_status advance(vsd_lbl_lattice *l, step_job *job, const float albedo[
     return run_step(job, threads);
 }
 
+/* The blocked and D3Q18 lattices take copies of the material (prepare), the global one
+ * reads it in place. */
+static int copies_material(const vsd_lbl_lattice *l) { return l->layout.block_steps > 0 || l->layout.d3q18; }
+
+struct vsd_lbl_stepper {
+    vsd_lbl_lattice *l;
+    const float *collide, *source;
+    float albedo[3];
+    step_job job;            /* the global lattice's, kept across runs */
+};
+
+vsd_status vsd_lbl_stepper_new(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
+                               vsd_lbl_stepper **out, char *err, size_t errlen)
+{
+    vsd_lbl_stepper *s = calloc(1, sizeof *s);
+    vsd_status st;
+    *out = NULL;
+    if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lattice's stepper");
+    s->l = l;
+    s->collide = collide;
+    s->source = source;
+    memcpy(s->albedo, albedo, sizeof s->albedo);
+    if (allocated(l) && !copies_material(l) && (st = prepare(l, &s->job, collide, albedo, source, err, errlen))) {
+        vsd_lbl_stepper_free(s);
+        return st;
+    }
+    *out = s;
+    return VSD_OK;
+}
+
+vsd_status vsd_lbl_stepper_run(vsd_lbl_stepper *s, int steps, int threads)
+{
+    vsd_status st = VSD_OK;
+    int k;
+    if (!allocated(s->l)) return VSD_OK;
+    /* their copies taken anew every run, so a source still being deposited counts as it
+     * grows */
+    if (copies_material(s->l) && (st = prepare(s->l, &s->job, s->collide, s->albedo, s->source, NULL, 0)))
+        return st;
+    for (k = 0; k < steps && !st; k++) st = advance(s->l, &s->job, s->albedo, threads);
+    return st;
+}
+
+void vsd_lbl_stepper_free(vsd_lbl_stepper *s)
+{
+    if (!s) return;
+    step_job_free(&s->job);
+    free(s);
+}
+
 void vsd_lbl_lattice_steps(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
                            int steps)
 {
-    step_job job;
-    int k;
-    memset(&job, 0, sizeof job);
-    if (allocated(l) && prepare(l, &job, collide, albedo, source, NULL, 0) == VSD_OK)
-        for (k = 0; k < steps; k++) advance(l, &job, albedo, 1);
-    step_job_free(&job);
+    vsd_lbl_stepper *s;
+    if (vsd_lbl_stepper_new(l, collide, albedo, source, &s, NULL, 0) == VSD_OK) vsd_lbl_stepper_run(s, steps, 1);
+    vsd_lbl_stepper_free(s);
 }
 
 /* The photons at node c in channel ch: the sum of its six arriving populations. */

@@ -108,6 +108,17 @@ void vsd_lbl_lattice_set_cell_shape(vsd_lbl_lattice *l, const double shape[3]);
 void vsd_lbl_lattice_steps(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
                            int steps);
 
+/* The same steps in several runs without preparing the material again each time (the
+ * cells' exits, the scratch: the steps while the rays march, a run per round): new with
+ * the material (l's phase, cell light, shape and keep set before; collide, albedo and
+ * source read as by vsd_lbl_lattice_steps and alive until free), then runs of `steps` on
+ * `threads` CPU threads (a run's status: cancelled). */
+typedef struct vsd_lbl_stepper vsd_lbl_stepper;
+vsd_status vsd_lbl_stepper_new(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
+                               vsd_lbl_stepper **out, char *err, size_t errlen);
+vsd_status vsd_lbl_stepper_run(vsd_lbl_stepper *s, int steps, int threads);
+void vsd_lbl_stepper_free(vsd_lbl_stepper *s);
+
 /* Sum of all populations of channel ch (the photons in the lattice, with those waiting in
  * a blocked lattice's interface buffers). */
 double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch);

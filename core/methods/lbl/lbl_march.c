@@ -14,7 +14,6 @@
 #define LBL_T_MIN 1e-4f
 
 
-/* trilinear sigma at grid point x inside the box (cell centres at +0.5) */
 /* An accumulator's floats per cell: sum w T, sum w (the weighted mean T), the lost power. */
 enum { ACC_WT = 0, ACC_W = 1, ACC_LOST = 2, ACC = 3 };
 
