@@ -63,3 +63,31 @@ if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
     message(FATAL_ERROR "VSD_BLENDER_TESTS=ON but no blender executable was found (needed by tests/blender_addon.cmake)")
   endif()
 endif()
+
+# The same F12 and add-on tests under the Blenders of PyPI's bpy wheels (4.2 LTS, 4.5 LTS,
+# 5.0; tests/common/blender_wheels.cmake finds them), run by tests/blender_addon/blender_wheel.py
+# as `blender -b --python` runs them in a binary; plus test_versions (what differs between
+# versions: the engine's constructor, colour spaces, pass names against that version's own
+# Cycles, lights, cameras, deprecated node flags), which runs in 3.4 too. Names:
+# blender42_addon_render, ... The viewport test needs a window and stays on 3.4 (Xvfb).
+set(VSD_ADDON_WHEEL_TESTS render stream options ior lights versions)
+foreach(v ${VSD_BLENDER_WHEEL_VERSIONS})
+  vsd_wheel_blender(wheel_blender ${v})
+  vsd_wheel_tag(tag ${v})
+  foreach(t ${VSD_ADDON_WHEEL_TESTS})
+    add_test(NAME blender${tag}_addon_${t}
+             COMMAND ${wheel_blender} --background --factory-startup --python-exit-code 1
+                     --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_${t}.py --
+                     $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender${tag}_addon_${t})
+    set_tests_properties(blender${tag}_addon_${t} PROPERTIES LABELS "blender;integration;wheel" TIMEOUT 300
+                         FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)")
+  endforeach()
+endforeach()
+if(BLENDER_EXE AND NOT VSD_BLENDER_TESTS STREQUAL "OFF")
+  add_test(NAME blender_addon_versions
+           COMMAND ${BLENDER_EXE} --background --factory-startup --python-exit-code 1
+                   --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_versions.py --
+                   $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender_addon_versions)
+  set_tests_properties(blender_addon_versions PROPERTIES LABELS "blender;integration" TIMEOUT 300
+                       FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)")
+endif()

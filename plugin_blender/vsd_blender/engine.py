@@ -41,13 +41,25 @@ class VSDRenderEngine(bpy.types.RenderEngine):
     bl_use_shading_nodes_custom = False  # Blender's shader nodes (Principled Volume)
     bl_use_eevee_viewport = True    # Material Preview shading uses EEVEE
 
-    def __init__(self):
+    # From 4.4 Blender passes arguments to the engine's constructor and requires the
+    # parent's __init__ to run (else the engine cannot be created and every F12 fails);
+    # 3.4-4.3 pass none, and the call is harmless there.
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
         self.preview = None
 
     def __del__(self):
-        p = getattr(self, "preview", None)
+        # Blender may free the engine's RNA before Python collects it: reading an attribute
+        # then raises ReferenceError, and the preview has been stopped with the engine.
+        try:
+            p = self.preview
+        except (AttributeError, ReferenceError):
+            p = None
         if p is not None:
             p.stop()
+        parent = getattr(super(), "__del__", None)
+        if parent is not None:
+            parent()
 
     # -- passes ----------------------------------------------------------------------------
     def update_render_passes(self, scene=None, renderlayer=None):

@@ -313,7 +313,9 @@ def _emission_strength(sock, m):
             node = None
         if node is not None and getattr(node, "use_clamp", False):
             m.warn("Emission Strength: the Math node's Clamp is ignored")
-    if node is not None and node.type == "ATTRIBUTE" and out.name in ("Fac", "Color"):
+    # 5.0 renamed the Attribute node's "Fac" output "Factor" (its identifier stays "Fac")
+    if node is not None and node.type == "ATTRIBUTE" and (out.identifier in ("Fac", "Color")
+                                                          or out.name in ("Fac", "Factor", "Color")):
         if node.attribute_type not in ("GEOMETRY",):
             m.warn("Emission Strength: Attribute node type %s treated as Geometry" % node.attribute_type)
         return scale, node.attribute_name

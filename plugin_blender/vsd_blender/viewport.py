@@ -27,7 +27,7 @@ import bpy
 import gpu
 from gpu_extras.presets import draw_texture_2d
 
-from . import connection, mapping, vsd_client
+from . import colour, connection, mapping, vsd_client
 
 LOG = bool(os.environ.get("VSD_PREVIEW_LOG"))
 
@@ -227,7 +227,10 @@ class Preview(object):
         try:
             img = bpy.data.images.load(path, check_existing=False)
             img.name = ".vsd_preview"
-            img.colorspace_settings.name = "Linear"
+            # the result is in Blender's working space ("Linear" in 3.4, "Linear Rec.709"
+            # from 4.0, the file's choice from 5.0): a name the version lacks raised here
+            # and dropped the poll timer, leaving the viewport blank
+            img.colorspace_settings.name = colour.image_space_for_results()
             img.alpha_mode = "PREMUL"
             img.pixels[0]  # read the file now; it is removed below
         finally:

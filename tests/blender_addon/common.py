@@ -27,6 +27,47 @@ import mathutils
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(os.path.dirname(HERE))
 failures = []
+# The add-on's module name: "vsd_blender" as a legacy add-on (3.4, and 4.2+ from the zip),
+# "bl_ext.<repository>.vsd_blender" as an extension (4.2+). install_addon() sets it.
+ADDON = "vsd_blender"
+# True under a `bpy` wheel (tests/blender_addon/blender_wheel.py), False in a Blender binary.
+IS_WHEEL = not bpy.app.binary_path
+
+
+def addon_module(name):
+    """The add-on's submodule `name` ("mapping", "passes", ...) as Blender loaded it."""
+    return sys.modules["%s.%s" % (ADDON, name)]
+
+
+def addon_prefs():
+    return bpy.context.preferences.addons[ADDON].preferences
+
+
+# ---- what differs between Blender versions, for the tests' own scene building -------------
+
+def use_nodes(idblock):
+    """Material/World/Light use_nodes = True where it still means something: 5.0 deprecated
+    it (always on, removal planned for 6.0)."""
+    if bpy.app.version < (5, 0, 0):
+        idblock.use_nodes = True
+    return idblock.node_tree
+
+
+def compositor_tree(scene):
+    """The scene's compositing node tree: scene.node_tree up to 4.5, 5.0's node group."""
+    if hasattr(scene, "compositing_node_group"):
+        if scene.compositing_node_group is None:
+            scene.compositing_node_group = bpy.data.node_groups.new("Compositing", "CompositorNodeTree")
+        return scene.compositing_node_group
+    scene.use_nodes = True
+    return scene.node_tree
+
+
+def set_multilayer_exr(image_settings):
+    """Multilayer EXR output: 5.0 moved it under media_type."""
+    if hasattr(image_settings, "media_type"):
+        image_settings.media_type = "MULTI_LAYER_IMAGE"
+    image_settings.file_format = "OPEN_EXR_MULTILAYER"
 
 
 def args():
@@ -72,10 +113,12 @@ def install_addon(tmp, vsd=None, auto_start=False, address="", by_copy=False):
             z.extractall(addons)
     if addons not in sys.path:
         sys.path.insert(0, addons)
-    mod = addon_utils.enable("vsd_blender", default_set=True, handle_error=None)
+    global ADDON
+    ADDON = "vsd_blender"
+    mod = addon_utils.enable(ADDON, default_set=True, handle_error=None)
     assert mod is not None, "addon_utils.enable(vsd_blender) failed"
     assert os.path.dirname(mod.__file__) == os.path.join(addons, "vsd_blender"), mod.__file__
-    prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+    prefs = addon_prefs()
     prefs.vsd_path = vsd or ""
     prefs.auto_start = auto_start
     prefs.address = address
@@ -150,8 +193,7 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
     ob.matrix_world = mathutils.Matrix.Translation((0.1, 0.0, -0.05))
 
     mat = bpy.data.materials.new("smoke_mat")
-    mat.use_nodes = True
-    nt = mat.node_tree
+    nt = use_nodes(mat)
     for n in list(nt.nodes):
         nt.nodes.remove(n)
     out = nt.nodes.new("ShaderNodeOutputMaterial")
@@ -165,8 +207,7 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
 
     world = bpy.data.worlds.new("studio")
     scene.world = world
-    world.use_nodes = True
-    wn = world.node_tree
+    wn = use_nodes(world)
     for n in list(wn.nodes):
         wn.nodes.remove(n)
     wo = wn.nodes.new("ShaderNodeOutputWorld")
@@ -199,7 +240,7 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
     r.film_transparent = transparent
     r.use_compositing = False
     r.use_sequencer = False
-    r.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    set_multilayer_exr(r.image_settings)
     r.image_settings.color_depth = "32"
     r.image_settings.exr_codec = "ZIP"
     scene.view_settings.view_transform = "Standard"
@@ -220,15 +261,9 @@ def _half(h):
     return struct.unpack("<e", struct.pack("<H", h))[0]
 
 
-def read_exr(path):
-    """{channel name: list of floats, row-major, top row first}, width, height.
-    Scanline files with NONE, ZIPS or ZIP compression (what vsd and Blender write here)."""
-    with open(path, "rb") as f:
-        data = f.read()
-    assert data[:4] == b"\x76\x2f\x31\x01", path + ": not an EXR"
-    flags = struct.unpack_from("<I", data, 4)[0]
-    assert not (flags & 0x200), path + ": tiled EXR not supported by this reader"
-    pos = 8
+def _read_header(data, pos):
+    """One header's attributes {name: (type, bytes)} from `pos`; returns it and the position
+    after its terminating null."""
     header = {}
     while data[pos] != 0:
         end = data.index(b"\0", pos)
@@ -241,49 +276,78 @@ def read_exr(path):
         pos += 4
         header[name] = (typ, data[pos:pos + size])
         pos += size
-    pos += 1
-    chans = []
-    raw = header["channels"][1]
-    p = 0
+    return header, pos + 1
+
+
+def _channels(header):
+    chans, raw, p = [], header["channels"][1], 0
     while raw[p] != 0:
         end = raw.index(b"\0", p)
-        cname = raw[p:end].decode()
-        ptype = struct.unpack_from("<i", raw, end + 1)[0]
-        chans.append((cname, ptype))
+        chans.append((raw[p:end].decode(), struct.unpack_from("<i", raw, end + 1)[0]))
         p = end + 1 + 16
-    xmin, ymin, xmax, ymax = struct.unpack("<4i", header["dataWindow"][1])
-    w, h = xmax - xmin + 1, ymax - ymin + 1
-    comp = header["compression"][1][0]
-    lines = {0: 1, 2: 1, 3: 16}[comp]
-    nblocks = (h + lines - 1) // lines
-    offsets = struct.unpack_from("<%dQ" % nblocks, data, pos)
-    out = {c: [0.0] * (w * h) for c, _ in chans}
-    for off in offsets:
-        y, size = struct.unpack_from("<ii", data, off)
-        block = data[off + 8:off + 8 + size]
-        nl = min(lines, ymax - y + 1)
-        expected = sum(nl * w * (2 if t == 1 else 4) for _, t in chans)
-        if comp != 0 and size < expected:
-            t = bytearray(zlib.decompress(block))
-            for i in range(1, len(t)):
-                t[i] = (t[i - 1] + t[i] - 128) & 0xFF
-            half = (len(t) + 1) // 2
-            u = bytearray(len(t))
-            u[0::2] = t[:half]
-            u[1::2] = t[half:]
-            block = bytes(u)
-        q = 0
-        for li in range(nl):
-            row = y - ymin + li
-            for cname, ptype in chans:
-                if ptype == 1:
-                    vals = [_half(v) for v in struct.unpack_from("<%dH" % w, block, q)]
-                    q += 2 * w
-                else:
-                    vals = struct.unpack_from("<%df" % w, block, q)
-                    q += 4 * w
-                out[cname][row * w:(row + 1) * w] = vals
-    return out, w, h
+    return chans
+
+
+def read_exr(path):
+    """{channel name: list of floats, row-major, top row first}, width, height.
+    Scanline files with NONE, ZIPS or ZIP compression (what vsd and Blender write here),
+    single-part (3.4-4.5, vsd) or multi-part (Blender 5.0 writes a part per pass)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    assert data[:4] == b"\x76\x2f\x31\x01", path + ": not an EXR"
+    flags = struct.unpack_from("<I", data, 4)[0]
+    assert not (flags & 0x200), path + ": tiled EXR not supported by this reader"
+    multipart = bool(flags & 0x1000)
+    pos, headers = 8, []
+    while True:
+        header, pos = _read_header(data, pos)
+        headers.append(header)
+        if not multipart or data[pos] == 0:
+            break
+    if multipart:
+        pos += 1  # the empty header that ends the list
+    out, size_wh = {}, None
+    for part, header in enumerate(headers):
+        chans = _channels(header)
+        xmin, ymin, xmax, ymax = struct.unpack("<4i", header["dataWindow"][1])
+        w, h = xmax - xmin + 1, ymax - ymin + 1
+        size_wh = size_wh or (w, h)
+        comp = header["compression"][1][0]
+        assert comp in (0, 2, 3), "%s: compression %d not supported by this reader" % (path, comp)
+        lines = {0: 1, 2: 1, 3: 16}[comp]
+        nblocks = (h + lines - 1) // lines
+        offsets = struct.unpack_from("<%dQ" % nblocks, data, pos)
+        pos += 8 * nblocks
+        for c, _ in chans:
+            out[c] = [0.0] * (w * h)
+        for off in offsets:
+            if multipart:
+                off += 4  # the chunk's part number
+            y, size = struct.unpack_from("<ii", data, off)
+            block = data[off + 8:off + 8 + size]
+            nl = min(lines, ymax - y + 1)
+            expected = sum(nl * w * (2 if t == 1 else 4) for _, t in chans)
+            if comp != 0 and size < expected:
+                t = bytearray(zlib.decompress(block))
+                for i in range(1, len(t)):
+                    t[i] = (t[i - 1] + t[i] - 128) & 0xFF
+                half = (len(t) + 1) // 2
+                u = bytearray(len(t))
+                u[0::2] = t[:half]
+                u[1::2] = t[half:]
+                block = bytes(u)
+            q = 0
+            for li in range(nl):
+                row = y - ymin + li
+                for cname, ptype in chans:
+                    if ptype == 1:
+                        vals = [_half(v) for v in struct.unpack_from("<%dH" % w, block, q)]
+                        q += 2 * w
+                    else:
+                        vals = struct.unpack_from("<%df" % w, block, q)
+                        q += 4 * w
+                    out[cname][row * w:(row + 1) * w] = vals
+    return out, size_wh[0], size_wh[1]
 
 
 def run_blender_render(write_path=None, animation=False):

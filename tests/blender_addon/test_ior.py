@@ -31,11 +31,11 @@ def main():
     vsd, data, tmp, _ = common.args()
     common.fresh_tmp(tmp)
     common.install_addon(tmp, vsd=vsd)
-    mapping = sys.modules["vsd_blender.mapping"]
-    ui = sys.modules["vsd_blender.ui"]
+    mapping = common.addon_module("mapping")
+    ui = common.addon_module("ui")
     d = common.Daemon(vsd, tmp)
     try:
-        prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+        prefs = common.addon_prefs()
         prefs.address = d.sock
         scene, ob = common.build_scene(data, width=16, height=9)
         s = scene.vsd

@@ -42,10 +42,10 @@ def main():
     vsd, data, tmp, _ = common.args()
     common.fresh_tmp(tmp)
     common.install_addon(tmp, vsd=vsd)
-    mapping = sys.modules["vsd_blender.mapping"]
+    mapping = common.addon_module("mapping")
     d = common.Daemon(vsd, tmp)
     try:
-        prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+        prefs = common.addon_prefs()
         prefs.address = d.sock
         scene, ob = common.build_scene(data, width=32, height=18)
         s = scene.vsd

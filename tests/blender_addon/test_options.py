@@ -83,7 +83,7 @@ scene.vsd.options_json = ""
 # the daemon's HELLO carries the same table, and a render with a generated option works
 d = common.Daemon(vsd, tmp)
 try:
-    prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+    prefs = common.addon_prefs()
     prefs.address = d.sock
     st = vsd_blender.connection.refresh_status(vsd_blender.connection.Settings.from_prefs(prefs))
     check(st["ok"], "connected to the daemon: %s" % st["text"])

@@ -27,6 +27,22 @@ PASS_CHANNELS = {"Combined": "RGBA", "VolumeDir": "RGB", "VolumeInd": "RGB", "Em
                  "Transmittance": "RGB", "Depth": "Z"}
 
 
+def read_vsd_names(path):
+    """common.read_exr with this Blender version's pass names (5.0: "Volume Direct", ...)
+    turned back into vsd's, so the checks below read the same keys on every version."""
+    img, w, h = common.read_exr(path)
+    names = common.addon_module("passes").pass_names(bpy.app.version)
+    back = {".%s." % b: ".%s." % v for v, b in names.items() if v != b}
+    out = {}
+    for k, v in img.items():
+        for b, vname in back.items():
+            if b in k:
+                k = k.replace(b, vname)
+                break
+        out[k] = v
+    return out, w, h
+
+
 def pass_values(img, layer, name):
     return [img["%s.%s.%s" % (layer, name, c)] for c in PASS_CHANNELS[name]]
 
@@ -37,7 +53,7 @@ def main():
     common.install_addon(tmp, vsd=vsd)
     d = common.Daemon(vsd, tmp)
     try:
-        prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+        prefs = common.addon_prefs()
         prefs.address = d.sock
         scene, ob = common.build_scene(data, width=128, height=72, percentage=50, frame_start=11,
                                         frame_offset=20)
@@ -46,19 +62,22 @@ def main():
 
         # --- the render engine lists its passes for the compositor ---------------------------
         tree_outputs = []
-        scene.use_nodes = True
-        rl = scene.node_tree.nodes.new("CompositorNodeRLayers")
+        tree = common.compositor_tree(scene)
+        rl = tree.nodes.new("CompositorNodeRLayers")
         tree_outputs = [s.name for s in rl.outputs if s.enabled]
-        for name in ("Image", "Alpha", "VolumeDir", "VolumeInd", "Emit", "Transmittance", "Depth"):
+        pnames = common.addon_module("passes").pass_names(bpy.app.version)
+        for name in ("Image", "Alpha") + tuple(pnames[p] for p in ("VolumeDir", "VolumeInd", "Emit",
+                                                                       "Transmittance", "Depth")):
             check(name in tree_outputs, "Render Layers node offers %s (%s)" % (name, tree_outputs))
-        scene.node_tree.nodes.remove(rl)
-        scene.use_nodes = False
+        tree.nodes.remove(rl)
+        if not hasattr(scene, "compositing_node_group"):
+            scene.use_nodes = False
 
         # --- F12 -----------------------------------------------------------------------------
         out = os.path.join(tmp, "blender_f12.exr")
         err = common.run_blender_render(out)
         check(err is None, "F12 render without error (%s)" % err)
-        img, w, h = common.read_exr(out)
+        img, w, h = read_vsd_names(out)
         check((w, h) == (64, 36), "resolution x percentage: %dx%d" % (w, h))
         for name, chans in PASS_CHANNELS.items():
             for c in chans:
@@ -97,7 +116,7 @@ def main():
         r = subprocess.run([vsd, "render", scene_json, "--frames", "21-21", "--output", cli_out, "--quiet"],
                            capture_output=True, text=True)
         check(r.returncode == 0, "vsd render of the exported scene (%s)" % r.stderr.strip())
-        ref, rw, rh = common.read_exr(cli_out.replace("####", "0021"))
+        ref, rw, rh = read_vsd_names(cli_out.replace("####", "0021"))
         check((rw, rh) == (w, h), "CLI size matches")
         worst = 0.0
         for name, chans in PASS_CHANNELS.items():
@@ -130,7 +149,7 @@ def main():
         # update_render_passes registers the names of passes.pass_names(), the request sends
         # them as output.pass_names, the daemon writes them, load_from_file fills them: the
         # whole path a Blender 5.0 takes, exercised here in 3.4 (which accepts any name).
-        pmod = sys.modules["vsd_blender.passes"]
+        pmod = common.addon_module("passes")
         saved = pmod.BLENDER_NAMES
         pmod.BLENDER_NAMES = ((tuple(bpy.app.version[:2]), dict(renamed)),)
         try:
@@ -153,7 +172,7 @@ def main():
         out_l = os.path.join(tmp, "blender_two_layers.exr")
         err = common.run_blender_render(out_l)
         check(err is None, "F12 with two view layers (%s)" % err)
-        img_l, _, _ = common.read_exr(out_l)
+        img_l, _, _ = read_vsd_names(out_l)
         for lname in (layer, "Second Layer"):
             for name, chans in PASS_CHANNELS.items():
                 for c in chans:
@@ -168,14 +187,14 @@ def main():
         ob2 = bpy.data.objects.new("another smoke", vol2)  # first by name
         scene.collection.objects.link(ob2)
         bpy.context.view_layer.objects.active = ob
-        mapping = sys.modules["vsd_blender.mapping"]
+        mapping = common.addon_module("mapping")
         mm = mapping.build_scene(bpy.context.evaluated_depsgraph_get())
         check(mm.volume_object.original == ob and
               any("using 'smoke'" in w and "not rendered: 'another smoke'" in w for w in mm.warnings),
               "two volumes: the active one is used and a warning says which (%s)" % mm.warnings)
         out_v = os.path.join(tmp, "blender_two_volumes.exr")
         err = common.run_blender_render(out_v)
-        img_v, _, _ = common.read_exr(out_v)
+        img_v, _, _ = read_vsd_names(out_v)
         check(err is None and img_v == img, "two volumes: F12 renders the active one only (%s)" % err)
         bpy.data.objects.remove(ob2, do_unlink=True)
 
@@ -197,26 +216,32 @@ def main():
         bpy.context.view_layer.objects.active = ob
 
         # --- a Mantaflow domain is named with the cache to import, never silently dropped -----
-        bpy.ops.mesh.primitive_cube_add(size=2.0, location=(5.0, 0.0, 0.0))
-        dom = bpy.context.view_layer.objects.active
-        dom.name = "Smoke Domain"
-        fm = dom.modifiers.new("Fluid", "FLUID")
-        fm.fluid_type = "DOMAIN"
-        fm.domain_settings.cache_directory = os.path.join(tmp, "cache_fluid")
-        fm.domain_settings.cache_data_format = "OPENVDB"
-        bpy.context.view_layer.objects.active = ob
-        mm = mapping.build_scene(bpy.context.evaluated_depsgraph_get())
-        want = os.path.join(tmp, "cache_fluid", "data", "fluid_data_####.vdb")
-        check(any("'Smoke Domain' is a Mantaflow fluid domain" in w and want in w and "(not rendered)" in w
-                  for w in mm.warnings), "a visible Mantaflow domain is a warning naming its cache (%s)" % mm.warnings)
-        ob.hide_render = True
-        err = common.run_blender_render()
-        print("domain only ->", err)
-        check(err is not None and "Mantaflow fluid domain" in err and want in err,
-              "only a Mantaflow domain: a Blender error naming the cache to import (%s)" % err)
-        ob.hide_render = False
-        bpy.data.objects.remove(dom, do_unlink=True)
-        bpy.context.view_layer.objects.active = ob
+        # Mantaflow's embedded interpreter aborts the process when a domain is created in the
+        # bpy module (Manta::Error "can't clean grid cache"), so this part runs in Blender
+        # binaries only; the mapping it checks does not depend on the version.
+        if common.IS_WHEEL:
+            print("note: Mantaflow domain check not run under the bpy module (aborts there)")
+        else:
+            bpy.ops.mesh.primitive_cube_add(size=2.0, location=(5.0, 0.0, 0.0))
+            dom = bpy.context.view_layer.objects.active
+            dom.name = "Smoke Domain"
+            fm = dom.modifiers.new("Fluid", "FLUID")
+            fm.fluid_type = "DOMAIN"
+            fm.domain_settings.cache_directory = os.path.join(tmp, "cache_fluid")
+            fm.domain_settings.cache_data_format = "OPENVDB"
+            bpy.context.view_layer.objects.active = ob
+            mm = mapping.build_scene(bpy.context.evaluated_depsgraph_get())
+            want = os.path.join(tmp, "cache_fluid", "data", "fluid_data_####.vdb")
+            check(any("'Smoke Domain' is a Mantaflow fluid domain" in w and want in w and "(not rendered)" in w
+                      for w in mm.warnings), "a visible Mantaflow domain is a warning naming its cache (%s)" % mm.warnings)
+            ob.hide_render = True
+            err = common.run_blender_render()
+            print("domain only ->", err)
+            check(err is not None and "Mantaflow fluid domain" in err and want in err,
+                  "only a Mantaflow domain: a Blender error naming the cache to import (%s)" % err)
+            ob.hide_render = False
+            bpy.data.objects.remove(dom, do_unlink=True)
+            bpy.context.view_layer.objects.active = ob
 
         # --- emission and multiple scattering: fire96 flame, reference -----------------------
         vol = ob.data
@@ -238,7 +263,7 @@ def main():
         out2 = os.path.join(tmp, "blender_fire.exr")
         err = common.run_blender_render(out2)
         check(err is None, "fire render without error (%s)" % err)
-        img2, w2, h2 = common.read_exr(out2)
+        img2, w2, h2 = read_vsd_names(out2)
         for name in ("VolumeDir", "VolumeInd", "Emit"):
             v = pass_values(img2, layer, name)
             check(max(v[0]) > 0.0, "%s has a non-zero region in the fire render" % name)

@@ -28,10 +28,10 @@ def main():
     vsd, data, tmp, _ = common.args()
     common.fresh_tmp(tmp)
     mod = common.install_addon(tmp, vsd=vsd)
-    connection = sys.modules["vsd_blender.connection"]
+    connection = common.addon_module("connection")
     d = common.Daemon(vsd, tmp)
     try:
-        prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+        prefs = common.addon_prefs()
         prefs.address = d.sock
         scene, ob = common.build_scene(data, width=64, height=36, frame_start=1, frame_offset=19)
         vdbs = [os.path.join(data, "smoke64", "fluid_data_%04d.vdb" % f) for f in (20, 21, 22)]
@@ -99,7 +99,7 @@ def main():
     try:
         connection.close_all()
         prefs.address = busy.sock
-        vc = sys.modules["vsd_blender.vsd_client"]
+        vc = common.addon_module("vsd_client")
         side = vc.Client(busy.sock)
         names = side.upload_files([vdbs[0]])
         long_job = {"version": 1, "volume": {"file": names[vdbs[0]]}, "environment": {"color": [1, 1, 1]},

@@ -113,7 +113,7 @@ def setup():
     common.fresh_tmp(tmp)
     common.install_addon(tmp, vsd=vsd)
     state["daemon"] = d = common.Daemon(vsd, tmp)
-    prefs = bpy.context.preferences.addons["vsd_blender"].preferences
+    prefs = common.addon_prefs()
     prefs.address = d.sock
     if docs:  # a fuller plume, the studio's lamp out of frame, a sharper preview
         scene, ob = common.build_scene(data, width=640, height=360, frame_start=1, frame_offset=29,
@@ -135,7 +135,7 @@ def setup():
     blend = os.path.join(tmp, "viewport.blend")
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     bpy.ops.wm.open_mainfile(filepath=blend)
-    state["connection"] = sys.modules["vsd_blender.connection"]
+    state["connection"] = common.addon_module("connection")
 
 
 def step():

@@ -1,0 +1,63 @@
+# The Blenders of PyPI's `bpy` wheels (4.2 LTS, 4.5 LTS, 5.0), found where
+# scripts/install-blender-wheels.sh puts them; included by tests/CMakeLists.txt before the
+# test modules, so any of them can run a test under each version.
+#
+#   VSD_BLENDER_WHEELS            the cache folder (default: $VSD_BLENDER_WHEELS, else
+#                                 ~/.cache/vsd/blender-wheels)
+#   VSD_BLENDER_WHEELS_REQUIRED   ON: a configure error unless every version in
+#                                 VSD_BLENDER_WHEEL_EXPECTED is installed (CI sets it)
+# Defines VSD_BLENDER_WHEEL_VERSIONS (e.g. 4.2.23;4.5.15;5.0.1) and, for each version V,
+# VSD_BLENDER_WHEEL_PYTHON_<V> (the venv's python). vsd_wheel_blender(OUT V) sets OUT to the
+# command line that stands in for `blender` (tests/blender_addon/blender_wheel.py).
+if(DEFINED ENV{VSD_BLENDER_WHEELS})
+  set(_wheels_default "$ENV{VSD_BLENDER_WHEELS}")
+else()
+  set(_wheels_default "$ENV{HOME}/.cache/vsd/blender-wheels")
+endif()
+set(VSD_BLENDER_WHEELS "${_wheels_default}" CACHE PATH "Folder of the bpy wheel venvs (scripts/install-blender-wheels.sh)")
+option(VSD_BLENDER_WHEELS_REQUIRED "Fail configuration when a bpy wheel of VSD_BLENDER_WHEEL_EXPECTED is missing" OFF)
+set(VSD_BLENDER_WHEEL_EXPECTED 4.2 4.5 5.0)
+
+set(VSD_BLENDER_WHEEL_VERSIONS "")
+if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
+  file(GLOB _wheel_markers "${VSD_BLENDER_WHEELS}/bpy-*/.installed")
+  foreach(_marker ${_wheel_markers})
+    get_filename_component(_dir "${_marker}" DIRECTORY)
+    get_filename_component(_name "${_dir}" NAME)
+    string(REGEX REPLACE "^bpy-" "" _v "${_name}")
+    if(EXISTS "${_dir}/bin/python")
+      list(APPEND VSD_BLENDER_WHEEL_VERSIONS ${_v})
+      set(VSD_BLENDER_WHEEL_PYTHON_${_v} "${_dir}/bin/python")
+    endif()
+  endforeach()
+endif()
+foreach(_want ${VSD_BLENDER_WHEEL_EXPECTED})
+  set(_found OFF)
+  foreach(_v ${VSD_BLENDER_WHEEL_VERSIONS})
+    if(_v MATCHES "^${_want}\\.")
+      set(_found ON)
+    endif()
+  endforeach()
+  if(NOT _found)
+    if(VSD_BLENDER_WHEELS_REQUIRED)
+      message(FATAL_ERROR "VSD_BLENDER_WHEELS_REQUIRED: no bpy ${_want} wheel in ${VSD_BLENDER_WHEELS} "
+                          "(run scripts/install-blender-wheels.sh)")
+    endif()
+    message(STATUS "bpy ${_want} wheel not installed: its add-on tests are not registered "
+                   "(scripts/install-blender-wheels.sh installs it)")
+  endif()
+endforeach()
+if(VSD_BLENDER_WHEEL_VERSIONS)
+  message(STATUS "Blender add-on tests also run under the bpy wheels: ${VSD_BLENDER_WHEEL_VERSIONS}")
+endif()
+
+function(vsd_wheel_blender out version)
+  set(${out} ${VSD_BLENDER_WHEEL_PYTHON_${version}} ${CMAKE_SOURCE_DIR}/tests/blender_addon/blender_wheel.py
+      PARENT_SCOPE)
+endfunction()
+
+# "4.5.15" -> "45": the short tag in test names (blender45_addon_render)
+function(vsd_wheel_tag out version)
+  string(REGEX MATCH "^([0-9]+)\\.([0-9]+)" _m "${version}")
+  set(${out} "${CMAKE_MATCH_1}${CMAKE_MATCH_2}" PARENT_SCOPE)
+endfunction()
