@@ -7,6 +7,7 @@
 #include "vsd/image.h"
 #include "src/image/imageio_internal.h"
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -409,9 +410,56 @@ static void test_colorspace(void)
     static const char *const none[] = {"/nonexistent/*/config.ocio", NULL};
     const char *const *saved = vsd_ocio_blender_candidates;
     vsd_ocio_blender_candidates = none;
-    CHECK(vsd_env_load(path, "sRGB", &env, g_err, sizeof g_err) == VSD_ERR_UNSUPPORTED);
-    CHECK_CONTAINS(g_err, "OpenColorIO");
+    /* no config at all: vsd's built-in config still knows sRGB (it used to be an error) */
+    env = load_ok(path, "sRGB");
+    CHECK(env && fabsf(env->rgb[0] - 0.214f) < 1e-3f);
+    vsd_env_destroy(env);
+    env = (vsd_env *)1;
+    CHECK(vsd_env_load(path, "AgX Base sRGB", &env, g_err, sizeof g_err) == VSD_ERR_NOT_FOUND);
+    CHECK(env == NULL);
+    CHECK_CONTAINS(g_err, "'AgX Base sRGB'");
+    CHECK_CONTAINS(g_err, "built-in");
     vsd_ocio_blender_candidates = saved;
+}
+
+/* Blender 4.x/5.x working spaces (issue 28, finding 5): the map is converted from its space
+ * to the working space the scene names, in vsd's built-in config where the installed one
+ * (Debian's Blender 3.4) lacks the names. Expected values: the published matrices, column
+ * "red" of BT.709 -> BT.2020 (ITU-R BT.2087) and of ACES AP1 -> BT.709. */
+static void test_working_space(void)
+{
+    float red[3] = {1, 0, 0};
+    CHECK(vsd_ocio_convert(NULL, "Linear Rec.709", "Linear Rec.2020", red, 1, g_err, sizeof g_err) == VSD_OK);
+    CHECK_NEAR(red[0], 0.6274, 5e-4);
+    CHECK_NEAR(red[1], 0.0691, 5e-4);
+    CHECK_NEAR(red[2], 0.0164, 5e-4);
+    float cg[3] = {1, 0, 0};
+    CHECK(vsd_ocio_convert(NULL, "ACEScg", "Linear Rec.709", cg, 1, g_err, sizeof g_err) == VSD_OK);
+    CHECK_NEAR(cg[0], 1.7051, 1e-3);
+    CHECK_NEAR(cg[1], -0.1303, 1e-3);
+    CHECK_NEAR(cg[2], -0.0240, 1e-3);
+    float rt[3] = {0.3f, 0.6f, 0.1f};
+    CHECK(vsd_ocio_convert(NULL, "Linear Rec.709", "ACEScg", rt, 1, g_err, sizeof g_err) == VSD_OK);
+    CHECK(vsd_ocio_convert(NULL, "ACEScg", "Linear Rec.709", rt, 1, g_err, sizeof g_err) == VSD_OK);
+    CHECK_NEAR(rt[0], 0.3, 1e-5);
+    CHECK_NEAR(rt[1], 0.6, 1e-5);
+    CHECK_NEAR(rt[2], 0.1, 1e-5);
+
+    /* through vsd_env_load with the scene's pair: grey stays grey between D65 spaces */
+    const char *path = half_grey_exr();
+    char conv[300];
+    vsd_env_conversion("sRGB", "Linear Rec.2020", conv, sizeof conv);
+    vsd_env *env = load_ok(path, conv);
+    CHECK(env && fabsf(env->rgb[0] - 0.214f) < 1e-3f && fabsf(env->rgb[2] - 0.214f) < 1e-3f);
+    vsd_env_destroy(env);
+    vsd_env_conversion("", "ACEScg", conv, sizeof conv);
+    CHECK(conv[0] == '\0'); /* a map already in the working space is not touched */
+    vsd_env_conversion("Linear Rec.709", "NoSuchWorkingSpace", conv, sizeof conv);
+    env = (vsd_env *)1;
+    CHECK(vsd_env_load(path, conv, &env, g_err, sizeof g_err) == VSD_ERR_NOT_FOUND);
+    CHECK(env == NULL);
+    CHECK_CONTAINS(g_err, "'NoSuchWorkingSpace'");
+    CHECK_CONTAINS(g_err, path);
 }
 
 static void test_uniform(void)
@@ -447,6 +495,7 @@ int main(void)
     test_rgbe_errors();
     test_load_errors();
     test_colorspace();
+    test_working_space();
     test_uniform();
     return test_finish("test_env");
 }

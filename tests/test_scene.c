@@ -85,6 +85,7 @@ static void test_defaults(void)
     CHECK_NEAR(d.environment.strength, 1, 0);
     CHECK_NEAR(d.environment.rotation_z, 0, 0);
     CHECK(!strcmp(d.environment.colorspace, ""));
+    CHECK(!strcmp(d.environment.working_space, ""));
     CHECK(d.light_count == 0);
     CHECK(d.camera.type == VSD_CAMERA_PERSPECTIVE);
     CHECK_NEAR(d.camera.fov, 2 * atan(18.0 / 50.0), 1e-15); /* 50 mm on 36 mm: 39.6 degrees */
@@ -150,6 +151,7 @@ static void test_full_fixture(void)
     CHECK_NEAR(s.environment.strength, 1.5, 0);
     CHECK_NEAR(s.environment.rotation_z, 0.25, 0);
     CHECK(!strcmp(s.environment.colorspace, "Linear Rec.709"));
+    CHECK(!strcmp(s.environment.working_space, "ACEScg"));
     CHECK_NEAR(s.camera.fov, 0.5, 0);
     CHECK_NEAR(s.camera.ortho_scale, 5, 0);
     CHECK_NEAR(s.camera.clip_start, 0.01, 1e-12);

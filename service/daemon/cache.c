@@ -491,7 +491,7 @@ int vsdd_cache_get_volume(const char *src, const char *grid, int grid_index, vsd
     return keep_loaded(ENT_VOLUME, key, vol, NULL, blob, out, err);
 }
 
-int vsdd_cache_get_env(const char *src, const char *colorspace, vsdd_entry **out, int *hit, vsdd_err *err)
+int vsdd_cache_get_env(const char *src, const char *conversion, vsdd_entry **out, int *hit, vsdd_err *err)
 {
     char key[1400], path[VSD_PATH_LEN], stamp[64];
     vsdd_entry *blob = NULL;
@@ -499,7 +499,7 @@ int vsdd_cache_get_env(const char *src, const char *colorspace, vsdd_entry **out
     int rc;
     *hit = 0;
     source_stamp(src, stamp, sizeof stamp);
-    snprintf(key, sizeof key, "env|%s%s|%s", src, stamp, colorspace);
+    snprintf(key, sizeof key, "env|%s%s|%s", src, stamp, conversion);
     pthread_mutex_lock(&g_cache.lock);
     *out = lookup(ENT_ENV, key);
     rc = *out ? 0 : source_path(src, path, sizeof path, &blob, err);
@@ -509,7 +509,7 @@ int vsdd_cache_get_env(const char *src, const char *colorspace, vsdd_entry **out
         return 0;
     }
     if (rc) return -1;
-    if (vsdd_load_env(src, path, colorspace, &env, err)) {
+    if (vsdd_load_env(src, path, conversion, &env, err)) {
         vsdd_cache_unpin(blob);
         return -1;
     }

@@ -20,7 +20,7 @@ cJSON *vsdd_cache_stats(void);
 typedef struct vsdd_entry vsdd_entry;
 /* Pinned volume / env entries (loaded on a miss). src is "blob:<hash>" or a confined path. */
 int vsdd_cache_get_volume(const char *src, const char *grid, int grid_index, vsdd_entry **out, int *hit, vsdd_err *e);
-int vsdd_cache_get_env(const char *src, const char *colorspace, vsdd_entry **out, int *hit, vsdd_err *e);
+int vsdd_cache_get_env(const char *src, const char *conversion, vsdd_entry **out, int *hit, vsdd_err *e);
 const vsd_volume *vsdd_entry_volume(const vsdd_entry *e);
 const vsd_env *vsdd_entry_env(const vsdd_entry *e);
 void vsdd_cache_unpin(vsdd_entry *e);

@@ -10,9 +10,9 @@ int vsdd_load_volume(const char *src, const char *path, const char *grid, int gr
     return vsdd_isolated_volume(src, path, grid, grid_index, out, e);
 }
 
-int vsdd_load_env(const char *src, const char *path, const char *colorspace, vsd_env **out, vsdd_err *e)
+int vsdd_load_env(const char *src, const char *path, const char *conversion, vsd_env **out, vsdd_err *e)
 {
     if (g_daemon.cfg.loader == VSDD_LOADER_INPROCESS)
-        return vsdd_decode_env(src, path, colorspace, g_daemon.cfg.max_pixels, out, e);
-    return vsdd_isolated_env(src, path, colorspace, out, e);
+        return vsdd_decode_env(src, path, conversion, g_daemon.cfg.max_pixels, out, e);
+    return vsdd_isolated_env(src, path, conversion, out, e);
 }

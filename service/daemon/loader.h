@@ -16,19 +16,19 @@
  * the file to read. 0, or -1 with e filled. */
 int vsdd_load_volume(const char *src, const char *path, const char *grid, int grid_index, vsd_volume **out,
                      vsdd_err *e);
-int vsdd_load_env(const char *src, const char *path, const char *colorspace, vsd_env **out, vsdd_err *e);
+int vsdd_load_env(const char *src, const char *path, const char *conversion, vsd_env **out, vsdd_err *e);
 
 /* loader_decode.c: the decoding itself, with the daemon's limits passed in (the child has
  * no daemon configuration). */
 int vsdd_decode_volume(const char *src, const char *path, const char *grid, int grid_index, uint64_t max_voxels,
                        vsd_volume **out, vsdd_err *e);
-int vsdd_decode_env(const char *src, const char *path, const char *colorspace, uint64_t max_pixels, vsd_env **out,
+int vsdd_decode_env(const char *src, const char *path, const char *conversion, uint64_t max_pixels, vsd_env **out,
                     vsdd_err *e);
 
 /* loader_isolated.c: the daemon's side of one isolated decode. */
 int vsdd_isolated_volume(const char *src, const char *path, const char *grid, int grid_index, vsd_volume **out,
                          vsdd_err *e);
-int vsdd_isolated_env(const char *src, const char *path, const char *colorspace, vsd_env **out, vsdd_err *e);
+int vsdd_isolated_env(const char *src, const char *path, const char *conversion, vsd_env **out, vsdd_err *e);
 /* Stop the zygote (serve.c at shutdown); a later isolated decode would start it again. */
 void vsdd_loader_shutdown(void);
 
@@ -40,7 +40,7 @@ typedef struct vsdd_load_req {
     uint64_t mb;                   /* the child's address space, MiB */
     char path[VSD_PATH_LEN];       /* the file */
     char src[VSD_PATH_LEN + 8];    /* the client's name for it (messages) */
-    char name[1024];               /* grid name or colour space */
+    char name[1024];               /* grid name or colour conversion (vsd_env_conversion) */
 } vsdd_load_req;
 
 /* loader_zygote.c: main of `vsd serve --loader-zygote` (spawned by loader_isolated.c with

@@ -44,11 +44,11 @@ int vsdd_decode_volume(const char *src, const char *path, const char *grid, int 
     return vsdd_fail(e, VSD_E_INPUT, "%s", err);
 }
 
-int vsdd_decode_env(const char *src, const char *path, const char *colorspace, uint64_t max_pixels, vsd_env **out,
+int vsdd_decode_env(const char *src, const char *path, const char *conversion, uint64_t max_pixels, vsd_env **out,
                     vsdd_err *e)
 {
     char err[1024];
-    vsd_status st = vsd_env_load(path, colorspace[0] ? colorspace : NULL, out, err, sizeof err);
+    vsd_status st = vsd_env_load(path, conversion[0] ? conversion : NULL, out, err, sizeof err);
     if (st) {
         *out = NULL;
         return vsdd_fail(e, VSD_E_INPUT, "%s: %s", src, err);

@@ -228,10 +228,10 @@ int vsdd_isolated_volume(const char *src, const char *path, const char *grid, in
     return rc;
 }
 
-int vsdd_isolated_env(const char *src, const char *path, const char *colorspace, vsd_env **out, vsdd_err *e)
+int vsdd_isolated_env(const char *src, const char *path, const char *conversion, vsd_env **out, vsdd_err *e)
 {
     vsd_volume *unused = NULL;
-    vsdd_load_req *req = make_req(VSDD_WIRE_ENV, src, path, colorspace, -1, g_daemon.cfg.max_pixels, e);
+    vsdd_load_req *req = make_req(VSDD_WIRE_ENV, src, path, conversion, -1, g_daemon.cfg.max_pixels, e);
     int rc = req ? run_child(req, &unused, out, e) : -1;
     free(req);
     return rc;

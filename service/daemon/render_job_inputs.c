@@ -40,8 +40,10 @@ int vsdd_step_inputs(vsdd_run *run)
     if (sc->volume.emission_grid[0] &&
         vsdd_cache_get_volume(run->vsrc, sc->volume.emission_grid, -1, &run->pins[1], &run->hits[1], &run->err))
         return VSDD_STEP_FAILED;
+    char conversion[2 * VSD_NAME_LEN + 2];
     if (run->esrc[0] &&
-        vsdd_cache_get_env(run->esrc, sc->environment.colorspace, &run->pins[2], &run->hits[2], &run->err))
+        vsdd_cache_get_env(run->esrc, vsd_scene_env_conversion(sc, conversion, sizeof conversion), &run->pins[2],
+                           &run->hits[2], &run->err))
         return VSDD_STEP_FAILED;
     /* the refractive index's grid (volume.ior_grid / medium.ior_from), from the same file */
     if (ior[0] && vsdd_cache_get_volume(run->vsrc, ior, -1, &run->pins[3], &run->hits[3], &run->err))

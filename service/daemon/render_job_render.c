@@ -56,9 +56,10 @@ static int get_slot(vsdd_run *run)
     char key[12000], err[2048];
     volatile int wait_cancel;
     int rc;
+    char conversion[2 * VSD_NAME_LEN + 2];
     snprintf(key, sizeof key, "%s|%s|%s|%s|%d|%s|%s|%s|%s", sc->render.method, sc->render.options_json, run->vsrc,
-             sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid, run->esrc, sc->environment.colorspace,
-             vsd_scene_ior_grid(sc));
+             sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid, run->esrc,
+             vsd_scene_env_conversion(sc, conversion, sizeof conversion), vsd_scene_ior_grid(sc));
     /* a new renderer may wait for memory: a cancel, a disconnect or the job's time limit
      * ends the wait through this flag as it would end a render */
     pthread_mutex_lock(&g_daemon.lock);

@@ -72,7 +72,9 @@ typedef struct vsd_scene {
         float color[3];                  /* used when file is "" (default 0.05 grey, Blender's world) */
         float strength;                  /* default 1 */
         float rotation_z;                /* radians, default 0 */
-        char colorspace[VSD_NAME_LEN];   /* "" = file is already scene-linear */
+        char colorspace[VSD_NAME_LEN];   /* "" = file is already in the working space */
+        char working_space[VSD_NAME_LEN];/* the render's space, which the map is converted
+                                            to; "" = the OCIO config's scene_linear role */
         int interpolation;               /* VSD_ENV_LINEAR (default, Blender's Environment
                                             Texture default) or VSD_ENV_CLOSEST */
     } environment;
@@ -138,6 +140,9 @@ vsd_status vsd_frame_path(const char *pattern, int frame, char *out, size_t outl
 /* The grid the refractive index comes from: volume.ior_grid, else "temperature" when
  * medium.ior_from is "temperature", else "" (none). */
 const char *vsd_scene_ior_grid(const vsd_scene *s);
+/* The environment map's colour conversion as one string (vsd_env_conversion: "" none,
+ * "FROM", or FROM and TO joined by VSD_ENV_SPACE_SEP), written into buf. */
+const char *vsd_scene_env_conversion(const vsd_scene *s, char *buf, size_t len);
 
 #ifdef __cplusplus
 }

@@ -79,26 +79,41 @@ static void sanitise(vsd_env *env)
             env->rgb[i] = 0.0f;
 }
 
-static vsd_status convert_colorspace(vsd_env *env, const char *colorspace, const char *path,
+/* `conversion` as vsd_env_conversion writes it: "FROM" or FROM, VSD_ENV_SPACE_SEP, TO. The
+ * config in use ($OCIO, else Blender's installed one) is tried first; where it lacks a name
+ * (3.4's config has no "Linear Rec.709", "Linear Rec.2020" or "ACEScg"), or where Blender's
+ * config cannot be read, vsd's built-in config of Blender's linear spaces is. A config named
+ * by $OCIO that cannot be read stays an error: the user asked for it. */
+static vsd_status convert_colorspace(vsd_env *env, const char *conversion, const char *path,
                                      char *err, size_t errlen)
 {
-    char config[4096];
+    char from[VSD_ENV_NAME_LEN], to[VSD_ENV_NAME_LEN] = "";
+    const char *sep = strchr(conversion, VSD_ENV_SPACE_SEP);
+    snprintf(from, sizeof from, "%.*s", sep ? (int)(sep - conversion) : (int)strlen(conversion), conversion);
+    if (sep) snprintf(to, sizeof to, "%s", sep + 1);
+
+    char config[4096], first[1024] = "";
     vsd_ocio_origin origin;
+    size_t n = (size_t)env->width * (size_t)env->height;
     vsd_status s = vsd_ocio_choose_config(config, sizeof config, &origin, err, errlen);
     if (s != VSD_OK)
         return s;
-    if (origin == VSD_OCIO_NONE)
-        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
-                        "'%s': converting from colour space '%s' needs an OpenColorIO config; "
-                        "none found ($OCIO is unset and Blender's config is not installed)",
-                        path, colorspace);
-    s = vsd_ocio_to_scene_linear(config, colorspace, env->rgb,
-                                 (size_t)env->width * (size_t)env->height, err, errlen);
+    if (origin != VSD_OCIO_NONE) {
+        s = vsd_ocio_convert(config, from, to, env->rgb, n, err, errlen);
+        if (s == VSD_OK || !(s == VSD_ERR_NOT_FOUND || (s == VSD_ERR_FORMAT && origin == VSD_OCIO_BLENDER)))
+            goto done;
+        snprintf(first, sizeof first, "%s", err ? err : "");
+    }
+    s = vsd_ocio_convert(NULL, from, to, env->rgb, n, err, errlen);
+done:
     if (s != VSD_OK) {
         /* prefix the map's name: the message alone names only the config */
         char why[1024];
         snprintf(why, sizeof why, "%s", err ? err : "");
-        vsd_fail(s, err, errlen, "'%s': %s", path, why);
+        if (first[0] && strcmp(first, why) != 0)
+            vsd_fail(s, err, errlen, "'%s': %s; and %s", path, first, why);
+        else
+            vsd_fail(s, err, errlen, "'%s': %s", path, why);
     }
     return s;
 }
@@ -125,7 +140,7 @@ static vsd_status decode(const char *path, vsd_env *env, char *err, size_t errle
                     got > 3 ? head[3] : 0);
 }
 
-vsd_status vsd_env_load(const char *path, const char *colorspace, vsd_env **out, char *err,
+vsd_status vsd_env_load(const char *path, const char *conversion, vsd_env **out, char *err,
                         size_t errlen)
 {
     if (!out)
@@ -135,8 +150,8 @@ vsd_status vsd_env_load(const char *path, const char *colorspace, vsd_env **out,
     if (!env)
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "environment: out of memory");
     vsd_status s = decode(path, env, err, errlen);
-    if (s == VSD_OK && colorspace && *colorspace)
-        s = convert_colorspace(env, colorspace, path, err, errlen);
+    if (s == VSD_OK && conversion && *conversion)
+        s = convert_colorspace(env, conversion, path, err, errlen);
     if (s != VSD_OK) {
         vsd_env_destroy(env);
         return s;

@@ -70,10 +70,14 @@ vsd_status vsd_ocio_display_view(const char *config_path, float *rgba, int w, in
                                  const char *display, const char *view,
                                  char *used_display, size_t udlen, char *used_view, size_t uvlen,
                                  char *err, size_t errlen);
-/* Convert `rgb` (n pixels, 3 floats each) in place from `colorspace` to scene_linear.
- * Unknown colour space: VSD_ERR_NOT_FOUND listing some valid names. */
-vsd_status vsd_ocio_to_scene_linear(const char *config_path, const char *colorspace,
-                                    float *rgb, size_t n, char *err, size_t errlen);
+/* Convert `rgb` (n pixels, 3 floats each) in place from colour space `from` to `to` (NULL or
+ * "" = the scene_linear role) in the config at `config_path`, or in vsd's built-in config of
+ * Blender's linear spaces when config_path is NULL. A name the config lacks:
+ * VSD_ERR_NOT_FOUND naming it and some valid names; an unreadable config: VSD_ERR_FORMAT. */
+vsd_status vsd_ocio_convert(const char *config_path, const char *from, const char *to,
+                            float *rgb, size_t n, char *err, size_t errlen);
+/* The text of vsd's built-in config (ocio_builtin_config.cpp). */
+extern const char vsd_ocio_builtin_config[];
 
 #ifdef __cplusplus
 }

@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <sstream>
 #include <string>
 
 namespace OCIO = OCIO_NAMESPACE;
@@ -25,6 +26,11 @@ std::string name_list(Count count, Name name, int max)
     if (n > max)
         s += ", ...";
     return s;
+}
+
+const char *config_name(const char *config_path)
+{
+    return config_path ? config_path : "(vsd's built-in linear spaces)";
 }
 
 void copy_name(char *dst, size_t len, const char *src)
@@ -75,20 +81,31 @@ vsd_status display_view(const char *config_path, float *rgba, int w, int h, cons
     return VSD_OK;
 }
 
-vsd_status to_scene_linear(const char *config_path, const char *colorspace, float *rgb, size_t n,
-                           char *err, size_t errlen)
+// NULL = vsd's built-in config (ocio_builtin_config.cpp), else the file.
+OCIO::ConstConfigRcPtr open_config(const char *config_path)
 {
-    OCIO::ConstConfigRcPtr config = OCIO::Config::CreateFromFile(config_path);
-    // getColorSpace also resolves role names ("scene_linear", "default_byte", ...).
-    if (!config->getColorSpace(colorspace))
-        return vsd_fail(VSD_ERR_NOT_FOUND, err, errlen,
-                        "colour space '%s' is not in OpenColorIO config %s; some valid names: %s",
-                        colorspace, config_path,
-                        name_list([&] { return config->getNumColorSpaces(); },
-                                  [&](int i) { return config->getColorSpaceNameByIndex(i); }, 12)
-                            .c_str());
+    if (config_path)
+        return OCIO::Config::CreateFromFile(config_path);
+    std::istringstream text(vsd_ocio_builtin_config);
+    return OCIO::Config::CreateFromStream(text);
+}
+
+vsd_status convert(const char *config_path, const char *from, const char *to, float *rgb, size_t n,
+                   char *err, size_t errlen)
+{
+    OCIO::ConstConfigRcPtr config = open_config(config_path);
+    const char *names[2] = {from, to && *to ? to : OCIO::ROLE_SCENE_LINEAR};
+    // getColorSpace also resolves role names ("scene_linear", "default_byte", ...) and aliases.
+    for (const char *name : names)
+        if (!config->getColorSpace(name))
+            return vsd_fail(VSD_ERR_NOT_FOUND, err, errlen,
+                            "colour space '%s' is not in OpenColorIO config %s; some valid names: %s",
+                            name, config_name(config_path),
+                            name_list([&] { return config->getNumColorSpaces(); },
+                                      [&](int i) { return config->getColorSpaceNameByIndex(i); }, 12)
+                                .c_str());
     OCIO::ConstCPUProcessorRcPtr cpu =
-        config->getProcessor(colorspace, OCIO::ROLE_SCENE_LINEAR)->getDefaultCPUProcessor();
+        config->getProcessor(names[0], names[1])->getDefaultCPUProcessor();
     OCIO::PackedImageDesc img(rgb, (long)n, 1, 3);
     cpu->apply(img);
     return VSD_OK;
@@ -98,7 +115,7 @@ vsd_status to_scene_linear(const char *config_path, const char *colorspace, floa
 // fault, not the image's, so it is VSD_ERR_FORMAT naming the config.
 vsd_status ocio_failure(const char *config_path, const char *what, char *err, size_t errlen)
 {
-    return vsd_fail(VSD_ERR_FORMAT, err, errlen, "OpenColorIO config %s: %s", config_path, what);
+    return vsd_fail(VSD_ERR_FORMAT, err, errlen, "OpenColorIO config %s: %s", config_name(config_path), what);
 }
 
 } // namespace
@@ -118,11 +135,11 @@ extern "C" vsd_status vsd_ocio_display_view(const char *config_path, float *rgba
     }
 }
 
-extern "C" vsd_status vsd_ocio_to_scene_linear(const char *config_path, const char *colorspace,
-                                               float *rgb, size_t n, char *err, size_t errlen)
+extern "C" vsd_status vsd_ocio_convert(const char *config_path, const char *from, const char *to,
+                                       float *rgb, size_t n, char *err, size_t errlen)
 {
     try {
-        return to_scene_linear(config_path, colorspace, rgb, n, err, errlen);
+        return convert(config_path, from, to, rgb, n, err, errlen);
     } catch (const std::exception &e) {
         return ocio_failure(config_path, e.what(), err, errlen);
     } catch (...) {

@@ -130,6 +130,8 @@ static void hash_scene_fields(XXH3_state_t *h, const vsd_scene *s)
     hash_floats(h, &s->environment.strength, 1);
     hash_floats(h, &s->environment.rotation_z, 1);
     hash_str(h, s->environment.colorspace);
+    if (s->environment.working_space[0]) /* only when set: earlier outputs keep their hash */
+        hash_str(h, s->environment.working_space);
     hash_int(h, s->environment.interpolation);
     hash_int(h, s->light_count);
     hash_int(h, (int)s->camera.type);

@@ -209,15 +209,17 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
     const float *c = sc->environment.color;
     char key[KEY_LEN];
     vsd_status st;
+    char conversion[2 * VSD_NAME_LEN + 2];
+    vsd_scene_env_conversion(sc, conversion, sizeof conversion);
     if (r->ext_env) snprintf(key, sizeof key, "memory:%lu:%p", r->env_serial, (const void *)r->ext_env);
-    else snprintf(key, sizeof key, "%s|%s|%g,%g,%g", sc->environment.file, sc->environment.colorspace, c[0], c[1], c[2]);
+    else snprintf(key, sizeof key, "%s|%s|%g,%g,%g", sc->environment.file, conversion, c[0], c[1], c[2]);
     /* the sampling tables follow the interpolation */
     snprintf(key + strlen(key), sizeof key - strlen(key), "|%d", sc->environment.interpolation);
     if (r->env && strcmp(key, r->env_key) == 0) return VSD_OK;
     free_owned_env(r);
     if (r->ext_env) st = VSD_OK;
     else if (sc->environment.file[0])
-        st = vsd_env_load(sc->environment.file, sc->environment.colorspace, &r->owned_env, err, errlen);
+        st = vsd_env_load(sc->environment.file, conversion, &r->owned_env, err, errlen);
     else
         st = vsd_env_create_uniform(c, 64, 32, &r->owned_env, err, errlen);
     if (st) return st;

@@ -12,6 +12,7 @@
  * so a failed load never leaves a half-filled scene behind. */
 #include "vsd/scene.h"
 #include "vsd/image.h"
+#include "vsd/env.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -196,6 +197,7 @@ static const field environment_fields[] = {
     F_NUM("strength", s.environment.strength, 1, GE0, 0, 0),
     F_NUM("rotation_z", s.environment.rotation_z, 0, 0, 0, 0),
     F_STR("colorspace", s.environment.colorspace, "", F_NULLABLE),
+    F_STR("working_space", s.environment.working_space, "", F_NULLABLE),
     F_ENUM("interpolation", s.environment.interpolation, env_interpolations),
 };
 TABLE(environment, environment_finish);
@@ -1238,6 +1240,12 @@ vsd_status vsd_scene_load(const char *path, const char *const *overrides, int ov
     st = parse_text(&p, text, len, base, overrides, override_count, scene);
     free(text);
     return st;
+}
+
+const char *vsd_scene_env_conversion(const vsd_scene *s, char *buf, size_t len)
+{
+    vsd_env_conversion(s->environment.colorspace, s->environment.working_space, buf, len);
+    return buf;
 }
 
 const char *vsd_scene_ior_grid(const vsd_scene *s)
