@@ -13,11 +13,21 @@ import tempfile
 
 import bpy
 
-from . import passes
+from . import colour, light_units, passes
 
 DEFAULT_FOV = 2.0 * math.atan(18.0 / 50.0)
-LINEAR_SPACES = {"linear", "linear rec.709", "non-color", "raw", "scene_linear", "linear rec.2020",
-                 "linear srgb", "linear bt.709"}
+
+
+def node_tree(idblock):
+    """The node tree a material or world renders with, or None. 5.0 deprecated use_nodes
+    (always on, removal planned for 6.0): reading it there only warns, so it is read before
+    5.0 only."""
+    nt = getattr(idblock, "node_tree", None)
+    if nt is None:
+        return None
+    if bpy.app.version < (5, 0, 0) and not idblock.use_nodes:
+        return None
+    return nt
 
 
 class MappingError(Exception):
@@ -332,10 +342,11 @@ def map_material(ob, grids, m):
     if mat is None:
         m.warn("volume '%s' has no material: using Principled Volume defaults" % ob.name)
         return medium, "density", ""
-    if not mat.use_nodes or mat.node_tree is None:
+    nt = node_tree(mat)
+    if nt is None:
         m.warn("material '%s' does not use nodes: using Principled Volume defaults" % mat.name)
         return medium, "density", ""
-    out = _output_node(mat.node_tree)
+    out = _output_node(nt)
     node = None
     if out is not None and "Volume" in out.inputs:
         node, _ = _follow(out.inputs["Volume"])
@@ -455,9 +466,10 @@ def map_world(scene, m):
     if world is None:
         m.warn("the scene has no world: black environment")
         return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
-    if not world.use_nodes or world.node_tree is None:
+    wnt = node_tree(world)
+    if wnt is None:
         return {"color": [max(0.0, x) for x in _color(world.color)], "strength": 1.0}
-    out = _output_node(world.node_tree)
+    out = _output_node(wnt)
     node = None
     if out is not None and "Surface" in out.inputs:
         node, _ = _follow(out.inputs["Surface"])
@@ -504,9 +516,13 @@ def map_world(scene, m):
             raise MappingError("environment image '%s': file not found: %s" % (img.name, path))
     m.env_path = path
     env["file"] = path
+    # the map is converted by the daemon (OpenColorIO) from its colour space to Blender's
+    # working space, which the material and light colours are in and the passes come back in
     space = img.colorspace_settings.name
-    if space and space.lower() not in LINEAR_SPACES:
-        env["colorspace"] = space  # converted by the daemon's OpenColorIO config
+    working = colour.working_space()
+    if colour.needs_conversion(space, working):
+        env["colorspace"] = space
+        env["working_space"] = working
     # Mapping node between Texture Coordinate and the Environment Texture: its Z rotation
     rot = 0.0
     vec, _ = _follow(tex.inputs["Vector"])
@@ -584,6 +600,8 @@ def map_camera(cam_ob, w, h, m):
     else:
         if cam.type == "PANO":
             m.warn("panoramic cameras are not supported: rendered as perspective")
+        elif cam.type != "PERSP":   # 5.0's CUSTOM (an OSL camera), and whatever comes next
+            m.warn("camera type %s is not supported: rendered as perspective" % cam.type)
         t = size / 2.0 / cam.lens
         out["fov"] = float(2.0 * math.atan(larger_dim_extent(fit, t, w, h)))
     if abs(cam.shift_x) > 1e-6 or abs(cam.shift_y) > 1e-6:
@@ -611,15 +629,23 @@ def map_light(light, mw, m):
     Power is watts; the light shines down its local -Z."""
     name = light.name
     color = [max(0.0, float(c)) for c in light.color]
+    # 4.5's Exposure, Normalize and Temperature (light_units.py has the measured rules)
+    scale = light_units.intensity_factor(light)
+    tint = light_units.colour_factor(light)
+    if tint is not None:
+        if colour.working_space().lower() not in ("linear rec.709", "linear", "scene_linear"):
+            m.warn("light '%s': its temperature colour is computed in Rec.709, not in the working "
+                   "space %s" % (name, colour.working_space()))
+        color = [max(0.0, c * t) for c, t in zip(color, tint)]
     direction = _unit([-mw[0][2], -mw[1][2], -mw[2][2]])
     position = [float(mw[0][3]), float(mw[1][3]), float(mw[2][3])]
     if getattr(light, "use_nodes", False):
         m.warn("light '%s': its node tree is not read (Color and Strength/Power are used)" % name)
     if light.type == "SUN":
-        return {"type": "sun", "color": color, "strength": float(light.energy), "direction": direction,
+        return {"type": "sun", "color": color, "strength": float(light.energy * scale), "direction": direction,
                 "angle": float(min(max(light.angle, 0.0), 3.14159))}
     if light.type in ("POINT", "SPOT"):
-        out = {"type": light.type.lower(), "color": color, "power": float(light.energy), "position": position,
+        out = {"type": light.type.lower(), "color": color, "power": float(light.energy * scale), "position": position,
                "radius": float(max(light.shadow_soft_size, 0.0))}
         if light.type == "SPOT":
             sx, sy = mw.to_scale()[0], mw.to_scale()[1]

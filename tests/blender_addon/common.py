@@ -36,7 +36,8 @@ IS_WHEEL = not bpy.app.binary_path
 
 def addon_module(name):
     """The add-on's submodule `name` ("mapping", "passes", ...) as Blender loaded it."""
-    return sys.modules["%s.%s" % (ADDON, name)]
+    import importlib
+    return importlib.import_module("%s.%s" % (ADDON, name))   # viewport loads lazily
 
 
 def addon_prefs():
@@ -293,7 +294,11 @@ def read_exr(path):
     Scanline files with NONE, ZIPS or ZIP compression (what vsd and Blender write here),
     single-part (3.4-4.5, vsd) or multi-part (Blender 5.0 writes a part per pass)."""
     with open(path, "rb") as f:
-        data = f.read()
+        return read_exr_bytes(f.read(), path)
+
+
+def read_exr_bytes(data, path="EXR"):
+    """read_exr of a file's bytes (a RESULT's EXR as the daemon sent it)."""
     assert data[:4] == b"\x76\x2f\x31\x01", path + ": not an EXR"
     flags = struct.unpack_from("<I", data, 4)[0]
     assert not (flags & 0x200), path + ": tiled EXR not supported by this reader"

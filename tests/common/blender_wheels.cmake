@@ -15,7 +15,14 @@ else()
   set(_wheels_default "$ENV{HOME}/.cache/vsd/blender-wheels")
 endif()
 set(VSD_BLENDER_WHEELS "${_wheels_default}" CACHE PATH "Folder of the bpy wheel venvs (scripts/install-blender-wheels.sh)")
-option(VSD_BLENDER_WHEELS_REQUIRED "Fail configuration when a bpy wheel of VSD_BLENDER_WHEEL_EXPECTED is missing" OFF)
+# default from the environment, so CI can require the wheels through scripts/test.sh
+if("$ENV{VSD_BLENDER_WHEELS_REQUIRED}" MATCHES "^(1|ON|on|yes|true)$")
+  set(_wheels_required_default ON)
+else()
+  set(_wheels_required_default OFF)
+endif()
+option(VSD_BLENDER_WHEELS_REQUIRED "Fail configuration when a bpy wheel of VSD_BLENDER_WHEEL_EXPECTED is missing"
+       ${_wheels_required_default})
 set(VSD_BLENDER_WHEEL_EXPECTED 4.2 4.5 5.0)
 
 set(VSD_BLENDER_WHEEL_VERSIONS "")
