@@ -80,6 +80,7 @@ def cycles_passes(tmp, scene):
     scene.render.engine = "CYCLES"
     scene.cycles.samples = 1
     scene.cycles.device = "CPU"
+    scene.cycles.use_denoising = False   # Debian's 3.4 is built without OpenImageDenoise
     layer.use_pass_combined = True
     layer.use_pass_z = True
     layer.use_pass_emit = True
@@ -102,6 +103,7 @@ def plane_under_light(kind, **props):
     scene.render.engine = "CYCLES"
     scene.cycles.samples = 64
     scene.cycles.device = "CPU"
+    scene.cycles.use_denoising = False
     scene.render.resolution_x = scene.render.resolution_y = 12
     scene.render.resolution_percentage = 100
     scene.view_settings.view_transform = "Standard"
