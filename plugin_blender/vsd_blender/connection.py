@@ -3,6 +3,7 @@
 # (stopped when Blender exits), and a cache of file hashes so an animation hashes each
 # .vdb once and uploads only what the daemon lacks (HAS, then PUT).
 import atexit
+import ipaddress
 import json
 import os
 import shutil
@@ -40,6 +41,36 @@ class Settings(object):
 
 def _is_tcp(address):
     return bool(address) and ":" in address and "/" not in address and not address.startswith("unix:")
+
+
+def _is_loopback(host):
+    """127.0.0.0/8, ::1 (also as [::1]) or localhost; a name is not resolved (that would be a
+    lookup on the network itself)."""
+    host = host.strip().strip("[]").lower()
+    if host == "localhost" or host.endswith(".localhost"):
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def check_online_access(address):
+    """Blender 4.2+ has Allow Online Access (bpy.app.online_access), and its extension rules
+    say an add-on must not go online while it is off. The default Unix socket and TCP to this
+    machine are local, not online; TCP to another host is, so it is refused before any
+    connection (or auto-start) is tried. Blender before 4.2 has no such setting: allowed."""
+    if not _is_tcp(address) or _is_loopback(address.rsplit(":", 1)[0]):
+        return
+    try:
+        import bpy
+        allowed = getattr(bpy.app, "online_access", True)
+    except ImportError:   # outside Blender (tests of this module)
+        allowed = True
+    if not allowed:
+        raise vsd_client.VsdError("connection", "the daemon address %s is on another host, and "
+                                  "Blender's online access is off: turn on Preferences > System > "
+                                  "Network > Allow Online Access, or use a local daemon" % address)
 
 
 def resolve_address(address):
@@ -150,6 +181,7 @@ def client(settings, fresh=False):
     """A connected Client for this thread, reused across frames. Starts a daemon when none
     answers and auto-start is on; raises VsdError otherwise."""
     address = resolve_address(settings.address)
+    check_online_access(address)   # before any connection or auto-start
     key = (address, settings.token)
     tid = threading.get_ident()
     with _lock:
