@@ -40,6 +40,12 @@ def addon_module(name):
     return importlib.import_module("%s.%s" % (ADDON, name))   # viewport loads lazily
 
 
+def blender_pass(vsd_name):
+    """The name this Blender gives vsd's pass `vsd_name` (5.0: "Volume Direct", ...), from
+    the add-on's table, which test_versions checks against this version's own Cycles."""
+    return addon_module("passes").pass_names(bpy.app.version)[vsd_name]
+
+
 def addon_prefs():
     return bpy.context.preferences.addons[ADDON].preferences
 

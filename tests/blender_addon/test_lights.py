@@ -131,7 +131,7 @@ def main():
         if err is None and err2 is None:
             a, w, h = common.read_exr(lit)
             b, _, _ = common.read_exr(dark)
-            key = [k for k in a if k.endswith("VolumeDir.R")][0]
+            key = [k for k in a if k.endswith(".%s.R" % common.blender_pass("VolumeDir"))][0]
             sa, sb = sum(a[key]), sum(b[key])
             print("VolumeDir red sum with the lamp %.4g, without %.4g" % (sa, sb))
             check(sa > 1.5 * sb, "the 3000 W lamp brightens VolumeDir (%.4g vs %.4g)" % (sa, sb))

@@ -117,7 +117,7 @@ try:
         err = common.run_blender_render(out)
         check(err is None, "F12 with raymarch lights=%d (%s)" % (lights, err))
         images.append(common.read_exr(out)[0] if err is None else {})
-    key = [k for k in images[0] if k.endswith("VolumeDir.R")]
+    key = [k for k in images[0] if k.endswith(".%s.R" % common.blender_pass("VolumeDir"))]
     check(bool(key) and images[0][key[0]] != images[1].get(key[0]),
           "the generated option reaches the renderer (lights 4 and 1 give different VolumeDir)")
 finally:
