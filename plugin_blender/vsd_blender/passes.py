@@ -6,7 +6,8 @@
 # (first column) are Blender 3.4's and 4.x's. Blender 5.0 renamed the built-in passes
 # (blenloader versioning_500.cc, legacy_pass_name_to_new_name: VolumeDir -> "Volume Direct",
 # VolumeInd -> "Volume Indirect", Emit -> "Emission"; Combined and Depth keep their names,
-# Transmittance is vsd's own). The add-on therefore sends output.pass_names, the map
+# Transmittance is vsd's own); Cycles 5.0.1 writes exactly these names (tests/blender_addon/
+# test_versions.py renders with each tested version's Cycles and compares). The add-on therefore sends output.pass_names, the map
 # pass_names(bpy.app.version), with every request and export, and the daemon names its EXR
 # layers after it (docs/scene-file.md, docs/blender-addon.md "Later Blender versions").
 #
