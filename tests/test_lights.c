@@ -3,7 +3,8 @@
  *      homogeneous box, black world, against a quadrature of the single-scattering integral
  *      written here from the definitions (Cycles' units: a sun's strength is irradiance, a
  *      point's power P is P / 4pi W/sr, a sphere light of radius r has radiance I / (pi r^2),
- *      a spot is a point times the cosine to its axis smoothed over spot_blend);
+ *      a spot is a point times the cosine to its axis smoothed over spot_blend, or without
+ *      the cosine with spot_cosine false, as Cycles 4.2+ shapes it);
  *   2. `lbl` against `reference` with a point light, a spot and a sun over the homogeneous
  *      ball (single and multiple scattering), black world;
  *   3. moving a light in a renderer re-runs the lighting: the image equals a fresh render of
@@ -76,6 +77,7 @@ typedef struct test_light {
     double value;         /* sun strength, point power */
     double pos[3], dir[3];/* dir: the direction the light travels */
     double radius, spot_size, spot_blend;
+    int no_cosine;        /* spot: spot_cosine false (Cycles 4.2+): no cosine to the axis */
 } test_light;
 
 /* Radiance / pdf toward the light from x (light's direction into *w, distance into *dist),
@@ -103,12 +105,13 @@ static double light_at(const test_light *l, const double x[3], double w[3], doub
         if (l->type == 2) {
             double cs = -(w[0] * l->dir[0] + w[1] * l->dir[1] + w[2] * l->dir[2]), ca = cos(0.5 * l->spot_size);
             double band = (1 - ca) * l->spot_blend, t = cs - ca;
+            double mask = l->no_cosine ? 1.0 : cs;
             if (t <= 0) return 0.0;
             if (t < band) {
                 double s = t / band;
-                cs *= s * s * (3 - 2 * s);
+                mask *= s * s * (3 - 2 * s);
             }
-            e *= cs;
+            e *= mask;
         }
         return e;
     }
@@ -180,9 +183,9 @@ static const char *light_json(const test_light *l, char *buf, size_t n)
     else
         snprintf(buf, n,
                  "lights=[{\"type\":\"spot\",\"power\":%g,\"position\":[%g,%g,%g],\"radius\":%g,\"direction\":[%g,%g,%g],"
-                 "\"spot_size\":%g,\"spot_blend\":%g}]",
+                 "\"spot_size\":%g,\"spot_blend\":%g,\"spot_cosine\":%s}]",
                  l->value, l->pos[0], l->pos[1], l->pos[2], l->radius, l->dir[0], l->dir[1], l->dir[2], l->spot_size,
-                 l->spot_blend);
+                 l->spot_blend, l->no_cosine ? "false" : "true");
     return buf;
 }
 
@@ -191,12 +194,14 @@ static void test_single_scattering(void)
     /* a point above the box, a sphere light beside it, a spot from the side whose soft cone
      * edge crosses the picture, a sun from an oblique direction */
     const test_light lights[] = {
-        {1, 500.0, {1.0, 1.0, 3.0}, {0, 0, 0}, 0.0, 0, 0},
-        {1, 500.0, {3.0, 1.2, 1.1}, {0, 0, 0}, 0.6, 0, 0},
-        {2, 800.0, {-1.5, 1.0, 1.0}, {1.0, 0.0, 0.0}, 0.0, 0.35, 0.5},
-        {0, 3.0, {0, 0, 0}, {0.48, 0.6, -0.64}, 0.0, 0, 0},
+        {1, 500.0, {1.0, 1.0, 3.0}, {0, 0, 0}, 0.0, 0, 0, 0},
+        {1, 500.0, {3.0, 1.2, 1.1}, {0, 0, 0}, 0.6, 0, 0, 0},
+        {2, 800.0, {-1.5, 1.0, 1.0}, {1.0, 0.0, 0.0}, 0.0, 0.35, 0.5, 0},
+        {0, 3.0, {0, 0, 0}, {0.48, 0.6, -0.64}, 0.0, 0, 0, 0},
+        {2, 800.0, {-1.5, 1.0, 1.0}, {1.0, 0.0, 0.0}, 0.0, 1.2, 0.5, 1},
     };
-    static const char *const names[] = {"point above", "sphere light (r 0.6) beside", "spot, soft edge", "sun"};
+    static const char *const names[] = {"point above", "sphere light (r 0.6) beside", "spot, soft edge", "sun",
+                                        "spot, wide, no cosine (4.2+)"};
     vsd_volume *vol = box_volume();
     size_t li;
     if (!vol) return;

@@ -350,7 +350,9 @@ static void test_errors(void)
                "lights[0].power: -1 is out of range (must be >= 0)");
     EXPECT_ERR(with("\"lights\": [{\"type\": \"point\", \"colour\": [1,1,1]}]"), VSD_ERR_INVALID,
                "lights[0].colour: unknown key (known: type, color, strength, power, position, direction, radius, angle, "
-               "spot_size, spot_blend)");
+               "spot_size, spot_blend, spot_cosine)");
+    EXPECT_ERR(with("\"lights\": [{\"type\": \"point\", \"spot_cosine\": false}]"), VSD_ERR_INVALID,
+               "lights[0].spot_cosine");
     EXPECT_ERR(with("\"lights\": [3]"), VSD_ERR_TYPE, "lights[0]: expected object");
     {
         char many[2048] = "\"lights\": [";

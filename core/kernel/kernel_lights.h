@@ -5,8 +5,10 @@
  *          diameter the sun is a disc of uniform radiance around its direction;
  *   point  power P in watts, intensity I = P / 4pi W/sr; with a radius a sphere of uniform
  *          radiance I / (pi r^2), so at distance d >> r the irradiance is I / d^2;
- *   spot   a point light times Cycles' spot mask (the cosine to the spot's axis, smoothed
- *          to 0 over the last spot_blend of the cone: Cycles 3.x's spot_light_attenuation).
+ *   spot   a point light times Cycles' spot mask: 1 inside the cone, smoothed to 0 over the
+ *          last spot_blend of it, times the cosine to the spot's axis where spot_cosine is
+ *          set (Cycles 3.x's spot_light_attenuation has the cosine, 4.2's and 5.0's do not:
+ *          docs/cycles-crosscheck.md, "Newer Cycles").
  * Scene lights are sampled by next-event estimation only (a phase-sampled ray never hits
  * one), so there is nothing to weigh against: every sample returns radiance / pdf.
  *
@@ -18,7 +20,8 @@
  *   [8..10] spot: unit axis, the direction the light travels
  *   [11]    spot: cos of half the cone angle
  *   [12]    spot: the blend band, (1 - [11]) * spot_blend
- *   [13..15] 0 */
+ *   [13]    spot: 1 = the mask has the cosine to the axis (spot_cosine), 0 = not
+ *   [14..15] 0 */
 #ifndef VSD_KERNEL_LIGHTS_H
 #define VSD_KERNEL_LIGHTS_H
 #include "kernel_types.h"
@@ -29,14 +32,15 @@
 /* Cycles' spot mask for light leaving the spot along unit direction `out`. */
 VSD_DEVICE float vsd_spot_mask(const float *l, vsd_f3 out)
 {
-    float c = f3_dot(out, f3(l[8], l[9], l[10])), t;
+    float c = f3_dot(out, f3(l[8], l[9], l[10])), t, mask;
     if (c <= l[11]) return 0.0f;
     t = c - l[11];
+    mask = l[13] != 0.0f ? c : 1.0f;
     if (t < l[12] && l[12] > 0.0f) {
         float s = t / l[12];
-        c *= s * s * (3.0f - 2.0f * s);
+        mask *= s * s * (3.0f - 2.0f * s);
     }
-    return c;
+    return mask;
 }
 
 /* A direction in the cone of cosine cos_max around unit axis a, uniform in solid angle. */

@@ -225,6 +225,11 @@ def map_volume(ob, scene_frame, m):
     return {"file": path}
 
 
+def voxel_centres_offset(version=None):
+    """Whether this Blender's Cycles centres voxel i at index i + 1/2 (before 5.0)."""
+    return tuple((version or bpy.app.version)[:2]) < (5, 0)
+
+
 def voxel_centre_matrix(ob, grid, m):
     """The object matrix to send for grid `grid`: matrix_world . G . T(1/2) . G^-1.
 
@@ -234,9 +239,16 @@ def voxel_centre_matrix(ob, grid, m):
     index space (G = the grid's index-to-object matrix) makes vsd render the field where
     Cycles renders it, so a vsd pass composites exactly over a Cycles render of the scene;
     tests/blender_addon/test_cycles.py checks it against Cycles itself. Only the density
-    grid's transform is used (an emission grid with another transform keeps a residual)."""
+    grid's transform is used (an emission grid with another transform keeps a residual).
+
+    Blender 5.0's Cycles centres voxel i at i, as OpenVDB and vsd do (its 3D texture lookup
+    lost the half-texel offset; docs/cycles-crosscheck.md, "Newer Cycles"): from 5.0 the
+    object's matrix is sent as it is (with the 3.4 shift, 5.0's alpha was 43x the noise
+    floor off, without it 0.8x)."""
     import mathutils
     mw = ob.matrix_world.copy()
+    if not voxel_centres_offset():
+        return [float(mw[r][c]) for r in range(4) for c in range(4)]
     grids = ob.data.grids
     try:
         grids.load()
@@ -623,6 +635,13 @@ def _unit(v):
     return [float(x / n) for x in v] if n > 0 else [0.0, 0.0, -1.0]
 
 
+def spot_has_cosine(version=None):
+    """Whether this Blender's Cycles multiplies a spot's mask by the cosine to its axis: 3.x
+    does, 4.2 and 5.0 do not (their light/spot.h; measured in docs/cycles-crosscheck.md,
+    "Newer Cycles"). 4.0 and 4.1 were not measured and are taken as 4.2."""
+    return tuple((version or bpy.app.version)[:2]) < (4, 0)
+
+
 def map_light(light, mw, m):
     """One Blender light (data, matrix_world) as a lights[] entry, or None (with a note) for
     what vsd does not render. Cycles' units: a sun's Strength is W/m^2, a point's or spot's
@@ -653,6 +672,8 @@ def map_light(light, mw, m):
                 m.warn("spot light '%s': a non-uniform scale (an elliptic cone) is rendered as a round cone" % name)
             out.update({"direction": direction, "spot_size": float(min(max(light.spot_size, 1e-4), math.pi)),
                         "spot_blend": float(min(max(light.spot_blend, 0.0), 1.0))})
+            if not spot_has_cosine():
+                out["spot_cosine"] = False
         return out
     m.warn("light '%s': %s lights are not supported: ignored" % (name, light.type.lower()))
     return None

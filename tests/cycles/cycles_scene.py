@@ -3,7 +3,8 @@
 #   blender --background --factory-startup --python-exit-code 1 \
 #       --python tests/cycles/cycles_scene.py -- --scene S.json --out OUT.exr \
 #       [--samples N] [--width W] [--height H] [--seed K] [--frame F] [--threads T] \
-#       [--step-rate R] [--time-json T.json] [--save-blend B.blend]
+#       [--step-rate R] [--voxel-centres openvdb|cycles] [--volume-biased]
+#       [--time-json T.json] [--save-blend B.blend]
 #
 # The scene is built FROM THE SCENE FILE, field by field, with the mapping written in
 # docs/scene-file.md's "Blender" columns, so that Cycles renders what vsd's `reference`
@@ -31,8 +32,14 @@
 #   sampling, no clamping, no filter glossy, 1024 bounces of every kind, volume step rate
 #   0.25 (--step-rate) with max steps raised so long rays are not cut short, film
 #   transparent, view transform Standard, multilayer float EXR with Combined, VolumeDir and
-#   VolumeInd. Cycles ray-marches heterogeneous volumes: with a step of a quarter voxel its
-#   bias is far below the Monte Carlo noise of these tests.
+#   VolumeInd. Cycles 3.4-4.5 ray-march heterogeneous volumes: with a step of a quarter voxel
+#   their bias is far below the Monte Carlo noise of these tests. Cycles 5.0 tracks them
+#   with null scattering by default (step settings unused); --volume-biased ray-marches.
+#
+# Runs in Blender 3.4 and in the bpy wheels 4.2, 4.5, 5.0 (docs/cycles-crosscheck.md, "Newer
+# Cycles"): use_nodes only before 5.0, the Attribute node's "Fac"/"Factor", the 4.x colour
+# space names, 5.0's media_type and single-part (interleaved) EXR, and the half-voxel shift
+# only where Cycles needs it (before 5.0).
 #
 # The wall time of bpy.ops.render.render (scene sync, BVH, volume upload and path tracing)
 # goes to --time-json together with the settings used.
@@ -60,10 +67,15 @@ def parse_args():
     ap.add_argument("--frame", type=int, help="default: frames.start")
     ap.add_argument("--threads", type=int, default=0, help="0 = all cores")
     ap.add_argument("--step-rate", type=float, default=0.25, help="Cycles volume step rate")
+    ap.add_argument("--volume-biased", action="store_true",
+                    help="Cycles 5.0+: ray-march volumes (scene.cycles.volume_biased) instead of "
+                         "5.0's default unbiased null-scattering tracking; ignored before 5.0, "
+                         "which always ray-marches")
     ap.add_argument("--voxel-centres", choices=("openvdb", "cycles"), default="openvdb",
-                    help="openvdb (default): shift the object so that Cycles puts voxel i's "
-                         "centre at index i, as vsd and OpenVDB do; cycles: leave Cycles' "
-                         "own convention (centre at i + 0.5)")
+                    help="openvdb (default): render the field vsd and OpenVDB define (voxel i's "
+                         "centre at index i): Cycles 3.4-4.5 put it at i + 0.5, so the object is "
+                         "shifted there; Cycles 5.0 already samples at i (no shift); cycles: "
+                         "never shift (Cycles' own convention, whatever the version)")
     ap.add_argument("--time-json", help="write render time and settings here")
     ap.add_argument("--save-blend", help="also save the built scene as a .blend")
     return ap.parse_args(argv)
@@ -126,6 +138,61 @@ def camera_matrix(cam):
     return rows, fov
 
 
+# ---- what differs between Blender versions (3.4, 4.2, 4.5, 5.0) -------------------------
+
+def use_nodes(idblock):
+    """Material/World use_nodes = True where it still means something: 5.0 deprecated it
+    (node trees are always used; removal planned for 6.0)."""
+    if bpy.app.version < (5, 0, 0):
+        idblock.use_nodes = True
+    return idblock.node_tree
+
+
+def output_socket(node, *names):
+    """The first output named one of `names`, else the one whose identifier is names[0]
+    (5.0 renamed the Attribute node's "Fac" output "Factor"; its identifier stays "Fac")."""
+    for n in names:
+        if n in node.outputs:
+            return node.outputs[n]
+    for o in node.outputs:
+        if o.identifier == names[0]:
+            return o
+    raise KeyError("%s: no output %s" % (node.bl_idname, " / ".join(names)))
+
+
+def set_multilayer_exr(image_settings):
+    """One single-part multilayer EXR on every version. 5.0 moved multilayer under
+    media_type (which must be set first) and writes a part per pass by default: its
+    use_exr_interleave ("legacy interleaved storage") keeps the single part that 3.4-4.5 --
+    and vsd_exr_read, which reads only a file's first part -- use."""
+    if hasattr(image_settings, "media_type"):
+        image_settings.media_type = "MULTI_LAYER_IMAGE"
+    image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    if hasattr(image_settings, "use_exr_interleave"):
+        image_settings.use_exr_interleave = True
+
+
+def cycles_voxel_centre():
+    """Where this Blender's Cycles puts the centre of voxel i, in index coordinates minus i:
+    0.5 up to 4.5 (its NanoVDB lookup interpolates at x - 0.5: kernel/device/gpu/image.h
+    `frac(x - 0.5f, &ix)`; the CPU kernel measures the same), 0 from 5.0
+    (kernel/util/texture_3d.h, shared by all devices, interpolates at floor(P) with no
+    offset). Measured with test_cycles_crosscheck (docs/cycles-crosscheck.md, "Newer
+    Cycles"): 5.0 with the shift, alpha 43x the noise floor; without, 0.77x."""
+    return 0.5 if bpy.app.version < (5, 0, 0) else 0.0
+
+
+def linear_colorspace():
+    """The scene-linear Rec.709 image colour space: "Linear" in 3.x's OCIO config,
+    "Linear Rec.709" from 4.0."""
+    prop = bpy.types.ColorManagedInputColorspaceSettings.bl_rna.properties["name"]
+    names = [i.identifier for i in prop.enum_items]
+    for n in ("Linear Rec.709", "Linear"):
+        if n in names:
+            return n
+    return "scene_linear"
+
+
 # ---- building the Blender scene ---------------------------------------------------------
 
 def clear_scene():
@@ -164,13 +231,15 @@ def build_volume(sc, scene, base, frame, voxel_centres):
         grid = floats[0] if floats else "density"
     if grid not in names:
         raise SystemExit(f"volume.grid: {grid!r} not in {path} (grids: {names})")
-    if voxel_centres == "openvdb":
-        # Cycles samples voxel i at index coordinate i + 0.5 (the dense texture spans
+    c = cycles_voxel_centre()
+    if voxel_centres == "openvdb" and c != 0.0:
+        # Cycles 3.4-4.5 sample voxel i at index coordinate i + 0.5 (the dense texture spans
         # [min, min + dim) with texel centres at +0.5; the NanoVDB path samples at x - 0.5),
         # while OpenVDB -- and vsd -- put voxel i's centre at index i. Moving the object by
         # half a voxel in the grid's index space makes Cycles render the OpenVDB field.
+        # Cycles 5.0 samples at i itself: no shift.
         g = vol.grids[grid].matrix_object
-        ob.matrix_world = ob.matrix_world @ g @ mathutils.Matrix.Translation((-0.5, -0.5, -0.5)) @ g.inverted()
+        ob.matrix_world = ob.matrix_world @ g @ mathutils.Matrix.Translation((-c, -c, -c)) @ g.inverted()
     return ob, grid, path
 
 
@@ -184,12 +253,12 @@ def build_material(sc, ob, grid):
     egrid = sc["volume"].get("emission_grid") or ""
 
     mat = bpy.data.materials.new("vsd_medium")
-    mat.use_nodes = True
-    mat.cycles.homogeneous_volume = False
+    nt = use_nodes(mat)
+    if hasattr(mat.cycles, "homogeneous_volume"):  # gone in 5.0 (null scattering decides)
+        mat.cycles.homogeneous_volume = False
     mat.cycles.volume_interpolation = "LINEAR"  # trilinear, as vsd
     mat.cycles.volume_sampling = "MULTIPLE_IMPORTANCE"
     mat.cycles.volume_step_rate = 1.0           # the scene-wide rate does the work
-    nt = mat.node_tree
     for n in list(nt.nodes):
         nt.nodes.remove(n)
     out = nt.nodes.new("ShaderNodeOutputMaterial")
@@ -208,7 +277,7 @@ def build_material(sc, ob, grid):
         mul = nt.nodes.new("ShaderNodeMath")
         mul.operation = "MULTIPLY"
         mul.inputs[1].default_value = estr
-        nt.links.new(attr.outputs["Fac"], mul.inputs[0])
+        nt.links.new(output_socket(attr, "Fac", "Factor"), mul.inputs[0])
         nt.links.new(mul.outputs["Value"], pv.inputs["Emission Strength"])
         pv.inputs["Emission Color"].default_value = (ecol[0], ecol[1], ecol[2], 1.0)
     nt.links.new(pv.outputs["Volume"], out.inputs["Volume"])
@@ -220,9 +289,8 @@ def build_world(sc, scene, base):
     env = sc.get("environment", {})
     world = bpy.data.worlds.new("vsd_world")
     scene.world = world
-    world.use_nodes = True
+    nt = use_nodes(world)
     world.cycles.sampling_method = "AUTOMATIC"
-    nt = world.node_tree
     for n in list(nt.nodes):
         nt.nodes.remove(n)
     out = nt.nodes.new("ShaderNodeOutputWorld")
@@ -233,7 +301,7 @@ def build_world(sc, scene, base):
     if file:
         img = bpy.data.images.load(resolve(base, file), check_existing=False)
         cs = env.get("colorspace") or ""
-        img.colorspace_settings.name = cs if cs else "Linear"
+        img.colorspace_settings.name = cs if cs else linear_colorspace()
         tc = nt.nodes.new("ShaderNodeTexCoord")
         mp = nt.nodes.new("ShaderNodeMapping")
         mp.vector_type = "POINT"
@@ -319,6 +387,8 @@ def configure_cycles(scene, args, samples, seed, width, height, transparent):
     c.transmission_bounces = 1024
     c.transparent_max_bounces = 1024
     c.volume_step_rate = args.step_rate
+    if hasattr(c, "volume_biased"):  # 5.0: null scattering by default, ray marching if biased
+        c.volume_biased = bool(getattr(args, "volume_biased", False))
     c.volume_max_steps = 100000
     c.light_sampling_threshold = 0.0
     if hasattr(c, "use_guiding"):
@@ -342,7 +412,7 @@ def configure_cycles(scene, args, samples, seed, width, height, transparent):
     scene.view_settings.look = "None"
     scene.view_settings.exposure = 0.0
     scene.view_settings.gamma = 1.0
-    r.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    set_multilayer_exr(r.image_settings)
     r.image_settings.color_depth = "32"
     r.image_settings.exr_codec = "ZIP"
     r.use_compositing = False
@@ -400,6 +470,8 @@ def main():
                        "height": height, "seed": seed, "frame": frame, "vdb": vdb_path,
                        "grid": grid, "step_rate": args.step_rate,
                        "voxel_centres": args.voxel_centres,
+                       "cycles_voxel_centre": cycles_voxel_centre(),
+                       "volume_biased": bool(getattr(scene.cycles, "volume_biased", True)),
                        "threads": scene.render.threads, "blender": bpy.app.version_string},
                       f, indent=1)
 

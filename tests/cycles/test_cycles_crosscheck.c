@@ -16,7 +16,8 @@
  * for Combined RGB, Combined alpha, VolumeDir, VolumeInd (and Emit when the scene emits).
  * Asserted: e <= K floor, and |mean(vsd) - mean(Cycles)| / mean(Cycles) <= 4 se + 0.5%
  * (se from the seed pairs: blocks are independent, every pixel has its own random stream;
- * 0.5% covers the bias of Cycles' ray marching at a quarter-voxel step).
+ * 0.5% covers the bias of Cycles' ray marching at a quarter-voxel step, and with the 4 se
+ * the +0.5-1% excess of Cycles 5.0's default null scattering on the dense smoke).
  *
  * K comes from a null study (docs/cycles-crosscheck.md): e / floor of two unbiased
  * renderers, measured on 40 disjoint quadruples of vsd-only renders of this scene (seeds
@@ -38,13 +39,22 @@
  * Both renderers are deterministic for a fixed seed, so on one build the test gives the same
  * numbers every run; the bounds matter when code changes reshuffle the noise.
  *
- * Cycles places voxel i's centre at index i + 0.5, vsd (like OpenVDB) at i: the script
- * moves the Blender object by half a voxel (its default --voxel-centres openvdb) so both
- * render the same field.
+ * Cycles 3.4-4.5 place voxel i's centre at index i + 0.5, vsd (like OpenVDB) and Cycles 5.0
+ * at i: for 3.4-4.5 the script moves the Blender object by half a voxel (its default
+ * --voxel-centres openvdb) so both render the same field.
  *
- *   test_cycles_crosscheck [--blender PATH] [--script PATH] [--vsd-spp N] [--cycles-spp N]
- *                          [--scene smoke|fire|lights] [--dir DIR]
+ *   test_cycles_crosscheck [--blender 'CMD [ARG...]'] [--script PATH] [--vsd-spp N]
+ *                          [--cycles-spp N] [--scene smoke|fire|lights] [--dir DIR]
+ *                          [--cycles-arg ARG]...
  *   test_cycles_crosscheck --compare V1.exr V2.exr C1.exr C2.exr   (the metrics of 4 files)
+ *
+ * --blender is the command that stands in for `blender`: a path, a name on $PATH, or several
+ * words separated by spaces (no quoting), e.g. a bpy wheel's python followed by
+ * tests/blender_addon/blender_wheel.py (ctest test_cycles_crosscheck_blender42/45/50 and
+ * _fire_blender42/45/50; measured against each version in docs/cycles-crosscheck.md, "Newer
+ * Cycles"). --cycles-arg passes one more argument to cycles_scene.py (repeatable), e.g.
+ * --cycles-arg --volume-biased. The Blender 5.0 pass names (Volume Direct, Volume Indirect,
+ * Emission) are read as VolumeDir, VolumeInd and Emit.
  *
  * --scene fire (ctest test_cycles_crosscheck_fire, with --vsd-spp 1024 --cycles-spp 256) checks
  * emission and its passes on fire96 frame 48. --scene lights (ctest
@@ -113,13 +123,26 @@ static void planes_free(planes *p)
     memset(p, 0, sizeof *p);
 }
 
-static int gather(const vsd_exr_image *img, const char *const *names, int ch, float **out)
+/* Channel `names[c]` ("ViewLayer.<pass>.<channel>"), or the same channel of the pass's
+ * Blender 5.0 name `alt` ("Volume Direct", "Volume Indirect", "Emission": 5.0 names its
+ * passes as its UI does; vsd and Blender 3.4-4.5 write VolumeDir, VolumeInd, Emit). */
+static const float *find_channel(const vsd_exr_image *img, const char *name, const char *alt)
+{
+    const float *src = vsd_exr_channel(img, name);
+    const char *chan = strrchr(name, '.');
+    char other[128];
+    if (src || !alt || !chan) return src;
+    snprintf(other, sizeof other, "ViewLayer.%s%s", alt, chan);
+    return vsd_exr_channel(img, other);
+}
+
+static int gather(const vsd_exr_image *img, const char *const *names, const char *alt, int ch, float **out)
 {
     int n = img->width * img->height, c, i;
     *out = malloc(sizeof(float) * (size_t)n * ch);
     if (!*out) return 0;
     for (c = 0; c < ch; c++) {
-        const float *src = vsd_exr_channel(img, names[c]);
+        const float *src = find_channel(img, names[c], alt);
         if (!src) {
             fprintf(stderr, "missing channel %s\n", names[c]);
             return 0;
@@ -137,6 +160,7 @@ static int load_planes(const char *path, planes *p)
     static const char *const ind[] = {"ViewLayer.VolumeInd.R", "ViewLayer.VolumeInd.G", "ViewLayer.VolumeInd.B"};
     static const char *const emit[] = {"ViewLayer.Emit.R", "ViewLayer.Emit.G", "ViewLayer.Emit.B"};
     const char *const *names[Q_COUNT] = {rgb, alpha, dir, ind, emit};
+    static const char *const alt[Q_COUNT] = {NULL, NULL, "Volume Direct", "Volume Indirect", "Emission"};
     vsd_exr_image *img = NULL;
     char err[1024];
     int i, ok = 1;
@@ -147,7 +171,7 @@ static int load_planes(const char *path, planes *p)
     }
     p->width = img->width;
     p->height = img->height;
-    for (i = 0; i < Q_COUNT && ok; i++) ok = gather(img, names[i], q_channels[i], &p->q[i]);
+    for (i = 0; i < Q_COUNT && ok; i++) ok = gather(img, names[i], alt[i], q_channels[i], &p->q[i]);
     vsd_exr_image_destroy(img);
     if (!ok) fprintf(stderr, "%s: not a vsd/Blender multilayer EXR with Combined, VolumeDir, VolumeInd, Emit\n", path);
     return ok;
@@ -302,6 +326,9 @@ static int compare_files(char **paths)
 
 /* The frame every render uses (the scene's frames.start). */
 static int g_frame = 24;
+/* The spot's mask has the cosine to its axis (Cycles 3.x) or not (4.2, 4.5, 5.0:
+ * --spot-no-cosine writes "spot_cosine": false, as the add-on sends from those versions). */
+static int g_spot_cosine = 1;
 
 /* "smoke": smoke64 frame 24, no emission. "fire" (the emission conventions and their passes,
  * about 4x slower in Cycles): fire96 frame 48 with its flame grid, as
@@ -351,8 +378,9 @@ static int write_scene(const char *path, const char *which)
         fprintf(f, " \"lights\": [{\"type\": \"point\", \"power\": 400, \"position\": [2.6, -1.2, 2.4], \"radius\": 0.1,"
                    " \"color\": [1.0, 0.75, 0.5]},\n"
                    "  {\"type\": \"spot\", \"power\": 1500, \"position\": [-2.2, 0.2, 1.2], \"direction\": [1, 0.3, -0.05],"
-                   " \"spot_size\": 0.7, \"spot_blend\": 0.4, \"color\": [0.5, 0.7, 1.0]},\n"
-                   "  {\"type\": \"sun\", \"strength\": 2.0, \"direction\": [0.2, 0.9, -0.3], \"angle\": 0.035}],\n");
+                   " \"spot_size\": 0.7, \"spot_blend\": 0.4, \"spot_cosine\": %s, \"color\": [0.5, 0.7, 1.0]},\n"
+                   "  {\"type\": \"sun\", \"strength\": 2.0, \"direction\": [0.2, 0.9, -0.3], \"angle\": 0.035}],\n",
+                g_spot_cosine ? "true" : "false");
     fprintf(f,
             " \"film\": {\"width\": %d, \"height\": %d, \"transparent\": true},\n"
             " \"render\": {\"method\": \"reference\", \"samples\": 1024, \"seed\": 1},\n"
@@ -446,12 +474,41 @@ static double json_number(const char *path, const char *key)
     return p ? strtod(p + strlen(pat), NULL) : NAN;
 }
 
-static int render_cycles(const char *blender, const char *script, const char *scene_path, int seed, int spp,
-                         const char *exr, const char *dir, double *seconds)
+/* The value of a string "key" in a small JSON file, or "?" */
+static void json_string(const char *path, const char *key, char *out, size_t len)
 {
-    char s_spp[32], s_seed[32], s_w[32], s_h[32], s_frame[32], tjson[1200], log[1200];
-    char *argv[32];
-    int n = 0, rc;
+    FILE *f = fopen(path, "r");
+    char buf[4096], pat[128];
+    const char *p, *q;
+    size_t n;
+    snprintf(out, len, "?");
+    if (!f) return;
+    n = fread(buf, 1, sizeof buf - 1, f);
+    buf[n] = '\0';
+    fclose(f);
+    snprintf(pat, sizeof pat, "\"%s\": \"", key);
+    p = strstr(buf, pat);
+    if (!p) return;
+    p += strlen(pat);
+    q = strchr(p, '"');
+    if (q) snprintf(out, len, "%.*s", (int)(q - p), p);
+}
+
+/* The command standing in for `blender`: its words (blender[0] resolved to a path, e.g.
+ * a bpy wheel's python followed by tests/blender_addon/blender_wheel.py), and extra
+ * arguments for cycles_scene.py (--cycles-arg). */
+#define MAX_WORDS 16
+typedef struct command {
+    char *word[MAX_WORDS + 1];
+    int n;
+} command;
+
+static int render_cycles(const command *blender, const command *extra, const char *script, const char *scene_path,
+                         int seed, int spp, const char *exr, const char *dir, double *seconds)
+{
+    char s_spp[32], s_seed[32], s_w[32], s_h[32], s_frame[32], tjson[1200], log[1200], version[64];
+    char *argv[32 + 2 * MAX_WORDS];
+    int n = 0, rc, k;
     double t0 = now();
     snprintf(s_spp, sizeof s_spp, "%d", spp);
     snprintf(s_seed, sizeof s_seed, "%d", seed);
@@ -460,7 +517,7 @@ static int render_cycles(const char *blender, const char *script, const char *sc
     snprintf(s_frame, sizeof s_frame, "%d", g_frame);
     snprintf(tjson, sizeof tjson, "%s/cycles_seed%d.json", dir, seed);
     snprintf(log, sizeof log, "%s/cycles_seed%d.log", dir, seed);
-    argv[n++] = (char *)blender;
+    for (k = 0; k < blender->n; k++) argv[n++] = blender->word[k];
     argv[n++] = "--background";
     argv[n++] = "--factory-startup";
     argv[n++] = "--python-exit-code";
@@ -484,6 +541,7 @@ static int render_cycles(const char *blender, const char *script, const char *sc
     argv[n++] = s_frame;
     argv[n++] = "--time-json";
     argv[n++] = tjson;
+    for (k = 0; k < extra->n; k++) argv[n++] = extra->word[k];
     argv[n] = NULL;
     rc = run_logged(argv, log);
     *seconds = now() - t0;
@@ -492,9 +550,23 @@ static int render_cycles(const char *blender, const char *script, const char *sc
         print_tail(log);
         return 0;
     }
-    printf("Cycles seed %d: %d spp, render %.2f s (Blender run %.2f s)\n", seed, spp,
+    json_string(tjson, "blender", version, sizeof version);
+    printf("Cycles seed %d: Blender %s, %d spp, render %.2f s (Blender run %.2f s)\n", seed, version, spp,
            json_number(tjson, "render_seconds"), *seconds);
     return 1;
+}
+
+/* Split `s` (modified in place) at spaces and tabs into cmd; 0 when empty or too many. */
+static int split_words(char *s, command *cmd)
+{
+    char *save = NULL, *w;
+    cmd->n = 0;
+    for (w = strtok_r(s, " \t", &save); w; w = strtok_r(NULL, " \t", &save)) {
+        if (cmd->n == MAX_WORDS) return 0;
+        cmd->word[cmd->n++] = w;
+    }
+    cmd->word[cmd->n] = NULL;
+    return cmd->n > 0;
 }
 
 /* Find blender: an absolute path as given, else search $PATH. */
@@ -537,13 +609,16 @@ static void empty_dir(const char *dir)
 int main(int argc, char **argv)
 {
     const char *blender_arg = VSD_BLENDER_EXE, *script = VSD_CYCLES_SCRIPT, *which = "smoke";
-    char blender[1024], dir[900], scene_path[1024], vexr[2][1024], cexr[2][1024];
+    char blender[1024], blender_words[2048], dir[900], scene_path[1024], vexr[2][1024], cexr[2][1024];
+    command cmd, extra;
     int vsd_spp = 2048, cycles_spp = 512, i, ok = 1;
     double t_start = now(), tv[2] = {0, 0}, tc[2] = {0, 0};
     planes p[4];
     metrics m[Q_COUNT];
 
     snprintf(dir, sizeof dir, "%s", test_tmp("cycles_crosscheck"));
+    extra.n = 0;
+    extra.word[0] = NULL;
     for (i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--compare") == 0 && i + 4 < argc) return compare_files(argv + i + 1);
         else if (strcmp(argv[i], "--blender") == 0 && i + 1 < argc) blender_arg = argv[++i];
@@ -551,20 +626,37 @@ int main(int argc, char **argv)
         else if (strcmp(argv[i], "--vsd-spp") == 0 && i + 1 < argc) vsd_spp = atoi(argv[++i]);
         else if (strcmp(argv[i], "--cycles-spp") == 0 && i + 1 < argc) cycles_spp = atoi(argv[++i]);
         else if (strcmp(argv[i], "--scene") == 0 && i + 1 < argc) which = argv[++i];
+        else if (strcmp(argv[i], "--spot-no-cosine") == 0) g_spot_cosine = 0;
         else if (strcmp(argv[i], "--dir") == 0 && i + 1 < argc) snprintf(dir, sizeof dir, "%s", argv[++i]);
-        else {
+        else if (strcmp(argv[i], "--cycles-arg") == 0 && i + 1 < argc && extra.n < MAX_WORDS) {
+            extra.word[extra.n++] = argv[++i];
+            extra.word[extra.n] = NULL;
+        } else {
             fprintf(stderr,
-                    "usage: %s [--blender PATH] [--script PATH] [--vsd-spp N] [--cycles-spp N] [--dir DIR]\n"
-                    "          [--scene smoke|fire]\n"
+                    "usage: %s [--blender 'CMD [ARG...]'] [--script PATH] [--vsd-spp N] [--cycles-spp N]\n"
+                    "          [--dir DIR] [--scene smoke|fire|lights] [--spot-no-cosine] [--cycles-arg ARG]...\n"
                     "       %s --compare VSD1.exr VSD2.exr CYCLES1.exr CYCLES2.exr\n",
                     argv[0], argv[0]);
             return 2;
         }
     }
-    if (!find_exe(blender_arg, blender, sizeof blender)) {
-        printf("SKIP: no Blender executable (%s)\n", blender_arg);
+    /* --blender: a path, a name on $PATH, or a command of several words separated by
+     * spaces (no quoting): e.g. "<venv>/bin/python tests/blender_addon/blender_wheel.py" */
+    snprintf(blender_words, sizeof blender_words, "%s", blender_arg);
+    if (!split_words(blender_words, &cmd)) {
+        fprintf(stderr, "--blender: expected a command of 1 to %d words, got '%s'\n", MAX_WORDS, blender_arg);
+        return 2;
+    }
+    if (!find_exe(cmd.word[0], blender, sizeof blender)) {
+        printf("SKIP: no Blender executable (%s)\n", cmd.word[0]);
         return 77;
     }
+    cmd.word[0] = blender;
+    for (i = 1; i < cmd.n; i++)
+        if (access(cmd.word[i], F_OK) != 0 && cmd.word[i][0] == '/') {
+            printf("SKIP: %s: %s (the Blender command's file is gone)\n", cmd.word[i], strerror(errno));
+            return 77;
+        }
     if (access(script, R_OK) != 0) {
         fprintf(stderr, "%s: %s\n", script, strerror(errno));
         return 1;
@@ -584,7 +676,7 @@ int main(int argc, char **argv)
         CHECK(ok);
     }
     for (i = 0; i < 2 && ok; i++) {
-        ok = render_cycles(blender, script, scene_path, i + 1, cycles_spp, cexr[i], dir, &tc[i]);
+        ok = render_cycles(&cmd, &extra, script, scene_path, i + 1, cycles_spp, cexr[i], dir, &tc[i]);
         CHECK(ok);
     }
     fflush(stdout);

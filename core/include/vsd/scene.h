@@ -39,6 +39,9 @@ typedef struct vsd_scene_light {
     float angle;                         /* sun: angular diameter, radians (default 0) */
     float spot_size;                     /* spot: full cone angle, radians (default 45 degrees) */
     float spot_blend;                    /* spot: 0..1, softness of the cone's edge (default 0.15) */
+    int spot_cosine;                     /* spot: the mask includes the cosine to the axis (Cycles
+                                            3.x, default) or not (Cycles 4.2+; the add-on
+                                            sends false there) */
 } vsd_scene_light;
 
 typedef struct vsd_scene {

@@ -197,6 +197,7 @@ int vsd_kscene_lights_setup(float *out, const vsd_scene *scene)
         l[7] = s->type == VSD_LIGHT_SUN ? cosf(0.5f * s->angle) : s->radius;
         l[11] = cosf(0.5f * s->spot_size);
         l[12] = (1.0f - l[11]) * s->spot_blend;
+        l[13] = s->spot_cosine ? 1.0f : 0.0f;
     }
     return scene->light_count;
 }

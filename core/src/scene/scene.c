@@ -167,6 +167,7 @@ static const field light_fields[] = {
     F_NUM("angle", light.angle, 0, R_MIN | R_MAX | R_HI_OPEN, 0, PI),
     F_NUM("spot_size", light.spot_size, PI / 4, R_MIN | R_MAX | R_LO_OPEN, 0, PI),
     F_NUM("spot_blend", light.spot_blend, 0.15, UNIT, 0, 1),
+    F_BOOL("spot_cosine", light.spot_cosine, 1),
 };
 TABLE(light, light_finish);
 
@@ -714,7 +715,7 @@ static vsd_status light_finish(parser *p, const cJSON *obj, const char *path)
     static const char *const sun_keys[] = {"type", "color", "strength", "direction", "angle", NULL};
     static const char *const point_keys[] = {"type", "color", "power", "position", "radius", NULL};
     static const char *const spot_keys[] = {"type", "color", "power", "position", "radius", "direction",
-                                            "spot_size", "spot_blend", NULL};
+                                            "spot_size", "spot_blend", "spot_cosine", NULL};
     static const char *const *const keys[] = {sun_keys, point_keys, spot_keys};
     vsd_scene_light *l = &p->out->light;
     const cJSON *item;
