@@ -70,33 +70,14 @@ endif()
 # versions: the engine's constructor, colour spaces, pass names against that version's own
 # Cycles, lights, cameras, deprecated node flags), which runs in 3.4 too. Names:
 # blender42_addon_render, ... The viewport test needs a window and stays on 3.4 (Xvfb).
-set(VSD_ADDON_WHEEL_TESTS render stream options ior lights versions)
-foreach(v ${VSD_BLENDER_WHEEL_VERSIONS})
-  vsd_wheel_blender(wheel_blender ${v})
-  vsd_wheel_tag(tag ${v})
-  foreach(t ${VSD_ADDON_WHEEL_TESTS})
-    add_test(NAME blender${tag}_addon_${t}
-             COMMAND ${wheel_blender} --background --factory-startup --python-exit-code 1
-                     --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_${t}.py --
-                     $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender${tag}_addon_${t})
-    set_tests_properties(blender${tag}_addon_${t} PROPERTIES LABELS "blender;integration;wheel" TIMEOUT 300
-                         FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)")
-  endforeach()
+foreach(t render stream options ior lights versions)
+  vsd_add_wheel_addon_tests(${t})
 endforeach()
 # The add-on's mapping against each wheel's own Cycles (test_cycles.py as blender_addon_cycles
 # runs it in 3.4): the voxel centres differ from 5.0 (docs/cycles-crosscheck.md). The program
 # test_cycles_crosscheck comes from tests/cycles.cmake, included after this file.
-foreach(v ${VSD_BLENDER_WHEEL_VERSIONS})
-  vsd_wheel_blender(wheel_blender ${v})
-  vsd_wheel_tag(tag ${v})
-  add_test(NAME blender${tag}_addon_cycles
-           COMMAND ${wheel_blender} --background --factory-startup --python-exit-code 1
-                   --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_cycles.py --
-                   $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender${tag}_addon_cycles
-                   $<TARGET_FILE:test_cycles_crosscheck>)
-  set_tests_properties(blender${tag}_addon_cycles PROPERTIES LABELS "blender;integration;slow;wheel" TIMEOUT 1800
-                       FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)")
-endforeach()
+vsd_add_wheel_addon_tests(cycles LABELS blender integration slow wheel TIMEOUT 1800
+                          ARGS $<TARGET_FILE:test_cycles_crosscheck>)
 if(BLENDER_EXE AND NOT VSD_BLENDER_TESTS STREQUAL "OFF")
   add_test(NAME blender_addon_versions
            COMMAND ${BLENDER_EXE} --background --factory-startup --python-exit-code 1

@@ -25,13 +25,4 @@ endif()
 # validator and `extension build` on the zip, Install from Disk into a temporary repository
 # (module bl_ext.vsd_test_repo.vsd_blender), F12 through it, and the refusal of a remote
 # daemon while Allow Online Access is off. Names: blender42_addon_extension, ...
-foreach(v ${VSD_BLENDER_WHEEL_VERSIONS})
-  vsd_wheel_blender(wheel_blender ${v})
-  vsd_wheel_tag(tag ${v})
-  add_test(NAME blender${tag}_addon_extension
-           COMMAND ${wheel_blender} --background --factory-startup --python-exit-code 1
-                   --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_extension.py --
-                   $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender${tag}_addon_extension)
-  set_tests_properties(blender${tag}_addon_extension PROPERTIES LABELS "blender;integration;wheel" TIMEOUT 300
-                       FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)")
-endforeach()
+vsd_add_wheel_addon_tests(extension)

@@ -72,3 +72,27 @@ function(vsd_wheel_tag out version)
   string(REGEX MATCH "^([0-9]+)\\.([0-9]+)" _m "${version}")
   set(${out} "${CMAKE_MATCH_1}${CMAKE_MATCH_2}" PARENT_SCOPE)
 endfunction()
+
+# vsd_add_wheel_addon_tests(TEST [LABELS l ...] [TIMEOUT s] [ARGS a ...]): for each wheel V,
+# test blender<tag>_addon_<TEST> runs tests/blender_addon/test_<TEST>.py under that wheel
+# with the add-on tests' arguments (vsd, the shared data, a temp folder) and ARGS; any Python
+# traceback in its output fails it (errors must be reports).
+function(vsd_add_wheel_addon_tests test)
+  cmake_parse_arguments(W "" "TIMEOUT" "LABELS;ARGS" ${ARGN})
+  if(NOT W_LABELS)
+    set(W_LABELS blender integration wheel)
+  endif()
+  if(NOT W_TIMEOUT)
+    set(W_TIMEOUT 300)
+  endif()
+  foreach(v ${VSD_BLENDER_WHEEL_VERSIONS})
+    vsd_wheel_blender(wheel_blender ${v})
+    vsd_wheel_tag(tag ${v})
+    add_test(NAME blender${tag}_addon_${test}
+             COMMAND ${wheel_blender} --background --factory-startup --python-exit-code 1
+                     --python ${CMAKE_SOURCE_DIR}/tests/blender_addon/test_${test}.py --
+                     $<TARGET_FILE:vsd> ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/blender${tag}_addon_${test} ${W_ARGS})
+    set_tests_properties(blender${tag}_addon_${test} PROPERTIES LABELS "${W_LABELS}" TIMEOUT ${W_TIMEOUT}
+                         FAIL_REGULAR_EXPRESSION "Traceback \\(most recent call last\\)")
+  endforeach()
+endfunction()
