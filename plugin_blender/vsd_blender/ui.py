@@ -7,12 +7,25 @@ from . import connection, mapping, method_options
 
 METHODS = [
     ("reference", "Reference", "Unbiased volumetric path tracing, all bounces (matches Cycles)"),
-    ("raymarch", "Ray March", "Single scattering from K environment directions, noise-free"),
+    ("raymarch", "Ray March (slow baseline)",
+     "The papers' brute-force baseline, for comparisons: single scattering only, every march step "
+     "sends a shadow ray to each of K environment directions (256 by default), with no acceleration. "
+     "Slow: smoke128 at 640x360 takes hours on a few cores (the render header shows its progress "
+     "and time left); Reference, LBL or CRM for pictures"),
     ("constellation", "Constellation", "Navarro 2009: light constellation, distance map"),
     ("shgrid", "SH Grid", "Delalandre 2013: spherical-harmonics record grid"),
     ("crm", "CRM", "Zhou 2008: compensated ray marching of RBF densities"),
     ("lbl", "LBL", "Bernabei 2012: light marching, lattice-Boltzmann multiple scattering"),
 ]
+# The rendered viewport's method: one with multiple scattering, so the viewport shows what
+# F12 with `reference` shows (shgrid, the default before issue 28, scatters once: its smoke
+# is about half as bright). Measured for issue 28 at 264x166, lbl / crm: Combined against
+# 4096-spp `reference` (relative RMSE, 4x4 blocks) 7.7% / 13.1% on smoke64 frame 20 (the
+# viewport test's scene), 4.4% / 7.2% on smoke128 frame 45; mean brightness 1.005 / 1.007;
+# seconds from a view change to the new image in Blender 3.4 under Xvfb (test_viewport's
+# benchmark, 2-core VM, three runs) 0.29-0.50 / 0.15-0.27 (shgrid 0.16-0.25). crm is the
+# faster, but not within 10% of the reference on the add-on's own smoke: lbl.
+VIEWPORT_DEFAULT = "lbl"
 # Where medium.ior / volume.ior_grid / medium.ior_from come from (mapping.map_ior).
 IOR_SOURCES = [
     ("constant", "Constant", "One refractive index inside the medium (IOR, medium.ior), 1 outside"),
@@ -57,8 +70,9 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
     options_json: StringProperty(name="Options", default="",
                                  description="More method options as a JSON object, e.g. "
                                  "{\"lights\": 64}; overrides the option fields")
-    viewport_method: EnumProperty(name="Viewport Method", items=METHODS, default="shgrid",
-                                  description="Method of the rendered viewport preview",
+    viewport_method: EnumProperty(name="Viewport Method", items=METHODS, default=VIEWPORT_DEFAULT,
+                                  description="Method of the rendered viewport preview (LBL by default: "
+                                  "multiple scattering, as bright as the final render)",
                                   update=_tag_redraw)
     viewport_samples: IntProperty(name="Viewport Samples", default=4, min=1, max=100000)
     viewport_resolution: IntProperty(name="Resolution", default=50, min=1, max=100,
@@ -222,6 +236,12 @@ class RENDER_PT_vsd_viewport(VSDPanel, bpy.types.Panel):
         fps = connection.status.get("preview_fps")
         if fps:
             col.label(text="Preview: %.1f frames/s" % fps)
+        lat = connection.status.get("preview_latency")
+        if lat:
+            col.label(text="Last update on screen %.2f s after the change" % lat)
+        # the scene mapping's (and the daemon's) warnings for the preview, also drawn over it
+        for w in connection.status.get("preview_warnings") or []:
+            col.label(text=w, icon="ERROR")
 
 
 class RENDER_PT_vsd_daemon(VSDPanel, bpy.types.Panel):

@@ -29,8 +29,11 @@ static void prep_key_of(const vsd_scene *sc, char *out, size_t len)
     for (i = 0; i < 16 && n > 0 && (size_t)n < len - 32; i++) n += snprintf(out + n, len - (size_t)n, "%.17g,", m[i]);
 }
 
-/* The renderer's progress callback (user = the slot): PROGRESS to the job rendering now,
- * at most every 1% or 50 ms, and on every new stage. */
+/* The renderer's progress callback (user = the slot): PROGRESS to the job rendering now on
+ * every new stage and at its end; within a stage at most every 50 ms, when the fraction has
+ * grown by 1%, or by anything once a second has passed (a slow render, e.g. raymarch at its
+ * defaults, finishes a 16x16 tile every few seconds, far less than 1% of a large image: its
+ * client still sees it advance and can estimate the time left). */
 static void slot_progress(void *user, const char *stage, float fraction)
 {
     vsdd_slot *s = user;
@@ -40,7 +43,8 @@ static void slot_progress(void *user, const char *stage, float fraction)
     if (!j) return;
     stage_changed = strcmp(stage, s->last_stage) != 0;
     if (!stage_changed && fraction < 1.0f &&
-        (fraction - s->last_fraction < 0.01f || now - s->last_progress_time < 0.05))
+        (now - s->last_progress_time < 0.05 || fraction <= s->last_fraction ||
+         (fraction - s->last_fraction < 0.01f && now - s->last_progress_time < 1.0)))
         return;
     if (!stage_changed && fraction >= 1.0f && s->last_fraction >= 1.0f) return;
     snprintf(s->last_stage, sizeof s->last_stage, "%s", stage);

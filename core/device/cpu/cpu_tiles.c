@@ -7,7 +7,7 @@
 
 typedef struct pool_state {
     const vsd_tile_job *job;
-    int tiles_x, tiles_total;
+    int tiles_x, tiles_total, stride;
     atomic_int next, done;
     pthread_mutex_t lock;
 } pool_state;
@@ -29,6 +29,7 @@ static void *worker(void *arg)
         if (job->cancel && *job->cancel) break;
         t = atomic_fetch_add(&ps->next, 1);
         if (t >= ps->tiles_total) break;
+        if (ps->stride > 1) t = (int)(((long long)t * ps->stride) % ps->tiles_total);
         tx = t % ps->tiles_x;
         ty = t / ps->tiles_x;
         {
@@ -66,6 +67,27 @@ cancelled:
     return NULL;
 }
 
+static int gcd(int a, int b)
+{
+    while (b) {
+        int r = a % b;
+        a = b;
+        b = r;
+    }
+    return a;
+}
+
+/* The stride of a spread order over `count` tiles (see cpu_tiles.h); 1 = in order. */
+static int spread_stride(int count)
+{
+    int s;
+    if (count < 3) return 1;
+    s = (int)(count * 0.6180339887 + 0.5);
+    if (s < 1) s = 1;
+    while (gcd(s, count) != 1) s++;
+    return s;
+}
+
 vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job)
 {
     pool_state ps;
@@ -74,6 +96,8 @@ vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job)
     ps.job = job;
     ps.tiles_x = (job->width + VSD_TILE_SIZE - 1) / VSD_TILE_SIZE;
     ps.tiles_total = ps.tiles_x * ((job->height + VSD_TILE_SIZE - 1) / VSD_TILE_SIZE);
+    ps.stride = job->spread ? spread_stride(ps.tiles_total) : 1;
+    if (job->progress) job->progress(job->progress_user, job->stage, job->progress_base);
     atomic_init(&ps.next, 0);
     atomic_init(&ps.done, 0);
     pthread_mutex_init(&ps.lock, NULL);

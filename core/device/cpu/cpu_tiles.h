@@ -23,10 +23,17 @@ typedef struct vsd_tile_job {
     void *progress_user;
     float progress_base, progress_span; /* fraction reported = base + span * done/total */
     volatile int *cancel;        /* may be 0 */
+    int spread;                  /* hand the tiles out scattered over the image (below) */
 } vsd_tile_job;
 
 /* Runs every tile; VSD_ERR_CANCELLED when *cancel became non-zero (seen within one pixel of
- * an image, or 16 items of a list, per thread). */
+ * an image, or 16 items of a list, per thread). With a progress callback it reports
+ * progress_base when it starts (so a client sees the stage begin and can time it), then
+ * after every tile. With `spread` the k-th tile handed out is tile (k * stride) mod count,
+ * the stride coprime with the count and near count / golden ratio: consecutive tiles lie
+ * far apart, so the fraction of tiles done follows the fraction of the work done even when
+ * the cost varies across the image (a plume below empty sky), which is what an ETA from the
+ * progress needs. The image is the same in any order (above). */
 vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job);
 
 /* fn over items [0, count) in ranges, as the x range of a count x 1 image (no progress,

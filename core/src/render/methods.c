@@ -95,6 +95,7 @@ void vsd_method_tile_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, const vsd_
                          void (*fn)(void *, int, int, int, int), void *user, const char *stage)
 {
     fill_job(job, ctx, fb->width, fb->height, fn, user, stage);
+    job->spread = 1;   /* the progress follows the work (cpu_tiles.h) */
 }
 
 void vsd_method_item_job(vsd_tile_job *job, const vsd_frame_ctx *ctx, int count,
