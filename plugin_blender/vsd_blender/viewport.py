@@ -109,6 +109,15 @@ def view_camera(context):
     return cam
 
 
+def redraw_viewports():
+    """Tag every 3D viewport for a redraw (its view_draw then draws or requests a preview)."""
+    wm = getattr(bpy.context, "window_manager", None)
+    for win in (wm.windows if wm is not None else []):
+        for area in win.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
 def _worker(wr):
     """The preview's render thread; holds its Preview only weakly so the preview (and the
     thread) end when the engine drops it."""
@@ -186,6 +195,10 @@ class Preview(object):
             self.sig = sig
             self.base, self.error = base, err
             self.gen += 1
+            # the new request is made in view_draw: a change that Blender does not redraw for
+            # by itself (a frame set from a script or timer) would otherwise wait for the next
+            # unrelated redraw (seen once under load in test_viewport: no preview in 60 s)
+            redraw_viewports()
         elif base is not None:
             self.base = base    # the same scene, its warnings may differ (an area light removed)
         connection.status["preview_warnings"] = self.warnings()
@@ -308,10 +321,7 @@ class Preview(object):
             old = self.images.pop(0)
             self.image_info.pop(old.name, None)
             bpy.data.images.remove(old)
-        for win in bpy.context.window_manager.windows:
-            for area in win.screen.areas:
-                if area.type == "VIEW_3D":
-                    area.tag_redraw()
+        redraw_viewports()
 
     # -- worker thread -------------------------------------------------------------------
     def _superseded(self):
