@@ -34,6 +34,18 @@ if [[ -z $python ]]; then
     { echo "install-blender-wheels: no CPython 3.11 with venv here; the bpy wheels need one" >&2; exit 1; }
 fi
 
+# The system libraries the wheels link (readelf -d bpy/__init__.so: X11, XKB, Vulkan loader,
+# TBB); Debian's blender package pulls them in, `install-deps.sh --no-blender` does not.
+runtime_libs=(libx11-6 libxfixes3 libxi6 libxkbcommon0 libxrender1 libvulkan1 libtbb12)
+missing=()
+for pkg in "${runtime_libs[@]}"; do
+  dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "ok installed" || missing+=("$pkg")
+done
+if [[ ${#missing[@]} -gt 0 ]]; then
+  sudo_cmd=""; [[ $(id -u) -eq 0 ]] || sudo_cmd=sudo
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
 mkdir -p "$cache"
 for version in "${versions[@]}"; do
   dir=$cache/bpy-$version
