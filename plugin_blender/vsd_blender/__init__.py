@@ -26,9 +26,12 @@ def register():
     bpy.utils.register_class(engine.VSDRenderEngine)
     bpy.utils.register_class(export.VSD_OT_export_scene)
     bpy.types.TOPBAR_MT_file_export.append(export.menu_func)
+    bpy.app.handlers.frame_change_post.append(engine.frame_changed)
 
 
 def unregister():
+    if engine.frame_changed in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.remove(engine.frame_changed)
     bpy.types.TOPBAR_MT_file_export.remove(export.menu_func)
     bpy.utils.unregister_class(export.VSD_OT_export_scene)
     bpy.utils.unregister_class(engine.VSDRenderEngine)

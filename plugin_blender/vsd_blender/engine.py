@@ -22,6 +22,25 @@ def conn_settings(context=None):
     return connection.Settings.from_prefs(addon_prefs(context))
 
 
+def redraw_viewports():
+    """Tag every 3D viewport for a redraw: Blender calls the engine's view_update and
+    view_draw, and so the preview sees a change, only when a viewport redraws."""
+    wm = getattr(bpy.context, "window_manager", None)
+    for win in (wm.windows if wm is not None else []):
+        for area in win.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
+@bpy.app.handlers.persistent
+def frame_changed(scene, depsgraph=None):
+    """frame_change_post: a frame set by a script, a driver or a timer sends no redraw of
+    its own, and the rendered viewport kept the old frame's preview (seen in
+    test_viewport under load: no preview in 60 s); the timeline's own changes redraw anyway."""
+    if scene.render.engine == VSDRenderEngine.bl_idname:
+        redraw_viewports()
+
+
 def _fmt_error(e, names=None):
     """The daemon's message for a report, with blob names turned back into file names."""
     if isinstance(e, vsd_client.VsdError):

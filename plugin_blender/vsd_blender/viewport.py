@@ -32,6 +32,7 @@ import gpu
 from gpu_extras.presets import draw_texture_2d
 
 from . import colour, connection, mapping, vsd_client
+from .engine import redraw_viewports
 
 LOG = bool(os.environ.get("VSD_PREVIEW_LOG"))
 MAX_DRAWN_WARNINGS = 4    # lines of warnings drawn over the preview; the panel lists all
@@ -107,15 +108,6 @@ def view_camera(context):
         m.translation = m.translation + back
         cam["matrix"] = [float(m[r][c]) for r in range(4) for c in range(4)]
     return cam
-
-
-def redraw_viewports():
-    """Tag every 3D viewport for a redraw (its view_draw then draws or requests a preview)."""
-    wm = getattr(bpy.context, "window_manager", None)
-    for win in (wm.windows if wm is not None else []):
-        for area in win.screen.areas:
-            if area.type == "VIEW_3D":
-                area.tag_redraw()
 
 
 def _worker(wr):
