@@ -1,4 +1,5 @@
 #include "cpu_tiles.h"
+#include "src/common/coprime.h"
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -67,25 +68,13 @@ cancelled:
     return NULL;
 }
 
-static int gcd(int a, int b)
-{
-    while (b) {
-        int r = a % b;
-        a = b;
-        b = r;
-    }
-    return a;
-}
-
 /* The stride of a spread order over `count` tiles (see cpu_tiles.h); 1 = in order. */
 static int spread_stride(int count)
 {
     int s;
     if (count < 3) return 1;
     s = (int)(count * 0.6180339887 + 0.5);
-    if (s < 1) s = 1;
-    while (gcd(s, count) != 1) s++;
-    return s;
+    return vsd_coprime_at_least(s, count);
 }
 
 vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job)

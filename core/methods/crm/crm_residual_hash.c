@@ -3,6 +3,7 @@
  * sizes and growth policy, crm_hash_kernel.h for the lookup this must agree with. */
 #include "crm_residual_hash.h"
 #include "src/common/clock.h"
+#include "src/common/coprime.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,25 +38,6 @@ static int ceil_cbrt_ratio(size_t num, size_t den)
     while ((size_t)c * c * c * den < num) c++;
     while (c > 0 && (size_t)(c - 1) * (c - 1) * (c - 1) * den >= num) c--;
     return c;
-}
-
-static int gcd_int(int a, int b)
-{
-    while (b) {
-        int t = a % b;
-        a = b;
-        b = t;
-    }
-    return a;
-}
-
-/* Smallest value >= r coprime with m (L&H: gcd(m, r) = 1 makes (h0, h1) one-to-one over
- * (m r)^3 blocks). Terminates: m + 1... consecutive integers include a prime above m. */
-static int coprime_at_least(int r, int m)
-{
-    if (r < 1) r = 1;
-    while (gcd_int(r, m) != 1) r++;
-    return r;
 }
 
 static uint64_t rng_next(uint64_t *s)
@@ -391,7 +373,7 @@ static vsd_status hash_keys(vsd_crm_hash *h, const uint32_t *keys, size_t K, con
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "crm residual hash: K = %zu stored voxels needs a hash table side %d > %d", K, m,
                         VSD_CRM_HASH_MAX_M);
-    r = coprime_at_least(p->r_initial > 0 ? p->r_initial : ceil_cbrt_ratio(K, 3) + 9, m);
+    r = vsd_coprime_at_least(p->r_initial > 0 ? p->r_initial : ceil_cbrt_ratio(K, 3) + 9, m);
     h->stats.m_initial = m;
     h->stats.r_initial = r;
     for (;;) {
@@ -427,7 +409,7 @@ static vsd_status hash_keys(vsd_crm_hash *h, const uint32_t *keys, size_t K, con
             m++;
         else
             r += r / 8 > 1 ? r / 8 : 1;
-        r = coprime_at_least(r, m);
+        r = vsd_coprime_at_least(r, m);
     }
     return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                     "crm residual hash: gave up after %d growths: K = %zu stored voxels, offset table r = %d, hash "
