@@ -1,4 +1,4 @@
-# Blender reads vsd's multilayer EXR as render passes (DESIGN.md §6).
+# Blender reads vsd's multilayer EXR as render passes (docs/architecture.md §6).
 #
 # Run by ctest as:
 #   blender --background --factory-startup --python-exit-code 1 \

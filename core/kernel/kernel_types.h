@@ -1,6 +1,6 @@
 /* kernel_types.h — the data every kernel sees, and the small vector maths they share.
  *
- * This folder is the common subset of C11 and CUDA C++ (DESIGN.md §2): no globals, no
+ * This folder is the common subset of C11 and CUDA C++ (docs/architecture.md §2): no globals, no
  * VLAs, no compound literals; every function is VSD_DEVICE. Scene data reaches kernels
  * through one `const vsd_kernel_data *` holding plain structs and flat arrays, so the CPU
  * backend passes host pointers and the CUDA backend passes the same layout with device

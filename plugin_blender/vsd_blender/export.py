@@ -1,5 +1,5 @@
 # File > Export > vsd scene (.json): the Blender scene as a scene file v1 for `vsd render`
-# and render farms (DESIGN.md §4). The volume is written as its #### sequence pattern and
+# and render farms (docs/architecture.md §4). The volume is written as its #### sequence pattern and
 # the frame range as the file frames Blender shows for the scene's range.
 import json
 import os

@@ -1,4 +1,4 @@
-# Blender scene -> vsd scene file v1 (DESIGN.md §3, §4; docs/blender-addon.md has the table).
+# Blender scene -> vsd scene file v1 (docs/architecture.md §3, §4; docs/blender-addon.md has the table).
 #
 # build_scene() reads the evaluated depsgraph: the one volume object (its current frame's
 # .vdb and matrix_world), its material's Principled Volume, the world's Environment Texture

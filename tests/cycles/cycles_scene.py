@@ -1,4 +1,4 @@
-# Build and render the Cycles equivalent of a vsd scene file (DESIGN.md §3, §4, §10).
+# Build and render the Cycles equivalent of a vsd scene file (docs/architecture.md §3, §4, §10).
 #
 #   blender --background --factory-startup --python-exit-code 1 \
 #       --python tests/cycles/cycles_scene.py -- --scene S.json --out OUT.exr \

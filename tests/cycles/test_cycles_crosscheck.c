@@ -1,4 +1,4 @@
-/* `reference` against Blender Cycles on the same scene (DESIGN.md §10; method, numbers and
+/* `reference` against Blender Cycles on the same scene (docs/architecture.md §10; method, numbers and
  * findings in docs/cycles-crosscheck.md).
  *
  * A small scene -- smoke64 frame 24, dense enough (density 30, albedo 0.9, HG g = 0.4)

@@ -1,4 +1,4 @@
-/* cuda_backend.h — the CUDA backend as C code sees it (DESIGN.md §8).
+/* cuda_backend.h — the CUDA backend as C code sees it (docs/architecture.md §8).
  *
  * One vsd_cuda per renderer: a CUDA stream on device 0 plus *resident slots*, device
  * buffers that keep the frame's data (volume bricks, environment tables, each method's

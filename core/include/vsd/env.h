@@ -1,4 +1,4 @@
-/* vsd/env.h — equirectangular environment maps (DESIGN.md §3).
+/* vsd/env.h — equirectangular environment maps (docs/architecture.md §3).
  *
  * Pixels are scene-linear RGB floats, row 0 = top of the image = straight up (+Z), mapped
  * exactly as Cycles' Environment Texture: direction d -> u = 0.5 - atan2(d.y,d.x)/(2 pi),

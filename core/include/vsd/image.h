@@ -1,6 +1,6 @@
 /* vsd/image.h — render passes in memory and their files: multilayer EXR (OpenEXR C API),
  * EXR reading for tests/tools (C++ API behind a C shim), and the display preview PNG
- * through an OpenColorIO view transform (DESIGN.md §6).
+ * through an OpenColorIO view transform (docs/architecture.md §6).
  *
  * Ownership: vsd_framebuffer_create/destroy; vsd_exr_read returns a vsd_exr_image freed
  * by vsd_exr_image_destroy. Writers never take ownership of their inputs. */

@@ -1,4 +1,4 @@
-/* vsd/scene.h — the scene file v1 (DESIGN.md §4) as a plain struct.
+/* vsd/scene.h — the scene file v1 (docs/architecture.md §4) as a plain struct.
  *
  * vsd_scene_load() parses JSON (cJSON) after applying command-line style overrides
  * ("render.samples=256"), fills every absent field with its documented default (see

@@ -1,4 +1,4 @@
-/* vsd/volume.h — a scalar volume in memory: the sparse brick grid of DESIGN.md §9.
+/* vsd/volume.h — a scalar volume in memory: the sparse brick grid of docs/architecture.md §9.
  *
  * Layout. Voxel (i,j,k) of the source grid holds the value at index coordinate (i,j,k);
  * between voxel centres the field is trilinear; outside stored bricks it is 0. Bricks are

@@ -1,6 +1,6 @@
 /* Environment maps: load an equirectangular HDR image (EXR or Radiance RGBE, told apart by
  * content), optionally convert it to scene-linear through OpenColorIO, and keep it as
- * interleaved RGB floats, row 0 = top (DESIGN.md §3). */
+ * interleaved RGB floats, row 0 = top (docs/architecture.md §3). */
 #define _POSIX_C_SOURCE 200809L
 #include "vsd/env.h"
 #include "src/env/env_internal.h"

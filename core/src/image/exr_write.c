@@ -1,6 +1,6 @@
 /* Multilayer EXR writer on OpenEXR's C API (openexr.h): one scanline part, ZIP compressed,
  * channels "<layer>.<Pass>.<chan>" as Blender writes them, through a temporary file that is
- * renamed into place only once the whole file is on disk (DESIGN.md §6). */
+ * renamed into place only once the whole file is on disk (docs/architecture.md §6). */
 #define _POSIX_C_SOURCE 200809L
 #include "src/image/imageio_internal.h"
 #include <errno.h>

@@ -1,5 +1,5 @@
 /* The one place that decides which OpenColorIO config vsd uses (preview PNG and environment
- * colour spaces alike), in the order DESIGN.md §6 gives: $OCIO, Blender's config, none. */
+ * colour spaces alike), in the order docs/architecture.md §6 gives: $OCIO, Blender's config, none. */
 #define _POSIX_C_SOURCE 200809L
 #include "src/image/imageio_internal.h"
 #include <errno.h>

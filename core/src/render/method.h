@@ -1,4 +1,4 @@
-/* method.h — the interface every rendering method implements (DESIGN.md §5), and the frame
+/* method.h — the interface every rendering method implements (docs/architecture.md §5), and the frame
  * context the renderer hands it. Methods live in core/methods/<name>/.
  *
  * Life cycle, driven by renderer.c:

@@ -1,4 +1,4 @@
-/* Scene file v1 (DESIGN.md §3-4): JSON -> vsd_scene.
+/* Scene file v1 (docs/architecture.md §3-4): JSON -> vsd_scene.
  *
  * Every field is described once, in the tables below (key, kind, destination, default,
  * range); one walker applies a table to a cJSON object. Defaults, type checks, range

@@ -1,4 +1,4 @@
-/* The sparse brick volume of DESIGN.md §9: creation, voxel access, trilinear sampling and
+/* The sparse brick volume of docs/architecture.md §9: creation, voxel access, trilinear sampling and
  * bounds. Brick ranges (the majorant grid) live in volume_ranges.c.
  *
  * Coverage rule. The field is trilinear between voxel centres with floor-based cells, so a

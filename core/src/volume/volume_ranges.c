@@ -1,4 +1,4 @@
-/* Per-brick value ranges: the majorant grid and empty-space structure of DESIGN.md §9.
+/* Per-brick value ranges: the majorant grid and empty-space structure of docs/architecture.md §9.
  *
  * A point p in brick cell b ([8b, 8b+8) relative to origin) is interpolated from voxels
  * floor(p) .. floor(p)+1, i.e. from the cell's own 8^3 voxels plus the +1 layer on the +x, +y
