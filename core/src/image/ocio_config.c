@@ -1,5 +1,7 @@
 /* The one place that decides which OpenColorIO config vsd uses (preview PNG and environment
- * colour spaces alike), in the order docs/architecture.md §6 gives: $OCIO, Blender's config, none. */
+ * colour spaces alike), in the order docs/architecture.md §6 gives: $OCIO, Blender's config,
+ * none. Where the chosen config lacks a colour space (or there is none), an environment map's
+ * conversion falls back to vsd's built-in config of Blender's linear spaces (env.c). */
 #define _POSIX_C_SOURCE 200809L
 #include "src/image/imageio_internal.h"
 #include <errno.h>
