@@ -8,8 +8,6 @@
 # the environment map is converted by the daemon from its own space to the working space
 # (scene file `environment.colorspace` -> `environment.working_space`, with OpenColorIO), and
 # the passes that come back are tagged with the working space.
-import os
-
 import bpy
 
 # Spaces whose pixels are numbers, not colours: never converted.
@@ -50,23 +48,3 @@ def needs_conversion(space, working):
         return False
     s = space.strip().lower()
     return s not in DATA_SPACES and s not in ("scene_linear", working.strip().lower())
-
-
-def blender_ocio_config():
-    """The path of this Blender's own OCIO config (its colour space names are the ones
-    the add-on sends), or "" when it cannot be found."""
-    for kind in ("LOCAL", "SYSTEM"):
-        try:
-            root = bpy.utils.resource_path(kind)
-        except Exception:
-            continue
-        p = os.path.join(root, "datafiles", "colormanagement", "config.ocio")
-        if os.path.isfile(p):
-            return p
-    try:
-        p = os.path.join(bpy.utils.system_resource("DATAFILES"), "colormanagement", "config.ocio")
-        if os.path.isfile(p):
-            return p
-    except Exception:
-        pass
-    return ""

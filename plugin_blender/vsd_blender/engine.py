@@ -88,12 +88,16 @@ def eta_seconds(fraction, elapsed):
     return elapsed * (1.0 - fraction) / fraction
 
 
+def count_warnings(n):
+    return "%d warning%s" % (n, "" if n == 1 else "s")
+
+
 def warning_summary(warnings, limit=240):
     """'2 warnings: a; b', cut to about `limit` characters (Blender's header holds 512)."""
     warnings = [w for w in warnings if w]
     if not warnings:
         return ""
-    text = "%d warning%s: %s" % (len(warnings), "" if len(warnings) == 1 else "s", "; ".join(warnings))
+    text = "%s: %s" % (count_warnings(len(warnings)), "; ".join(warnings))
     return text if len(text) <= limit else text[:limit - 1] + "\u2026"
 
 
@@ -118,8 +122,7 @@ class Feedback(object):
         return "vsd %s: frame %d" % (self.method, self.frame)
 
     def tail(self):
-        return " \u2014 %d warning%s" % (len(self.warnings), "" if len(self.warnings) == 1 else "s") \
-            if self.warnings else ""
+        return " \u2014 " + count_warnings(len(self.warnings)) if self.warnings else ""
 
     def show(self, what):
         text = "%s, %s%s" % (self.head(), what, self.tail())
