@@ -19,3 +19,14 @@ if(Python3_Interpreter_FOUND)
                    ${VSD_SHARED_DATA} ${VSD_TEST_TMP}/python_client)
   set_tests_properties(test_python_client PROPERTIES LABELS "integration;service" TIMEOUT 300 SKIP_RETURN_CODE 77)
 endif()
+
+# The daemon's lock order (issue 29): the checker of service/daemon/lock_order.h, and a
+# daemon run in the test's own process with concurrent clients (renders, cancels, a
+# disconnect, a timeout, shutdown) that must take no lock out of order.
+add_executable(test_daemon_locks ${CMAKE_CURRENT_SOURCE_DIR}/test_daemon_locks.c)
+target_link_libraries(test_daemon_locks PRIVATE vsd_testlib vsd_daemon vsd_client vsd_lib Threads::Threads)
+set_target_properties(test_daemon_locks PROPERTIES LINKER_LANGUAGE CXX)
+target_compile_options(test_daemon_locks PRIVATE -Wno-format-truncation)
+target_include_directories(test_daemon_locks PRIVATE ${CMAKE_SOURCE_DIR}/core)
+add_test(NAME test_daemon_locks COMMAND test_daemon_locks $<TARGET_FILE:vsd> WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+set_tests_properties(test_daemon_locks PROPERTIES LABELS "integration;service" TIMEOUT 300 SKIP_RETURN_CODE 77)

@@ -27,16 +27,19 @@
 
 static const char *g_vsd;
 static char g_dir[1024];
+/* the loader API's configuration, as `vsd serve` would set it, and the loader made from it */
+static vsdd_config g_cfg;
+static vsdd_loader *g_loader;
 
 /* ---- the loader API, both modes ------------------------------------------------------------ */
 
-static void set_mode(int mode) { g_daemon.cfg.loader = mode; }
+static void set_mode(int mode) { g_cfg.loader = mode; } /* the loader reads it on every decode */
 
 static int load_volume(int mode, const char *src, const char *path, const char *grid, vsd_volume **v, vsdd_err *e)
 {
     set_mode(mode);
     memset(e, 0, sizeof *e);
-    return vsdd_load_volume(src, path, grid, -1, v, e);
+    return vsdd_load_volume(g_loader, src, path, grid, -1, v, e);
 }
 
 static int same_volume(const vsd_volume *a, const vsd_volume *b)
@@ -76,9 +79,9 @@ static int agree_env(const char *src, const char *path)
     vsdd_err ea = {0}, eb = {0};
     int ra, rb, ok;
     set_mode(VSDD_LOADER_ISOLATED);
-    ra = vsdd_load_env(src, path, "", &a, &ea);
+    ra = vsdd_load_env(g_loader, src, path, "", &a, &ea);
     set_mode(VSDD_LOADER_INPROCESS);
-    rb = vsdd_load_env(src, path, "", &b, &eb);
+    rb = vsdd_load_env(g_loader, src, path, "", &b, &eb);
     ok = ra == rb && (ra ? strcmp(ea.code, eb.code) == 0 && strcmp(ea.msg, eb.msg) == 0
                          : a->width == b->width && a->height == b->height && strcmp(a->file, b->file) == 0 &&
                                memcmp(a->rgb, b->rgb, (size_t)a->width * a->height * 12) == 0);
@@ -347,15 +350,17 @@ int main(int argc, char **argv)
         fprintf(stderr, "no shared data: skipped\n");
         return 77;
     }
-    /* the loader API's configuration, as `vsd serve` would set it */
-    g_daemon.cfg.log_level = VSDD_LOG_ERROR;
-    g_daemon.cfg.max_voxels = 1000000000ull;
-    g_daemon.cfg.max_pixels = 67108864ull;
-    g_daemon.cfg.loader_bytes = 4096ull << 20;
-    g_daemon.cfg.loader_seconds = 60;
-    snprintf(g_daemon.cfg.loader_exe, sizeof g_daemon.cfg.loader_exe, "%s", g_vsd);
+    vsdd_log_set_level(VSDD_LOG_ERROR);
+    g_cfg.max_voxels = 1000000000ull;
+    g_cfg.max_pixels = 67108864ull;
+    g_cfg.loader_bytes = 4096ull << 20;
+    g_cfg.loader_seconds = 60;
+    snprintf(g_cfg.loader_exe, sizeof g_cfg.loader_exe, "%s", g_vsd);
+    g_loader = vsdd_loader_new(&g_cfg);
+    if (!g_loader) return 1;
     test_same_results();
     test_cost();
     test_daemons();
+    vsdd_loader_free(g_loader);
     return test_finish("test_daemon_isolation");
 }

@@ -23,77 +23,75 @@
 
 static const char *const kind_names[ENT_KINDS] = {"blobs", "volumes", "envs", "renderers"};
 
-vsdd_cache_state g_cache = {.lock = PTHREAD_MUTEX_INITIALIZER, .room = PTHREAD_COND_INITIALIZER, .owner_fd = -1};
-
-static void lru_unlink(vsdd_entry *e)
+static void lru_unlink(vsdd_cache *k, vsdd_entry *e)
 {
     if (e->prev) e->prev->next = e->next;
-    else g_cache.head = e->next;
+    else k->head = e->next;
     if (e->next) e->next->prev = e->prev;
-    else g_cache.tail = e->prev;
+    else k->tail = e->prev;
     e->prev = e->next = NULL;
 }
 
-void vsdd_cache_lru_push(vsdd_entry *e)
+void vsdd_cache_lru_push(vsdd_cache *k, vsdd_entry *e)
 {
     e->prev = NULL;
-    e->next = g_cache.head;
-    if (g_cache.head) g_cache.head->prev = e;
-    g_cache.head = e;
-    if (!g_cache.tail) g_cache.tail = e;
+    e->next = k->head;
+    if (k->head) k->head->prev = e;
+    k->head = e;
+    if (!k->tail) k->tail = e;
 }
 
-void vsdd_cache_touch(vsdd_entry *e)
+void vsdd_cache_touch(vsdd_cache *k, vsdd_entry *e)
 {
-    lru_unlink(e);
-    vsdd_cache_lru_push(e);
+    lru_unlink(k, e);
+    vsdd_cache_lru_push(k, e);
 }
 
 /* The counter e's bytes go to: the disk budget, the memory budget, or outside it. */
-static uint64_t *counter_of(const vsdd_entry *e)
+static uint64_t *counter_of(vsdd_cache *k, const vsdd_entry *e)
 {
-    return e->kind == ENT_BLOB ? &g_cache.disk_used : e->uncached ? &g_cache.uncached : &g_cache.used;
+    return e->kind == ENT_BLOB ? &k->disk_used : e->uncached ? &k->uncached : &k->used;
 }
 
-void vsdd_cache_note_peaks(void)
+void vsdd_cache_note_peaks(vsdd_cache *k)
 {
-    if (g_cache.used + g_cache.reserved > g_cache.peak) g_cache.peak = g_cache.used + g_cache.reserved;
-    if (g_cache.disk_used + g_cache.disk_reserved > g_cache.disk_peak) g_cache.disk_peak = g_cache.disk_used + g_cache.disk_reserved;
+    if (k->used + k->reserved > k->peak) k->peak = k->used + k->reserved;
+    if (k->disk_used + k->disk_reserved > k->disk_peak) k->disk_peak = k->disk_used + k->disk_reserved;
 }
 
-void vsdd_cache_account(vsdd_entry *e, int add)
+void vsdd_cache_account(vsdd_cache *k, vsdd_entry *e, int add)
 {
     if (add) {
-        *counter_of(e) += e->bytes;
-        g_cache.count[e->kind]++;
-        vsdd_cache_note_peaks();
+        *counter_of(k, e) += e->bytes;
+        k->count[e->kind]++;
+        vsdd_cache_note_peaks(k);
     } else {
-        *counter_of(e) -= e->bytes;
-        g_cache.count[e->kind]--;
-        pthread_cond_broadcast(&g_cache.room);
+        *counter_of(k, e) -= e->bytes;
+        k->count[e->kind]--;
+        pthread_cond_broadcast(&k->room);
     }
 }
 
-static void free_entry(vsdd_entry *e);
+static void free_entry(vsdd_cache *k, vsdd_entry *e);
 
 /* Lock held. Remove and free e (refs == 0). */
-void vsdd_cache_evict(vsdd_entry *e)
+void vsdd_cache_evict(vsdd_cache *k, vsdd_entry *e)
 {
-    lru_unlink(e);
-    vsdd_cache_account(e, 0);
-    g_cache.evictions++;
-    if (e->kind != ENT_BLOB) g_cache.trim = 1;
+    lru_unlink(k, e);
+    vsdd_cache_account(k, e, 0);
+    k->evictions++;
+    if (e->kind != ENT_BLOB) k->trim = 1;
     vsdd_log(VSDD_LOG_DEBUG, "cache: evict %s %.80s (%llu bytes)", kind_names[e->kind], e->key,
              (unsigned long long)e->bytes);
-    free_entry(e);
+    free_entry(k, e);
 }
 
-void vsdd_cache_unpin_locked(vsdd_entry *e)
+void vsdd_cache_unpin_locked(vsdd_cache *k, vsdd_entry *e)
 {
-    if (e && e->refs > 0 && --e->refs == 0) pthread_cond_broadcast(&g_cache.room);
+    if (e && e->refs > 0 && --e->refs == 0) pthread_cond_broadcast(&k->room);
 }
 
-static void free_entry(vsdd_entry *e)
+static void free_entry(vsdd_cache *k, vsdd_entry *e)
 {
     int i;
     switch (e->kind) {
@@ -102,7 +100,7 @@ static void free_entry(vsdd_entry *e)
     case ENT_ENV: vsd_env_destroy(e->env); break;
     case ENT_SLOT:
         vsd_renderer_destroy(e->slot->r);
-        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(e->slot->pins[i]);
+        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, e->slot->pins[i]);
         free(e->slot);
         break;
     }
@@ -111,38 +109,38 @@ static void free_entry(vsdd_entry *e)
 
 /* Lock held. Evict least recently used idle entries of one budget (blobs: the disk one,
  * else the memory one) until `need` more bytes fit in it. */
-static int make_room_in(int blobs, uint64_t need)
+static int make_room_in(vsdd_cache *k, int blobs, uint64_t need)
 {
-    uint64_t budget = blobs ? g_daemon.cfg.blob_bytes : g_daemon.cfg.cache_bytes;
-    const uint64_t *used = blobs ? &g_cache.disk_used : &g_cache.used, *reserved = blobs ? &g_cache.disk_reserved : &g_cache.reserved;
+    uint64_t budget = blobs ? k->cfg->blob_bytes : k->cfg->cache_bytes;
+    const uint64_t *used = blobs ? &k->disk_used : &k->used, *reserved = blobs ? &k->disk_reserved : &k->reserved;
     while (*used + *reserved + need > budget) {
         vsdd_entry *e;
-        for (e = g_cache.tail; e && (e->refs > 0 || (e->kind == ENT_BLOB) != blobs); e = e->prev) {}
+        for (e = k->tail; e && (e->refs > 0 || (e->kind == ENT_BLOB) != blobs); e = e->prev) {}
         if (!e) return -1;
-        vsdd_cache_evict(e);
+        vsdd_cache_evict(k, e);
     }
     return 0;
 }
 
-int vsdd_cache_make_room(uint64_t need) { return make_room_in(0, need); }
+int vsdd_cache_make_room(vsdd_cache *k, uint64_t need) { return make_room_in(k, 0, need); }
 
 /* Lock not held. Give the heap freed by evictions back to the system. glibc keeps freed
  * chunks in its arenas, so an evicted renderer's tens of MB stayed resident and the next
  * one's grew RSS beside them; the budget is about resident memory. */
-void vsdd_cache_trim_after_evictions(void)
+void vsdd_cache_trim_after_evictions(vsdd_cache *k)
 {
     int trim;
-    pthread_mutex_lock(&g_cache.lock);
-    trim = g_cache.trim;
-    g_cache.trim = 0;
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_lock(&k->lock);
+    trim = k->trim;
+    k->trim = 0;
+    vsdd_unlock(&k->lock);
     if (trim) malloc_trim(0);
 }
 
-vsdd_entry *vsdd_cache_find(int kind, const char *key, int idle_only)
+vsdd_entry *vsdd_cache_find(vsdd_cache *k, int kind, const char *key, int idle_only)
 {
     vsdd_entry *e;
-    for (e = g_cache.head; e; e = e->next)
+    for (e = k->head; e; e = e->next)
         if (e->kind == kind && strcmp(e->key, key) == 0 && (!idle_only || e->refs == 0)) return e;
     return NULL;
 }
@@ -176,34 +174,50 @@ static void remove_orphan_folders(const char *parent, const char *mine)
     closedir(d);
 }
 
-int vsdd_cache_init(char *err, size_t errlen)
+vsdd_cache *vsdd_cache_new(const vsdd_config *cfg, vsdd_loader *loader, char *err, size_t errlen)
 {
-    vsdd_config *cfg = &g_daemon.cfg;
+    vsdd_cache *k = calloc(1, sizeof *k);
     char tmpl[VSD_PATH_LEN];
+    if (!k) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    k->cfg = cfg;
+    k->loader = loader;
+    k->owner_fd = -1;
+    vsdd_mutex_init(&k->lock, VSDD_RANK_CACHE);
+    pthread_cond_init(&k->room, NULL);
     snprintf(tmpl, sizeof tmpl, "%.900s/vsd-cache-XXXXXX", cfg->cache_parent);
     if (!mkdtemp(tmpl)) {
         snprintf(err, errlen, "cannot create a cache folder in %s: %s", cfg->cache_parent, strerror(errno));
-        return -1;
+        vsdd_cache_free(k);
+        return NULL;
     }
     chmod(tmpl, 0700);
-    snprintf(cfg->cache_dir, sizeof cfg->cache_dir, "%s", tmpl);
-    snprintf(g_cache.blob_dir, sizeof g_cache.blob_dir, "%.940s/blobs", tmpl);
-    if (mkdir(g_cache.blob_dir, 0700) != 0) {
-        snprintf(err, errlen, "cannot create %s: %s", g_cache.blob_dir, strerror(errno));
-        return -1;
+    snprintf(k->dir, sizeof k->dir, "%s", tmpl);
+    snprintf(k->blob_dir, sizeof k->blob_dir, "%.940s/blobs", tmpl);
+    if (mkdir(k->blob_dir, 0700) != 0) {
+        snprintf(err, errlen, "cannot create %s: %s", k->blob_dir, strerror(errno));
+        vsdd_cache_shutdown(k);
+        vsdd_cache_free(k);
+        return NULL;
     }
     {
         char owner[VSD_PATH_LEN + 16];
         snprintf(owner, sizeof owner, "%.1000s/owner", tmpl);
-        g_cache.owner_fd = open(owner, O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-        if (g_cache.owner_fd < 0 || flock(g_cache.owner_fd, LOCK_EX | LOCK_NB) != 0) {
+        k->owner_fd = open(owner, O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+        if (k->owner_fd < 0 || flock(k->owner_fd, LOCK_EX | LOCK_NB) != 0) {
             snprintf(err, errlen, "cannot create and lock %s: %s", owner, strerror(errno));
-            return -1;
+            vsdd_cache_shutdown(k);
+            vsdd_cache_free(k);
+            return NULL;
         }
     }
     remove_orphan_folders(cfg->cache_parent, tmpl);
-    return 0;
+    return k;
 }
+
+const char *vsdd_cache_dir(const vsdd_cache *k) { return k->dir; }
 
 static void remove_dir(const char *dir)
 {
@@ -222,43 +236,52 @@ static void remove_dir(const char *dir)
     rmdir(dir);
 }
 
-void vsdd_cache_shutdown(void)
+void vsdd_cache_shutdown(vsdd_cache *k)
 {
-    pthread_mutex_lock(&g_cache.lock);
+    vsdd_lock(&k->lock);
     /* renderers first: they pin volumes */
     for (;;) {
         vsdd_entry *e;
-        for (e = g_cache.head; e && e->kind != ENT_SLOT; e = e->next) {}
+        for (e = k->head; e && e->kind != ENT_SLOT; e = e->next) {}
         if (!e) break;
-        lru_unlink(e);
-        vsdd_cache_account(e, 0);
-        free_entry(e);
+        lru_unlink(k, e);
+        vsdd_cache_account(k, e, 0);
+        free_entry(k, e);
     }
-    while (g_cache.head) {
-        vsdd_entry *e = g_cache.head;
-        lru_unlink(e);
-        vsdd_cache_account(e, 0);
-        free_entry(e);
+    while (k->head) {
+        vsdd_entry *e = k->head;
+        lru_unlink(k, e);
+        vsdd_cache_account(k, e, 0);
+        free_entry(k, e);
     }
-    pthread_mutex_unlock(&g_cache.lock);
-    if (g_daemon.cfg.cache_dir[0]) remove_dir(g_daemon.cfg.cache_dir);
-    if (g_cache.owner_fd >= 0) close(g_cache.owner_fd);
-    g_cache.owner_fd = -1;
+    vsdd_unlock(&k->lock);
+    if (k->dir[0]) remove_dir(k->dir);
+    k->dir[0] = '\0';
+    if (k->owner_fd >= 0) close(k->owner_fd);
+    k->owner_fd = -1;
 }
 
-int vsdd_cache_has_blob(const char *hash)
+void vsdd_cache_free(vsdd_cache *k)
+{
+    if (!k) return;
+    pthread_cond_destroy(&k->room);
+    vsdd_mutex_destroy(&k->lock);
+    free(k);
+}
+
+int vsdd_cache_has_blob(vsdd_cache *k, const char *hash)
 {
     char key[128];
     vsdd_entry *e;
     snprintf(key, sizeof key, "blob:%s", hash);
-    pthread_mutex_lock(&g_cache.lock);
-    e = vsdd_cache_find(ENT_BLOB, key, 0);
-    if (e) vsdd_cache_touch(e);
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_lock(&k->lock);
+    e = vsdd_cache_find(k, ENT_BLOB, key, 0);
+    if (e) vsdd_cache_touch(k, e);
+    vsdd_unlock(&k->lock);
     return e != NULL;
 }
 
-int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, vsdd_err *e, int *fatal)
+int vsdd_cache_put_blob(vsdd_cache *k, int fd, const char *hash, uint64_t len, vsdd_err *e, int *fatal)
 {
     char key[128], tmp[VSD_PATH_LEN + 32], final_path[VSD_PATH_LEN + 80], got[VSD_HASH_HEX_MAX];
     vsd_hash_kind kind = vsd_hash_kind_of(hash);
@@ -268,29 +291,29 @@ int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, vsdd_err *e, int
     int tfd = -1, rc = -1, reserved = 0;
     *fatal = 0;
     snprintf(key, sizeof key, "blob:%s", hash);
-    if (vsdd_cache_has_blob(hash)) {
+    if (vsdd_cache_has_blob(k, hash)) {
         if (vsd_proto_skip(fd, len, 30000)) *fatal = 1;
         return *fatal ? vsdd_fail(e, VSD_E_BAD_FRAME, "blob data truncated or too slow") : 0;
     }
-    if (len > g_daemon.cfg.blob_bytes) {
+    if (len > k->cfg->blob_bytes) {
         vsdd_fail(e, VSD_E_LIMIT, "blob of %llu bytes is larger than the whole blob store (%llu bytes, --blob-mb)",
-                  (unsigned long long)len, (unsigned long long)g_daemon.cfg.blob_bytes);
+                  (unsigned long long)len, (unsigned long long)k->cfg->blob_bytes);
         *fatal = vsd_proto_skip(fd, len, 30000) != 0;
         return -1;
     }
-    pthread_mutex_lock(&g_cache.lock);
-    if (make_room_in(1, len) == 0) {
-        g_cache.disk_reserved += len;
+    vsdd_lock(&k->lock);
+    if (make_room_in(k, 1, len) == 0) {
+        k->disk_reserved += len;
         reserved = 1;
-        vsdd_cache_note_peaks();
+        vsdd_cache_note_peaks(k);
     }
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_unlock(&k->lock);
     if (!reserved) {
         vsdd_fail(e, VSD_E_CACHE_FULL, "the blob store is full of data in use by running jobs; retry later");
         *fatal = vsd_proto_skip(fd, len, 30000) != 0;
         return -1;
     }
-    snprintf(tmp, sizeof tmp, "%s/.put-XXXXXX", g_cache.blob_dir);
+    snprintf(tmp, sizeof tmp, "%s/.put-XXXXXX", k->blob_dir);
     tfd = mkstemp(tmp);
     buf = malloc(1 << 20);
     h = vsd_hasher_new(kind);
@@ -322,20 +345,20 @@ int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, vsdd_err *e, int
     }
     close(tfd);
     tfd = -1;
-    snprintf(final_path, sizeof final_path, "%.950s/%s", g_cache.blob_dir, hash);
-    pthread_mutex_lock(&g_cache.lock);
-    g_cache.disk_reserved -= len;
+    snprintf(final_path, sizeof final_path, "%.950s/%s", k->blob_dir, hash);
+    vsdd_lock(&k->lock);
+    k->disk_reserved -= len;
     reserved = 0;
-    if (!vsdd_cache_find(ENT_BLOB, key, 0)) {
+    if (!vsdd_cache_find(k, ENT_BLOB, key, 0)) {
         vsdd_entry *b = calloc(1, sizeof *b);
         if (b && rename(tmp, final_path) == 0) {
             b->kind = ENT_BLOB;
             snprintf(b->key, sizeof b->key, "%s", key);
             snprintf(b->path, sizeof b->path, "%.1000s", final_path);
             b->bytes = len;
-            make_room_in(1, len); /* the reservation was released: normally a no-op */
-            vsdd_cache_lru_push(b);
-            vsdd_cache_account(b, 1);
+            make_room_in(k, 1, len); /* the reservation was released: normally a no-op */
+            vsdd_cache_lru_push(k, b);
+            vsdd_cache_account(k, b, 1);
             tmp[0] = '\0';
             rc = 0;
         } else {
@@ -345,29 +368,29 @@ int vsdd_cache_put_blob(int fd, const char *hash, uint64_t len, vsdd_err *e, int
     } else {
         rc = 0;
     }
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_unlock(&k->lock);
 done:
     if (h) vsd_hasher_final(h, got);
     if (tfd >= 0) close(tfd);
     if (tmp[0]) unlink(tmp);
     free(buf);
     if (reserved) {
-        pthread_mutex_lock(&g_cache.lock);
-        g_cache.disk_reserved -= len;
-        pthread_mutex_unlock(&g_cache.lock);
+        vsdd_lock(&k->lock);
+        k->disk_reserved -= len;
+        vsdd_unlock(&k->lock);
     }
     return rc;
 }
 
 /* Lock held. The file behind src ("blob:<hash>" pinned into *blob, or a path). */
-static int source_path(const char *src, char *path, size_t len, vsdd_entry **blob, vsdd_err *e)
+static int source_path(vsdd_cache *k, const char *src, char *path, size_t len, vsdd_entry **blob, vsdd_err *e)
 {
     *blob = NULL;
     if (strncmp(src, "blob:", 5) == 0) {
-        vsdd_entry *b = vsdd_cache_find(ENT_BLOB, src, 0);
+        vsdd_entry *b = vsdd_cache_find(k, ENT_BLOB, src, 0);
         if (!b) return vsdd_fail(e, VSD_E_MISSING_BLOB, "%s is not in the daemon's cache (send it with PUT)", src);
         b->refs++;
-        vsdd_cache_touch(b);
+        vsdd_cache_touch(k, b);
         *blob = b;
         snprintf(path, len, "%s", b->path);
     } else {
@@ -376,12 +399,12 @@ static int source_path(const char *src, char *path, size_t len, vsdd_entry **blo
     return 0;
 }
 
-int vsdd_cache_pin_file(const char *src, char *path, size_t len, vsdd_entry **blob, vsdd_err *e)
+int vsdd_cache_pin_file(vsdd_cache *k, const char *src, char *path, size_t len, vsdd_entry **blob, vsdd_err *e)
 {
     int rc;
-    pthread_mutex_lock(&g_cache.lock);
-    rc = source_path(src, path, len, blob, e);
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_lock(&k->lock);
+    rc = source_path(k, src, path, len, blob, e);
+    vsdd_unlock(&k->lock);
     return rc;
 }
 
@@ -403,53 +426,53 @@ static uint64_t volume_bytes(const vsd_volume *v)
 }
 
 /* Insert a freshly loaded entry (lock held), or adopt one another thread inserted meanwhile. */
-static int insert_loaded(vsdd_entry *e, vsdd_entry **out, vsdd_err *err)
+static int insert_loaded(vsdd_cache *k, vsdd_entry *e, vsdd_entry **out, vsdd_err *err)
 {
-    vsdd_entry *other = vsdd_cache_find(e->kind, e->key, 0);
+    vsdd_entry *other = vsdd_cache_find(k, e->kind, e->key, 0);
     if (other) {
-        free_entry(e);
+        free_entry(k, e);
         other->refs++;
-        vsdd_cache_touch(other);
+        vsdd_cache_touch(k, other);
         *out = other;
         return 0;
     }
-    if (vsdd_cache_make_room(e->bytes)) {
+    if (vsdd_cache_make_room(k, e->bytes)) {
         vsdd_fail(err, VSD_E_CACHE_FULL, "the cache (%llu MiB) cannot hold %.80s (%llu bytes) beside the data in use",
-                  (unsigned long long)(g_daemon.cfg.cache_bytes >> 20), e->key, (unsigned long long)e->bytes);
-        free_entry(e);
+                  (unsigned long long)(k->cfg->cache_bytes >> 20), e->key, (unsigned long long)e->bytes);
+        free_entry(k, e);
         return -1;
     }
     e->refs = 1;
-    vsdd_cache_lru_push(e);
-    vsdd_cache_account(e, 1);
+    vsdd_cache_lru_push(k, e);
+    vsdd_cache_account(k, e, 1);
     *out = e;
     return 0;
 }
 
 /* Lock held: a cached entry for key, pinned, or NULL (counted as a hit or a miss). */
-static vsdd_entry *lookup(int kind, const char *key)
+static vsdd_entry *lookup(vsdd_cache *k, int kind, const char *key)
 {
-    vsdd_entry *e = vsdd_cache_find(kind, key, 0);
+    vsdd_entry *e = vsdd_cache_find(k, kind, key, 0);
     if (!e) {
-        g_cache.misses[kind]++;
+        k->misses[kind]++;
         return NULL;
     }
     e->refs++;
-    vsdd_cache_touch(e);
-    g_cache.hits[kind]++;
+    vsdd_cache_touch(k, e);
+    k->hits[kind]++;
     return e;
 }
 
 /* Keep a freshly decoded volume or map (one of vol/env set) under key, pinned. */
-static int keep_loaded(int kind, const char *key, vsd_volume *vol, vsd_env *env, vsdd_entry *blob, vsdd_entry **out,
-                       vsdd_err *err)
+static int keep_loaded(vsdd_cache *k, int kind, const char *key, vsd_volume *vol, vsd_env *env, vsdd_entry *blob,
+                       vsdd_entry **out, vsdd_err *err)
 {
     vsdd_entry *e = calloc(1, sizeof *e);
     int rc;
     if (!e) {
         vsd_volume_destroy(vol);
         vsd_env_destroy(env);
-        vsdd_cache_unpin(blob);
+        vsdd_cache_unpin(k, blob);
         return vsdd_fail(err, VSD_E_INTERNAL, "out of memory");
     }
     e->kind = kind;
@@ -457,15 +480,16 @@ static int keep_loaded(int kind, const char *key, vsd_volume *vol, vsd_env *env,
     e->vol = vol;
     e->env = env;
     e->bytes = vol ? volume_bytes(vol) : sizeof *env + (uint64_t)env->width * env->height * 3 * sizeof(float);
-    pthread_mutex_lock(&g_cache.lock);
-    vsdd_cache_unpin_locked(blob);
-    rc = insert_loaded(e, out, err);
-    pthread_mutex_unlock(&g_cache.lock);
-    vsdd_cache_trim_after_evictions();
+    vsdd_lock(&k->lock);
+    vsdd_cache_unpin_locked(k, blob);
+    rc = insert_loaded(k, e, out, err);
+    vsdd_unlock(&k->lock);
+    vsdd_cache_trim_after_evictions(k);
     return rc;
 }
 
-int vsdd_cache_get_volume(const char *src, const char *grid, int grid_index, vsdd_entry **out, int *hit, vsdd_err *err)
+int vsdd_cache_get_volume(vsdd_cache *k, const char *src, const char *grid, int grid_index, vsdd_entry **out, int *hit,
+                          vsdd_err *err)
 {
     char key[1400], path[VSD_PATH_LEN], stamp[64];
     vsdd_entry *blob = NULL;
@@ -474,24 +498,25 @@ int vsdd_cache_get_volume(const char *src, const char *grid, int grid_index, vsd
     *hit = 0;
     source_stamp(src, stamp, sizeof stamp);
     snprintf(key, sizeof key, "vol|%s%s|%s|%d", src, stamp, grid, grid_index);
-    pthread_mutex_lock(&g_cache.lock);
-    *out = lookup(ENT_VOLUME, key);
-    rc = *out ? 0 : source_path(src, path, sizeof path, &blob, err);
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_lock(&k->lock);
+    *out = lookup(k, ENT_VOLUME, key);
+    rc = *out ? 0 : source_path(k, src, path, sizeof path, &blob, err);
+    vsdd_unlock(&k->lock);
     if (*out) {
         *hit = 1;
         return 0;
     }
     if (rc) return -1;
     /* decoded without the cache lock: other jobs go on meanwhile (the blob stays pinned) */
-    if (vsdd_load_volume(src, path, grid, grid_index, &vol, err)) {
-        vsdd_cache_unpin(blob);
+    if (vsdd_load_volume(k->loader, src, path, grid, grid_index, &vol, err)) {
+        vsdd_cache_unpin(k, blob);
         return -1;
     }
-    return keep_loaded(ENT_VOLUME, key, vol, NULL, blob, out, err);
+    return keep_loaded(k, ENT_VOLUME, key, vol, NULL, blob, out, err);
 }
 
-int vsdd_cache_get_env(const char *src, const char *conversion, vsdd_entry **out, int *hit, vsdd_err *err)
+int vsdd_cache_get_env(vsdd_cache *k, const char *src, const char *conversion, vsdd_entry **out, int *hit,
+                       vsdd_err *err)
 {
     char key[1400], path[VSD_PATH_LEN], stamp[64];
     vsdd_entry *blob = NULL;
@@ -500,60 +525,62 @@ int vsdd_cache_get_env(const char *src, const char *conversion, vsdd_entry **out
     *hit = 0;
     source_stamp(src, stamp, sizeof stamp);
     snprintf(key, sizeof key, "env|%s%s|%s", src, stamp, conversion);
-    pthread_mutex_lock(&g_cache.lock);
-    *out = lookup(ENT_ENV, key);
-    rc = *out ? 0 : source_path(src, path, sizeof path, &blob, err);
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_lock(&k->lock);
+    *out = lookup(k, ENT_ENV, key);
+    rc = *out ? 0 : source_path(k, src, path, sizeof path, &blob, err);
+    vsdd_unlock(&k->lock);
     if (*out) {
         *hit = 1;
         return 0;
     }
     if (rc) return -1;
-    if (vsdd_load_env(src, path, conversion, &env, err)) {
-        vsdd_cache_unpin(blob);
+    if (vsdd_load_env(k->loader, src, path, conversion, &env, err)) {
+        vsdd_cache_unpin(k, blob);
         return -1;
     }
-    return keep_loaded(ENT_ENV, key, NULL, env, blob, out, err);
+    return keep_loaded(k, ENT_ENV, key, NULL, env, blob, out, err);
 }
 
 const vsd_volume *vsdd_entry_volume(const vsdd_entry *e) { return e ? e->vol : NULL; }
 const vsd_env *vsdd_entry_env(const vsdd_entry *e) { return e ? e->env : NULL; }
+vsdd_slot_use *vsdd_slot_use_of(vsdd_slot *s) { return &s->use; }
+vsd_renderer *vsdd_slot_renderer(vsdd_slot *s) { return s->r; }
 
-void vsdd_cache_unpin(vsdd_entry *e)
+void vsdd_cache_unpin(vsdd_cache *k, vsdd_entry *e)
 {
     if (!e) return;
-    pthread_mutex_lock(&g_cache.lock);
-    vsdd_cache_unpin_locked(e);
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_lock(&k->lock);
+    vsdd_cache_unpin_locked(k, e);
+    vsdd_unlock(&k->lock);
 }
 
-cJSON *vsdd_cache_stats(void)
+cJSON *vsdd_cache_stats(vsdd_cache *k)
 {
-    cJSON *o = cJSON_CreateObject(), *k;
+    cJSON *o = cJSON_CreateObject(), *kind;
     int i;
-    pthread_mutex_lock(&g_cache.lock);
-    cJSON_AddNumberToObject(o, "budget_bytes", (double)g_daemon.cfg.cache_bytes);
-    cJSON_AddNumberToObject(o, "used_bytes", (double)(g_cache.used + g_cache.reserved));
-    cJSON_AddNumberToObject(o, "peak_bytes", (double)g_cache.peak);
-    cJSON_AddNumberToObject(o, "uncached_bytes", (double)g_cache.uncached);
-    cJSON_AddNumberToObject(o, "admission_waits", (double)g_cache.admission_waits);
-    cJSON_AddNumberToObject(o, "blob_budget_bytes", (double)g_daemon.cfg.blob_bytes);
-    cJSON_AddNumberToObject(o, "blob_used_bytes", (double)(g_cache.disk_used + g_cache.disk_reserved));
-    cJSON_AddNumberToObject(o, "blob_peak_bytes", (double)g_cache.disk_peak);
-    cJSON_AddNumberToObject(o, "evictions", (double)g_cache.evictions);
+    vsdd_lock(&k->lock);
+    cJSON_AddNumberToObject(o, "budget_bytes", (double)k->cfg->cache_bytes);
+    cJSON_AddNumberToObject(o, "used_bytes", (double)(k->used + k->reserved));
+    cJSON_AddNumberToObject(o, "peak_bytes", (double)k->peak);
+    cJSON_AddNumberToObject(o, "uncached_bytes", (double)k->uncached);
+    cJSON_AddNumberToObject(o, "admission_waits", (double)k->admission_waits);
+    cJSON_AddNumberToObject(o, "blob_budget_bytes", (double)k->cfg->blob_bytes);
+    cJSON_AddNumberToObject(o, "blob_used_bytes", (double)(k->disk_used + k->disk_reserved));
+    cJSON_AddNumberToObject(o, "blob_peak_bytes", (double)k->disk_peak);
+    cJSON_AddNumberToObject(o, "evictions", (double)k->evictions);
     for (i = 0; i < ENT_KINDS; i++) {
-        k = cJSON_AddObjectToObject(o, kind_names[i]);
-        cJSON_AddNumberToObject(k, "entries", (double)g_cache.count[i]);
-        cJSON_AddNumberToObject(k, "hits", (double)g_cache.hits[i]);
-        cJSON_AddNumberToObject(k, "misses", (double)g_cache.misses[i]);
+        kind = cJSON_AddObjectToObject(o, kind_names[i]);
+        cJSON_AddNumberToObject(kind, "entries", (double)k->count[i]);
+        cJSON_AddNumberToObject(kind, "hits", (double)k->hits[i]);
+        cJSON_AddNumberToObject(kind, "misses", (double)k->misses[i]);
     }
     {
         uint64_t by[ENT_KINDS] = {0};
         vsdd_entry *e;
-        for (e = g_cache.head; e; e = e->next) by[e->kind] += e->bytes;
+        for (e = k->head; e; e = e->next) by[e->kind] += e->bytes;
         for (i = 0; i < ENT_KINDS; i++)
             cJSON_AddNumberToObject(cJSON_GetObjectItem(o, kind_names[i]), "bytes", (double)by[i]);
     }
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_unlock(&k->lock);
     return o;
 }

@@ -10,28 +10,25 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 /* What each method's renderers were last seen to use at most within a job
- * (vsdd_cache_render_end), the first estimate of a new one; lock held. */
-static struct { char method[32]; uint64_t bytes; } learned[16];
-
-static uint64_t *learned_bytes(const char *method)
+ * (vsdd_cache_render_end), the first estimate of a new one (k->learned); lock held. */
+static uint64_t *learned_bytes(vsdd_cache *k, const char *method)
 {
-    size_t i;
-    for (i = 0; i < sizeof learned / sizeof learned[0] && learned[i].method[0]; i++)
-        if (strcmp(learned[i].method, method) == 0) return &learned[i].bytes;
-    if (i == sizeof learned / sizeof learned[0]) return NULL;
-    snprintf(learned[i].method, sizeof learned[i].method, "%s", method);
-    learned[i].bytes = 0;
-    return &learned[i].bytes;
+    size_t i, n = sizeof k->learned / sizeof k->learned[0];
+    for (i = 0; i < n && k->learned[i].method[0]; i++)
+        if (strcmp(k->learned[i].method, method) == 0) return &k->learned[i].bytes;
+    if (i == n) return NULL;
+    snprintf(k->learned[i].method, sizeof k->learned[i].method, "%s", method);
+    k->learned[i].bytes = 0;
+    return &k->learned[i].bytes;
 }
 
 /* A renderer's first estimate, before it is measured: the sampling tables of the map plus
  * as much again as the density grid, or its method's last working size if more. */
-static uint64_t slot_bytes(vsdd_entry *pins[VSDD_SLOT_PINS], const char *method)
+static uint64_t slot_bytes(vsdd_cache *k, vsdd_entry *pins[VSDD_SLOT_PINS], const char *method)
 {
-    uint64_t b = 256 * 1024, *l = learned_bytes(method);
+    uint64_t b = 256 * 1024, *l = learned_bytes(k, method);
     if (pins[0]) b += pins[0]->bytes;
     if (pins[2] && pins[2]->env) b += (uint64_t)pins[2]->env->width * pins[2]->env->height * 8;
     else b += 64 * 32 * 8;
@@ -48,31 +45,31 @@ uint64_t vsdd_heap_in_use(void)
  * now: idle entries are evicted to make room (e is in use, so it stays); one that still
  * does not fit is counted outside the budget until its job ends and is not kept, so that
  * no other renderer is admitted beside it meanwhile. */
-static void grow_entry(vsdd_entry *e, uint64_t working)
+static void grow_entry(vsdd_cache *k, vsdd_entry *e, uint64_t working)
 {
     if (working <= e->bytes) return;
-    vsdd_cache_account(e, 0);
+    vsdd_cache_account(k, e, 0);
     e->bytes = working;
-    if (!e->uncached && vsdd_cache_make_room(e->bytes)) {
+    if (!e->uncached && vsdd_cache_make_room(k, e->bytes)) {
         e->uncached = 1;
         snprintf(e->key, sizeof e->key, "(uncached)");
     }
-    vsdd_cache_account(e, 1);
+    vsdd_cache_account(k, e, 1);
 }
 
-void vsdd_cache_render_begin(vsdd_slot *s)
+void vsdd_cache_render_begin(vsdd_cache *k, vsdd_slot *s)
 {
     uint64_t heap = vsdd_heap_in_use();
-    pthread_mutex_lock(&g_cache.lock);
+    vsdd_lock(&k->lock);
     s->heap_start = heap;
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_unlock(&k->lock);
 }
 
-void vsdd_cache_render_end(vsdd_slot *s, int64_t framebuffer_bytes, int ok)
+void vsdd_cache_render_end(vsdd_cache *k, vsdd_slot *s, int64_t framebuffer_bytes, int ok)
 {
     uint64_t heap = vsdd_heap_in_use(), *l, size;
     int64_t before;
-    pthread_mutex_lock(&g_cache.lock);
+    vsdd_lock(&k->lock);
     before = s->held;
     if (ok) {
         /* what it keeps: the growth over the render, less the framebuffer it made */
@@ -84,66 +81,60 @@ void vsdd_cache_render_end(vsdd_slot *s, int64_t framebuffer_bytes, int ok)
     if (ok) {
         /* the next new renderer of this method is first estimated at this size: a rise
          * taken at once, a fall slowly */
-        l = learned_bytes(s->method);
+        l = learned_bytes(k, s->method);
         if (l) *l = size >= *l ? size : (*l * 3 + size) / 4;
     }
-    grow_entry(s->self, size);
-    pthread_mutex_unlock(&g_cache.lock);
+    grow_entry(k, s->self, size);
+    vsdd_unlock(&k->lock);
 }
 
 /* Lock held. Wait until a new renderer of `est` bytes is admitted: room in the memory
  * budget (reserved, *cached = 1), or no other renderer busy (it renders alone outside the
  * budget, *cached = 0). The jobs waiting here hold only their inputs' pins, and busy
  * renderers end (max_job_seconds at worst), so the wait ends. -1 if *cancel is raised. */
-static int admit_renderer(uint64_t est, volatile int *cancel, int *cached)
+static int admit_renderer(vsdd_cache *k, uint64_t est, volatile int *cancel, int *cached)
 {
     int waited = 0;
     for (;;) {
         /* a renderer running outside the budget counts here, or a second one would be
          * admitted beside it into a cache that is full once it ends */
-        if (vsdd_cache_make_room(est + g_cache.uncached) == 0) {
-            g_cache.reserved += est;
+        if (vsdd_cache_make_room(k, est + k->uncached) == 0) {
+            k->reserved += est;
             *cached = 1;
             break;
         }
-        if (g_cache.busy_slots == 0) {
+        if (k->busy_slots == 0) {
             /* make_room above evicted every idle entry it could: a renderer larger than
              * the budget renders beside nothing but the inputs of waiting jobs */
-            g_cache.uncached += est;
+            k->uncached += est;
             *cached = 0;
             break;
         }
         if (cancel && *cancel) return -1;
         if (!waited) {
-            g_cache.admission_waits++;
+            k->admission_waits++;
             vsdd_log(VSDD_LOG_DEBUG, "cache: a new renderer (%llu bytes) waits for memory",
                      (unsigned long long)est);
             waited = 1;
         }
         {
-            struct timespec until;
-            clock_gettime(CLOCK_REALTIME, &until);
-            until.tv_nsec += 200 * 1000000L; /* the cancel flag has no condition variable */
-            if (until.tv_nsec >= 1000000000L) {
-                until.tv_sec++;
-                until.tv_nsec -= 1000000000L;
-            }
-            pthread_cond_timedwait(&g_cache.room, &g_cache.lock, &until);
+            struct timespec until = vsdd_deadline_ms(200); /* the cancel flag has no condition variable */
+            vsdd_cond_timedwait(&k->room, &k->lock, &until);
         }
     }
-    g_cache.busy_slots++;
-    vsdd_cache_note_peaks();
+    k->busy_slots++;
+    vsdd_cache_note_peaks(k);
     return 0;
 }
 
 /* Lock held. Undo admit_renderer's reservation once the slot's entry is created or failed. */
-static void end_admission(uint64_t est, int cached)
+static void end_admission(vsdd_cache *k, uint64_t est, int cached)
 {
-    if (cached) g_cache.reserved -= est;
-    else g_cache.uncached -= est;
+    if (cached) k->reserved -= est;
+    else k->uncached -= est;
 }
 
-int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
+int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
                         vsdd_slot_progress_fn progress, volatile int *cancel, vsdd_slot **out, int *hit, char *msg,
                         size_t msglen)
 {
@@ -155,34 +146,34 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
     int i, cached = 0;
     *out = NULL;
     *hit = 0;
-    pthread_mutex_lock(&g_cache.lock);
-    e = vsdd_cache_find(ENT_SLOT, key, 1);
+    vsdd_lock(&k->lock);
+    e = vsdd_cache_find(k, ENT_SLOT, key, 1);
     if (e) {
         e->refs = 1;
-        g_cache.busy_slots++;
-        vsdd_cache_touch(e);
-        g_cache.hits[ENT_SLOT]++;
-        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(pins[i]); /* the slot pins the same entries */
-        pthread_mutex_unlock(&g_cache.lock);
+        k->busy_slots++;
+        vsdd_cache_touch(k, e);
+        k->hits[ENT_SLOT]++;
+        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, pins[i]); /* the slot pins the same entries */
+        vsdd_unlock(&k->lock);
         st = vsd_renderer_set_scene(e->slot->r, scene, msg, msglen);
         if (st) {
-            vsdd_cache_release_slot(e->slot, 0);
+            vsdd_cache_release_slot(k, e->slot, 0);
             return -(int)st;
         }
         *out = e->slot;
         *hit = 1;
         return 0;
     }
-    g_cache.misses[ENT_SLOT]++;
-    est = slot_bytes(pins, scene->render.method);
-    if (admit_renderer(est, cancel, &cached)) {
-        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(pins[i]);
-        pthread_mutex_unlock(&g_cache.lock);
+    k->misses[ENT_SLOT]++;
+    est = slot_bytes(k, pins, scene->render.method);
+    if (admit_renderer(k, est, cancel, &cached)) {
+        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, pins[i]);
+        vsdd_unlock(&k->lock);
         snprintf(msg, msglen, "cancelled while waiting for memory");
         return -(int)VSD_ERR_CANCELLED;
     }
-    pthread_mutex_unlock(&g_cache.lock);
-    vsdd_cache_trim_after_evictions(); /* before the new renderer allocates beside what was evicted */
+    vsdd_unlock(&k->lock);
+    vsdd_cache_trim_after_evictions(k); /* before the new renderer allocates beside what was evicted */
     s = calloc(1, sizeof *s);
     e = calloc(1, sizeof *e);
     if (!s || !e) {
@@ -193,11 +184,11 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
         goto failed;
     }
     memset(&ro, 0, sizeof ro);
-    ro.threads = g_daemon.cfg.threads;
+    ro.threads = k->cfg->threads;
     ro.progress = progress;
-    ro.user = s;
-    ro.cancel = &s->cancel;
-    ro.cache_dir = g_daemon.cfg.method_cache[0] ? g_daemon.cfg.method_cache : NULL;
+    ro.user = &s->use;
+    ro.cancel = &s->use.cancel;
+    ro.cache_dir = k->cfg->method_cache[0] ? k->cfg->method_cache : NULL;
     {
         uint64_t before = vsdd_heap_in_use();
         st = vsd_renderer_create(scene, &ro, &s->r, msg, msglen);
@@ -217,8 +208,8 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
     e->kind = ENT_SLOT;
     snprintf(e->key, sizeof e->key, "%s", key);
     e->slot = s;
-    pthread_mutex_lock(&g_cache.lock);
-    end_admission(est, cached);
+    vsdd_lock(&k->lock);
+    end_admission(k, est, cached);
     e->bytes = est;
     if (!cached) {
         /* rendered alone beside nothing else busy, counted outside the budget, not kept */
@@ -226,36 +217,36 @@ int vsdd_cache_get_slot(const char *key, const vsd_scene *scene, vsdd_entry *pin
         snprintf(e->key, sizeof e->key, "(uncached)");
     }
     e->refs = 1;
-    vsdd_cache_lru_push(e);
-    vsdd_cache_account(e, 1);
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_cache_lru_push(k, e);
+    vsdd_cache_account(k, e, 1);
+    vsdd_unlock(&k->lock);
     *out = s;
     return 0;
 failed:
-    pthread_mutex_lock(&g_cache.lock);
-    end_admission(est, cached);
-    g_cache.busy_slots--;
-    for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(pins[i]);
-    pthread_cond_broadcast(&g_cache.room);
-    pthread_mutex_unlock(&g_cache.lock);
+    vsdd_lock(&k->lock);
+    end_admission(k, est, cached);
+    k->busy_slots--;
+    for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, pins[i]);
+    pthread_cond_broadcast(&k->room);
+    vsdd_unlock(&k->lock);
     return -(int)st;
 }
 
-void vsdd_cache_release_slot(vsdd_slot *s, int keep)
+void vsdd_cache_release_slot(vsdd_cache *k, vsdd_slot *s, int keep)
 {
     vsdd_entry *e = s->self;
-    pthread_mutex_lock(&g_cache.lock);
+    vsdd_lock(&k->lock);
     if (e->refs > 0) e->refs--;
-    g_cache.busy_slots--;
+    k->busy_slots--;
     if ((!keep || e->uncached) && e->refs == 0) {
-        vsdd_cache_evict(e);
+        vsdd_cache_evict(k, e);
     } else if (e->refs == 0 && (uint64_t)s->held < e->bytes) {
         /* kept: counted at what it holds between jobs, no longer at its working size */
-        vsdd_cache_account(e, 0);
+        vsdd_cache_account(k, e, 0);
         e->bytes = (uint64_t)s->held;
-        vsdd_cache_account(e, 1);
+        vsdd_cache_account(k, e, 1);
     }
-    pthread_cond_broadcast(&g_cache.room);
-    pthread_mutex_unlock(&g_cache.lock);
-    vsdd_cache_trim_after_evictions();
+    pthread_cond_broadcast(&k->room);
+    vsdd_unlock(&k->lock);
+    vsdd_cache_trim_after_evictions(k);
 }

@@ -1,9 +1,13 @@
 /* One reader thread per connection: reads frames within the limits, answers HELLO, HAS,
  * PUT, CANCEL, STATS and BYE itself and queues RENDER as a job. Anything malformed costs
- * the sender an ERROR, and the connection when the byte stream can no longer be trusted. */
+ * the sender an ERROR, and the connection when the byte stream can no longer be trusted.
+ * The thread is handed the daemon record and its connection; what it asks of the jobs,
+ * the cache, the connection list and the counters goes through their functions. */
 #define _GNU_SOURCE
 #include "conn.h"
 #include "cache.h"
+#include "conns.h"
+#include "counters.h"
 #include "jobs.h"
 #include "reply.h"
 #include <errno.h>
@@ -25,9 +29,8 @@ static int constant_time_equal(const char *a, const char *b)
     return d == 0;
 }
 
-static cJSON *limits_json(void)
+static cJSON *limits_json(const vsdd_config *cfg)
 {
-    const vsdd_config *cfg = &g_daemon.cfg;
     cJSON *l = cJSON_CreateObject();
     cJSON_AddNumberToObject(l, "max_message_bytes", (double)cfg->max_message);
     cJSON_AddNumberToObject(l, "max_json_bytes", (double)cfg->max_json);
@@ -46,7 +49,7 @@ static cJSON *limits_json(void)
 }
 
 /* Returns 0 to keep the connection, -1 to close it. */
-static int on_hello(vsdd_conn *c, const cJSON *msg, const cJSON *id)
+static int on_hello(vsdd_daemon *d, vsdd_conn *c, const cJSON *msg, const cJSON *id)
 {
     const cJSON *versions = cJSON_GetObjectItemCaseSensitive(msg, "versions");
     const cJSON *token = cJSON_GetObjectItemCaseSensitive(msg, "token");
@@ -73,7 +76,7 @@ static int on_hello(vsdd_conn *c, const cJSON *msg, const cJSON *id)
         vsdd_send_error(c, id, VSD_E_BAD_REQUEST, "HELLO.token: expected string", NULL);
         return 0;
     }
-    if (c->is_tcp && (!token || !g_daemon.cfg.token[0] || !constant_time_equal(token->valuestring, g_daemon.cfg.token))) {
+    if (c->is_tcp && (!token || !d->cfg.token[0] || !constant_time_equal(token->valuestring, d->cfg.token))) {
         vsdd_send_error(c, id, VSD_E_AUTH, token ? "wrong token" : "TCP connections need a token in HELLO", NULL);
         vsdd_log(VSDD_LOG_WARN, "conn %u (%s): refused: %s token", c->id, c->peer, token ? "wrong" : "no");
         return -1;
@@ -97,20 +100,20 @@ static int on_hello(vsdd_conn *c, const cJSON *msg, const cJSON *id)
     }
     arr = cJSON_AddArrayToObject(o, "devices");
     cJSON_AddItemToArray(arr, cJSON_CreateString("cpu"));
-    if (g_daemon.cuda_device[0]) cJSON_AddItemToArray(arr, cJSON_CreateString("cuda"));
-    if (g_daemon.cuda_device[0]) cJSON_AddStringToObject(o, "cuda_device", g_daemon.cuda_device);
+    if (d->cuda_device[0]) cJSON_AddItemToArray(arr, cJSON_CreateString("cuda"));
+    if (d->cuda_device[0]) cJSON_AddStringToObject(o, "cuda_device", d->cuda_device);
     arr = cJSON_AddArrayToObject(o, "hashes");
     cJSON_AddItemToArray(arr, cJSON_CreateString("xxh3-128"));
     cJSON_AddItemToArray(arr, cJSON_CreateString("sha256"));
     arr = cJSON_AddArrayToObject(o, "capabilities");
     cJSON_AddItemToArray(arr, cJSON_CreateString("preview_png"));
     cJSON_AddItemToArray(arr, cJSON_CreateString("cancel"));
-    if (g_daemon.cfg.allow_count) cJSON_AddItemToArray(arr, cJSON_CreateString("server_paths"));
-    cJSON_AddItemToObject(o, "limits", limits_json());
+    if (d->cfg.allow_count) cJSON_AddItemToArray(arr, cJSON_CreateString("server_paths"));
+    cJSON_AddItemToObject(o, "limits", limits_json(&d->cfg));
     return vsdd_send(c, VSD_MSG_HELLO, o, NULL, 0) ? -1 : 0;
 }
 
-static void on_has(vsdd_conn *c, const cJSON *msg, const cJSON *id)
+static void on_has(vsdd_daemon *d, vsdd_conn *c, const cJSON *msg, const cJSON *id)
 {
     const cJSON *hashes = cJSON_GetObjectItemCaseSensitive(msg, "hashes"), *h;
     cJSON *o, *missing;
@@ -127,12 +130,12 @@ static void on_has(vsdd_conn *c, const cJSON *msg, const cJSON *id)
     o = cJSON_CreateObject();
     if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
     missing = cJSON_AddArrayToObject(o, "missing");
-    cJSON_ArrayForEach(h, hashes) if (!vsdd_cache_has_blob(h->valuestring))
+    cJSON_ArrayForEach(h, hashes) if (!vsdd_cache_has_blob(d->cache, h->valuestring))
         cJSON_AddItemToArray(missing, cJSON_CreateString(h->valuestring));
     vsdd_send(c, VSD_MSG_HAS, o, NULL, 0);
 }
 
-static int on_put(vsdd_conn *c, const cJSON *msg, const cJSON *id, uint64_t bin_len)
+static int on_put(vsdd_daemon *d, vsdd_conn *c, const cJSON *msg, const cJSON *id, uint64_t bin_len)
 {
     const cJSON *hash = cJSON_GetObjectItemCaseSensitive(msg, "hash");
     vsdd_err e = {VSD_E_INTERNAL, ""};
@@ -143,14 +146,12 @@ static int on_put(vsdd_conn *c, const cJSON *msg, const cJSON *id, uint64_t bin_
                         "PUT.hash: expected 32 (xxh3-128) or 64 (sha256) lowercase hex digits", NULL);
         return vsd_proto_skip(c->fd, bin_len, FRAME_TIMEOUT_MS) ? -1 : 0;
     }
-    if (vsdd_cache_put_blob(c->fd, hash->valuestring, bin_len, &e, &fatal)) {
+    if (vsdd_cache_put_blob(d->cache, c->fd, hash->valuestring, bin_len, &e, &fatal)) {
         vsdd_send_error(c, id, e.code, e.msg, NULL);
         return fatal ? -1 : 0;
     }
-    pthread_mutex_lock(&g_daemon.lock);
-    g_daemon.blobs_received++;
-    g_daemon.bytes_received += bin_len;
-    pthread_mutex_unlock(&g_daemon.lock);
+    vsdd_count(d->counters, VSDD_COUNT_BLOBS, 1);
+    vsdd_count(d->counters, VSDD_COUNT_BLOB_BYTES, bin_len);
     vsdd_log(VSDD_LOG_DEBUG, "conn %u: blob %s stored (%llu bytes)", c->id, hash->valuestring,
              (unsigned long long)bin_len);
     o = cJSON_CreateObject();
@@ -160,7 +161,7 @@ static int on_put(vsdd_conn *c, const cJSON *msg, const cJSON *id, uint64_t bin_
     return vsdd_send(c, VSD_MSG_PUT, o, NULL, 0);
 }
 
-static void on_render(vsdd_conn *c, cJSON *msg, const cJSON *id)
+static void on_render(vsdd_daemon *d, vsdd_conn *c, cJSON *msg, const cJSON *id)
 {
     const cJSON *scene = cJSON_GetObjectItemCaseSensitive(msg, "scene");
     int position = 0, rc;
@@ -177,9 +178,9 @@ static void on_render(vsdd_conn *c, cJSON *msg, const cJSON *id)
         return;
     }
     idv = id->valuedouble; /* `id` lives in msg, which the submit consumes */
-    rc = vsdd_job_submit(c, idv, msg, &position);
+    rc = vsdd_job_submit(d->jobs, c, idv, msg, &position);
     if (rc == -1) {
-        snprintf(text, sizeof text, "the job queue is full (%d waiting); retry later", g_daemon.cfg.queue_max);
+        snprintf(text, sizeof text, "the job queue is full (%d waiting); retry later", d->cfg.queue_max);
         vsdd_send_error_id(c, idv, 1, VSD_E_BUSY, text, NULL);
     } else if (rc == -2) {
         vsdd_send_error_id(c, idv, 1, VSD_E_SHUTDOWN, "the daemon is shutting down", NULL);
@@ -189,7 +190,7 @@ static void on_render(vsdd_conn *c, cJSON *msg, const cJSON *id)
     }
 }
 
-static void on_cancel(vsdd_conn *c, const cJSON *msg, const cJSON *id)
+static void on_cancel(vsdd_daemon *d, vsdd_conn *c, const cJSON *msg, const cJSON *id)
 {
     const cJSON *job = cJSON_GetObjectItemCaseSensitive(msg, "job");
     cJSON *o;
@@ -198,7 +199,7 @@ static void on_cancel(vsdd_conn *c, const cJSON *msg, const cJSON *id)
         vsdd_send_error(c, id, VSD_E_BAD_REQUEST, "CANCEL.job: expected the id of a RENDER", NULL);
         return;
     }
-    found = vsdd_job_cancel(c, job->valuedouble);
+    found = vsdd_job_cancel(d->jobs, c, job->valuedouble);
     o = cJSON_CreateObject();
     if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
     cJSON_AddNumberToObject(o, "job", job->valuedouble);
@@ -206,36 +207,36 @@ static void on_cancel(vsdd_conn *c, const cJSON *msg, const cJSON *id)
     vsdd_send(c, VSD_MSG_CANCEL, o, NULL, 0);
 }
 
-static void on_stats(vsdd_conn *c, const cJSON *id)
+static void on_stats(vsdd_daemon *d, vsdd_conn *c, const cJSON *id)
 {
     cJSON *o = cJSON_CreateObject(), *q, *j;
+    uint64_t n[VSDD_COUNT_KINDS];
     int queued, running;
     if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
     cJSON_AddStringToObject(o, "server_version", vsd_version());
     cJSON_AddNumberToObject(o, "version", VSD_PROTO_VERSION);
-    cJSON_AddNumberToObject(o, "uptime_seconds", vsd_clock_seconds() - g_daemon.start_time);
-    vsdd_jobs_counts(&queued, &running);
+    cJSON_AddNumberToObject(o, "uptime_seconds", vsd_clock_seconds() - d->start_time);
+    vsdd_jobs_counts(d->jobs, &queued, &running);
     q = cJSON_AddObjectToObject(o, "queue");
     cJSON_AddNumberToObject(q, "queued", queued);
     cJSON_AddNumberToObject(q, "running", running);
-    cJSON_AddNumberToObject(q, "max", g_daemon.cfg.queue_max);
-    cJSON_AddNumberToObject(q, "workers", g_daemon.cfg.workers);
+    cJSON_AddNumberToObject(q, "max", d->cfg.queue_max);
+    cJSON_AddNumberToObject(q, "workers", d->cfg.workers);
     j = cJSON_AddObjectToObject(o, "jobs");
-    pthread_mutex_lock(&g_daemon.lock);
-    cJSON_AddNumberToObject(j, "done", (double)g_daemon.jobs_done);
-    cJSON_AddNumberToObject(j, "failed", (double)g_daemon.jobs_failed);
-    cJSON_AddNumberToObject(j, "cancelled", (double)g_daemon.jobs_cancelled);
-    cJSON_AddNumberToObject(j, "busy", (double)g_daemon.jobs_busy);
-    cJSON_AddNumberToObject(o, "connections", g_daemon.conn_count);
-    cJSON_AddNumberToObject(o, "blobs_received", (double)g_daemon.blobs_received);
-    cJSON_AddNumberToObject(o, "blob_bytes_received", (double)g_daemon.bytes_received);
-    pthread_mutex_unlock(&g_daemon.lock);
-    cJSON_AddItemToObject(o, "cache", vsdd_cache_stats());
+    vsdd_counters_get(d->counters, n);
+    cJSON_AddNumberToObject(j, "done", (double)n[VSDD_COUNT_DONE]);
+    cJSON_AddNumberToObject(j, "failed", (double)n[VSDD_COUNT_FAILED]);
+    cJSON_AddNumberToObject(j, "cancelled", (double)n[VSDD_COUNT_CANCELLED]);
+    cJSON_AddNumberToObject(j, "busy", (double)n[VSDD_COUNT_BUSY]);
+    cJSON_AddNumberToObject(o, "connections", vsdd_conns_count(d->conns));
+    cJSON_AddNumberToObject(o, "blobs_received", (double)n[VSDD_COUNT_BLOBS]);
+    cJSON_AddNumberToObject(o, "blob_bytes_received", (double)n[VSDD_COUNT_BLOB_BYTES]);
+    cJSON_AddItemToObject(o, "cache", vsdd_cache_stats(d->cache));
     vsdd_send(c, VSD_MSG_STATS, o, NULL, 0);
 }
 
 /* One frame. Returns 0 to go on, -1 to close. */
-static int handle_frame(vsdd_conn *c)
+static int handle_frame(vsdd_daemon *d, vsdd_conn *c)
 {
     unsigned char hdr[VSD_PROTO_HEADER_SIZE];
     vsd_frame_header h;
@@ -260,10 +261,10 @@ static int handle_frame(vsdd_conn *c)
         vsdd_send_error(c, NULL, VSD_E_VERSION, msgbuf, x);
         return -1;
     }
-    if (h.json_len > g_daemon.cfg.max_json || h.bin_len > g_daemon.cfg.max_message) {
+    if (h.json_len > d->cfg.max_json || h.bin_len > d->cfg.max_message) {
         snprintf(msgbuf, sizeof msgbuf, "frame too large (JSON %u bytes, binary %llu bytes; limits %u and %llu)",
-                 h.json_len, (unsigned long long)h.bin_len, g_daemon.cfg.max_json,
-                 (unsigned long long)g_daemon.cfg.max_message);
+                 h.json_len, (unsigned long long)h.bin_len, d->cfg.max_json,
+                 (unsigned long long)d->cfg.max_message);
         vsdd_send_error(c, NULL, VSD_E_TOO_LARGE, msgbuf, NULL);
         return -1;
     }
@@ -310,12 +311,12 @@ static int handle_frame(vsdd_conn *c)
     }
     r = 0;
     switch (h.type) {
-    case VSD_MSG_HELLO: r = on_hello(c, msg, id); break;
-    case VSD_MSG_HAS: on_has(c, msg, id); break;
-    case VSD_MSG_PUT: r = on_put(c, msg, id, h.bin_len); break;
-    case VSD_MSG_RENDER: on_render(c, msg, id); msg = NULL; break;
-    case VSD_MSG_CANCEL: on_cancel(c, msg, id); break;
-    case VSD_MSG_STATS: on_stats(c, id); break;
+    case VSD_MSG_HELLO: r = on_hello(d, c, msg, id); break;
+    case VSD_MSG_HAS: on_has(d, c, msg, id); break;
+    case VSD_MSG_PUT: r = on_put(d, c, msg, id, h.bin_len); break;
+    case VSD_MSG_RENDER: on_render(d, c, msg, id); msg = NULL; break;
+    case VSD_MSG_CANCEL: on_cancel(d, c, msg, id); break;
+    case VSD_MSG_STATS: on_stats(d, c, id); break;
     case VSD_MSG_BYE: {
         cJSON *o = cJSON_CreateObject();
         if (cJSON_IsNumber(id)) cJSON_AddNumberToObject(o, "id", id->valuedouble);
@@ -328,67 +329,69 @@ static int handle_frame(vsdd_conn *c)
     return r;
 }
 
+typedef struct reader {
+    vsdd_daemon *d;
+    vsdd_conn *c;
+} reader;
+
 static void *reader_main(void *arg)
 {
-    vsdd_conn *c = arg;
-    while (!c->dead && handle_frame(c) == 0) {}
+    reader *rd = arg;
+    vsdd_daemon *d = rd->d;
+    vsdd_conn *c = rd->c;
+    free(rd);
+    while (!vsdd_out_closed(c) && handle_frame(d, c) == 0) {}
     vsdd_log(VSDD_LOG_INFO, "conn %u: closed", c->id);
-    pthread_mutex_lock(&c->wlock);
-    c->dead = 1;
-    shutdown(c->fd, SHUT_RDWR);
-    pthread_mutex_unlock(&c->wlock);
-    vsdd_jobs_cancel_conn(c);
-    pthread_mutex_lock(&g_daemon.lock);
-    g_daemon.readers--;
-    vsdd_conn_release_locked(c);
-    pthread_cond_broadcast(&g_daemon.idle_cond);
-    pthread_mutex_unlock(&g_daemon.lock);
+    vsdd_out_close(c);
+    vsdd_jobs_cancel_conn(d->jobs, c);
+    vsdd_conns_reader_done(d->conns, c);
     return NULL;
 }
 
-void vsdd_conn_start(int fd, int is_tcp, const char *peer)
+void vsdd_conn_start(vsdd_daemon *d, int fd, int is_tcp, const char *peer)
 {
-    vsdd_conn *c = calloc(1, sizeof *c);
+    vsdd_conn *c;
+    reader *rd;
     pthread_t t;
     pthread_attr_t attr;
     struct timeval tv = {30, 0};
-    if (!c) {
-        close(fd);
-        return;
-    }
+    int stopping;
     /* a client that stops reading cannot block a worker for longer than this */
     setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
-    c->fd = fd;
-    c->is_tcp = is_tcp;
-    c->refs = 1;
-    pthread_mutex_init(&c->wlock, NULL);
-    snprintf(c->peer, sizeof c->peer, "%s", peer);
-    pthread_mutex_lock(&g_daemon.lock);
-    c->id = ++g_daemon.next_conn_id;
-    if (g_daemon.stopping || g_daemon.conn_count >= g_daemon.cfg.max_connections) {
-        int stopping = g_daemon.stopping;
-        pthread_mutex_unlock(&g_daemon.lock);
+    c = vsdd_conn_new(fd, is_tcp, peer);
+    if (!c) return;
+    stopping = vsdd_jobs_stopping(d->jobs);
+    if (vsdd_conns_add(d->conns, c, stopping ? 0 : d->cfg.max_connections)) {
         vsdd_send_error(c, NULL, stopping ? VSD_E_SHUTDOWN : VSD_E_BUSY,
                         stopping ? "the daemon is shutting down" : "too many connections; retry later", NULL);
-        close(fd);
-        pthread_mutex_destroy(&c->wlock);
-        free(c);
+        vsdd_conn_discard(c);
         return;
     }
-    c->next = g_daemon.conns;
-    g_daemon.conns = c;
-    g_daemon.conn_count++;
-    g_daemon.readers++;
-    pthread_mutex_unlock(&g_daemon.lock);
     vsdd_log(VSDD_LOG_INFO, "conn %u: accepted (%s)", c->id, peer);
+    rd = malloc(sizeof *rd);
     pthread_attr_init(&attr);
     pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
-    if (pthread_create(&t, &attr, reader_main, c) != 0) {
+    if (rd) {
+        rd->d = d;
+        rd->c = c;
+    }
+    if (!rd || pthread_create(&t, &attr, reader_main, rd) != 0) {
         vsdd_log(VSDD_LOG_ERROR, "conn %u: cannot start a thread", c->id);
-        pthread_mutex_lock(&g_daemon.lock);
-        g_daemon.readers--;
-        vsdd_conn_release_locked(c);
-        pthread_mutex_unlock(&g_daemon.lock);
+        free(rd);
+        vsdd_conns_reader_done(d->conns, c);
     }
     pthread_attr_destroy(&attr);
+}
+
+void vsdd_conn_stop_all(vsdd_daemon *d)
+{
+    int k = 0, m;
+    vsdd_conn **list = vsdd_conns_hold_all(d->conns, &k);
+    for (m = 0; m < k; m++) {
+        vsdd_send_error_id(list[m], 0, 0, VSD_E_SHUTDOWN, "the daemon is shutting down", NULL);
+        vsdd_out_close(list[m]); /* wakes its reader */
+    }
+    for (m = 0; m < k; m++) vsdd_conn_release(d->conns, list[m]);
+    free(list);
+    vsdd_conns_wait_readers(d->conns, 5);
 }

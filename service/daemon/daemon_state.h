@@ -1,7 +1,11 @@
-/* daemon_state.h — the bottom layer's shared state: the configuration, the connection and
- * job records, the one `g_daemon` and the reference count that keeps a connection alive
- * while a reader or a job uses it. Every other daemon file may include this; it includes
- * nothing of the daemon's. The clock is the library's vsd_clock_seconds (vsd/clock.h). */
+/* daemon_state.h — the bottom layer's shared definitions: the configuration, the
+ * connection record, and the daemon record that every thread is handed (serve.c makes one
+ * and passes it down; there is no global). The record holds the configuration, read-only
+ * once the daemon runs, and one pointer per module whose state is private to that module's
+ * files (each struct is defined in its .c or internal header, so no other file can touch
+ * its fields; docs/daemon-internals.md lists who owns what). Every other daemon file may
+ * include this; it includes nothing of the daemon's but lock_order.h. The clock is the
+ * library's vsd_clock_seconds (vsd/clock.h). */
 #ifndef VSD_DAEMON_STATE_H
 #define VSD_DAEMON_STATE_H
 #include <pthread.h>
@@ -11,6 +15,7 @@
 #include "vsd/clock.h"
 #include "vsd/render.h"
 #include "../protocol/vsd_proto.h"
+#include "lock_order.h"
 
 #define VSDD_MAX_ALLOW 8
 
@@ -25,8 +30,7 @@ typedef struct vsdd_config {
     char token[512];               /* from --token-file; required for TCP */
     char allow[VSDD_MAX_ALLOW][VSD_PATH_LEN]; /* realpath'd --allow-path folders */
     int allow_count;
-    char cache_parent[VSD_PATH_LEN];
-    char cache_dir[VSD_PATH_LEN];  /* private folder made at start, removed at exit */
+    char cache_parent[VSD_PATH_LEN]; /* the cache makes its private folder in it (cache.c) */
     char method_cache[VSD_PATH_LEN]; /* methods' work kept between runs (crm fits); "" = none */
     uint64_t cache_bytes;          /* --cache-mb: volumes, maps, renderers (memory) */
     uint64_t blob_bytes;           /* --blob-mb: blob files (disk), a budget of their own so
@@ -46,65 +50,54 @@ typedef struct vsdd_config {
 } vsdd_config;
 
 enum { VSDD_LOG_ERROR = 0, VSDD_LOG_WARN, VSDD_LOG_INFO, VSDD_LOG_DEBUG };
-/* log.c: one line on stderr per event. */
+/* log.c: one line on stderr per event. The level is log.c's own (set once at start, before
+ * any thread): logging is the process's, like its stderr, so no record is passed for it. */
 void vsdd_log(int level, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 2, 3)))
 #endif
     ;
+void vsdd_log_set_level(int level);
 
+/* One client connection. Its fields are grouped by owner: the first group is set before the
+ * reader thread starts and only read after; each other group is touched by its file only. */
 typedef struct vsdd_conn {
     int fd;
-    unsigned id;
+    unsigned id;                   /* set by conns.c when the connection is registered */
     int is_tcp;
-    int hello_done;
-    int dead;                      /* write failed or reader gone: drop frames */
-    int refs;                      /* reader + jobs; guarded by g_daemon.lock */
-    pthread_mutex_t wlock;
     char peer[64];
-    struct vsdd_conn *next;
+    int hello_done;                /* conn.c's reader thread only */
+    struct {                       /* reply.c's: frames out, one writer at a time */
+        vsdd_mutex lock;           /* VSDD_RANK_CONN_WRITE */
+        int dead;                  /* a write failed or the reader is gone: drop frames */
+    } out;
+    struct {                       /* conns.c's, under its lock */
+        int refs;                  /* the reader + each job of the connection */
+        struct vsdd_conn *next;
+    } link;
 } vsdd_conn;
 
-enum { VSDD_JOB_QUEUED, VSDD_JOB_RUNNING };
+/* Why a job stopped early (cancel.c keeps the first one raised). */
 enum { VSDD_CANCEL_NONE = 0, VSDD_CANCEL_CLIENT, VSDD_CANCEL_DISCONNECT, VSDD_CANCEL_TIMEOUT, VSDD_CANCEL_SHUTDOWN };
 
-typedef struct vsdd_job {
-    double id;                     /* the client's request id (JSON number) */
-    unsigned long seq;             /* daemon-wide job number (logs, temp names) */
-    vsdd_conn *conn;               /* one reference held */
-    cJSON *req;                    /* the RENDER message, owned */
-    int state;
-    int cancel_reason;             /* VSDD_CANCEL_*; guarded by g_daemon.lock */
-    volatile int *cancel_flag;     /* the renderer's cancel flag while running */
-    double queued_at, started_at;
-    struct vsdd_job *next;         /* queue or running list */
-} vsdd_job;
+/* The modules' own state, defined where said. */
+typedef struct vsdd_conns vsdd_conns;        /* conns.c: the connection list and references */
+typedef struct vsdd_jobs vsdd_jobs;          /* jobs.c: queue, running jobs, workers, watchdog */
+typedef struct vsdd_cache vsdd_cache;        /* cache_internal.h: blobs, volumes, maps, renderers */
+typedef struct vsdd_loader vsdd_loader;      /* loader.c / loader_isolated.c: the decoder zygote */
+typedef struct vsdd_counters vsdd_counters;  /* counters.c: what STATS counts */
 
 typedef struct vsdd_daemon {
+    /* filled before the daemon starts (serve_options.c, serve.c), read-only after */
     vsdd_config cfg;
-    pthread_mutex_t lock;
-    pthread_cond_t queue_cond;     /* workers wait for jobs */
-    pthread_cond_t idle_cond;      /* shutdown waits for readers */
-    vsdd_conn *conns;
-    int conn_count, readers;
-    vsdd_job *queue_head, *queue_tail, *running;
-    int queued;
-    int stopping;
-    unsigned long next_job_seq;
-    unsigned next_conn_id;
     double start_time;
     char cuda_device[128];         /* the GPU HELLO offers, "" when none answered at start */
-    /* counters for STATS */
-    uint64_t jobs_done, jobs_failed, jobs_cancelled, jobs_busy, bytes_received, blobs_received;
+    /* made by vsdd_daemon_start (daemon.c), freed by vsdd_daemon_stop */
+    vsdd_counters *counters;
+    vsdd_conns *conns;
+    vsdd_loader *loader;
+    vsdd_cache *cache;
+    vsdd_jobs *jobs;
 } vsdd_daemon;
-
-extern vsdd_daemon g_daemon;
-
-/* Drop one reference; the last one closes the socket and frees the record. */
-void vsdd_conn_release(vsdd_conn *c);            /* takes g_daemon.lock */
-void vsdd_conn_release_locked(vsdd_conn *c);
-
-/* Add one to a counter of g_daemon (jobs_done, ...) under g_daemon.lock. */
-void vsdd_count(uint64_t *counter, uint64_t n);
 
 #endif

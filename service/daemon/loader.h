@@ -12,11 +12,18 @@
 #define VSD_DAEMON_LOADER_H
 #include "reply.h"
 
+/* The daemon's loader (loader.c): decodes as cfg->loader says (read on every decode), within
+ * cfg's limits. cfg must outlive it. NULL when out of memory. */
+vsdd_loader *vsdd_loader_new(const vsdd_config *cfg);
+/* Stop the zygote (at shutdown); a later isolated decode would start it again. */
+void vsdd_loader_shutdown(vsdd_loader *l);
+void vsdd_loader_free(vsdd_loader *l);
 /* src is what the client named ("blob:<hash>" or a confined path; messages use it), path
  * the file to read. 0, or -1 with e filled. */
-int vsdd_load_volume(const char *src, const char *path, const char *grid, int grid_index, vsd_volume **out,
-                     vsdd_err *e);
-int vsdd_load_env(const char *src, const char *path, const char *conversion, vsd_env **out, vsdd_err *e);
+int vsdd_load_volume(vsdd_loader *l, const char *src, const char *path, const char *grid, int grid_index,
+                     vsd_volume **out, vsdd_err *e);
+int vsdd_load_env(vsdd_loader *l, const char *src, const char *path, const char *conversion, vsd_env **out,
+                  vsdd_err *e);
 
 /* loader_decode.c: the decoding itself, with the daemon's limits passed in (the child has
  * no daemon configuration). */
@@ -25,12 +32,16 @@ int vsdd_decode_volume(const char *src, const char *path, const char *grid, int 
 int vsdd_decode_env(const char *src, const char *path, const char *conversion, uint64_t max_pixels, vsd_env **out,
                     vsdd_err *e);
 
-/* loader_isolated.c: the daemon's side of one isolated decode. */
-int vsdd_isolated_volume(const char *src, const char *path, const char *grid, int grid_index, vsd_volume **out,
-                         vsdd_err *e);
-int vsdd_isolated_env(const char *src, const char *path, const char *conversion, vsd_env **out, vsdd_err *e);
-/* Stop the zygote (serve.c at shutdown); a later isolated decode would start it again. */
-void vsdd_loader_shutdown(void);
+/* loader_isolated.c: the daemon's side of one isolated decode, and the zygote it talks to
+ * (started on the first decode, its socket and pid under its own lock, VSDD_RANK_LOADER). */
+typedef struct vsdd_zygote vsdd_zygote;
+vsdd_zygote *vsdd_zygote_new(const vsdd_config *cfg);
+void vsdd_zygote_stop(vsdd_zygote *z);
+void vsdd_zygote_free(vsdd_zygote *z);            /* stops it first */
+int vsdd_isolated_volume(vsdd_zygote *z, const char *src, const char *path, const char *grid, int grid_index,
+                         vsd_volume **out, vsdd_err *e);
+int vsdd_isolated_env(vsdd_zygote *z, const char *src, const char *path, const char *conversion, vsd_env **out,
+                      vsdd_err *e);
 
 /* One decode request, as the daemon sends it to the zygote (one SOCK_SEQPACKET message). */
 typedef struct vsdd_load_req {

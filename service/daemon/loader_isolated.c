@@ -24,29 +24,41 @@
 
 extern char **environ;
 
-static struct {
-    pthread_mutex_t lock;
-    int fd;       /* the zygote's request socket, -1 when none runs */
+struct vsdd_zygote {
+    const vsdd_config *cfg;        /* the daemon's, read-only: executable, limits */
+    vsdd_mutex lock;
+    int fd;                        /* the zygote's request socket, -1 when none runs */
     pid_t pid;
-} Z = {PTHREAD_MUTEX_INITIALIZER, -1, -1};
+};
+
+vsdd_zygote *vsdd_zygote_new(const vsdd_config *cfg)
+{
+    vsdd_zygote *z = calloc(1, sizeof *z);
+    if (!z) return NULL;
+    z->cfg = cfg;
+    vsdd_mutex_init(&z->lock, VSDD_RANK_LOADER);
+    z->fd = -1;
+    z->pid = -1;
+    return z;
+}
 
 /* Lock held. Stop the zygote: EOF on its socket ends it; reap it. */
-static void zygote_stop_locked(void)
+static void zygote_stop_locked(vsdd_zygote *z)
 {
     int i, status;
-    if (Z.fd < 0) return;
-    close(Z.fd);
-    Z.fd = -1;
-    for (i = 0; i < 200 && waitpid(Z.pid, &status, WNOHANG) == 0; i++) usleep(5000);
+    if (z->fd < 0) return;
+    close(z->fd);
+    z->fd = -1;
+    for (i = 0; i < 200 && waitpid(z->pid, &status, WNOHANG) == 0; i++) usleep(5000);
     if (i == 200) {
-        kill(Z.pid, SIGKILL);
-        waitpid(Z.pid, &status, 0);
+        kill(z->pid, SIGKILL);
+        waitpid(z->pid, &status, 0);
     }
-    Z.pid = -1;
+    z->pid = -1;
 }
 
 /* Lock held. Spawn `serve --loader-zygote` with its end of a SEQPACKET pair on fd 3. */
-static int zygote_start_locked(vsdd_err *e)
+static int zygote_start_locked(vsdd_zygote *z, vsdd_err *e)
 {
     char *argv[] = {"vsd", "serve", "--loader-zygote", NULL};
     posix_spawn_file_actions_t fa;
@@ -68,29 +80,37 @@ static int zygote_start_locked(vsdd_err *e)
     posix_spawnattr_setsigmask(&attr, &none); /* worker threads block SIGTERM/SIGINT */
     posix_spawnattr_setsigdefault(&attr, &dflt);
     posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
-    rc = posix_spawn(&Z.pid, g_daemon.cfg.loader_exe, &fa, &attr, argv, environ);
+    rc = posix_spawn(&z->pid, z->cfg->loader_exe, &fa, &attr, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
     posix_spawnattr_destroy(&attr);
     close(sv[1]);
     if (rc != 0) {
         close(sv[0]);
-        Z.pid = -1;
-        return vsdd_fail(e, VSD_E_INTERNAL, "cannot start the loader %s: %s", g_daemon.cfg.loader_exe, strerror(rc));
+        z->pid = -1;
+        return vsdd_fail(e, VSD_E_INTERNAL, "cannot start the loader %s: %s", z->cfg->loader_exe, strerror(rc));
     }
-    Z.fd = sv[0];
-    vsdd_log(VSDD_LOG_DEBUG, "loader zygote started (pid %d)", (int)Z.pid);
+    z->fd = sv[0];
+    vsdd_log(VSDD_LOG_DEBUG, "loader zygote started (pid %d)", (int)z->pid);
     return 0;
 }
 
-void vsdd_loader_shutdown(void)
+void vsdd_zygote_stop(vsdd_zygote *z)
 {
-    pthread_mutex_lock(&Z.lock);
-    zygote_stop_locked();
-    pthread_mutex_unlock(&Z.lock);
+    vsdd_lock(&z->lock);
+    zygote_stop_locked(z);
+    vsdd_unlock(&z->lock);
+}
+
+void vsdd_zygote_free(vsdd_zygote *z)
+{
+    if (!z) return;
+    vsdd_zygote_stop(z);
+    vsdd_mutex_destroy(&z->lock);
+    free(z);
 }
 
 /* Hand req with its two descriptors to the zygote, starting (or restarting) it. */
-static int submit(const vsdd_load_req *req, int pipe_w, int status_w, vsdd_err *e)
+static int submit(vsdd_zygote *z, const vsdd_load_req *req, int pipe_w, int status_w, vsdd_err *e)
 {
     char cbuf[CMSG_SPACE(2 * sizeof(int))];
     struct iovec iov = {(void *)req, sizeof *req};
@@ -108,16 +128,16 @@ static int submit(const vsdd_load_req *req, int pipe_w, int status_w, vsdd_err *
     cm->cmsg_type = SCM_RIGHTS;
     cm->cmsg_len = CMSG_LEN(sizeof fds);
     memcpy(CMSG_DATA(cm), fds, sizeof fds);
-    pthread_mutex_lock(&Z.lock);
+    vsdd_lock(&z->lock);
     for (attempt = 0; attempt < 2 && rc; attempt++) {
-        if (Z.fd < 0 && zygote_start_locked(e)) break;
-        if (sendmsg(Z.fd, &mh, MSG_NOSIGNAL) == (ssize_t)sizeof *req) rc = 0;
+        if (z->fd < 0 && zygote_start_locked(z, e)) break;
+        if (sendmsg(z->fd, &mh, MSG_NOSIGNAL) == (ssize_t)sizeof *req) rc = 0;
         else {
-            vsdd_log(VSDD_LOG_WARN, "loader zygote (pid %d) gone (%s): starting another", (int)Z.pid, strerror(errno));
-            zygote_stop_locked();
+            vsdd_log(VSDD_LOG_WARN, "loader zygote (pid %d) gone (%s): starting another", (int)z->pid, strerror(errno));
+            zygote_stop_locked(z);
         }
     }
-    pthread_mutex_unlock(&Z.lock);
+    vsdd_unlock(&z->lock);
     if (rc && !e->code) vsdd_fail(e, VSD_E_INTERNAL, "cannot reach the loader: %s", strerror(errno));
     return rc;
 }
@@ -141,9 +161,9 @@ static int get_status(vsdd_wire_in *in, int fd, vsdd_zygote_status *st)
     }
 }
 
-static int run_child(vsdd_load_req *req, vsd_volume **vol, vsd_env **env, vsdd_err *e)
+static int run_child(vsdd_zygote *z, vsdd_load_req *req, vsd_volume **vol, vsd_env **env, vsdd_err *e)
 {
-    const vsdd_config *cfg = &g_daemon.cfg;
+    const vsdd_config *cfg = z->cfg;
     const char *src = req->src;
     vsdd_wire_in in;
     vsdd_err child_err = {NULL, ""};
@@ -158,7 +178,7 @@ static int run_child(vsdd_load_req *req, vsd_volume **vol, vsd_env **env, vsdd_e
         return vsdd_fail(e, VSD_E_INTERNAL, "loading %s: socketpair: %s", src, strerror(errno));
     }
     fcntl(pp[0], F_SETPIPE_SZ, 1 << 20); /* fewer round trips for big grids; best effort */
-    got = submit(req, pp[1], ss[1], e);
+    got = submit(z, req, pp[1], ss[1], e);
     close(pp[1]);
     close(ss[1]);
     if (got) {
@@ -218,21 +238,22 @@ static vsdd_load_req *make_req(int kind, const char *src, const char *path, cons
     return req;
 }
 
-int vsdd_isolated_volume(const char *src, const char *path, const char *grid, int grid_index, vsd_volume **out,
-                         vsdd_err *e)
+int vsdd_isolated_volume(vsdd_zygote *z, const char *src, const char *path, const char *grid, int grid_index,
+                         vsd_volume **out, vsdd_err *e)
 {
     vsd_env *unused = NULL;
-    vsdd_load_req *req = make_req(VSDD_WIRE_VOLUME, src, path, grid, grid_index, g_daemon.cfg.max_voxels, e);
-    int rc = req ? run_child(req, out, &unused, e) : -1;
+    vsdd_load_req *req = make_req(VSDD_WIRE_VOLUME, src, path, grid, grid_index, z->cfg->max_voxels, e);
+    int rc = req ? run_child(z, req, out, &unused, e) : -1;
     free(req);
     return rc;
 }
 
-int vsdd_isolated_env(const char *src, const char *path, const char *conversion, vsd_env **out, vsdd_err *e)
+int vsdd_isolated_env(vsdd_zygote *z, const char *src, const char *path, const char *conversion, vsd_env **out,
+                      vsdd_err *e)
 {
     vsd_volume *unused = NULL;
-    vsdd_load_req *req = make_req(VSDD_WIRE_ENV, src, path, conversion, -1, g_daemon.cfg.max_pixels, e);
-    int rc = req ? run_child(req, &unused, out, e) : -1;
+    vsdd_load_req *req = make_req(VSDD_WIRE_ENV, src, path, conversion, -1, z->cfg->max_pixels, e);
+    int rc = req ? run_child(z, req, &unused, out, e) : -1;
     free(req);
     return rc;
 }

@@ -7,6 +7,12 @@
 #include <time.h>
 #include <unistd.h>
 
+/* Set once at start, before any thread; VSDD_LOG_ERROR until then (the loader's zygote and
+ * children, which have no options, log only errors). */
+static int log_level = VSDD_LOG_ERROR;
+
+void vsdd_log_set_level(int level) { log_level = level; }
+
 void vsdd_log(int level, const char *fmt, ...)
 {
     static const char *const names[] = {"error", "warn", "info", "debug"};
@@ -15,7 +21,7 @@ void vsdd_log(int level, const char *fmt, ...)
     struct tm tm;
     va_list ap;
     int n;
-    if (level > g_daemon.cfg.log_level) return;
+    if (level > log_level) return;
     clock_gettime(CLOCK_REALTIME, &ts);
     localtime_r(&ts.tv_sec, &tm);
     strftime(stamp, sizeof stamp, "%Y-%m-%d %H:%M:%S", &tm);

@@ -9,13 +9,13 @@
 #include <string.h>
 #include <sys/stat.h>
 
-int vsdd_path_allowed(const char *path, char *resolved, size_t len)
+int vsdd_path_allowed(const vsdd_config *cfg, const char *path, char *resolved, size_t len)
 {
     char real[PATH_MAX];
     int i;
     if (!realpath(path, real)) return -1;
-    for (i = 0; i < g_daemon.cfg.allow_count; i++) {
-        const char *dir = g_daemon.cfg.allow[i];
+    for (i = 0; i < cfg->allow_count; i++) {
+        const char *dir = cfg->allow[i];
         size_t n = strlen(dir);
         if (strncmp(real, dir, n) == 0 && (real[n] == '/' || (n == 1 && dir[0] == '/'))) {
             struct stat st;
@@ -28,7 +28,8 @@ int vsdd_path_allowed(const char *path, char *resolved, size_t len)
     return -1;
 }
 
-int vsdd_resolve_source(const char *field, const char *file, int frame, char *src, size_t len, vsdd_err *e)
+int vsdd_resolve_source(const vsdd_config *cfg, const char *field, const char *file, int frame, char *src, size_t len,
+                        vsdd_err *e)
 {
     char path[VSD_PATH_LEN], err[512];
     if (strncmp(file, "blob:", 5) == 0) {
@@ -40,11 +41,11 @@ int vsdd_resolve_source(const char *field, const char *file, int frame, char *sr
     }
     if (vsd_frame_path(file, frame, path, sizeof path, err, sizeof err))
         return vsdd_fail(e, VSD_E_INVALID_SCENE, "%s: %s", field, err);
-    if (!g_daemon.cfg.allow_count)
+    if (!cfg->allow_count)
         return vsdd_fail(e, VSD_E_PATH_DENIED,
                          "%s: this daemon takes blob:<hash> names only (start it with --allow-path DIR "
                          "to allow server-side files)", field);
-    if (vsdd_path_allowed(path, src, len))
+    if (vsdd_path_allowed(cfg, path, src, len))
         return vsdd_fail(e, VSD_E_PATH_DENIED, "%s: \"%.300s\" is missing or outside the folders allowed by --allow-path",
                          field, path);
     return 0;

@@ -4,37 +4,40 @@
 #define _GNU_SOURCE
 #include "render_job.h"
 #include "render_job_steps.h"
+#include "counters.h"
 #include <stdlib.h>
 #include <string.h>
 
 static void report_outcome(vsdd_run *run, int rc)
 {
-    vsdd_job *j = run->job;
+    const vsdd_job_info *j = run->job;
+    vsdd_counters *k = run->d->counters;
     if (rc == VSDD_STEP_OK) {
-        vsdd_count(&g_daemon.jobs_done, 1);
+        vsdd_count(k, VSDD_COUNT_DONE, 1);
         return;
     }
     if (rc == VSDD_STEP_CANCELLED) {
         vsdd_log(VSDD_LOG_INFO, "job %lu: stopped after %.3fs: %s", j->seq, vsd_clock_seconds() - run->t_start,
                  run->err.msg);
-        vsdd_count(&g_daemon.jobs_cancelled, 1);
+        vsdd_count(k, VSDD_COUNT_CANCELLED, 1);
         if (run->cancel_reason == VSDD_CANCEL_DISCONNECT) return; /* nobody to tell */
     } else {
-        vsdd_count(&g_daemon.jobs_failed, 1);
+        vsdd_count(k, VSDD_COUNT_FAILED, 1);
     }
     vsdd_send_error_id(j->conn, j->id, 1, run->err.code ? run->err.code : VSD_E_INTERNAL, run->err.msg, run->extra);
     run->extra = NULL;
 }
 
-void vsdd_run_job(vsdd_job *j, int worker)
+void vsdd_run_job(vsdd_daemon *d, const vsdd_job_info *j, int worker)
 {
     vsdd_run *run = calloc(1, sizeof *run); /* ~30 KiB: off the worker's stack */
     int rc, i;
     if (!run) {
         vsdd_send_error_id(j->conn, j->id, 1, VSD_E_INTERNAL, "out of memory", NULL);
-        vsdd_count(&g_daemon.jobs_failed, 1);
+        vsdd_count(d->counters, VSDD_COUNT_FAILED, 1);
         return;
     }
+    run->d = d;
     run->job = j;
     run->t_start = vsd_clock_seconds();
     vsdd_log(VSDD_LOG_INFO, "job %lu: running on worker %d (waited %.3fs)", j->seq, worker, run->t_start - j->queued_at);
@@ -44,8 +47,8 @@ void vsdd_run_job(vsdd_job *j, int worker)
     if (rc == VSDD_STEP_OK) rc = vsdd_step_render(run);
     if (rc == VSDD_STEP_OK) rc = vsdd_step_reply(run);
     report_outcome(run, rc);
-    if (run->slot) vsdd_cache_release_slot(run->slot, 1);
-    for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin(run->pins[i]);
+    if (run->slot) vsdd_cache_release_slot(d->cache, run->slot, 1);
+    for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin(d->cache, run->pins[i]);
     cJSON_Delete(run->extra);
     vsd_framebuffer_destroy(run->fb);
     free(run->scene_text);

@@ -7,26 +7,29 @@
 #include "policy.h"
 #include <string.h>
 
-static void note_missing(const char *src, cJSON **missing)
+static void note_missing(vsdd_cache *k, const char *src, cJSON **missing)
 {
-    if (strncmp(src, "blob:", 5) != 0 || vsdd_cache_has_blob(src + 5)) return;
+    if (strncmp(src, "blob:", 5) != 0 || vsdd_cache_has_blob(k, src + 5)) return;
     if (!*missing) *missing = cJSON_CreateArray();
     cJSON_AddItemToArray(*missing, cJSON_CreateString(src + 5));
 }
 
 int vsdd_step_inputs(vsdd_run *run)
 {
+    const vsdd_config *cfg = &run->d->cfg;
+    vsdd_cache *k = run->d->cache;
     const vsd_scene *sc = &run->sc;
     const char *ior = vsd_scene_ior_grid(sc);
+    char conversion[2 * VSD_NAME_LEN + 2];
     cJSON *missing = NULL;
-    if (vsdd_resolve_source("volume.file", sc->volume.file, run->frame, run->vsrc, sizeof run->vsrc, &run->err))
+    if (vsdd_resolve_source(cfg, "volume.file", sc->volume.file, run->frame, run->vsrc, sizeof run->vsrc, &run->err))
         return VSDD_STEP_FAILED;
     run->esrc[0] = '\0';
-    if (sc->environment.file[0] && vsdd_resolve_source("environment.file", sc->environment.file, run->frame, run->esrc,
-                                                       sizeof run->esrc, &run->err))
+    if (sc->environment.file[0] && vsdd_resolve_source(cfg, "environment.file", sc->environment.file, run->frame,
+                                                       run->esrc, sizeof run->esrc, &run->err))
         return VSDD_STEP_FAILED;
-    note_missing(run->vsrc, &missing);
-    note_missing(run->esrc, &missing);
+    note_missing(k, run->vsrc, &missing);
+    note_missing(k, run->esrc, &missing);
     if (missing) {
         run->extra = cJSON_CreateObject();
         cJSON_AddItemToObject(run->extra, "missing", missing);
@@ -34,19 +37,18 @@ int vsdd_step_inputs(vsdd_run *run)
         return VSDD_STEP_FAILED;
     }
     vsdd_send_progress(run->job->conn, run->job->id, "load", 0.0f);
-    if (vsdd_cache_get_volume(run->vsrc, sc->volume.grid, sc->volume.grid_index, &run->pins[0], &run->hits[0],
+    if (vsdd_cache_get_volume(k, run->vsrc, sc->volume.grid, sc->volume.grid_index, &run->pins[0], &run->hits[0],
                               &run->err))
         return VSDD_STEP_FAILED;
     if (sc->volume.emission_grid[0] &&
-        vsdd_cache_get_volume(run->vsrc, sc->volume.emission_grid, -1, &run->pins[1], &run->hits[1], &run->err))
+        vsdd_cache_get_volume(k, run->vsrc, sc->volume.emission_grid, -1, &run->pins[1], &run->hits[1], &run->err))
         return VSDD_STEP_FAILED;
-    char conversion[2 * VSD_NAME_LEN + 2];
     if (run->esrc[0] &&
-        vsdd_cache_get_env(run->esrc, vsd_scene_env_conversion(sc, conversion, sizeof conversion), &run->pins[2],
+        vsdd_cache_get_env(k, run->esrc, vsd_scene_env_conversion(sc, conversion, sizeof conversion), &run->pins[2],
                            &run->hits[2], &run->err))
         return VSDD_STEP_FAILED;
     /* the refractive index's grid (volume.ior_grid / medium.ior_from), from the same file */
-    if (ior[0] && vsdd_cache_get_volume(run->vsrc, ior, -1, &run->pins[3], &run->hits[3], &run->err))
+    if (ior[0] && vsdd_cache_get_volume(k, run->vsrc, ior, -1, &run->pins[3], &run->hits[3], &run->err))
         return VSDD_STEP_FAILED;
     return VSDD_STEP_OK;
 }

@@ -33,7 +33,7 @@ static int parse_fields(vsdd_run *run, const cJSON *req)
 
 int vsdd_step_parse(vsdd_run *run)
 {
-    const vsdd_config *cfg = &g_daemon.cfg;
+    const vsdd_config *cfg = &run->d->cfg;
     const cJSON *req = run->job->req;
     const cJSON *jscene = cJSON_GetObjectItemCaseSensitive(req, "scene");
     const cJSON *jframe = cJSON_GetObjectItemCaseSensitive(req, "frame");

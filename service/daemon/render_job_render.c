@@ -1,6 +1,7 @@
 /* Step 3 of a RENDER: a renderer for (method, options, inputs) from the cache — kept
  * between jobs, so a camera change re-renders from its preparation — then the render,
- * with progress to the client and the job's cancel flag wired to the renderer's. */
+ * with progress to the client and the job's cancel (cancel.h) wired to the renderer's
+ * flag. The slot's use record (cache.h) is this file's while the job holds the slot. */
 #define _GNU_SOURCE
 #include "render_job_steps.h"
 #include <stdio.h>
@@ -36,8 +37,8 @@ static void prep_key_of(const vsd_scene *sc, char *out, size_t len)
  * client still sees it advance and can estimate the time left). */
 static void slot_progress(void *user, const char *stage, float fraction)
 {
-    vsdd_slot *s = user;
-    vsdd_job *j = s->job;
+    vsdd_slot_use *s = user;
+    const vsdd_job_info *j = s->job;
     double now = vsd_clock_seconds();
     int stage_changed;
     if (!j) return;
@@ -56,7 +57,6 @@ static void slot_progress(void *user, const char *stage, float fraction)
 static int get_slot(vsdd_run *run)
 {
     const vsd_scene *sc = &run->sc;
-    vsdd_job *j = run->job;
     char key[12000], err[2048];
     volatile int wait_cancel;
     int rc;
@@ -66,15 +66,10 @@ static int get_slot(vsdd_run *run)
              vsd_scene_env_conversion(sc, conversion, sizeof conversion), vsd_scene_ior_grid(sc));
     /* a new renderer may wait for memory: a cancel, a disconnect or the job's time limit
      * ends the wait through this flag as it would end a render */
-    pthread_mutex_lock(&g_daemon.lock);
-    wait_cancel = j->cancel_reason != VSDD_CANCEL_NONE;
-    j->cancel_flag = &wait_cancel;
-    pthread_mutex_unlock(&g_daemon.lock);
-    rc = vsdd_cache_get_slot(key, sc, run->pins, slot_progress, &wait_cancel, &run->slot, &run->slot_hit, err,
-                             sizeof err);
-    pthread_mutex_lock(&g_daemon.lock);
-    j->cancel_flag = NULL;
-    pthread_mutex_unlock(&g_daemon.lock);
+    vsdd_cancel_watch(run->job->cancel, &wait_cancel);
+    rc = vsdd_cache_get_slot(run->d->cache, key, sc, run->pins, slot_progress, &wait_cancel, &run->slot,
+                             &run->slot_hit, err, sizeof err);
+    vsdd_cancel_unwatch(run->job->cancel);
     memset(run->pins, 0, sizeof run->pins); /* the slot owns them now, or get_slot released them */
     if (rc == -(int)VSD_ERR_CANCELLED) return rc;
     if (rc) return vsdd_fail(&run->err, code_for_status((vsd_status)-rc), "%s", err);
@@ -97,42 +92,32 @@ static int cancelled(vsdd_run *run, int reason)
 
 int vsdd_step_render(vsdd_run *run)
 {
-    vsdd_job *j = run->job;
+    const vsdd_job_info *j = run->job;
+    vsdd_slot_use *use;
     char prep[1024], err[2048];
     vsd_status st;
     int reason, rc;
     rc = get_slot(run);
-    if (rc == -(int)VSD_ERR_CANCELLED) {
-        pthread_mutex_lock(&g_daemon.lock);
-        reason = j->cancel_reason;
-        pthread_mutex_unlock(&g_daemon.lock);
-        return cancelled(run, reason);
-    }
+    if (rc == -(int)VSD_ERR_CANCELLED) return cancelled(run, vsdd_cancel_reason(j->cancel));
     if (rc) return VSDD_STEP_FAILED;
+    use = vsdd_slot_use_of(run->slot);
     prep_key_of(&run->sc, prep, sizeof prep);
-    run->prep_hit = run->slot_hit && strcmp(prep, run->slot->prep_key) == 0;
-    pthread_mutex_lock(&g_daemon.lock);
-    run->slot->cancel = j->cancel_reason != VSDD_CANCEL_NONE;
-    j->cancel_flag = &run->slot->cancel;
-    run->slot->job = j;
-    run->slot->last_stage[0] = '\0';
-    run->slot->last_fraction = 0;
-    pthread_mutex_unlock(&g_daemon.lock);
+    run->prep_hit = run->slot_hit && strcmp(prep, use->prep_key) == 0;
+    use->job = j;
+    use->last_stage[0] = '\0';
+    use->last_fraction = 0;
+    vsdd_cancel_watch(j->cancel, &use->cancel);
     {
         /* the framebuffer the render makes is the job's (freed after the reply), not the
          * renderer's */
         int64_t fb_bytes = run->fb ? 0 : (int64_t)run->sc.film.width * run->sc.film.height * 17 * (int64_t)sizeof(float);
-        vsdd_cache_render_begin(run->slot);
-        st = vsd_renderer_render(run->slot->r, run->frame, &run->fb, &run->stats, err, sizeof err);
-        vsdd_cache_render_end(run->slot, run->fb ? fb_bytes : 0, st == VSD_OK);
+        vsdd_cache_render_begin(run->d->cache, run->slot);
+        st = vsd_renderer_render(vsdd_slot_renderer(run->slot), run->frame, &run->fb, &run->stats, err, sizeof err);
+        vsdd_cache_render_end(run->d->cache, run->slot, run->fb ? fb_bytes : 0, st == VSD_OK);
     }
-    pthread_mutex_lock(&g_daemon.lock);
-    j->cancel_flag = NULL;
-    run->slot->job = NULL;
-    reason = j->cancel_reason;
-    pthread_mutex_unlock(&g_daemon.lock);
-    if (st == VSD_OK && reason == VSDD_CANCEL_NONE)
-        snprintf(run->slot->prep_key, sizeof run->slot->prep_key, "%s", prep);
+    reason = vsdd_cancel_unwatch(j->cancel);
+    use->job = NULL;
+    if (st == VSD_OK && reason == VSDD_CANCEL_NONE) snprintf(use->prep_key, sizeof use->prep_key, "%s", prep);
     if (reason != VSDD_CANCEL_NONE || st == VSD_ERR_CANCELLED) return cancelled(run, reason);
     if (st) {
         vsdd_fail(&run->err, code_for_status(st), "%s", err);

@@ -75,16 +75,17 @@ static int encode(vsdd_run *run, vsd_scene *out, unsigned char **exr, size_t *ex
                   size_t *png_len, char *note, size_t notelen)
 {
     char exr_path[VSD_PATH_LEN], png_path[VSD_PATH_LEN], err[2048];
+    vsdd_cache *k = run->d->cache;
     vsdd_entry *file_pins[2] = {NULL, NULL};
     vsd_status st;
     int rc = -1;
     *out = run->sc;
-    if (vsdd_cache_pin_file(run->vsrc, out->volume.file, sizeof out->volume.file, &file_pins[0], &run->err) ||
-        (run->esrc[0] && vsdd_cache_pin_file(run->esrc, out->environment.file, sizeof out->environment.file,
+    if (vsdd_cache_pin_file(k, run->vsrc, out->volume.file, sizeof out->volume.file, &file_pins[0], &run->err) ||
+        (run->esrc[0] && vsdd_cache_pin_file(k, run->esrc, out->environment.file, sizeof out->environment.file,
                                              &file_pins[1], &run->err)))
         goto done;
-    snprintf(exr_path, sizeof exr_path, "%.960s/job-%lu.exr", g_daemon.cfg.cache_dir, run->job->seq);
-    snprintf(png_path, sizeof png_path, "%.960s/job-%lu.png", g_daemon.cfg.cache_dir, run->job->seq);
+    snprintf(exr_path, sizeof exr_path, "%.960s/job-%lu.exr", vsdd_cache_dir(k), run->job->seq);
+    snprintf(png_path, sizeof png_path, "%.960s/job-%lu.png", vsdd_cache_dir(k), run->job->seq);
     snprintf(out->output.exr, sizeof out->output.exr, "%s", exr_path);
     if (run->preview) snprintf(out->output.preview_png, sizeof out->output.preview_png, "%s", png_path);
     else out->output.preview_png[0] = '\0';
@@ -96,14 +97,14 @@ static int encode(vsdd_run *run, vsd_scene *out, unsigned char **exr, size_t *ex
     if (st) vsdd_fail(&run->err, VSD_E_RENDER_FAILED, "encoding the result failed: %.2000s", err);
     else rc = 0;
 done:
-    vsdd_cache_unpin(file_pins[0]);
-    vsdd_cache_unpin(file_pins[1]);
+    vsdd_cache_unpin(k, file_pins[0]);
+    vsdd_cache_unpin(k, file_pins[1]);
     return rc;
 }
 
 int vsdd_step_reply(vsdd_run *run)
 {
-    vsdd_job *j = run->job;
+    const vsdd_job_info *j = run->job;
     vsd_scene *out = malloc(sizeof *out);
     unsigned char *exr = NULL, *png = NULL;
     size_t exr_len = 0, png_len = 0;

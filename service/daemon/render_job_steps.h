@@ -4,12 +4,14 @@
 #ifndef VSD_DAEMON_RENDER_JOB_STEPS_H
 #define VSD_DAEMON_RENDER_JOB_STEPS_H
 #include "cache.h"
+#include "render_job.h"
 
 #define VSDD_MAX_JOB_OVERRIDES 256
 enum { VSDD_STEP_OK = 0, VSDD_STEP_FAILED = -1, VSDD_STEP_CANCELLED = -2 };
 
 typedef struct vsdd_run {
-    vsdd_job *job;
+    vsdd_daemon *d;                /* the configuration and the cache the steps use */
+    const vsdd_job_info *job;
     double t_start;
     /* parse: the request */
     const char *overrides[VSDD_MAX_JOB_OVERRIDES];

@@ -1,6 +1,6 @@
-/* Writing frames to a connection. A connection's wlock serialises whole frames (reader
+/* Writing frames to a connection. A connection's out.lock serialises whole frames (reader
  * thread replies, job PROGRESS/RESULT, shutdown notices); a failed write marks it dead so
- * later frames are dropped instead of blocking anyone. */
+ * later frames are dropped instead of blocking anyone. c->out is this file's alone. */
 #define _GNU_SOURCE
 #include "reply.h"
 #include <errno.h>
@@ -20,14 +20,34 @@ int vsdd_fail(vsdd_err *e, const char *code, const char *fmt, ...)
     return -1;
 }
 
+void vsdd_out_init(vsdd_conn *c)
+{
+    vsdd_mutex_init(&c->out.lock, VSDD_RANK_CONN_WRITE);
+    c->out.dead = 0;
+}
+
+void vsdd_out_destroy(vsdd_conn *c) { vsdd_mutex_destroy(&c->out.lock); }
+
+void vsdd_out_close(vsdd_conn *c)
+{
+    vsdd_lock(&c->out.lock);
+    __atomic_store_n(&c->out.dead, 1, __ATOMIC_RELAXED);
+    shutdown(c->fd, SHUT_RDWR);
+    vsdd_unlock(&c->out.lock);
+}
+
+/* Without the lock: the reader asks between frames, and must not wait behind a job's
+ * RESULT going to a slow client (the flag only ever goes from 0 to 1). */
+int vsdd_out_closed(vsdd_conn *c) { return __atomic_load_n(&c->out.dead, __ATOMIC_RELAXED); }
+
 int vsdd_send2(vsdd_conn *c, unsigned type, cJSON *json, const void *a, size_t alen, const void *b, size_t blen)
 {
     char *text = json ? cJSON_PrintUnformatted(json) : NULL;
     int rc = -1;
     if (json) cJSON_Delete(json);
     if (!text) return -1;
-    pthread_mutex_lock(&c->wlock);
-    if (!c->dead) {
+    vsdd_lock(&c->out.lock);
+    if (!c->out.dead) {
         vsd_frame_header h;
         unsigned char hdr[VSD_PROTO_HEADER_SIZE];
         h.version = VSD_PROTO_VERSION;
@@ -40,12 +60,12 @@ int vsdd_send2(vsdd_conn *c, unsigned type, cJSON *json, const void *a, size_t a
                  ? -1
                  : 0;
         if (rc) {
-            c->dead = 1;
+            __atomic_store_n(&c->out.dead, 1, __ATOMIC_RELAXED);
             shutdown(c->fd, SHUT_RDWR);
             vsdd_log(VSDD_LOG_INFO, "conn %u: write failed (%s), dropping the connection", c->id, strerror(errno));
         }
     }
-    pthread_mutex_unlock(&c->wlock);
+    vsdd_unlock(&c->out.lock);
     free(text);
     return rc;
 }

@@ -18,6 +18,14 @@ int vsdd_fail(vsdd_err *e, const char *code, const char *fmt, ...)
 #endif
     ;
 
+/* A connection's outgoing side (c->out, this file's): made and freed with the record
+ * (conns.c); closed by its reader when it ends and at shutdown (no more frames are sent,
+ * and the socket's shutdown wakes a reader blocked on it). */
+void vsdd_out_init(vsdd_conn *c);
+void vsdd_out_destroy(vsdd_conn *c);
+void vsdd_out_close(vsdd_conn *c);
+int vsdd_out_closed(vsdd_conn *c);
+
 /* Send one frame (JSON object consumed: deleted here). 0 ok, -1 connection gone. */
 int vsdd_send(vsdd_conn *c, unsigned type, cJSON *json, const void *bin, size_t bin_len);
 int vsdd_send2(vsdd_conn *c, unsigned type, cJSON *json, const void *a, size_t alen, const void *b, size_t blen);

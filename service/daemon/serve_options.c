@@ -82,9 +82,8 @@ static int read_token(const char *path, char *out, size_t len)
 }
 
 /* Returns -1 to go on, else an exit code. */
-int vsdd_serve_options(int argc, char **argv, char *ready_file, size_t ready_len)
+int vsdd_serve_options(int argc, char **argv, vsdd_config *c, char *ready_file, size_t ready_len)
 {
-    vsdd_config *c = &g_daemon.cfg;
     const char *xdg = getenv("XDG_RUNTIME_DIR"), *tmp = getenv("TMPDIR");
     const char *token_file = NULL;
     uint64_t v;

@@ -34,6 +34,7 @@
 #define IO_TIMEOUT_MS 20000 /* nothing from the daemon for this long: a hang, abort */
 
 static char g_root[256];
+static vsdd_daemon g_d; /* the daemon this harness runs in its own process */
 
 static void write_file(const char *dir, const char *name, const void *data, size_t len)
 {
@@ -59,14 +60,13 @@ static void remove_tree(const char *dir)
 
 static void daemon_stop(void)
 {
-    vsdd_jobs_stop();
-    vsdd_cache_shutdown();
+    vsdd_daemon_stop(&g_d);
     remove_tree(g_root);
 }
 
 static void daemon_start(void)
 {
-    vsdd_config *c = &g_daemon.cfg;
+    vsdd_config *c = &g_d.cfg;
     char allow[300], err[512];
     const char *log = getenv("VSD_FUZZ_LOG");
     snprintf(g_root, sizeof g_root, "/tmp/vsd-fuzz-daemon-XXXXXX");
@@ -99,9 +99,10 @@ static void daemon_start(void)
     c->max_job_seconds = 2;
     c->log_level = log && *log ? atoi(log) : -1; /* -1: silent; VSD_FUZZ_LOG=3 shows everything */
     c->loader = VSDD_LOADER_INPROCESS; /* decode here, where the sanitizers and coverage see it */
-    g_daemon.start_time = vsd_clock_seconds();
+    vsdd_log_set_level(c->log_level);
+    g_d.start_time = vsd_clock_seconds();
     signal(SIGPIPE, SIG_IGN);
-    if (vsdd_cache_init(err, sizeof err) || vsdd_jobs_start()) {
+    if (vsdd_daemon_start(&g_d, err, sizeof err)) {
         fprintf(stderr, "fuzz_daemon: cannot start the daemon: %s\n", err);
         abort();
     }
@@ -180,19 +181,19 @@ static int send_all(int fd, replies *r, const uint8_t *data, size_t len)
 
 static int daemon_busy(int *conns)
 {
-    int busy;
-    pthread_mutex_lock(&g_daemon.lock);
-    busy = g_daemon.queued > 0 || g_daemon.running != NULL;
-    *conns = g_daemon.conn_count + g_daemon.readers;
-    pthread_mutex_unlock(&g_daemon.lock);
-    return busy;
+    int queued, running, listed, readers;
+    vsdd_jobs_counts(g_d.jobs, &queued, &running);
+    vsdd_conns_counts(g_d.conns, &listed, &readers);
+    *conns = listed + readers;
+    return queued > 0 || running > 0;
 }
 
+/* The daemon is idle between inputs: stopped and started again, with an empty cache. */
 static void reset_cache(void)
 {
     char err[512];
-    vsdd_cache_shutdown();
-    if (vsdd_cache_init(err, sizeof err)) {
+    vsdd_daemon_stop(&g_d);
+    if (vsdd_daemon_start(&g_d, err, sizeof err)) {
         fprintf(stderr, "fuzz_daemon: %s\n", err);
         abort();
     }
@@ -215,7 +216,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     vsd_proto_pack_header(&sh, sentinel);
     memcpy(sentinel + VSD_PROTO_HEADER_SIZE, sentinel_json, sizeof sentinel_json - 1);
     if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) return 0;
-    vsdd_conn_start(sv[1], data[0] & 1, "fuzz"); /* the daemon owns sv[1] from here */
+    vsdd_conn_start(&g_d, sv[1], data[0] & 1, "fuzz"); /* the daemon owns sv[1] from here */
 
     while (at < size && !r.eof) {
         size_t left = size - at, len = left;
