@@ -48,7 +48,7 @@ METHODS = {
     "shgrid": {"options": {"lights": 8, "order": 2, "directions": 48}},
     "constellation": {"options": {"lights": 16, "shadow_grid": 32}},
     "lbl": {"options": {"lights": 8, "cells": 32}},
-    "crm": {"options": {"fit_iterations": 300, "grid_iterations": 200}},
+    "crm": {"options": {"fit_iterations": 300}},
 }
 SIZES = [(32, 18), (48, 27), (64, 36), (96, 54)]
 # (scene file in DATA/scenes, frames to draw from). smoke64's 30 frames make a working set

@@ -12,6 +12,7 @@
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include <stdlib.h>
+#include <string.h>
 
 extern int emulated_cuda_errors;
 
@@ -135,25 +136,51 @@ static void run_case(const residency_case *c)
     vsd_framebuffer_destroy(fb);
 }
 
+/* Per-method settings that keep the test fast, and what it must know of a method; a
+ * method of the registry without an entry runs with its defaults on both scenes. */
+typedef struct method_tuning {
+    const char *method;
+    const char *options; /* render.options as JSON, or NULL */
+    int smoke_only;      /* the fire adds nothing this method's device path does not already take */
+    int warm;            /* residency_case.warm */
+} method_tuning;
+
+static const method_tuning tunings[] = {
+    {"raymarch", "{\"lights\":16,\"pixel_samples\":1}", 1, 0},
+    {"reference", NULL, 1, 0},
+    {"constellation", "{\"lights\":16}", 0, 0},
+    {"shgrid", "{\"grid\":16,\"lights\":8,\"pixel_samples\":1}", 0, 0},
+    /* not coherent: a fit started from the previous frame's RBFs depends on the history,
+     * and each step is compared with a fresh renderer */
+    {"crm", "{\"rbf_count\":100,\"fit_iterations\":200,\"coherent\":false}", 0, 0},
+    /* lbl's view with the lights' term per ray on both sides (the CPU bakes it per view
+     * by default, the device cannot keep a per-view array resident) */
+    {"lbl", "{\"cells\":24,\"view_bake\":false}", 0, 1},
+};
+
+static const method_tuning *tuning_of(const char *method)
+{
+    static const method_tuning none = {NULL, NULL, 0, 0};
+    size_t i;
+    for (i = 0; i < sizeof tunings / sizeof tunings[0]; i++)
+        if (strcmp(tunings[i].method, method) == 0) return &tunings[i];
+    return &none;
+}
+
 int main(void)
 {
-    static const residency_case cases[] = {
-        {"scenes/smoke64_sunset.json", "raymarch", "{\"lights\":16,\"pixel_samples\":1}", 24, 25, 0},
-        {"scenes/smoke64_sunset.json", "reference", NULL, 24, 25, 0},
-        {"scenes/smoke64_sunset.json", "constellation", "{\"lights\":16}", 24, 25, 0},
-        {"scenes/fire96_studio.json", "constellation", "{\"lights\":16}", 48, 36, 0},
-        {"scenes/smoke64_sunset.json", "shgrid", "{\"grid\":16,\"lights\":8,\"pixel_samples\":1}", 24, 25, 0},
-        {"scenes/fire96_studio.json", "shgrid", "{\"grid\":16,\"lights\":8,\"form\":\"factored\"}", 48, 36, 0},
-        /* not coherent: a fit started from the previous frame's RBFs depends on the history,
-         * and each step is compared with a fresh renderer */
-        {"scenes/smoke64_sunset.json", "crm", "{\"rbf_count\":100,\"fit_iterations\":200,\"coherent\":false}", 24, 25, 0},
-        {"scenes/fire96_studio.json", "crm", "{\"rbf_count\":100,\"fit_iterations\":200,\"coherent\":false}", 48, 36, 0},
-        /* lbl's view with the lights' term per ray on both sides (the CPU bakes it per view
-         * by default, the device cannot keep a per-view array resident) */
-        {"scenes/smoke64_sunset.json", "lbl", "{\"cells\":24,\"view_bake\":false}", 24, 25, 1},
-        {"scenes/fire96_studio.json", "lbl", "{\"cells\":24,\"view_bake\":false}", 48, 36, 1},
-    };
-    size_t i;
-    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) run_case(&cases[i]);
+    const char *const *name;
+    int methods = 0;
+    /* every method of the registry that renders on the device */
+    for (name = vsd_method_names(); *name; name++) {
+        const method_tuning *t = tuning_of(*name);
+        residency_case smoke = {"scenes/smoke64_sunset.json", *name, t->options, 24, 25, t->warm};
+        residency_case fire = {"scenes/fire96_studio.json", *name, t->options, 48, 36, t->warm};
+        if (!(vsd_method_capabilities(*name) & VSD_METHOD_CAP_CUDA_VIEW)) continue;
+        methods++;
+        run_case(&smoke);
+        if (!t->smoke_only) run_case(&fire);
+    }
+    CHECK(methods > 0);
     return test_finish("test_device_residency");
 }

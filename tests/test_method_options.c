@@ -1,6 +1,9 @@
 /* Method option tables (core/src/render/method_options.h): the checker against a table of
- * its own, and every registered method's published table (vsd_method_options_json, what
- * `vsd methods --json` and HELLO send) round-tripped through the checker the renderer uses. */
+ * its own, its "applies when" rules, every registered method's published table
+ * (vsd_method_options_json) round-tripped through the checker the renderer uses, and the
+ * registry's catalog (vsd_method_catalog_json, what `vsd methods --json` and HELLO send):
+ * one entry per method, capabilities as the descriptors declare them, one default per role,
+ * and rules that refuse what they say. */
 #include "test_common.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
@@ -20,12 +23,12 @@ static const char *const toy_modes[] = {"fast", "exact", NULL};
 static const char *odd_problem(double v) { return ((long)v % 2) ? NULL : "is not odd"; }
 
 static const vsd_option_spec toy_rows[] = {
-    {"count", VSD_OPT_INT, 1, 99, 7, NULL, "a count", offsetof(toy_options, count), 0, odd_problem},
-    {"flag", VSD_OPT_BOOL, 0, 1, 1, NULL, "a switch", offsetof(toy_options, flag), 0, NULL},
-    {"mode", VSD_OPT_CHOICE, 0, 0, 1, toy_modes, "a mode", offsetof(toy_options, mode), 0, NULL},
+    {"count", VSD_OPT_INT, 1, 99, 7, NULL, "a count", offsetof(toy_options, count), 0, odd_problem, NULL},
+    {"flag", VSD_OPT_BOOL, 0, 1, 1, NULL, "a switch", offsetof(toy_options, flag), 0, NULL, NULL},
+    {"mode", VSD_OPT_CHOICE, 0, 0, 1, toy_modes, "a mode", offsetof(toy_options, mode), 0, NULL, NULL},
     {"step", VSD_OPT_NUMBER, 0, 10, 0, NULL, "a length", offsetof(toy_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH,
-     NULL},
-    {"gain", VSD_OPT_NUMBER, -1, 1, 0.25, NULL, "a gain", offsetof(toy_options, gain), 0, NULL},
+     NULL, NULL},
+    {"gain", VSD_OPT_NUMBER, -1, 1, 0.25, NULL, "a gain", offsetof(toy_options, gain), 0, NULL, NULL},
 };
 static const vsd_option_table toy = VSD_OPTION_TABLE(toy_rows, toy_options);
 
@@ -170,6 +173,211 @@ static void test_registered_tables(void)
     free(text);
 }
 
+/* A toy table with rules: "gain" applies only when mode is "exact" and flag is on; "step"
+ * only when count differs from 7. */
+static const vsd_option_when toy_on_exact[] = {{"mode", 0, 0, "exact"}, {"flag", 0, 1, NULL}, {NULL, 0, 0, NULL}};
+static const vsd_option_when toy_on_count[] = {{"count", 1, 7, NULL}, {NULL, 0, 0, NULL}};
+static const vsd_option_spec ruled_rows[] = {
+    {"count", VSD_OPT_INT, 1, 99, 7, NULL, "a count", offsetof(toy_options, count), 0, NULL, NULL},
+    {"flag", VSD_OPT_BOOL, 0, 1, 1, NULL, "a switch", offsetof(toy_options, flag), 0, NULL, NULL},
+    {"mode", VSD_OPT_CHOICE, 0, 0, 1, toy_modes, "a mode", offsetof(toy_options, mode), 0, NULL, NULL},
+    {"step", VSD_OPT_NUMBER, 0, 10, 0, NULL, "a length", offsetof(toy_options, step), 0, NULL, toy_on_count},
+    {"gain", VSD_OPT_NUMBER, -1, 1, 0.25, NULL, "a gain", offsetof(toy_options, gain), 0, NULL, toy_on_exact},
+};
+static const vsd_option_table ruled = VSD_OPTION_TABLE(ruled_rows, toy_options);
+
+static void test_rules(void)
+{
+    static const struct {
+        const char *json, *message; /* message NULL: accepted */
+    } cases[] = {
+        {"{\"gain\": 0.5}", NULL},                          /* mode "exact" and flag on by default */
+        {"{\"gain\": 0.5, \"mode\": \"exact\", \"flag\": true}", NULL},
+        {"{\"gain\": 0.5, \"mode\": \"fast\"}",
+         "render.options.gain does not apply with render.options.mode = \"fast\" (it applies only when mode = "
+         "\"exact\" and flag = true)"},
+        {"{\"flag\": false, \"gain\": -0.5}",
+         "render.options.gain does not apply with render.options.flag = false (it applies only when mode = "
+         "\"exact\" and flag = true)"},
+        /* a default written out is no lie: accepted where the rule does not hold */
+        {"{\"gain\": 0.25, \"mode\": \"fast\"}", NULL},
+        {"{\"step\": 2}",
+         "render.options.step does not apply with render.options.count = 7 (the default) (it applies only when "
+         "count != 7)"},
+        {"{\"step\": 2, \"count\": 9}", NULL},
+    };
+    toy_options o;
+    char err[512], rule[256], why[256];
+    size_t i;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        vsd_status st = vsd_options_parse(&ruled, "toy", cases[i].json, &o, err, sizeof err);
+        if (!cases[i].message) CHECK_MSG(st == VSD_OK, "%s refused: %s", cases[i].json, err);
+        else {
+            CHECK_MSG(st == VSD_ERR_INVALID, "%s accepted", cases[i].json);
+            CHECK_MSG(strcmp(err, cases[i].message) == 0, "%s gave \"%s\"", cases[i].json, err);
+        }
+    }
+    vsd_option_rule_text(&ruled, &ruled_rows[4], rule, sizeof rule);
+    CHECK_MSG(strcmp(rule, "mode = \"exact\" and flag = true") == 0, "rule text \"%s\"", rule);
+    CHECK(vsd_option_rules_invalid(&ruled, why, sizeof why) == 0);
+    {
+        /* the published row carries the rule as data */
+        cJSON *arr = (cJSON *)vsd_options_table_json(&ruled);
+        char *text = cJSON_PrintUnformatted(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(arr, 4), "applies_when"));
+        CHECK_MSG(text && strcmp(text, "[{\"key\":\"mode\",\"equals\":\"exact\"},{\"key\":\"flag\",\"equals\":true}]") == 0,
+                  "applies_when %s", text ? text : "(none)");
+        free(text);
+        cJSON_Delete(arr);
+    }
+    {
+        /* a rule naming an option the table lacks, or a choice the option lacks, is caught */
+        static const vsd_option_when bad_key[] = {{"nonesuch", 0, 1, NULL}, {NULL, 0, 0, NULL}};
+        static const vsd_option_when bad_choice[] = {{"mode", 0, 0, "slow"}, {NULL, 0, 0, NULL}};
+        vsd_option_spec rows[sizeof ruled_rows / sizeof ruled_rows[0]];
+        vsd_option_table t = ruled;
+        memcpy(rows, ruled_rows, sizeof rows);
+        t.rows = rows;
+        rows[3].when = bad_key;
+        CHECK(vsd_option_rules_invalid(&t, why, sizeof why) == 1);
+        CHECK_CONTAINS(why, "nonesuch");
+        rows[3].when = bad_choice;
+        CHECK(vsd_option_rules_invalid(&t, why, sizeof why) == 1);
+        CHECK_CONTAINS(why, "mode");
+    }
+}
+
+static const cJSON *item(const cJSON *o, const char *key) { return cJSON_GetObjectItemCaseSensitive(o, key); }
+
+/* A value of row other than `not_this` (JSON text): another choice, the other bool, or a
+ * number inside the range. */
+static void other_value(const cJSON *other, const cJSON *not_this, char *buf, size_t len)
+{
+    const char *type = item(other, "type")->valuestring;
+    if (!strcmp(type, "choice")) {
+        const cJSON *c;
+        cJSON_ArrayForEach(c, item(other, "choices")) if (strcmp(c->valuestring, not_this->valuestring)) {
+                snprintf(buf, len, "\"%s\"", c->valuestring);
+                return;
+            }
+    } else if (!strcmp(type, "bool")) {
+        snprintf(buf, len, "%s", cJSON_IsTrue(not_this) ? "false" : "true");
+    } else {
+        double lo = item(other, "min")->valuedouble, hi = item(other, "max")->valuedouble;
+        double v = not_this->valuedouble == hi ? lo : hi;
+        if (!strcmp(type, "int") && v == not_this->valuedouble) v = lo + 1;
+        snprintf(buf, len, "%.17g", v);
+    }
+}
+
+/* The catalog: every registered method once, in the registry's order, with a label, a
+ * summary, its capabilities as its descriptor declares them, and the same option table as
+ * vsd_method_options_json; one method per role, the final default being the scene file's
+ * default method; each rule names real options and refuses a value set where it does not
+ * hold, naming both options, while the same value with the rule holding passes. */
+static void test_catalog(void)
+{
+    static const char *const caps[] = {"multiple_scattering", "refraction", "scene_lights", "emission_scattering",
+                                       "cuda_view"};
+    char *text = vsd_method_catalog_json(), *tables_text = vsd_method_options_json();
+    cJSON *cat = text ? cJSON_Parse(text) : NULL, *tables = tables_text ? cJSON_Parse(tables_text) : NULL;
+    const char *const *name = vsd_method_names();
+    const cJSON *m;
+    int finals = 0, viewports = 0;
+    vsd_scene sc;
+    CHECK(cat != NULL && cJSON_IsArray(cat) && tables != NULL);
+    vsd_scene_defaults(&sc);
+    cJSON_ArrayForEach(m, cat) {
+        const char *mname = item(m, "name")->valuestring;
+        const vsd_method *desc = vsd_method_find(mname);
+        const cJSON *role, *row;
+        char why[256];
+        size_t b;
+        CHECK_MSG(*name && strcmp(*name, mname) == 0, "catalog entry %s out of the registry's order", mname);
+        if (*name) name++;
+        CHECK(desc != NULL);
+        if (!desc) continue;
+        CHECK_MSG(strlen(item(m, "label")->valuestring) > 0 && strlen(item(m, "summary")->valuestring) > 10,
+                  "%s: no label or summary", mname);
+        for (b = 0; b < sizeof caps / sizeof caps[0]; b++)
+            CHECK_MSG(cJSON_IsBool(item(item(m, "capabilities"), caps[b])) &&
+                          cJSON_IsTrue(item(item(m, "capabilities"), caps[b])) == !!(desc->caps & (1u << b)) &&
+                          !!(vsd_method_capabilities(mname) & (1u << b)) == !!(desc->caps & (1u << b)),
+                      "%s: capability %s", mname, caps[b]);
+        cJSON_ArrayForEach(role, item(m, "roles")) {
+            if (!strcmp(role->valuestring, "final_default")) {
+                finals++;
+                CHECK_MSG(strcmp(mname, sc.render.method) == 0, "final default %s, scene default %s", mname,
+                          sc.render.method);
+            } else if (!strcmp(role->valuestring, "viewport_default")) {
+                viewports++;
+                /* the viewport is to look like the final render: more than single scattering */
+                CHECK(desc->caps & VSD_METHOD_CAP_MULTIPLE_SCATTERING);
+            } else CHECK_MSG(0, "%s: unknown role %s", mname, role->valuestring);
+        }
+        CHECK_MSG(cJSON_Compare(item(m, "options"), item(tables, mname), 1), "%s: catalog options differ", mname);
+        CHECK_MSG(vsd_option_rules_invalid(&desc->options, why, sizeof why) == 0, "%s: %s", mname, why);
+        cJSON_ArrayForEach(row, item(m, "options")) {
+            const cJSON *cond;
+            const char *key = item(row, "key")->valuestring;
+            char value[64], bad[96], json[512], err[1024];
+            void *opts = NULL;
+            if (!item(row, "applies_when")) continue;
+            other_value(row, item(row, "default"), value, sizeof value);
+            cJSON_ArrayForEach(cond, item(row, "applies_when")) {
+                const char *okey = item(cond, "key")->valuestring;
+                const cJSON *orow = NULL, *r2;
+                cJSON_ArrayForEach(r2, item(m, "options")) if (!strcmp(item(r2, "key")->valuestring, okey)) orow = r2;
+                CHECK(orow != NULL);
+                if (!orow) continue;
+                /* break this condition alone: equals -> another value; differs -> that value */
+                if (item(cond, "equals")) other_value(orow, item(cond, "equals"), bad, sizeof bad);
+                else {
+                    char *t = cJSON_PrintUnformatted(item(cond, "differs"));
+                    snprintf(bad, sizeof bad, "%s", t);
+                    free(t);
+                }
+                snprintf(json, sizeof json, "{\"%s\": %s, \"%s\": %s}", key, value, okey, bad);
+                snprintf(sc.render.options_json, sizeof sc.render.options_json, "%s", json);
+                CHECK_MSG(vsd_method_parse_options(desc, &sc, &opts, err, sizeof err) == VSD_ERR_INVALID,
+                          "%s %s accepted", mname, json);
+                CHECK_CONTAINS(err, "render.options.");
+                CHECK_MSG(strstr(err, key) && strstr(err, okey) && strstr(err, "does not apply"),
+                          "%s %s: \"%s\" does not name both options", mname, json, err);
+                free(opts);
+                opts = NULL;
+            }
+        }
+    }
+    CHECK_MSG(*name == NULL, "the catalog lacks %s", *name ? *name : "");
+    CHECK(finals == 1 && viewports == 1);
+    cJSON_Delete(cat);
+    cJSON_Delete(tables);
+    free(text);
+    free(tables_text);
+}
+
+/* The lights check names the methods that render lights, from their capabilities. */
+static void test_lights_named_from_capabilities(void)
+{
+    vsd_scene sc;
+    char err[512], expect[256] = "";
+    const char *const *n;
+    vsd_scene_defaults(&sc);
+    sc.light_count = 1;
+    for (n = vsd_method_names(); *n; n++)
+        if (vsd_method_capabilities(*n) & VSD_METHOD_CAP_SCENE_LIGHTS)
+            snprintf(expect + strlen(expect), sizeof expect - strlen(expect), "%s%s", expect[0] ? ", " : "", *n);
+    CHECK(expect[0] != '\0');
+    for (n = vsd_method_names(); *n; n++) {
+        vsd_status st = vsd_method_check_lights(vsd_method_find(*n), &sc, err, sizeof err);
+        if (vsd_method_capabilities(*n) & VSD_METHOD_CAP_SCENE_LIGHTS) CHECK_MSG(st == VSD_OK, "%s: %s", *n, err);
+        else {
+            CHECK_MSG(st == VSD_ERR_UNSUPPORTED, "%s accepted lights", *n);
+            CHECK_CONTAINS(err, expect);
+        }
+    }
+}
+
 /* The renderer refuses a bad option before any work, naming it and its range. */
 static void test_renderer_refuses(void)
 {
@@ -188,6 +396,9 @@ int main(void)
     test_defaults_and_values();
     test_errors();
     test_registered_tables();
+    test_rules();
+    test_catalog();
+    test_lights_named_from_capabilities();
     test_renderer_refuses();
     return test_finish("test_method_options");
 }

@@ -13,7 +13,7 @@ import tempfile
 import threading
 import time
 
-from . import method_options, vsd_client
+from . import method_catalog, vsd_client
 
 _lock = threading.Lock()
 _clients = {}          # thread id -> (key, Client)
@@ -208,8 +208,8 @@ def client(settings, fresh=False):
         c = _connect(settings, address)
     with _lock:
         _clients[tid] = (key, c)
-    # the option table of this daemon's methods (applied on the main thread by a timer)
-    method_options.from_hello(c.server, main_thread=False)
+    # this daemon's method catalog (applied on the main thread by a timer)
+    method_catalog.from_hello(c.server, main_thread=False)
     return c
 
 
@@ -279,7 +279,7 @@ def refresh_status(settings):
             " (started by Blender)" if daemon_started_here() else "")
         status["ok"] = True
         status["methods"] = server.get("methods", [])
-        method_options.from_hello(server, main_thread=True)
+        method_catalog.from_hello(server, main_thread=True)
         status["devices"] = server.get("devices", [])
     except vsd_client.VsdError as e:
         status["text"] = "not connected: %s" % e.message

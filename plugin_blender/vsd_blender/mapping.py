@@ -13,7 +13,7 @@ import tempfile
 
 import bpy
 
-from . import colour, light_units, passes
+from . import colour, light_units, method_catalog, passes
 
 DEFAULT_FOV = 2.0 * math.atan(18.0 / 50.0)
 
@@ -408,10 +408,6 @@ def map_material(ob, grids, m):
 
 # ---- refractive index --------------------------------------------------------------------
 
-# the methods that bend rays through the refractive index (docs/scene-file.md, medium.ior)
-REFRACTING_METHODS = ("reference", "lbl")
-
-
 def map_ior(settings, grids, medium, volume, m):
     """The add-on's index source (Scene.vsd.ior_source) -> medium.ior, medium.ior_from and
     volume.ior_grid, as docs/scene-file.md defines them. Returns True when the scene asks
@@ -625,8 +621,6 @@ def map_camera(cam_ob, w, h, m):
 
 # ---- lights -------------------------------------------------------------------------------
 
-# the methods that render the scene's lights (docs/scene-file.md, "lights")
-LIGHT_METHODS = ("reference", "lbl")
 MAX_LIGHTS = 16
 
 
@@ -697,9 +691,10 @@ def map_lights(depsgraph, method, refracts, m, viewport=False):
             found.append(entry)
     if not found:
         return []
-    if method not in LIGHT_METHODS:
+    # which methods render the scene's lights is vsd's to say (its method catalog)
+    if method and not method_catalog.has(method, "scene_lights"):
         m.warn("method %s does not render lights: %d ignored (%s render them)"
-               % (method, len(found), " and ".join(LIGHT_METHODS)))
+               % (method_catalog.label(method), len(found), method_catalog.labels_with("scene_lights")))
         return []
     if refracts:
         m.warn("lights through a refracting medium are not supported: %d ignored (the environment lights it)"
@@ -718,10 +713,9 @@ def map_lights(depsgraph, method, refracts, m, viewport=False):
 def render_block(settings, viewport=False):
     """The scene's render section from the add-on's settings (Scene.vsd)."""
     import json
-    from . import method_options
-    method = settings.viewport_method if viewport else settings.method
-    # the options set away from vsd's defaults, by its own table (method_options.py)
-    opts = method_options.values(settings.id_data, method)
+    method = method_catalog.chosen_for(settings, viewport)
+    # the options set away from vsd's defaults, by its own table (method_catalog.py)
+    opts = method_catalog.values(settings.id_data, method)
     text = settings.options_json.strip()
     if text:
         try:
@@ -731,9 +725,11 @@ def render_block(settings, viewport=False):
         if not isinstance(extra, dict):
             raise MappingError("vsd render options: expected a JSON object like {\"lights\": 64}")
         opts.update(extra)
-    r = {"method": method, "device": settings.device,
+    r = {"device": settings.device,
          "samples": int(settings.viewport_samples if viewport else settings.samples),
          "seed": int(settings.seed), "options": opts}
+    if method:   # else no catalog was loaded: the daemon's default method
+        r["method"] = method
     if settings.threads > 0:
         r["threads"] = int(settings.threads)
     return r
@@ -771,9 +767,10 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
     except Exception:
         pass
     refracts = map_ior(scene.vsd, grids, medium, volume, m)
-    if refracts and not viewport and scene.vsd.method not in REFRACTING_METHODS:
+    method = method_catalog.chosen_for(scene.vsd)
+    if refracts and not viewport and method and not method_catalog.has(method, "refraction"):
         m.warn("method %s ignores the refractive index: only %s refract"
-               % (scene.vsd.method, " and ".join(REFRACTING_METHODS)))
+               % (method_catalog.label(method), method_catalog.labels_with("refraction")))
     w, h = size if size else film_size(scene)
     r = scene.render
     if not viewport:
@@ -791,7 +788,7 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
         "volume": volume,
         "medium": medium,
         "environment": map_world(scene, m),
-        "lights": map_lights(depsgraph, scene.vsd.viewport_method if viewport else scene.vsd.method, refracts, m,
+        "lights": map_lights(depsgraph, method_catalog.chosen_for(scene.vsd, viewport), refracts, m,
                              viewport),
         "camera": map_camera(cam_ob, w, h, m) if not viewport else {},
         "film": {"width": int(w), "height": int(h), "transparent": bool(r.film_transparent)},

@@ -3,36 +3,16 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from . import connection, mapping, method_options
+from . import connection, method_catalog
 
-METHODS = [
-    ("reference", "Reference", "Unbiased volumetric path tracing, all bounces (matches Cycles)"),
-    ("raymarch", "Ray March (slow baseline)",
-     "The papers' brute-force baseline, for comparisons: single scattering only, every march step "
-     "sends a shadow ray to each of K environment directions (256 by default), with no acceleration. "
-     "Slow: smoke128 at 640x360 takes hours on a few cores (the render header shows its progress "
-     "and time left); Reference, LBL or CRM for pictures"),
-    ("constellation", "Constellation", "Navarro 2009: light constellation, distance map"),
-    ("shgrid", "SH Grid", "Delalandre 2013: spherical-harmonics record grid"),
-    ("crm", "CRM", "Zhou 2008: compensated ray marching of RBF densities"),
-    ("lbl", "LBL", "Bernabei 2012: light marching, lattice-Boltzmann multiple scattering"),
-]
-# The rendered viewport's method: one with multiple scattering, so the viewport shows what
-# F12 with `reference` shows (shgrid, the default before issue 28, scatters once: its smoke
-# is about half as bright). Measured for issue 28 at 264x166, lbl / crm: Combined against
-# 4096-spp `reference` (relative RMSE, 4x4 blocks) 7.7% / 13.1% on smoke64 frame 20 (the
-# viewport test's scene), 4.4% / 7.2% on smoke128 frame 45; mean brightness 1.005 / 1.007;
-# seconds from a view change to the new image in Blender 3.4 under Xvfb (test_viewport's
-# benchmark, 2-core VM, three runs) 0.29-0.50 / 0.15-0.27 (shgrid 0.16-0.25). crm is the
-# faster, but not within 10% of the reference on the add-on's own smoke: lbl.
-VIEWPORT_DEFAULT = "lbl"
 # Where medium.ior / volume.ior_grid / medium.ior_from come from (mapping.map_ior).
 IOR_SOURCES = [
     ("constant", "Constant", "One refractive index inside the medium (IOR, medium.ior), 1 outside"),
     ("grid", "Grid", "A grid of the volume file holds the refractive index n itself (volume.ior_grid)"),
     ("temperature", "Heat Haze from Temperature",
      "n from the temperature grid by Gladstone-Dale (medium.ior_from temperature): hot air has a "
-     "lower index, so light bends above fire, as heat haze does. Only reference and lbl refract"),
+     "lower index, so light bends above fire, as heat haze does. Only some methods refract: the "
+     "panel says which"),
 ]
 DEVICES = [("auto", "Auto", "CUDA when a GPU is present, else CPU"),
            ("cpu", "CPU", "CPU threads"), ("cuda", "CUDA", "NVIDIA GPU")]
@@ -44,8 +24,27 @@ def _tag_redraw(self, context):
             area.tag_redraw()
 
 
+# The two method menus, from vsd's catalog (method_catalog.py); the choice is kept by name.
+def _get_method(self):
+    return method_catalog.menu_get(self.method_name, "final_default")
+
+
+def _set_method(self, value):
+    self.method_name = method_catalog.menu_set(value)
+
+
+def _get_viewport_method(self):
+    return method_catalog.menu_get(self.viewport_method_name, "viewport_default")
+
+
+def _set_viewport_method(self, value):
+    self.viewport_method_name = method_catalog.menu_set(value)
+
+
 class VSDSceneSettings(bpy.types.PropertyGroup):
-    method: EnumProperty(name="Method", items=METHODS, default="reference",
+    method_name: StringProperty(name="Method Name", default="", options={"HIDDEN"},
+                                description="The F12 method's name (empty: vsd's default)")
+    method: EnumProperty(name="Method", items=method_catalog.menu_items, get=_get_method, set=_set_method,
                          description="vsd rendering method for F12 and animation renders")
     samples: IntProperty(name="Samples", default=64, min=1, max=1000000,
                          description="Samples per pixel (progressive methods)")
@@ -54,12 +53,12 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
     threads: IntProperty(name="Threads", default=0, min=0, max=4096,
                          description="CPU threads of the daemon for this job, 0 = all")
     ior_source: EnumProperty(name="Index Source", items=IOR_SOURCES, default="constant",
-                             description="Where the refractive index comes from. Only vsd's "
-                             "reference and lbl methods refract; the others ignore it. Blender "
+                             description="Where the refractive index comes from. Only the vsd "
+                             "methods that refract use it (the panel says which). Blender "
                              "itself does not refract inside volumes")
     ior: FloatProperty(name="IOR", default=1.0, min=1.0, max=4.0,
-                       description="Refractive index inside the medium (medium.ior), 1 outside: vsd's "
-                       "reference and lbl bend rays through it; Blender itself does not refract inside volumes")
+                       description="Refractive index inside the medium (medium.ior), 1 outside: the vsd "
+                       "methods that refract bend rays through it; Blender itself does not refract inside volumes")
     ior_grid: StringProperty(name="Index Grid", default="",
                              description="Grid of the volume file holding the refractive index n itself "
                              "(volume.ior_grid; 0 = background, n = 1; a value below 1 is an error)")
@@ -70,9 +69,12 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
     options_json: StringProperty(name="Options", default="",
                                  description="More method options as a JSON object, e.g. "
                                  "{\"lights\": 64}; overrides the option fields")
-    viewport_method: EnumProperty(name="Viewport Method", items=METHODS, default=VIEWPORT_DEFAULT,
-                                  description="Method of the rendered viewport preview (LBL by default: "
-                                  "multiple scattering, as bright as the final render)",
+    viewport_method_name: StringProperty(name="Viewport Method Name", default="", options={"HIDDEN"},
+                                         description="The viewport method's name (empty: vsd's default)")
+    viewport_method: EnumProperty(name="Viewport Method", items=method_catalog.menu_items,
+                                  get=_get_viewport_method, set=_set_viewport_method,
+                                  description="Method of the rendered viewport preview (vsd's default "
+                                  "scatters more than once, so it is as bright as the final render)",
                                   update=_tag_redraw)
     viewport_samples: IntProperty(name="Viewport Samples", default=4, min=1, max=100000)
     viewport_resolution: IntProperty(name="Resolution", default=50, min=1, max=100,
@@ -183,8 +185,8 @@ def draw_ior(col, context, s):
         else:
             col.prop(s, key, text="Grid")
         refracts = True
-    if refracts and s.method not in mapping.REFRACTING_METHODS:
-        col.label(text="Only Reference and LBL refract", icon="INFO")
+    if refracts and not method_catalog.has(method_catalog.chosen_for(s), "refraction"):
+        col.label(text="Only %s refract" % method_catalog.labels_with("refraction"), icon="INFO")
 
 
 class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
@@ -197,6 +199,10 @@ class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         col = layout.column()
         col.prop(s, "method")
+        method = method_catalog.chosen_for(s)
+        if method_catalog.catalog() is not None and not method_catalog.has(method, "multiple_scattering"):
+            col.label(text="Scatters light once: darker than Cycles (%s scatter more)"
+                      % method_catalog.labels_with("multiple_scattering"), icon="INFO")
         col.prop(s, "device")
         col.prop(s, "samples")
         col.prop(s, "seed")
@@ -215,7 +221,7 @@ class RENDER_PT_vsd_options(VSDPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         col = layout.column()
         # one row per option of vsd's own table (vsd methods --json / HELLO)
-        method_options.draw(col, context.scene, s.method)
+        method_catalog.draw(col, context.scene, method_catalog.chosen_for(s))
         col.prop(s, "options_json")
 
 
@@ -283,12 +289,12 @@ CLASSES = (VSDSceneSettings, VSDPreferences, VSD_OT_daemon_status, VSD_OT_stop_d
 
 
 def load_options_table(prefs):
-    """The method option table from the vsd binary (the preference, else PATH)."""
+    """The method catalog from the vsd binary (the preference, else PATH)."""
     try:
         path = connection.find_vsd(prefs.vsd_path if prefs else "")
     except Exception:
         return False
-    return method_options.load_from_binary(path)
+    return method_catalog.load_from_binary(path)
 
 
 def _prefs():
@@ -297,6 +303,7 @@ def _prefs():
 
 
 def register():
+    method_catalog.register()
     for c in CLASSES:
         bpy.utils.register_class(c)
     bpy.types.Scene.vsd = PointerProperty(type=VSDSceneSettings)
@@ -306,7 +313,7 @@ def register():
 
 
 def unregister():
-    method_options.unregister()
+    method_catalog.unregister()
     for p in _compat_panels():
         p.COMPAT_ENGINES.discard("VSD")
     del bpy.types.Scene.vsd

@@ -273,9 +273,9 @@ class Preview(object):
     def first_pass_pays(self, method):
         """Whether the 1/N-resolution pass puts an image on screen sooner after a change of
         view. Not for a method whose view pass has a cost that does not shrink with the
-        pixels: lbl evaluates every record toward the camera once per view, and its 66x41
-        pass took 0.29 s against 0.34 s at 264x166, so the two passes took 0.63 s where the
-        full one alone takes 0.34 s. Measured on this preview's last passes with cached
+        pixels: a method that evaluates every light record toward the camera once per view
+        took 0.29 s for its 66x41 pass against 0.34 s at 264x166 (issue 28), so the two
+        passes took 0.63 s where the full one alone takes 0.34 s. Measured on this preview's last passes with cached
         preparation (a scene change keeps the first pass: it pays the preparation, and then
         shows the new scene sooner)."""
         t = self.pass_times.get(method, {})

@@ -218,15 +218,7 @@ class Client(object):
         are "blob:<hash>" names. progress(stage, fraction) is called as PROGRESS arrives;
         cancel is a threading.Event or a callable returning True to send CANCEL.
         Returns a Result; raises VsdError (code "cancelled" after a cancel)."""
-        rid = self._id()
-        msg = {"id": rid, "scene": scene}
-        if frame is not None:
-            msg["frame"] = int(frame)
-        if overrides:
-            msg["overrides"] = list(overrides)
-        if preview:
-            msg["preview"] = True
-        self._send(RENDER, msg)
+        rid = self.submit(scene, frame=frame, overrides=overrides, preview=preview)
         return self.wait_result(rid, progress=progress, cancel=cancel)
 
     def submit(self, scene, frame=None, overrides=None, preview=False):

@@ -97,6 +97,11 @@ static int on_hello(vsdd_daemon *d, vsdd_conn *c, const cJSON *msg, const cJSON 
         cJSON *parsed = table ? cJSON_Parse(table) : NULL;
         free(table);
         if (parsed) cJSON_AddItemToObject(o, "method_options", parsed);
+        /* every method's label, capabilities and options: clients build menus from it */
+        table = vsd_method_catalog_json();
+        parsed = table ? cJSON_Parse(table) : NULL;
+        free(table);
+        if (parsed) cJSON_AddItemToObject(o, "method_catalog", parsed);
     }
     arr = cJSON_AddArrayToObject(o, "devices");
     cJSON_AddItemToArray(arr, cJSON_CreateString("cpu"));

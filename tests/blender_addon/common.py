@@ -6,10 +6,13 @@
 # * install_addon(): builds the zip with plugin_blender/make_zip.py, unpacks it into a temp
 #   scripts folder and enables `vsd_blender` from there with addon_utils (so the packaging
 #   is tested too, and the user's Blender configuration is never touched);
+# * start_test(): the arguments, a fresh TMP_DIR and the add-on installed: how a test begins;
 # * Daemon: `vsd serve` on a temp socket with --ready-file, stopped with SIGTERM;
+#   addon_daemon(): one the add-on uses for a `with` block, with the checks tests end on;
 # * build_scene(): a smoke64 Volume sequence + studio.exr world + camera, from ../shared/data;
 # * read_exr(): a small stdlib-only OpenEXR reader (scanline, NONE/ZIPS/ZIP, HALF/FLOAT)
 #   for comparing pixels (Blender's Python has no numpy here).
+import contextlib
 import json
 import math
 import os
@@ -58,6 +61,15 @@ def use_nodes(idblock):
     if bpy.app.version < (5, 0, 0):
         idblock.use_nodes = True
     return idblock.node_tree
+
+
+def empty_node_tree(idblock):
+    """The node tree of a new Material or World, with its default nodes removed so that a
+    test builds exactly the nodes it means."""
+    nt = use_nodes(idblock)
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    return nt
 
 
 def compositor_tree(scene):
@@ -132,6 +144,15 @@ def install_addon(tmp, vsd=None, auto_start=False, address="", by_copy=False):
     return mod
 
 
+def start_test():
+    """How an add-on test begins: its arguments (VSD, SHARED_DATA, TMP_DIR), TMP_DIR emptied
+    and the add-on installed there with vsd_path set; returns (vsd, data, tmp)."""
+    vsd, data, tmp, _ = args()
+    fresh_tmp(tmp)
+    install_addon(tmp, vsd=vsd)
+    return vsd, data, tmp
+
+
 class Daemon(object):
     def __init__(self, vsd, tmp, name="d", extra=()):
         self.sock = os.path.join(tmp, name + ".sock")
@@ -161,6 +182,22 @@ class Daemon(object):
                 self.proc.kill()
         self.log.close()
         return self.proc.returncode
+
+
+@contextlib.contextmanager
+def addon_daemon(vsd, tmp):
+    """A Daemon that the add-on renders with (its address in the add-on's preferences) for
+    the `with` block. When the block ends normally, checks that the daemon survived it;
+    however it ends, stops the daemon, and then (unless the block raised) checks that it
+    exited 0 on SIGTERM."""
+    d = Daemon(vsd, tmp)
+    try:
+        addon_prefs().address = d.sock
+        yield d
+        check(d.alive(), "daemon still serving")
+    finally:
+        rc = d.stop()
+    check(rc == 0, "daemon exits 0 on SIGTERM")
 
 
 # ---- the Blender scene -------------------------------------------------------------------
@@ -200,9 +237,7 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
     ob.matrix_world = mathutils.Matrix.Translation((0.1, 0.0, -0.05))
 
     mat = bpy.data.materials.new("smoke_mat")
-    nt = use_nodes(mat)
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
+    nt = empty_node_tree(mat)
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     pv = nt.nodes.new("ShaderNodeVolumePrincipled")
     pv.inputs["Density"].default_value = density
@@ -214,9 +249,7 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
 
     world = bpy.data.worlds.new("studio")
     scene.world = world
-    wn = use_nodes(world)
-    for n in list(wn.nodes):
-        wn.nodes.remove(n)
+    wn = empty_node_tree(world)
     wo = wn.nodes.new("ShaderNodeOutputWorld")
     bg = wn.nodes.new("ShaderNodeBackground")
     bg.inputs["Strength"].default_value = strength
@@ -256,7 +289,7 @@ def build_scene(data, width=64, height=36, percentage=100, grid="density", frame
     scene.frame_set(frame_start)
     s = scene.vsd
     s.method = "raymarch"
-    scene.vsd_options.raymarch.lights = 8   # a row of the table vsd sent (method_options.py)
+    scene.vsd_options.raymarch.lights = 8   # a row of the table vsd sent (method_catalog.py)
     s.samples = 1
     s.device = "cpu"
     return scene, ob
@@ -401,20 +434,27 @@ def vsd_stats(sock):
 
 class LayoutRecorder(object):
     """Stands in for a panel's layout and records the rows drawn: ("prop", data, key),
-    ("search", data, key, search_data, search_key), ("label", None, text)."""
+    ("search", data, key, search_data, search_key), ("label", None, text); the keys of
+    props drawn in a row set inactive (greyed out) also go to `inactive`."""
 
-    def __init__(self):
-        self.rows = []
+    def __init__(self, rows=None, inactive=None):
+        self.rows = rows if rows is not None else []
+        self.inactive = inactive if inactive is not None else []
+        self.active = True
         self.use_property_split = self.use_property_decorate = False
 
     def column(self, **kw):
         return self
 
     def row(self, **kw):
-        return self
+        child = LayoutRecorder(self.rows, self.inactive)
+        child.active = self.active
+        return child
 
     def prop(self, data, key, **kw):
         self.rows.append(("prop", data, key))
+        if not self.active:
+            self.inactive.append(key)
 
     def prop_search(self, data, key, search_data, search_key, **kw):
         self.rows.append(("search", data, key, search_data, search_key))

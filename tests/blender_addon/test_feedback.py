@@ -113,15 +113,13 @@ def unit_checks(engine):
 
 
 def main():
-    vsd, data, tmp, _ = common.args()
-    common.fresh_tmp(tmp)
-    common.install_addon(tmp, vsd=vsd)
+    vsd, data, tmp = common.start_test()
     engine = common.addon_module("engine")
-    ui = common.addon_module("ui")
     connection = common.addon_module("connection")
     unit_checks(engine)
 
-    item = [m for m in ui.METHODS if m[0] == "raymarch"][0]
+    catalog = common.addon_module("method_catalog")
+    item = [m for m in catalog.menu_items(None, None) if m[0] == "raymarch"][0]
     check("slow baseline" in item[1] and "baseline" in item[2] and "hours" in item[2],
           "raymarch is marked the slow baseline in the method menu (%r)" % (item[1],))
 

@@ -28,15 +28,10 @@ MEDIUM_KEYS = {"density", "albedo", "anisotropy", "emission_color", "emission_st
 
 
 def main():
-    vsd, data, tmp, _ = common.args()
-    common.fresh_tmp(tmp)
-    common.install_addon(tmp, vsd=vsd)
+    vsd, data, tmp = common.start_test()
     mapping = common.addon_module("mapping")
     ui = common.addon_module("ui")
-    d = common.Daemon(vsd, tmp)
-    try:
-        prefs = common.addon_prefs()
-        prefs.address = d.sock
+    with common.addon_daemon(vsd, tmp) as d:
         scene, ob = common.build_scene(data, width=16, height=9)
         s = scene.vsd
 
@@ -60,9 +55,9 @@ def main():
         check(s.ior_grid == "" and s.ior_temperature_grid == "temperature",
               "grid names default to '' (Grid) and 'temperature' (Heat Haze)")
         haze = [i for i in src.enum_items if i.identifier == "temperature"][0]
-        check("Gladstone-Dale" in haze.description and "reference and lbl" in haze.description
+        check("Gladstone-Dale" in haze.description and "methods refract" in haze.description
               and "fire" in haze.description, "Heat Haze says what it does (%s)" % haze.description)
-        check("reference and lbl" in src.description, "Index Source says which methods refract")
+        check("methods that refract" in src.description, "Index Source says only some methods refract")
 
         # --- Constant: what the add-on always sent ------------------------------------------
         sc, _ = sent()
@@ -72,7 +67,11 @@ def main():
         s.ior = 1.25
         sc, warnings = sent()
         check(ior_fields(sc) == {"medium.ior": 1.25}, "Constant, IOR 1.25: medium.ior 1.25 only (%s)" % ior_fields(sc))
-        check(any("raymarch ignores the refractive index" in w for w in warnings),
+        # the warning names the method and those that refract, by the catalog's labels
+        catalog = common.addon_module("method_catalog")
+        want = "method %s ignores the refractive index: only %s refract" % (
+            catalog.label("raymarch"), catalog.labels_with("refraction"))
+        check(want in warnings and "Reference" in catalog.labels_with("refraction"),
               "a non-refracting method with IOR 1.25 is a warning (%s)" % warnings)
 
         # --- Grid ---------------------------------------------------------------------------
@@ -174,10 +173,6 @@ def main():
         s.ior_source, s.ior_grid = "constant", ""
         err = common.run_blender_render()
         check(err is None, "back to Constant: F12 renders again (%s)" % err)
-        check(d.alive(), "daemon still serving")
-    finally:
-        rc = d.stop()
-    check(rc == 0, "daemon exits 0 on SIGTERM")
     common.finish("blender_addon_ior")
 
 

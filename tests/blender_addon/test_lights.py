@@ -39,14 +39,9 @@ def add_light(name, kind, location, target=None, **props):
 
 
 def main():
-    vsd, data, tmp, _ = common.args()
-    common.fresh_tmp(tmp)
-    common.install_addon(tmp, vsd=vsd)
+    vsd, data, tmp = common.start_test()
     mapping = common.addon_module("mapping")
-    d = common.Daemon(vsd, tmp)
-    try:
-        prefs = common.addon_prefs()
-        prefs.address = d.sock
+    with common.addon_daemon(vsd, tmp) as d:
         scene, ob = common.build_scene(data, width=32, height=18)
         s = scene.vsd
         s.method = "reference"
@@ -104,8 +99,12 @@ def main():
         # --- who renders them -------------------------------------------------------------------
         s.method = "raymarch"
         sc, warnings = sent()
-        check(sc["lights"] == [] and any("raymarch does not render lights" in w and "reference and lbl" in w
-                                         for w in warnings), "raymarch: none sent, a note (%s)" % warnings)
+        # the note names the method and those that render lights, by the catalog's labels
+        catalog = common.addon_module("method_catalog")
+        want = "method %s does not render lights: 3 ignored (%s render them)" % (
+            catalog.label("raymarch"), catalog.labels_with("scene_lights"))
+        check(sc["lights"] == [] and want in warnings and "Reference" in catalog.labels_with("scene_lights"),
+              "raymarch: none sent, a note (%s)" % warnings)
         s.method = "lbl"
         sc, warnings = sent()
         check(len(sc["lights"]) == 3 and not warnings, "lbl: the three sent (%s)" % warnings)
@@ -140,10 +139,6 @@ def main():
         check(len(ex.get("lights", [])) == 1 and ex["lights"][0]["type"] == "point" and ex["lights"][0]["power"] == 3000.0,
               "the export carries the visible light (%s)" % ex.get("lights"))
         check(r.returncode == 0, "vsd render renders the exported lights (%s)" % r.stderr.strip())
-        check(d.alive(), "daemon still serving")
-    finally:
-        rc = d.stop()
-    check(rc == 0, "daemon exits 0 on SIGTERM")
     common.finish("blender_addon_lights")
 
 

@@ -1,13 +1,18 @@
-# The Method Options panel is generated from vsd's own option table, in real Blender:
+# The add-on's method menus, option panels and warnings come from vsd's own catalog, in real
+# Blender:
 #   blender --background --factory-startup --python-exit-code 1 \
 #       --python tests/blender_addon/test_options.py -- VSD SHARED_DATA TMP_DIR
 #
 # * enabling the add-on with the vsd binary in the preferences loads `vsd methods --json`;
+# * the method menus list the catalog's methods, labels and summaries in its order, default
+#   to its roles, and keep the choice by name;
 # * every option of every method has a property with the table's type, default, range and
-#   doc, and the panel draws a row for it when that method is picked;
+#   doc, and the panel draws a row for it when that method is picked, greyed out where its
+#   "applies_when" rule does not hold (and then not sent);
 # * only values set away from the defaults are sent (render.options), and they are what the
 #   table's checker accepts: a real render through the daemon with one of them works;
-# * the daemon's HELLO carries the same table;
+# * warnings name the methods with the capability the scene needs, from the catalog;
+# * the daemon's HELLO carries the same catalog;
 # * the add-on here is installed by copying the repository's folder into the addons folder
 #   (as a developer does with a checkout); the other add-on tests install the zip.
 import json
@@ -23,19 +28,36 @@ from common import check  # noqa: E402
 
 vsd, data, tmp, _ = common.args()
 common.fresh_tmp(tmp)
-table = json.loads(subprocess.run([vsd, "methods", "--json"], capture_output=True, check=True).stdout)
-check(set(table) >= {"reference", "raymarch", "constellation", "shgrid"}, "vsd methods --json lists the methods")
+catalog = json.loads(subprocess.run([vsd, "methods", "--json"], capture_output=True, check=True).stdout)
+names = [m["name"] for m in catalog]
+table = {m["name"]: m["options"] for m in catalog}
+check(set(names) >= {"reference", "raymarch", "constellation", "shgrid"}, "vsd methods --json lists the methods")
 
 common.install_addon(tmp, vsd=vsd, by_copy=True)
 import vsd_blender  # noqa: E402
-from vsd_blender import mapping, method_options, ui  # noqa: E402
+from vsd_blender import mapping, method_catalog, ui  # noqa: E402
 
-check(method_options.table() == table, "the add-on loaded the table from the vsd binary (%s)" % method_options.source())
+check(method_catalog.catalog() == catalog, "the add-on loaded the catalog from the vsd binary (%s)"
+      % method_catalog.source())
 scene = bpy.context.scene
 scene.render.engine = "VSD"
 
+# the menus: the catalog's methods in its order, with its labels and summaries
+# (a menu with an items function has no static enum_items: ask it, and ask the UI as a menu does)
+items = [i[:3] for i in method_catalog.menu_items(scene.vsd, bpy.context)]
+check(items == [(m["name"], m["label"], m["summary"]) for m in catalog],
+      "the method menu is the catalog (%s)" % [i[0] for i in items])
+shown = [(bpy.types.UILayout.enum_item_name(scene.vsd, "method", m["name"]),
+          bpy.types.UILayout.enum_item_description(scene.vsd, "viewport_method", m["name"])) for m in catalog]
+check(shown == [(m["label"], m["summary"]) for m in catalog], "both menus show the labels and summaries (%s)" % shown)
+role = {r: m["name"] for m in catalog for r in m["roles"]}
+check(scene.vsd.method == role["final_default"] and scene.vsd.viewport_method == role["viewport_default"],
+      "the menus default to the catalog's roles (%s, %s)" % (scene.vsd.method, scene.vsd.viewport_method))
+scene.vsd.method = names[-1]
+check(scene.vsd.method == names[-1] and scene.vsd.method_name == names[-1], "the choice is kept by name")
+scene.vsd.method = role["final_default"]
 
-for method, rows in sorted(table.items()):
+for method, rows in table.items():
     group = getattr(scene.vsd_options, method, None)
     check(group is not None, "Scene.vsd_options.%s exists" % method)
     if group is None:
@@ -68,6 +90,60 @@ for method, rows in sorted(table.items()):
     check(drawn == [r["key"] for r in rows], "the panel draws %s's rows %s (drew %s)" % (
         method, [r["key"] for r in rows], drawn))
 
+# a row whose rule does not hold is greyed out and not sent: every rule of the catalog, one
+# condition broken at a time (the others at their defaults)
+ruled = 0
+for m in catalog:
+    scene.vsd.method = m["name"]
+    group = getattr(scene.vsd_options, m["name"])
+    rows_by_key = {r["key"]: r for r in m["options"]}
+    for row in m["options"]:
+        for cond in row.get("applies_when", []):
+            other = rows_by_key[cond["key"]]
+            if "differs" in cond:
+                bad = cond["differs"]
+            elif other["type"] == "choice":
+                bad = [c for c in other["choices"] if c != cond["equals"]][0]
+            elif other["type"] == "bool":
+                bad = not cond["equals"]
+            else:
+                bad = other["max"] if cond["equals"] != other["max"] else other["min"]
+            setattr(group, cond["key"], bad)
+            panel = common.FakePanel()
+            ui.RENDER_PT_vsd_options.draw(panel, bpy.context)
+            check(row["key"] in panel.layout.inactive and cond["key"] not in panel.layout.inactive,
+                  "%s.%s is greyed out with %s = %r" % (m["name"], row["key"], cond["key"], bad))
+            # set away from its default, it is still not sent: vsd would refuse it
+            if row["type"] == "choice":
+                setattr(group, row["key"], [c for c in row["choices"] if c != row["default"]][0])
+            elif row["type"] == "bool":
+                setattr(group, row["key"], not row["default"])
+            else:
+                setattr(group, row["key"], row["max"] if row["default"] != row["max"] else row["min"])
+            sent = mapping.render_block(scene.vsd)["options"]
+            check(row["key"] not in sent, "%s.%s is not sent where it does not apply (%s)" % (m["name"], row["key"], sent))
+            group.property_unset(row["key"])
+            group.property_unset(cond["key"])
+            ruled += 1
+check(ruled > 0, "the catalog has rules (%d conditions)" % ruled)
+scene.vsd.method = role["final_default"]
+
+# warnings name the methods with the capability, from the catalog
+refracting = [m for m in catalog if m["capabilities"]["refraction"]]
+flat = [m for m in catalog if not m["capabilities"]["refraction"]][0]
+scene.vsd.method = flat["name"]
+scene.vsd.ior = 1.3
+panel = common.FakePanel()
+ui.RENDER_PT_vsd.draw(panel, bpy.context)
+labels = [r[2] for r in panel.layout.rows if r[0] == "label"]
+want = "Only %s refract" % " and ".join(m["label"] for m in refracting)
+check(want in labels, "the IOR row warns %r (drew %s)" % (want, labels))
+single = [t for t in labels if t and "Scatters light once" in t]
+check(bool(single) == (not flat["capabilities"]["multiple_scattering"]),
+      "a single-scattering method is said to scatter once (%s)" % single)
+scene.vsd.ior = 1.0
+scene.vsd.method = role["final_default"]
+
 # nothing set: no options sent; set ones are sent with their JSON types
 scene.vsd.method = "constellation"
 check(mapping.render_block(scene.vsd)["options"] == {}, "defaults send no options")
@@ -88,7 +164,8 @@ try:
     st = vsd_blender.connection.refresh_status(vsd_blender.connection.Settings.from_prefs(prefs))
     check(st["ok"], "connected to the daemon: %s" % st["text"])
     c = vsd_blender.connection.client(vsd_blender.connection.Settings.from_prefs(prefs))
-    check(c.server.get("method_options") == table, "HELLO.method_options equals `vsd methods --json`")
+    check(c.server.get("method_catalog") == catalog, "HELLO.method_catalog equals `vsd methods --json`")
+    check(c.server.get("method_options") == table, "HELLO.method_options equals the catalog's options")
     scene2, ob = common.build_scene(data, width=48, height=27)   # replaces the objects of this scene
     scene2.vsd.method = "raymarch"
     scene2.vsd_options.raymarch.lights = 4

@@ -48,13 +48,8 @@ def pass_values(img, layer, name):
 
 
 def main():
-    vsd, data, tmp, _ = common.args()
-    common.fresh_tmp(tmp)
-    common.install_addon(tmp, vsd=vsd)
-    d = common.Daemon(vsd, tmp)
-    try:
-        prefs = common.addon_prefs()
-        prefs.address = d.sock
+    vsd, data, tmp = common.start_test()
+    with common.addon_daemon(vsd, tmp) as d:
         scene, ob = common.build_scene(data, width=128, height=72, percentage=50, frame_start=11,
                                         frame_offset=20)
         layer = scene.view_layers[0].name
@@ -271,10 +266,6 @@ def main():
             check(max(v[0]) > 0.0, "%s has a non-zero region in the fire render" % name)
         emit = pass_values(img2, layer, "Emit")
         check(max(emit[0]) > 2.0 * max(emit[2]), "Emit has the flame's orange colour")
-        check(d.alive(), "daemon still serving")
-    finally:
-        rc = d.stop()
-    check(rc == 0, "daemon exits 0 on SIGTERM")
     common.finish("test_render")
 
 

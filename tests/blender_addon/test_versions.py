@@ -162,17 +162,13 @@ TMP = None
 
 def main():
     global TMP
-    vsd, data, tmp, _ = common.args()
+    vsd, data, tmp = common.start_test()
     TMP = tmp
-    common.fresh_tmp(tmp)
-    common.install_addon(tmp, vsd=vsd)
     mapping = common.addon_module("mapping")
     passes = common.addon_module("passes")
     names = passes.pass_names(VERSION)
     print("Blender %s: pass names %s, working space %r" % (bpy.app.version_string, names, expected_working_space()))
-    d = common.Daemon(vsd, tmp)
-    try:
-        common.addon_prefs().address = d.sock
+    with common.addon_daemon(vsd, tmp) as d:
         scene, ob = common.build_scene(data, width=48, height=27, transparent=False)
         layer = scene.view_layers[0].name
 
@@ -331,10 +327,6 @@ def main():
             scene.camera.data.type = "PERSP"
         else:
             print("note: no CUSTOM camera type in %s" % bpy.app.version_string)
-        check(d.alive(), "daemon still serving")
-    finally:
-        rc = d.stop()
-    check(rc == 0, "daemon exits 0 on SIGTERM")
     common.finish("test_versions")
 
 

@@ -105,8 +105,28 @@ vsd_status vsd_scene_frame_hash(const vsd_scene *scene, int frame, char hex[33],
 vsd_frame_output_state vsd_frame_output_check(const vsd_scene *scene, int frame, char *why,
                                               size_t whylen);
 
-/* Names of the methods this build renders (NULL-terminated, static). */
+/* Names of the methods this build renders (NULL-terminated, static), in the registry's
+ * order (core/methods/registry.h). */
 const char *const *vsd_method_names(void);
+
+/* What a method renders; the catalog spells each bit as a name (in brackets). */
+enum {
+    VSD_METHOD_CAP_MULTIPLE_SCATTERING = 1u << 0, /* light scattered more than once ("multiple_scattering") */
+    VSD_METHOD_CAP_REFRACTION = 1u << 1,          /* bends rays by medium.ior / volume.ior_grid ("refraction") */
+    VSD_METHOD_CAP_SCENE_LIGHTS = 1u << 2,        /* the scene's lights[]: sun, point, spot ("scene_lights") */
+    VSD_METHOD_CAP_EMISSION_SCATTERING = 1u << 3, /* the medium scatters its own emission ("emission_scattering") */
+    VSD_METHOD_CAP_CUDA_VIEW = 1u << 4            /* renders on render.device "cuda" ("cuda_view") */
+};
+
+/* The VSD_METHOD_CAP_* bits of method `name`; 0 for an unknown name. */
+unsigned vsd_method_capabilities(const char *name);
+
+/* Every method as JSON, in registry order: [{"name", "label", "summary", "capabilities":
+ * {"multiple_scattering": bool, ...}, "roles": ["final_default" | "viewport_default"],
+ * "options": [rows as vsd_method_options_json]}, ...]: what `vsd methods --json` prints
+ * and the daemon's HELLO carries as "method_catalog" (docs/protocol.md). Malloc'd; free()
+ * it. NULL when out of memory. */
+char *vsd_method_catalog_json(void);
 
 /* Every method's render.options table as JSON, {"method": [{"key", "type", "min", "max",
  * "default", "choices", "doc", "auto_zero", "unit"}, ...], ...}: what `vsd methods --json`

@@ -46,33 +46,39 @@ static const char *const shadows_names[] = {"grid", "rays", NULL};
 /* in VSD_RECORDS_NEAREST.. order */
 static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
 
+/* The shadow grid's own settings mean nothing with the paper's shadow rays. */
+static const vsd_option_when cst_on_shadow_grid[] = {{"shadows", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
+/* The validity mask starts the paper's per-sample shadow-ray march; the grid's view pass
+ * has its own empty-space skipping (cst_render). */
+static const vsd_option_when cst_on_shadow_rays[] = {{"shadows", 0, 0, "rays"}, {NULL, 0, 0, NULL}};
+
 static const vsd_option_spec cst_option_rows[] = {
     {"lights", VSD_OPT_INT, 1, 65536, 64, NULL, "N: the map as N lights (the constellation)",
-     offsetof(cst_options, lights), 0, NULL},
+     offsetof(cst_options, lights), 0, NULL, NULL},
     {"lights_method", VSD_OPT_CHOICE, 0, 0, VSD_LIGHTS_MEDIAN_CUT, lights_method_names,
-     "equal-energy median cut, or k-means refined from it", offsetof(cst_options, lights_method), 0, NULL},
+     "equal-energy median cut, or k-means refined from it", offsetof(cst_options, lights_method), 0, NULL, NULL},
     {"slice", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view step (shell spacing), world units (0 = half a voxel for rays, a voxel for the grid)",
-     offsetof(cst_options, slice), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+     offsetof(cst_options, slice), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
     {"density_threshold", VSD_OPT_NUMBER, 0, 1e30, 0, NULL,
      "grid values at or below this count as empty for the distance map and the mask",
-     offsetof(cst_options, threshold), 0, NULL},
+     offsetof(cst_options, threshold), 0, NULL, NULL},
     {"shadow_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL,
      "shadow-ray step, world units (0 = half a voxel for rays, a voxel for the grid's records)",
-     offsetof(cst_options, shadow_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+     offsetof(cst_options, shadow_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
     VSD_OPTION_EARLY_TERMINATION(cst_options, "view or shadow ray"),
     {"distance_map", VSD_OPT_BOOL, 0, 1, 1, NULL, "leap over empty space with the Euclidean distance map (§4.1)",
-     offsetof(cst_options, distance_map), 0, NULL},
+     offsetof(cst_options, distance_map), 0, NULL, NULL},
     {"validity_mask", VSD_OPT_BOOL, 0, 1, 1, NULL, "start each view ray at its first non-empty shell (§4.2)",
-     offsetof(cst_options, validity_mask), 0, NULL},
+     offsetof(cst_options, validity_mask), 0, NULL, .when = cst_on_shadow_rays},
     VSD_OPTION_PIXEL_SAMPLES(cst_options),
     {"shadows", VSD_OPT_CHOICE, 0, 0, SHADOWS_GRID, shadows_names,
      "grid: each light's transmittance cached on a record grid per lighting change; rays: the paper's shadow rays "
-     "per view sample", offsetof(cst_options, shadows), 0, NULL},
+     "per view sample", offsetof(cst_options, shadows), 0, NULL, NULL},
     {"shadow_grid", VSD_OPT_INT, 4, 256, 64, NULL, "shadows = grid: record cells per axis over the density's box",
-     offsetof(cst_options, shadow_grid), 0, NULL},
+     offsetof(cst_options, shadow_grid), 0, NULL, .when = cst_on_shadow_grid},
     {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, interp_names,
      "shadows = grid: record lookup, nearest cell, trilinear, or trilinear in log radiance",
-     offsetof(cst_options, interp), 0, NULL},
+     offsetof(cst_options, interp), 0, NULL, .when = cst_on_shadow_grid},
 };
 
 typedef struct cst_state {
@@ -390,6 +396,15 @@ static void cst_destroy(void *state)
 }
 
 const vsd_method vsd_method_constellation = {
-    "constellation", VSD_OPTION_TABLE(cst_option_rows, cst_options), cst_create, cst_prepare_frame, cst_prepare_lighting, cst_render,
-    cst_destroy, 0,
+    .name = "constellation",
+    .label = "Constellation",
+    .summary = "Navarro 2009: light constellation, distance map",
+    .caps = VSD_METHOD_CAP_CUDA_VIEW,
+    .roles = 0,
+    .options = VSD_OPTION_TABLE(cst_option_rows, cst_options),
+    .create = cst_create,
+    .prepare_frame = cst_prepare_frame,
+    .prepare_lighting = cst_prepare_lighting,
+    .render = cst_render,
+    .destroy = cst_destroy,
 };

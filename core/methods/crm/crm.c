@@ -68,67 +68,76 @@ static const char *healpix_count_problem(double v)
 }
 static const char *const multiple_names[] = {"orders", "grid", "rbf", NULL};
 
+/* Options of one form of single or multiple scattering mean nothing under another. */
+static const vsd_option_when crm_on_single_grid[] = {{"single", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
+static const vsd_option_when crm_on_marched_single[] = {{"single", 1, 0, "sh"}, {NULL, 0, 0, NULL}};
+static const vsd_option_when crm_on_multiple_rbf[] = {{"multiple", 0, 0, "rbf"}, {NULL, 0, 0, NULL}};
+static const vsd_option_when crm_on_multiple_orders[] = {{"multiple", 0, 0, "orders"}, {NULL, 0, 0, NULL}};
+static const vsd_option_when crm_on_multiple_grid[] = {{"multiple", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
+/* Deleting and inserting RBFs is how a coherent fit follows the frames. */
+static const vsd_option_when crm_on_coherent[] = {{"coherent", 0, 1, NULL}, {NULL, 0, 0, NULL}};
+
 static const vsd_option_spec crm_option_rows[] = {
     {"rbf_count", VSD_OPT_INT, 1, VSD_CRM_DIFFUSION_MAX_RBFS, 0, NULL,
      "RBFs fitted to the first frame (0 = one per 100 non-zero voxels, 16..800; the paper: 1000)",
-     offsetof(crm_options, rbf_count), VSD_OPT_ZERO_AUTO, NULL},
+     offsetof(crm_options, rbf_count), VSD_OPT_ZERO_AUTO, NULL, NULL},
     {"fit_iterations", VSD_OPT_INT, 10, 100000, 3000, NULL,
-     "bound on the L-BFGS iterations of one frame's RBF fit", offsetof(crm_options, fit_iterations), 0, NULL},
+     "bound on the L-BFGS iterations of one frame's RBF fit", offsetof(crm_options, fit_iterations), 0, NULL, NULL},
     {"coherent", VSD_OPT_BOOL, 0, 1, 1, NULL,
      "start each frame's fit from the previous frame's RBFs (delete, refit, insert; §5.1)",
-     offsetof(crm_options, coherent), 0, NULL},
+     offsetof(crm_options, coherent), 0, NULL, NULL},
     {"delete_per_frame", VSD_OPT_INT, 0, 100, 3, NULL, "coherent frames: least significant RBFs deleted first",
-     offsetof(crm_options, delete_per_frame), 0, NULL},
+     offsetof(crm_options, delete_per_frame), 0, NULL, .when = crm_on_coherent},
     {"insert_max", VSD_OPT_INT, 0, 100, 8, NULL, "coherent frames: most RBFs inserted at the error maximum",
-     offsetof(crm_options, insert_max), 0, NULL},
+     offsetof(crm_options, insert_max), 0, NULL, .when = crm_on_coherent},
     {"error_ratio", VSD_OPT_NUMBER, 1.0, 10.0, 1.1, NULL,
      "coherent frames: insert while the fit error exceeds the first frame's by this factor (paper 1.05-1.2)",
-     offsetof(crm_options, error_ratio), 0, NULL},
+     offsetof(crm_options, error_ratio), 0, NULL, .when = crm_on_coherent},
     {"order", VSD_OPT_INT, 1, 4, 4, NULL, "SH order of single scattering (bands; multiple scattering is order 2)",
-     offsetof(crm_options, order), 0, NULL},
+     offsetof(crm_options, order), 0, NULL, NULL},
     {"single", VSD_OPT_CHOICE, 0, 0, SINGLE_GRID, single_names,
      "single scattering: grid (at every medium node, marched), or at the RBF centres: direct (transmittance per "
      "direction) or sh (the paper's ZH table + exp*)",
-     offsetof(crm_options, single), 0, NULL},
+     offsetof(crm_options, single), 0, NULL, NULL},
     {"sky", VSD_OPT_CHOICE, 0, 0, SKY_SH, sky_names,
      "single grid: the light arriving from each direction, the map averaged per HEALPix pixel (a lamp or a small sun "
      "shadowed where it is) or the map's order-n SH (the paper's L_in)",
-     offsetof(crm_options, sky), 0, NULL},
+     offsetof(crm_options, sky), 0, NULL, .when = crm_on_single_grid},
     {"directions", VSD_OPT_INT, 12, 3072, 108, NULL, "single grid, direct: HEALPix directions of the transmittance (12 nside^2)",
-     offsetof(crm_options, directions), 0, healpix_count_problem},
+     offsetof(crm_options, directions), 0, healpix_count_problem, .when = crm_on_marched_single},
     {"multiple", VSD_OPT_CHOICE, 0, 0, MULTIPLE_ORDERS, multiple_names,
      "multiple scattering: orders (successive orders on a coarse grid), grid (diffusion with a vacuum boundary) or "
      "rbf (the paper's eq. 13 at the RBF centres)",
-     offsetof(crm_options, multiple), 0, NULL},
+     offsetof(crm_options, multiple), 0, NULL, NULL},
     {"cg_iterations", VSD_OPT_INT, 0, 10000, VSD_CRM_DIFFUSION_MAX_ITER, NULL,
      "multiple rbf: CG iterations of eq. 13 (early stopping regularises it; the paper: 20-40)",
-     offsetof(crm_options, cg_iterations), 0, NULL},
+     offsetof(crm_options, cg_iterations), 0, NULL, .when = crm_on_multiple_rbf},
     {"orders", VSD_OPT_INT, 1, 64, 12, NULL,
      "multiple orders: most orders followed before the geometric tail closes the series",
-     offsetof(crm_options, orders), 0, NULL},
+     offsetof(crm_options, orders), 0, NULL, .when = crm_on_multiple_orders},
     {"orders_phase", VSD_OPT_CHOICE, 0, 0, ORDERS_PHASE_HG, orders_phase_names,
      "multiple orders: each order scatters with the medium's Henyey-Greenstein phase, its source kept as order-2 SH "
      "(bands 0-1), or isotropically after the first (band 0 only; docs/methods/crm.md)",
-     offsetof(crm_options, orders_phase), 0, NULL},
+     offsetof(crm_options, orders_phase), 0, NULL, .when = crm_on_multiple_orders},
     {"order_directions", VSD_OPT_INT, 12, 768, 48, NULL, "multiple orders: HEALPix directions gathered per cell and order",
-     offsetof(crm_options, order_directions), 0, healpix_count_problem},
+     offsetof(crm_options, order_directions), 0, healpix_count_problem, .when = crm_on_multiple_orders},
     {"order_cell", VSD_OPT_INT, 1, 8, 2, NULL, "multiple orders: source nodes per cell of the coarse grid",
-     offsetof(crm_options, order_cell), 0, NULL},
+     offsetof(crm_options, order_cell), 0, NULL, .when = crm_on_multiple_orders},
     {"grid_iterations", VSD_OPT_INT, 1, 100000, 2000, NULL,
      "multiple grid: bound on the CG iterations of the diffusion solve (tolerance 1e-5)",
-     offsetof(crm_options, grid_iterations), 0, NULL},
+     offsetof(crm_options, grid_iterations), 0, NULL, .when = crm_on_multiple_grid},
     {"residual", VSD_OPT_CHOICE, 0, 0, CRM_RESIDUAL_FULL, residual_names,
      "density residual in the march: full (extinction and source), source (eq. 8: source only), none",
-     offsetof(crm_options, residual), 0, NULL},
+     offsetof(crm_options, residual), 0, NULL, NULL},
     {"decode", VSD_OPT_CHOICE, 0, 0, DECODE_FRAME, decode_names,
      "where the residual hash is decoded: frame (once per frame into D~ + R, the paper's volume pass) or view (per "
      "march step in the view kernel)",
-     offsetof(crm_options, decode), 0, NULL},
+     offsetof(crm_options, decode), 0, NULL, NULL},
     {"node_spacing", VSD_OPT_NUMBER, 0, 64, 0, NULL,
      "voxels between the source-radiance nodes (0 = automatic: largest dimension / 48, at least 1)",
-     offsetof(crm_options, node_spacing), VSD_OPT_ZERO_AUTO, NULL},
+     offsetof(crm_options, node_spacing), VSD_OPT_ZERO_AUTO, NULL, NULL},
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = one voxel)",
-     offsetof(crm_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+     offsetof(crm_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
     VSD_OPTION_PIXEL_SAMPLES(crm_options),
     VSD_OPTION_VIEW_SPACING(crm_options, view.spacing, view.threshold),
     VSD_OPTION_EARLY_TERMINATION(crm_options, "view ray"),
@@ -644,6 +653,15 @@ static void crm_destroy(void *state)
 }
 
 const vsd_method vsd_method_crm = {
-    "crm", VSD_OPTION_TABLE(crm_option_rows, crm_options), crm_create, crm_prepare_frame, crm_prepare_lighting,
-    crm_render, crm_destroy, 0,
+    .name = "crm",
+    .label = "CRM",
+    .summary = "Zhou 2008: compensated ray marching of RBF densities",
+    .caps = VSD_METHOD_CAP_MULTIPLE_SCATTERING | VSD_METHOD_CAP_EMISSION_SCATTERING | VSD_METHOD_CAP_CUDA_VIEW,
+    .roles = 0,
+    .options = VSD_OPTION_TABLE(crm_option_rows, crm_options),
+    .create = crm_create,
+    .prepare_frame = crm_prepare_frame,
+    .prepare_lighting = crm_prepare_lighting,
+    .render = crm_render,
+    .destroy = crm_destroy,
 };

@@ -72,75 +72,85 @@ enum { LBL_READOUT_ISOTROPIC, LBL_READOUT_PHASE };
 /* in VSD_RECORDS_NEAREST.. order */
 static const char *const lbl_interp_names[] = {"nearest", "trilinear", "log", NULL};
 
+/* What readout, lattice_phase and cell_light choose between exists only on the global D3Q6
+ * lattice; the blocked and the D3Q18 lattices have their own light in a cell. */
+static const vsd_option_when lbl_on_global_d3q6[] = {
+    {"block_steps", 0, 0, NULL}, {"lattice", 0, 0, "d3q6"}, {NULL, 0, 0, NULL}};
+/* cell_shape and surface_escape shape the light's path through a cell (cell_light "path"). */
+static const vsd_option_when lbl_on_cell_path[] = {
+    {"block_steps", 0, 0, NULL}, {"lattice", 0, 0, "d3q6"}, {"cell_light", 0, 0, "path"}, {NULL, 0, 0, NULL}};
+/* The blocked lattice is the paper's D3Q6 only. */
+static const vsd_option_when lbl_on_global[] = {{"block_steps", 0, 0, NULL}, {NULL, 0, 0, NULL}};
+
 static const vsd_option_spec lbl_option_rows[] = {
     {"lights", VSD_OPT_INT, 1, VSD_RECORDS_MAX_LIGHTS, 64, NULL,
-     "the environment as N directional lights (median-cut constellation)", offsetof(lbl_options, lights), 0, NULL},
+     "the environment as N directional lights (median-cut constellation)", offsetof(lbl_options, lights), 0, NULL, NULL},
     {"sub_lights", VSD_OPT_INT, 1, LBL_MAX_SUB_LIGHTS, 8, NULL,
      "each light's region of the map cut again into N: the view weighs the phase function over their directions, "
      "the shadow stays the light's (1 = the light's own direction only)",
-     offsetof(lbl_options, sub_lights), 0, NULL},
+     offsetof(lbl_options, sub_lights), 0, NULL, NULL},
     {"cells", VSD_OPT_INT, 4, 256, 64, NULL,
      "lattice cells per axis over the density's box (the material, marching and diffusion volumes)",
-     offsetof(lbl_options, cells), 0, NULL},
+     offsetof(lbl_options, cells), 0, NULL, NULL},
     {"ray_spacing", VSD_OPT_NUMBER, 0.25, 1, 1, NULL, "light rays' spacing across their direction, in cells",
-     offsetof(lbl_options, ray_spacing), 0, NULL},
+     offsetof(lbl_options, ray_spacing), 0, NULL, NULL},
     {"light_step", VSD_OPT_NUMBER, 0.25, 1, 1, NULL, "light rays' integration step (the paper's delta), in cells",
-     offsetof(lbl_options, light_step), 0, NULL},
+     offsetof(lbl_options, light_step), 0, NULL, NULL},
     {"leaps", VSD_OPT_BOOL, 0, 1, 1, NULL,
      "light rays leap over empty cells to just before the medium (the same result; 0 = march every step)",
-     offsetof(lbl_options, leaps), 0, NULL},
+     offsetof(lbl_options, leaps), 0, NULL, NULL},
     {"history", VSD_OPT_INT, 0, 4096, 0, NULL,
      "light rays advance this many steps per round while the lattice diffuses 8 steps on what they have left so far "
      "(the paper's ray history k, Fig. 1a; its best was 16); 0 = march every light, then diffuse (faster on the CPU: "
      "docs/methods/lbl.md, Table I)",
-     offsetof(lbl_options, history), 0, NULL},
+     offsetof(lbl_options, history), 0, NULL, NULL},
     {"tolerance", VSD_OPT_NUMBER, 1e-7, 0.1, 1e-3, NULL,
      "diffusion: stop when the probes' fluence has less than this (relative) still to change",
-     offsetof(lbl_options, tolerance), 0, NULL},
+     offsetof(lbl_options, tolerance), 0, NULL, NULL},
     {"max_steps", VSD_OPT_INT, 8, 100000, 4000, NULL, "diffusion: at most this many lattice steps",
-     offsetof(lbl_options, max_steps), 0, NULL},
+     offsetof(lbl_options, max_steps), 0, NULL, NULL},
     {"block_steps", VSD_OPT_INT, 0, 64, 0, NULL,
      "diffusion: 0 = one global lattice; n = the paper's 4^3 blocks with interface buffers, n steps per "
      "exchange (docs/methods/lbl.md, Fig. 6)",
-     offsetof(lbl_options, block_steps), 0, NULL},
+     offsetof(lbl_options, block_steps), 0, NULL, NULL},
     {"lattice", VSD_OPT_CHOICE, 0, 0, 0, lbl_lattice_names,
      "diffusion: the paper's 6 axis directions (d3q6), or Geist et al.'s 18 with the in-plane diagonals (d3q18, "
      "3x the memory; not with block_steps)",
-     offsetof(lbl_options, lattice), 0, NULL},
+     offsetof(lbl_options, lattice), 0, NULL, .when = lbl_on_global},
     {"lattice_phase", VSD_OPT_CHOICE, 0, 0, LBL_PHASE_HG, lbl_phase_names,
      "diffusion: the paper's isotropic scattering, or the medium's phase (Henyey-Greenstein) on the six directions' "
      "cones, first scattering included (D3Q6 global lattice; lbl_readout.h)",
-     offsetof(lbl_options, lattice_phase), 0, NULL},
+     offsetof(lbl_options, lattice_phase), 0, NULL, .when = lbl_on_global_d3q6},
     {"cell_light", VSD_OPT_CHOICE, 0, 0, VSD_LBL_CELL_PATH, lbl_cell_light_names,
      "diffusion: the light in a cell, the paper's photons counted at the faces they arrive at with what is born "
      "there leaving whole, or each photon's path through the cell, born light crossing the rest of it (global "
      "D3Q6 lattice; lbl_lattice.h, docs/methods/lbl.md)",
-     offsetof(lbl_options, cell_light), 0, NULL},
+     offsetof(lbl_options, cell_light), 0, NULL, .when = lbl_on_global_d3q6},
     {"light_deposit", VSD_OPT_CHOICE, 0, 0, LBL_DEPOSIT_LOST, lbl_deposit_names,
      "marching: what a cell scatters out of a directional light's rays, the paper's albedo E T p lambda^2 with the "
      "rays' T at its centre, or albedo E times the power the rays lost in it (exact for thick cells; lbl_march.h)",
-     offsetof(lbl_options, light_deposit), 0, NULL},
+     offsetof(lbl_options, light_deposit), 0, NULL, NULL},
     {"cell_shape", VSD_OPT_CHOICE, 0, 0, LBL_SHAPE_BOXES, lbl_shape_names,
      "diffusion, with cell_light \"path\": every cell taken as the cube of its volume (as the paper's lattice), or as "
      "the box it is, light crossing sigma times each axis's own edge (docs/methods/lbl.md, \"Cells that are not "
      "cubes\")",
-     offsetof(lbl_options, cell_shape), 0, NULL},
+     offsetof(lbl_options, cell_shape), 0, NULL, .when = lbl_on_cell_path},
     {"surface_escape", VSD_OPT_BOOL, 0, 1, 1, NULL,
      "diffusion, with cell_light \"path\": what is born near the medium's surface loses at once the light that "
      "leaves it in every outward direction beyond what the six axes carry out (lbl_escape.h)",
-     offsetof(lbl_options, escape), 0, NULL},
+     offsetof(lbl_options, escape), 0, NULL, .when = lbl_on_cell_path},
     {"readout", VSD_OPT_CHOICE, 0, 0, LBL_READOUT_PHASE, lbl_readout_names,
      "view: the diffused light toward the eye, the paper's isotropic fluence / 4pi, or the phase function over the "
      "lattice's six directions (D3Q6 global lattice; lbl_readout.h)",
-     offsetof(lbl_options, readout), 0, NULL},
+     offsetof(lbl_options, readout), 0, NULL, .when = lbl_on_global_d3q6},
     {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, lbl_interp_names,
      "view: the direct light between cell centres, nearest, trilinear, or trilinear in log radiance",
-     offsetof(lbl_options, interp), 0, NULL},
+     offsetof(lbl_options, interp), 0, NULL, NULL},
     {"slice", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = a voxel)",
-     offsetof(lbl_options, slice), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+     offsetof(lbl_options, slice), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
     {"view_bake", VSD_OPT_BOOL, 0, 1, 1, NULL,
      "CPU view: the lights' term per record once per view, phase at the camera-to-record direction (0 = per ray)",
-     offsetof(lbl_options, view_bake), 0, NULL},
+     offsetof(lbl_options, view_bake), 0, NULL, NULL},
     VSD_OPTION_EARLY_TERMINATION(lbl_options, "view ray"),
     VSD_OPTION_PIXEL_SAMPLES(lbl_options),
     VSD_OPTION_VIEW_SPACING(lbl_options, view.spacing, view.threshold),
@@ -828,7 +838,26 @@ static void lbl_destroy(void *state)
     free(s);
 }
 
+/* The rendered viewport's default: it scatters more than once, so the viewport shows what a
+ * final render with `reference` shows (shgrid, the default before issue 28, scatters once:
+ * its smoke is about half as bright). Measured for issue 28 at 264x166, lbl / crm: Combined
+ * against 4096-spp `reference` (relative RMSE, 4x4 blocks) 7.7% / 13.1% on smoke64 frame 20
+ * (the viewport test's scene), 4.4% / 7.2% on smoke128 frame 45; mean brightness 1.005 /
+ * 1.007; seconds from a view change to the new image in Blender 3.4 under Xvfb
+ * (test_viewport's benchmark, 2-core VM, three runs) 0.29-0.50 / 0.15-0.27 (shgrid
+ * 0.16-0.25). crm is the faster, but not within 10% of the reference on the add-on's own
+ * smoke: lbl. */
 const vsd_method vsd_method_lbl = {
-    "lbl", VSD_OPTION_TABLE(lbl_option_rows, lbl_options), lbl_create, lbl_prepare_frame, lbl_prepare_lighting,
-    lbl_render, lbl_destroy, 1,
+    .name = "lbl",
+    .label = "LBL",
+    .summary = "Bernabei 2012: light marching, lattice-Boltzmann multiple scattering",
+    .caps = VSD_METHOD_CAP_MULTIPLE_SCATTERING | VSD_METHOD_CAP_REFRACTION | VSD_METHOD_CAP_SCENE_LIGHTS |
+            VSD_METHOD_CAP_EMISSION_SCATTERING | VSD_METHOD_CAP_CUDA_VIEW,
+    .roles = VSD_METHOD_ROLE_VIEWPORT_DEFAULT,
+    .options = VSD_OPTION_TABLE(lbl_option_rows, lbl_options),
+    .create = lbl_create,
+    .prepare_frame = lbl_prepare_frame,
+    .prepare_lighting = lbl_prepare_lighting,
+    .render = lbl_render,
+    .destroy = lbl_destroy,
 };

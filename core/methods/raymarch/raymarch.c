@@ -17,9 +17,9 @@ typedef struct raymarch_options {
 static const vsd_option_spec raymarch_option_rows[] = {
     {"lights", VSD_OPT_INT, 1, 65536, 256, NULL,
      "K fixed environment directions (importance-sampled) each step's shadow rays go to",
-     offsetof(raymarch_options, lights), 0, NULL},
+     offsetof(raymarch_options, lights), 0, NULL, NULL},
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view and shadow march step, world units (0 = half the smallest voxel)",
-     offsetof(raymarch_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+     offsetof(raymarch_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
     VSD_OPTION_PIXEL_SAMPLES(raymarch_options),
     VSD_OPTION_EARLY_TERMINATION(raymarch_options, "view ray"),
 };
@@ -82,6 +82,17 @@ static void raymarch_destroy(void *state)
 }
 
 const vsd_method vsd_method_raymarch = {
-    "raymarch", VSD_OPTION_TABLE(raymarch_option_rows, raymarch_options), raymarch_create, NULL, raymarch_prepare_lighting, raymarch_render,
-    raymarch_destroy, 0,
+    .name = "raymarch",
+    .label = "Ray March (slow baseline)",
+    .summary = "The papers' brute-force baseline, for comparisons: single scattering only, every march step "
+               "sends a shadow ray to each of K environment directions (256 by default), with no acceleration. "
+               "Slow: smoke128 at 640x360 takes hours on a few cores; reference, lbl or crm for pictures",
+    .caps = VSD_METHOD_CAP_CUDA_VIEW,
+    .roles = 0,
+    .options = VSD_OPTION_TABLE(raymarch_option_rows, raymarch_options),
+    .create = raymarch_create,
+    .prepare_frame = NULL,
+    .prepare_lighting = raymarch_prepare_lighting,
+    .render = raymarch_render,
+    .destroy = raymarch_destroy,
 };

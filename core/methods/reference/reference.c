@@ -18,7 +18,7 @@ typedef struct reference_options {
 static const vsd_option_spec reference_option_rows[] = {
     {"max_bounces", VSD_OPT_INT, 1, 1000000, 1024, NULL,
      "path length limit in scattering events (Russian roulette ends most paths long before)",
-     offsetof(reference_options, max_bounces), 0, NULL},
+     offsetof(reference_options, max_bounces), 0, NULL, NULL},
 };
 
 typedef struct reference_state {
@@ -152,6 +152,16 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
 }
 
 const vsd_method vsd_method_reference = {
-    "reference", VSD_OPTION_TABLE(reference_option_rows, reference_options), reference_create, reference_prepare_frame,
-    NULL, reference_render, reference_destroy, 1,
+    .name = "reference",
+    .label = "Reference",
+    .summary = "Unbiased volumetric path tracing, all bounces (matches Cycles)",
+    .caps = VSD_METHOD_CAP_MULTIPLE_SCATTERING | VSD_METHOD_CAP_REFRACTION | VSD_METHOD_CAP_SCENE_LIGHTS |
+            VSD_METHOD_CAP_EMISSION_SCATTERING | VSD_METHOD_CAP_CUDA_VIEW,
+    .roles = VSD_METHOD_ROLE_FINAL_DEFAULT,
+    .options = VSD_OPTION_TABLE(reference_option_rows, reference_options),
+    .create = reference_create,
+    .prepare_frame = reference_prepare_frame,
+    .prepare_lighting = NULL,
+    .render = reference_render,
+    .destroy = reference_destroy,
 };

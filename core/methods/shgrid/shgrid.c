@@ -93,34 +93,37 @@ typedef struct shgrid_state {
     double frame_seconds, lighting_seconds;
 } shgrid_state;
 
+/* The bright texels are split off only when there are lights to take them. */
+static const vsd_option_when shgrid_on_lights[] = {{"lights", 1, 0, NULL}, {NULL, 0, 0, NULL}};
+
 static const vsd_option_spec shgrid_option_rows[] = {
     {"grid", VSD_OPT_INT, 1, 256, 0, NULL,
      "record cells per axis over the density's box, the paper's N (0 = a cell per 4 voxels of the longest axis, 32..64)",
-     offsetof(shgrid_options, grid), VSD_OPT_ZERO_AUTO, NULL},
+     offsetof(shgrid_options, grid), VSD_OPT_ZERO_AUTO, NULL, NULL},
     {"order", VSD_OPT_INT, 1, VSD_SH_MAX_ORDER, SHGRID_DEFAULT_ORDER, NULL, "spherical-harmonic order (order^2 coefficients)",
-     offsetof(shgrid_options, order), 0, NULL},
+     offsetof(shgrid_options, order), 0, NULL, NULL},
     {"directions", VSD_OPT_INT, 12, 196608, 192, NULL, "HEALPix directions each record marches toward (12 nside^2)",
-     offsetof(shgrid_options, directions), 0, healpix_count_problem},
+     offsetof(shgrid_options, directions), 0, healpix_count_problem, NULL},
     {"probes", VSD_OPT_INT, 0, 16, 3, NULL, "k: k^3 density probes per cell decide whether it is empty (0 = keep cells over non-empty bricks)",
-     offsetof(shgrid_options, probes), 0, NULL},
+     offsetof(shgrid_options, probes), 0, NULL, NULL},
     {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, interp_names,
      "record lookup: nearest cell (the paper), trilinear, or trilinear in log radiance",
-     offsetof(shgrid_options, interp), 0, NULL},
+     offsetof(shgrid_options, interp), 0, NULL, NULL},
     {"form", VSD_OPT_CHOICE, 0, 0, FORM_AUTO, form_names,
      "factored (isotropic phase, fast relighting) or product (RGB records); auto picks by anisotropy",
-     offsetof(shgrid_options, form), 0, NULL},
+     offsetof(shgrid_options, form), 0, NULL, NULL},
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = the smallest voxel)",
-     offsetof(shgrid_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+     offsetof(shgrid_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
     {"record_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "record march step, world units (0 = half the smallest voxel)",
-     offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL},
+     offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
     VSD_OPTION_PIXEL_SAMPLES(shgrid_options),
     VSD_OPTION_EARLY_TERMINATION(shgrid_options, "view ray"),
     {"lights", VSD_OPT_INT, 0, VSD_RECORDS_MAX_LIGHTS, SHGRID_DEFAULT_LIGHTS, NULL,
      "bright texels taken out of the SH as exact lights (0 = the paper's pure SH form)",
-     offsetof(shgrid_options, lights), 0, NULL},
+     offsetof(shgrid_options, lights), 0, NULL, NULL},
     {"light_threshold", VSD_OPT_NUMBER, 1, 1e30, SHGRID_DEFAULT_LIGHT_THRESHOLD, NULL,
      "texels brighter than this multiple of the map's mean luminance become lights",
-     offsetof(shgrid_options, light_threshold), 0, NULL},
+     offsetof(shgrid_options, light_threshold), 0, NULL, .when = shgrid_on_lights},
 };
 
 static vsd_status shgrid_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
@@ -458,6 +461,15 @@ static void shgrid_destroy(void *state)
 }
 
 const vsd_method vsd_method_shgrid = {
-    "shgrid", VSD_OPTION_TABLE(shgrid_option_rows, shgrid_options), shgrid_create, shgrid_prepare_frame, shgrid_prepare_lighting, shgrid_render,
-    shgrid_destroy, 0,
+    .name = "shgrid",
+    .label = "SH Grid",
+    .summary = "Delalandre 2013: spherical-harmonics record grid",
+    .caps = VSD_METHOD_CAP_CUDA_VIEW,
+    .roles = 0,
+    .options = VSD_OPTION_TABLE(shgrid_option_rows, shgrid_options),
+    .create = shgrid_create,
+    .prepare_frame = shgrid_prepare_frame,
+    .prepare_lighting = shgrid_prepare_lighting,
+    .render = shgrid_render,
+    .destroy = shgrid_destroy,
 };

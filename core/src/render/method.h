@@ -16,6 +16,7 @@
 #include "vsd/env.h"
 #include "kernel/kernel_types.h"
 #include "method_options.h"
+#include "methods/registry.h"
 
 /* Everything a method may read while preparing or rendering one frame. */
 typedef struct vsd_frame_ctx {
@@ -41,8 +42,17 @@ typedef struct vsd_frame_ctx {
     size_t info_len;
 } vsd_frame_ctx;
 
+/* What a method can render, for the menus and warnings of its users (the add-on reads them
+ * from HELLO, `vsd methods --json` prints them): the public VSD_METHOD_CAP_* bits
+ * (vsd/render.h). Roles: which method a new scene or a new viewport uses. */
+enum { VSD_METHOD_ROLE_FINAL_DEFAULT = 1u << 0, VSD_METHOD_ROLE_VIEWPORT_DEFAULT = 1u << 1 };
+
 typedef struct vsd_method {
     const char *name;
+    const char *label;                 /* for menus: "Reference", "LBL" */
+    const char *summary;               /* one line: the paper and what it does */
+    unsigned caps;                     /* VSD_METHOD_CAP_* */
+    unsigned roles;                    /* VSD_METHOD_ROLE_* */
     vsd_option_table options;          /* render.options: the one table of keys, types, ranges */
     vsd_status (*create)(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen);
     vsd_status (*prepare_frame)(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen);
@@ -50,19 +60,16 @@ typedef struct vsd_method {
     vsd_status (*render)(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                          char *err, size_t errlen);
     void (*destroy)(void *state);
-    int scene_lights;                  /* 1: renders the scene's lights[] (sun, point, spot) */
 } vsd_method;
 
 /* Whether m renders sc's lights[]: an error naming the methods that do when it does not,
  * or when the lights would have to shine through a refracting medium. */
 vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, char *err, size_t errlen);
 
-extern const vsd_method vsd_method_reference;
-extern const vsd_method vsd_method_raymarch;
-extern const vsd_method vsd_method_shgrid;
-extern const vsd_method vsd_method_constellation;
-extern const vsd_method vsd_method_crm;
-extern const vsd_method vsd_method_lbl;
+/* Every method of the registry (core/methods/registry.h) is declared here. */
+#define VSD_METHOD_DECLARE(name) extern const vsd_method vsd_method_##name;
+VSD_METHOD_REGISTRY(VSD_METHOD_DECLARE)
+#undef VSD_METHOD_DECLARE
 
 const vsd_method *vsd_method_find(const char *name);
 
@@ -110,10 +117,12 @@ typedef struct vsd_view_sampling {
     {"view_spacing", VSD_OPT_INT, 0, 8, 0, NULL, \
      "CPU view: trace every n-th pixel first and interpolate between them where they agree (1 = trace all; " \
      "0 = from the film's resolution against the volume's: 2/3 of a voxel's footprint, at most 4)", \
-     offsetof(type, field_spacing), VSD_OPT_ZERO_AUTO, NULL}, \
+     offsetof(type, field_spacing), VSD_OPT_ZERO_AUTO, NULL, NULL}, \
     {"view_threshold", VSD_OPT_NUMBER, 0, 1, 0.15, NULL, \
      "with view_spacing > 1: trace a block when its corner pixels differ by more than this (relative)", \
-     offsetof(type, field_threshold), 0, NULL}
+     offsetof(type, field_threshold), 0, NULL, .when = vsd_option_on_sparse_view}
+/* view_threshold's rule: it decides nothing when every pixel is traced (view_spacing 1). */
+extern const vsd_option_when vsd_option_on_sparse_view[];
 int vsd_view_auto_spacing(const vsd_frame_ctx *ctx);
 /* The same as vsd_method_render_stratified with adaptive sampling vs (NULL = every pixel);
  * ctx->info gets " view_traced=<fraction of blocks traced>" appended when it applies. */

@@ -98,6 +98,112 @@ static vsd_status read_value(const vsd_option_spec *s, const cJSON *it, void *ou
     return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "render.options.%s: bad option type", s->key);
 }
 
+static double get_value(const vsd_option_spec *s, const void *out)
+{
+    double d;
+    int i;
+    if (s->type == VSD_OPT_NUMBER) {
+        memcpy(&d, (const char *)out + s->offset, sizeof d);
+        return d;
+    }
+    memcpy(&i, (const char *)out + s->offset, sizeof i);
+    return i;
+}
+
+/* The index of choice `name` in row s, -1 when it is none of them. */
+static int choice_index(const vsd_option_spec *s, const char *name)
+{
+    int i;
+    for (i = 0; s->choices && s->choices[i]; i++)
+        if (strcmp(s->choices[i], name) == 0) return i;
+    return -1;
+}
+
+static int condition_holds(const vsd_option_spec *other, const vsd_option_when *w, const void *out)
+{
+    double want = other->type == VSD_OPT_CHOICE ? choice_index(other, w->choice) : w->number;
+    return (get_value(other, out) == want) != (w->differs != 0);
+}
+
+/* "block_steps = 4" / "lattice = \"d3q18\"": the value an option has in out. */
+static void value_text(const vsd_option_spec *s, const void *out, char *buf, size_t len)
+{
+    double v = get_value(s, out);
+    if (s->type == VSD_OPT_CHOICE) snprintf(buf, len, "%s = \"%s\"", s->key, s->choices[(int)v]);
+    else if (s->type == VSD_OPT_BOOL) snprintf(buf, len, "%s = %s", s->key, v != 0.0 ? "true" : "false");
+    else snprintf(buf, len, "%s = %g", s->key, v);
+}
+
+static void condition_text(const vsd_option_spec *other, const vsd_option_when *w, char *buf, size_t len)
+{
+    const char *op = w->differs ? "!=" : "=";
+    if (other && other->type == VSD_OPT_CHOICE) snprintf(buf, len, "%s %s \"%s\"", w->key, op, w->choice);
+    else if (other && other->type == VSD_OPT_BOOL) snprintf(buf, len, "%s %s %s", w->key, op, w->number != 0.0 ? "true" : "false");
+    else snprintf(buf, len, "%s %s %g", w->key, op, w->number);
+}
+
+void vsd_option_rule_text(const vsd_option_table *t, const vsd_option_spec *s, char *buf, size_t len)
+{
+    const vsd_option_when *w;
+    buf[0] = '\0';
+    for (w = s->when; w && w->key; w++) {
+        char one[160];
+        size_t used = strlen(buf);
+        condition_text(find_row(t, w->key), w, one, sizeof one);
+        snprintf(buf + used, len - used, "%s%s", w == s->when ? "" : " and ", one);
+    }
+}
+
+int vsd_option_rules_invalid(const vsd_option_table *t, char *why, size_t len)
+{
+    size_t i;
+    for (i = 0; i < t->count; i++) {
+        const vsd_option_when *w;
+        for (w = t->rows[i].when; w && w->key; w++) {
+            const vsd_option_spec *o = find_row(t, w->key);
+            if (!o || o == &t->rows[i]) {
+                snprintf(why, len, "%s: its rule names %s option '%s'", t->rows[i].key, o ? "itself as" : "no",
+                         w->key);
+                return 1;
+            }
+            if ((o->type == VSD_OPT_CHOICE) != (w->choice != NULL) ||
+                (o->type == VSD_OPT_CHOICE && choice_index(o, w->choice) < 0)) {
+                snprintf(why, len, "%s: its rule's value for '%s' is not one of that option's", t->rows[i].key,
+                         w->key);
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+/* Every key set in root away from its default whose rule does not hold with the values in
+ * out: an error naming it, the option that rules it out and that option's value. (A default
+ * written out changes nothing, so it is no lie: `vsd methods`' defaults copied into a
+ * scene file stay valid.) */
+static vsd_status check_rules(const vsd_option_table *t, const cJSON *root, const void *out, char *err,
+                              size_t errlen)
+{
+    const cJSON *it;
+    cJSON_ArrayForEach(it, root) {
+        const vsd_option_spec *s = find_row(t, it->string);
+        const vsd_option_when *w;
+        if (get_value(s, out) == s->def) continue;
+        for (w = s->when; w && w->key; w++) {
+            const vsd_option_spec *other = find_row(t, w->key);
+            char have[160], rule[480];
+            if (!other || condition_holds(other, w, out)) continue;
+            value_text(other, out, have, sizeof have);
+            vsd_option_rule_text(t, s, rule, sizeof rule);
+            return vsd_fail(VSD_ERR_INVALID, err, errlen,
+                            "render.options.%s does not apply with render.options.%s%s (it applies only when %s)",
+                            s->key, have, cJSON_GetObjectItemCaseSensitive(root, other->key) ? "" : " (the default)",
+                            rule);
+        }
+    }
+    return VSD_OK;
+}
+
 vsd_status vsd_options_parse(const vsd_option_table *t, const char *method, const char *options_json, void *out,
                              char *err, size_t errlen)
 {
@@ -122,6 +228,7 @@ vsd_status vsd_options_parse(const vsd_option_table *t, const char *method, cons
         }
         if ((st = read_value(s, it, out, err, errlen))) break;
     }
+    if (!st) st = check_rules(t, root, out, err, errlen);
     cJSON_Delete(root);
     return st;
 }
@@ -135,6 +242,22 @@ static const char *type_name(vsd_option_type t)
     case VSD_OPT_CHOICE: return "choice";
     }
     return "?";
+}
+
+/* [{"key": other, "equals" | "differs": value}, ...]: the value as its option's JSON type. */
+static void add_rule_json(const vsd_option_table *t, const vsd_option_spec *s, cJSON *arr)
+{
+    const vsd_option_when *w;
+    for (w = s->when; arr && w->key; w++) {
+        const vsd_option_spec *other = find_row(t, w->key);
+        cJSON *c = cJSON_CreateObject();
+        const char *op = w->differs ? "differs" : "equals";
+        cJSON_AddStringToObject(c, "key", w->key);
+        if (w->choice) cJSON_AddStringToObject(c, op, w->choice);
+        else if (other && other->type == VSD_OPT_BOOL) cJSON_AddBoolToObject(c, op, w->number != 0.0);
+        else cJSON_AddNumberToObject(c, op, w->number);
+        cJSON_AddItemToArray(arr, c);
+    }
 }
 
 void *vsd_options_table_json(const vsd_option_table *t)
@@ -160,6 +283,7 @@ void *vsd_options_table_json(const vsd_option_table *t)
         }
         if (s->flags & VSD_OPT_ZERO_AUTO) cJSON_AddBoolToObject(o, "auto_zero", 1);
         if (s->flags & VSD_OPT_LENGTH) cJSON_AddStringToObject(o, "unit", "length");
+        if (s->when) add_rule_json(t, s, cJSON_AddArrayToObject(o, "applies_when"));
         cJSON_AddStringToObject(o, "doc", s->doc);
         cJSON_AddItemToArray(arr, o);
     }

@@ -21,6 +21,16 @@ enum {
     VSD_OPT_LENGTH = 1u << 1     /* NUMBER: a length in world units (the add-on shows metres) */
 };
 
+/* One condition of an option's "applies when" rule: the option `key` of the same table
+ * equals (or, with `differs`, does not equal) a value: `choice` for a CHOICE option, else
+ * `number` (BOOL: 0/1). A rule is an array of conditions ended by {NULL}; all must hold. */
+typedef struct vsd_option_when {
+    const char *key;
+    int differs;
+    double number;
+    const char *choice;
+} vsd_option_when;
+
 typedef struct vsd_option_spec {
     const char *key;
     vsd_option_type type;
@@ -32,6 +42,10 @@ typedef struct vsd_option_spec {
     unsigned flags;
     /* an extra rule on a valid-range number: NULL when v is fine, else what is wrong */
     const char *(*check)(double v);
+    /* NULL: always applies. Else the option only means something when every condition
+     * holds (with the values set or defaulted); setting it away from its default otherwise
+     * is an error naming both options, as a value silently ignored would be a lie. */
+    const vsd_option_when *when;
 } vsd_option_spec;
 
 /* A method's table: rows, their count, and the size of the struct they fill. */
@@ -46,20 +60,31 @@ typedef struct vsd_option_table {
 /* Rows every method on the shared view march (kernel/kernel_march.h) declares the same way. */
 #define VSD_OPTION_PIXEL_SAMPLES(type) \
     {"pixel_samples", VSD_OPT_INT, 1, 16, 1, NULL, "n: n x n stratified view rays per pixel", \
-     offsetof(type, pixel_samples), 0, NULL}
+     offsetof(type, pixel_samples), 0, NULL, NULL}
 #define VSD_OPTION_EARLY_TERMINATION(type, what) \
     {"early_termination", VSD_OPT_NUMBER, 0, 1, 1e-3, NULL, \
      "stop a " what " once its transmittance is below this (0 = never; bound in kernel_march.h)", \
-     offsetof(type, early_termination), 0, NULL}
+     offsetof(type, early_termination), 0, NULL, NULL}
 
 /* Fills out (struct_size bytes) with every default, then with the values options_json
  * sets. An unknown key, a wrong type, a value out of range or not among the choices is an
- * error naming render.options.<key> and what it accepts. */
+ * error naming render.options.<key> and what it accepts; a key set away from its default
+ * where its `when` rule does not hold is an error naming it and the option that rules it
+ * out. */
 vsd_status vsd_options_parse(const vsd_option_table *t, const char *method, const char *options_json, void *out,
                              char *err, size_t errlen);
 
 /* The table as a JSON array (cJSON *, returned as void * so this header needs no cJSON):
- * [{"key", "type", "min", "max", "default", "choices", "doc", "auto_zero", "unit"}, ...]. */
+ * [{"key", "type", "min", "max", "default", "choices", "doc", "auto_zero", "unit",
+ * "applies_when": [{"key", "equals" | "differs": value}, ...]}, ...]. */
 void *vsd_options_table_json(const vsd_option_table *t);
+
+/* "lattice = \"d3q6\" and block_steps = 0": row s's rule in words, into buf ("" when
+ * it has none), for `vsd methods` and error messages. */
+void vsd_option_rule_text(const vsd_option_table *t, const vsd_option_spec *s, char *buf, size_t len);
+
+/* A rule naming an option its table lacks, or a condition's value of the wrong kind: the
+ * first such problem in words into why, 1; else 0. For the tests over the registry. */
+int vsd_option_rules_invalid(const vsd_option_table *t, char *why, size_t len);
 
 #endif

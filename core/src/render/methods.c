@@ -1,5 +1,5 @@
-/* The method registry: one table, so the CLI, the daemon's HELLO and the option checks
- * all list the same methods. */
+/* The method registry (core/methods/registry.h) as a table, so the CLI, the daemon's HELLO,
+ * the option checks and the tests all list the same methods, with what each can render. */
 #include "method.h"
 #include "device/cpu/cpu_tiles.h"
 #include <stdio.h>
@@ -7,16 +7,23 @@
 #include <string.h>
 #include <cjson/cJSON.h>
 
-static const vsd_method *const registry[] = { &vsd_method_reference, &vsd_method_raymarch, &vsd_method_shgrid,
-                                                &vsd_method_constellation, &vsd_method_crm, &vsd_method_lbl };
+#define VSD_METHOD_ADDRESS(name) &vsd_method_##name,
+static const vsd_method *const registry[] = { VSD_METHOD_REGISTRY(VSD_METHOD_ADDRESS) };
+#undef VSD_METHOD_ADDRESS
 #define REGISTRY_COUNT (sizeof registry / sizeof registry[0])
+
+/* The catalog's name of each capability bit (vsd/render.h), in bit order. */
+static const char *const cap_names[] = { "multiple_scattering", "refraction", "scene_lights", "emission_scattering",
+                                         "cuda_view" };
+static const char *const role_names[] = { "final_default", "viewport_default" };
 
 const char *const *vsd_method_names(void)
 {
-    static const char *names[REGISTRY_COUNT + 1];
-    size_t i;
-    for (i = 0; i < REGISTRY_COUNT; i++) names[i] = registry[i]->name;
-    names[REGISTRY_COUNT] = NULL;
+    /* built at compile time from the same list, so concurrent callers (HELLOs on the
+     * daemon's threads) read it without a race */
+#define VSD_METHOD_NAME(name) #name,
+    static const char *const names[] = { VSD_METHOD_REGISTRY(VSD_METHOD_NAME) NULL };
+#undef VSD_METHOD_NAME
     return names;
 }
 
@@ -37,9 +44,9 @@ vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, cha
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "lights: extra lights through a refracting medium (medium.ior, volume.ior_grid) are not "
                         "supported yet: a bent ray cannot be aimed at a point or a sun");
-    if (m->scene_lights) return VSD_OK;
+    if (m->caps & VSD_METHOD_CAP_SCENE_LIGHTS) return VSD_OK;
     for (i = 0; i < REGISTRY_COUNT; i++)
-        if (registry[i]->scene_lights)
+        if (registry[i]->caps & VSD_METHOD_CAP_SCENE_LIGHTS)
             snprintf(which + strlen(which), sizeof which - strlen(which), "%s%s", which[0] ? ", " : "",
                      registry[i]->name);
     return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
@@ -63,6 +70,14 @@ vsd_status vsd_method_parse_options(const vsd_method *m, const vsd_scene *scene,
     return VSD_OK;
 }
 
+const vsd_option_when vsd_option_on_sparse_view[] = {{"view_spacing", 1, 1, NULL}, {NULL, 0, 0, NULL}};
+
+unsigned vsd_method_capabilities(const char *name)
+{
+    const vsd_method *m = vsd_method_find(name);
+    return m ? m->caps : 0u;
+}
+
 char *vsd_method_options_json(void)
 {
     cJSON *root = cJSON_CreateObject();
@@ -70,6 +85,35 @@ char *vsd_method_options_json(void)
     size_t i;
     for (i = 0; root && i < REGISTRY_COUNT; i++)
         cJSON_AddItemToObject(root, registry[i]->name, (cJSON *)vsd_options_table_json(&registry[i]->options));
+    text = root ? cJSON_PrintUnformatted(root) : NULL;
+    cJSON_Delete(root);
+    return text;
+}
+
+static cJSON *method_json(const vsd_method *m)
+{
+    cJSON *o = cJSON_CreateObject(), *caps, *roles;
+    size_t b;
+    if (!o) return NULL;
+    cJSON_AddStringToObject(o, "name", m->name);
+    cJSON_AddStringToObject(o, "label", m->label);
+    cJSON_AddStringToObject(o, "summary", m->summary);
+    caps = cJSON_AddObjectToObject(o, "capabilities");
+    for (b = 0; caps && b < sizeof cap_names / sizeof cap_names[0]; b++)
+        cJSON_AddBoolToObject(caps, cap_names[b], (m->caps >> b) & 1u);
+    roles = cJSON_AddArrayToObject(o, "roles");
+    for (b = 0; roles && b < sizeof role_names / sizeof role_names[0]; b++)
+        if ((m->roles >> b) & 1u) cJSON_AddItemToArray(roles, cJSON_CreateString(role_names[b]));
+    cJSON_AddItemToObject(o, "options", (cJSON *)vsd_options_table_json(&m->options));
+    return o;
+}
+
+char *vsd_method_catalog_json(void)
+{
+    cJSON *root = cJSON_CreateArray();
+    char *text;
+    size_t i;
+    for (i = 0; root && i < REGISTRY_COUNT; i++) cJSON_AddItemToArray(root, method_json(registry[i]));
     text = root ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
     return text;
