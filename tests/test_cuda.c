@@ -1,6 +1,8 @@
 /* CUDA backend (issue 7): CPU/GPU parity for every method on two data sets, residency (a
  * camera change uploads only the kernel structs), out-of-memory errors and the `auto`
- * fallback. Exits 77 (ctest SKIP) when no CUDA device answers, saying why.
+ * fallback. Exits 77 (ctest SKIP) when no CUDA device answers, saying why. The methods are
+ * the registry's that render on the device (VSD_METHOD_CAP_CUDA_VIEW), so a new one is
+ * tested without editing this file; `settings` below only speeds some up.
  *
  * Tolerances. The deterministic methods (raymarch, constellation, shgrid, crm's and lbl's views) run the same
  * kernel functions on both backends, without fused multiply-adds on the GPU (--fmad=false)
@@ -28,6 +30,46 @@ typedef struct scene_case {
     const char *file;
     int frame;
 } scene_case;
+
+/* Per-method settings, looked up by name; a device method without an entry renders with
+ * its defaults and is compared as a deterministic one. */
+typedef struct method_setting {
+    const char *name;
+    const char *parity;   /* an override for the parity renders (speed), or NULL */
+    const char *view;     /* an override for the new-camera renders (speed), or NULL */
+    int noisy;            /* a Monte Carlo method: compared against its own noise, not for parity */
+} method_setting;
+
+static const method_setting settings[] = {
+    {"raymarch", "render.options.lights=64", "render.options.pixel_samples=1", 0},
+    {"constellation", "render.options.lights=64", "render.options.pixel_samples=1", 0},
+    {"shgrid", NULL, "render.options.pixel_samples=1", 0},
+    /* crm's frame and lighting stages run on the CPU either way; its view on the device */
+    {"crm", "render.options.rbf_count=200", "render.options.pixel_samples=1", 0},
+    /* so do lbl's (march, lattice, surface escape); its view on the device (issue 14) */
+    {"lbl", NULL, "render.options.pixel_samples=1", 0},
+    /* the same random streams, but a last-bit difference can send a path elsewhere */
+    {"reference", NULL, NULL, 1},
+};
+
+/* The registry's device methods (at most max) with their settings. */
+static size_t cuda_methods(method_setting *out, size_t max)
+{
+    const char *const *n;
+    size_t k = 0, i;
+    for (n = vsd_method_names(); *n && k < max; n++) {
+        if (!(vsd_method_capabilities(*n) & VSD_METHOD_CAP_CUDA_VIEW)) continue;
+        out[k].name = *n;
+        out[k].parity = out[k].view = NULL;
+        out[k].noisy = 0;
+        for (i = 0; i < sizeof settings / sizeof settings[0]; i++)
+            if (strcmp(settings[i].name, *n) == 0) out[k] = settings[i];
+        k++;
+    }
+    return k;
+}
+
+#define MAX_METHODS 64
 
 static const scene_case scenes[] = {
     {"scenes/smoke64_sunset.json", 24},
@@ -69,36 +111,40 @@ static double pass_rel(const vsd_framebuffer *a, const vsd_framebuffer *b, int p
     return e;
 }
 
+/* Every settings entry names a method of the registry (a renamed method keeps its speed-ups). */
+static void test_settings_name_methods(void)
+{
+    size_t i;
+    for (i = 0; i < sizeof settings / sizeof settings[0]; i++)
+        CHECK_MSG(vsd_method_capabilities(settings[i].name) & VSD_METHOD_CAP_CUDA_VIEW,
+                  "settings: '%s' is not a device method of the registry", settings[i].name);
+}
+
 static void test_deterministic_parity(void)
 {
-    static const char *const methods[][2] = {
-        {"raymarch", "render.options.lights=64"},
-        {"constellation", "render.options.lights=64"},
-        {"shgrid", NULL},
-        /* crm's frame and lighting stages run on the CPU either way; its view on the device */
-        {"crm", "render.options.rbf_count=200"},
-        /* so do lbl's (march, lattice, surface escape); its view on the device (issue 14) */
-        {"lbl", NULL},
-    };
-    size_t si, mi;
+    method_setting methods[MAX_METHODS];
+    size_t si, mi, count = cuda_methods(methods, MAX_METHODS);
     for (si = 0; si < sizeof scenes / sizeof scenes[0]; si++)
-        for (mi = 0; mi < sizeof methods / sizeof methods[0]; mi++) {
+        for (mi = 0; mi < count; mi++) {
             vsd_framebuffer *cpu = NULL, *gpu = NULL;
             vsd_render_stats s;
             char err[1024];
-            vsd_status st = render(&scenes[si], methods[mi][0], "cpu", methods[mi][1], NULL, &cpu, &s, err, sizeof err);
-            CHECK_MSG(st == VSD_OK, "%s cpu: %s", methods[mi][0], err);
-            if (!st) st = render(&scenes[si], methods[mi][0], "cuda", methods[mi][1], NULL, &gpu, &s, err, sizeof err);
-            CHECK_MSG(st == VSD_OK, "%s cuda: %s", methods[mi][0], err);
+            const char *name = methods[mi].name;
+            vsd_status st;
+            if (methods[mi].noisy) continue;
+            st = render(&scenes[si], name, "cpu", methods[mi].parity, NULL, &cpu, &s, err, sizeof err);
+            CHECK_MSG(st == VSD_OK, "%s cpu: %s", name, err);
+            if (!st) st = render(&scenes[si], name, "cuda", methods[mi].parity, NULL, &gpu, &s, err, sizeof err);
+            CHECK_MSG(st == VSD_OK, "%s cuda: %s", name, err);
             if (!st) {
                 double dir = pass_rel(gpu, cpu, VSD_PASS_VOLUME_DIR, 3, 1);
                 double tr = pass_rel(gpu, cpu, VSD_PASS_TRANSMITTANCE, 3, 1);
                 double comb = pass_rel(gpu, cpu, VSD_PASS_COMBINED, 4, 1);
                 CHECK(strcmp(s.device, "cuda") == 0);
-                CHECK_MSG(s.device_uploaded_bytes > 100000, "%s: the GPU render uploaded %llu bytes", methods[mi][0],
+                CHECK_MSG(s.device_uploaded_bytes > 100000, "%s: the GPU render uploaded %llu bytes", name,
                           s.device_uploaded_bytes);
                 printf("%s %s: GPU vs CPU rel. RMSE VolumeDir %.3g, Transmittance %.3g, Combined %.3g\n",
-                       scenes[si].file, methods[mi][0], dir, tr, comb);
+                       scenes[si].file, name, dir, tr, comb);
                 CHECK_MSG(dir >= 0 && dir <= 1e-4, "VolumeDir %.3g", dir);
                 CHECK_MSG(tr >= 0 && tr <= 1e-4, "Transmittance %.3g", tr);
                 CHECK_MSG(comb >= 0 && comb <= 1e-4, "Combined %.3g", comb);
@@ -113,29 +159,34 @@ static void test_deterministic_parity(void)
         }
 }
 
-static void test_reference_within_noise(void)
+static void test_noisy_within_noise(void)
 {
-    size_t si;
-    for (si = 0; si < 2; si++) {
-        vsd_framebuffer *cpu1 = NULL, *cpu2 = NULL, *gpu = NULL;
-        char err[1024];
-        vsd_status st = render(&scenes[si], "reference", "cpu", "render.samples=64", "render.seed=1", &cpu1, NULL, err,
-                               sizeof err);
-        if (!st) st = render(&scenes[si], "reference", "cpu", "render.samples=64", "render.seed=2", &cpu2, NULL, err,
-                             sizeof err);
-        if (!st) st = render(&scenes[si], "reference", "cuda", "render.samples=64", "render.seed=1", &gpu, NULL, err,
-                             sizeof err);
-        CHECK_MSG(st == VSD_OK, "reference: %s", err);
-        if (!st) {
-            double noise = pass_rel(cpu2, cpu1, VSD_PASS_COMBINED, 4, 4);
-            double e = pass_rel(gpu, cpu1, VSD_PASS_COMBINED, 4, 4);
-            printf("%s reference: GPU vs CPU %.4f, CPU seed 2 vs seed 1 (noise) %.4f\n", scenes[si].file, e, noise);
-            CHECK(noise > 0);
-            CHECK_MSG(e >= 0 && e <= 1.5 * noise + 0.005, "GPU vs CPU %.4f against noise %.4f", e, noise);
+    method_setting methods[MAX_METHODS];
+    size_t si, mi, count = cuda_methods(methods, MAX_METHODS);
+    for (mi = 0; mi < count; mi++) {
+        const char *name = methods[mi].name;
+        if (!methods[mi].noisy) continue;
+        for (si = 0; si < 2; si++) {
+            vsd_framebuffer *cpu1 = NULL, *cpu2 = NULL, *gpu = NULL;
+            char err[1024];
+            vsd_status st = render(&scenes[si], name, "cpu", "render.samples=64", "render.seed=1", &cpu1, NULL, err,
+                                   sizeof err);
+            if (!st)
+                st = render(&scenes[si], name, "cpu", "render.samples=64", "render.seed=2", &cpu2, NULL, err, sizeof err);
+            if (!st)
+                st = render(&scenes[si], name, "cuda", "render.samples=64", "render.seed=1", &gpu, NULL, err, sizeof err);
+            CHECK_MSG(st == VSD_OK, "%s: %s", name, err);
+            if (!st) {
+                double noise = pass_rel(cpu2, cpu1, VSD_PASS_COMBINED, 4, 4);
+                double e = pass_rel(gpu, cpu1, VSD_PASS_COMBINED, 4, 4);
+                printf("%s %s: GPU vs CPU %.4f, CPU seed 2 vs seed 1 (noise) %.4f\n", scenes[si].file, name, e, noise);
+                CHECK(noise > 0);
+                CHECK_MSG(e >= 0 && e <= 1.5 * noise + 0.005, "GPU vs CPU %.4f against noise %.4f", e, noise);
+            }
+            vsd_framebuffer_destroy(cpu1);
+            vsd_framebuffer_destroy(cpu2);
+            vsd_framebuffer_destroy(gpu);
         }
-        vsd_framebuffer_destroy(cpu1);
-        vsd_framebuffer_destroy(cpu2);
-        vsd_framebuffer_destroy(gpu);
     }
 }
 
@@ -161,21 +212,19 @@ static void check_equals_fresh(const vsd_scene *sc, const vsd_framebuffer *fb, c
  * re-prepares what depends on it and still equals a fresh render. */
 static void test_camera_change_uploads_only_camera(void)
 {
-    static const char *const methods[] = {"raymarch", "constellation", "shgrid", "crm", "lbl", "reference"};
-    size_t mi;
-    for (mi = 0; mi < sizeof methods / sizeof methods[0]; mi++) {
+    method_setting methods[MAX_METHODS];
+    size_t mi, count = cuda_methods(methods, MAX_METHODS);
+    for (mi = 0; mi < count; mi++) {
         vsd_scene sc;
         vsd_renderer *r = NULL;
         vsd_framebuffer *fb = NULL;
         vsd_render_stats s1, s2;
         char m[64], err[1024];
         const char *ov[6] = {m, "render.device=cuda", "film.width=96", "film.height=54", "render.samples=4",
-                             "render.options.pixel_samples=1"};
+                             methods[mi].view};
         vsd_status st;
-        snprintf(m, sizeof m, "render.method=%s", methods[mi]);
-        /* reference has no pixel_samples option */
-        st = vsd_scene_load(test_data("scenes/smoke64_sunset.json"), ov, strcmp(methods[mi], "reference") ? 6 : 5, &sc, err,
-                            sizeof err);
+        snprintf(m, sizeof m, "render.method=%s", methods[mi].name);
+        st = vsd_scene_load(test_data("scenes/smoke64_sunset.json"), ov, methods[mi].view ? 6 : 5, &sc, err, sizeof err);
         if (!st) st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
         if (!st) st = vsd_renderer_render(r, 24, &fb, &s1, err, sizeof err);
         if (!st) {
@@ -183,25 +232,25 @@ static void test_camera_change_uploads_only_camera(void)
             st = vsd_renderer_set_scene(r, &sc, err, sizeof err);
         }
         if (!st) st = vsd_renderer_render(r, 24, &fb, &s2, err, sizeof err);
-        CHECK_MSG(st == VSD_OK, "%s: %s", methods[mi], err);
+        CHECK_MSG(st == VSD_OK, "%s: %s", methods[mi].name, err);
         if (!st) {
-            printf("%s: first view uploaded %llu bytes, new camera %llu bytes\n", methods[mi], s1.device_uploaded_bytes,
+            printf("%s: first view uploaded %llu bytes, new camera %llu bytes\n", methods[mi].name, s1.device_uploaded_bytes,
                    s2.device_uploaded_bytes);
-            CHECK_MSG(s1.device_uploaded_bytes > 100000, "%s: first view uploaded only %llu bytes", methods[mi],
+            CHECK_MSG(s1.device_uploaded_bytes > 100000, "%s: first view uploaded only %llu bytes", methods[mi].name,
                       s1.device_uploaded_bytes);
-            CHECK_MSG(s2.device_uploaded_bytes <= 4096, "%s: a camera change uploaded %llu bytes", methods[mi],
+            CHECK_MSG(s2.device_uploaded_bytes <= 4096, "%s: a camera change uploaded %llu bytes", methods[mi].name,
                       s2.device_uploaded_bytes);
             char what[96];
-            snprintf(what, sizeof what, "%s, new camera", methods[mi]);
+            snprintf(what, sizeof what, "%s, new camera", methods[mi].name);
             check_equals_fresh(&sc, fb, what);
             sc.environment.rotation_z += 0.8f;
             sc.medium.anisotropy = 0.3f;
             st = vsd_renderer_set_scene(r, &sc, err, sizeof err);
             if (!st) st = vsd_renderer_render(r, 24, &fb, &s2, err, sizeof err);
-            CHECK_MSG(st == VSD_OK, "%s: %s", methods[mi], err);
+            CHECK_MSG(st == VSD_OK, "%s: %s", methods[mi].name, err);
             if (!st) {
-                printf("%s: new lighting uploaded %llu bytes\n", methods[mi], s2.device_uploaded_bytes);
-                snprintf(what, sizeof what, "%s, new lighting", methods[mi]);
+                printf("%s: new lighting uploaded %llu bytes\n", methods[mi].name, s2.device_uploaded_bytes);
+                snprintf(what, sizeof what, "%s, new lighting", methods[mi].name);
                 check_equals_fresh(&sc, fb, what);
             }
         }
@@ -213,22 +262,37 @@ static void test_camera_change_uploads_only_camera(void)
 /* Out of memory: a real cudaMalloc failure through the device layer, which leaves the
  * context usable; then an image too large for a device-memory budget: an error naming the
  * budget with render.device = cuda, a CPU render with `auto`. */
+VSD_DEVICE_SCENE_SLOT(test_huge, "test_cuda huge scratch");
+VSD_DEVICE_SCENE_SLOT(test_scene, "test_cuda scene array");
+VSD_DEVICE_SLOT(test_method, "test_cuda method array");
+
 static void test_out_of_memory(void)
 {
     vsd_cuda *c = NULL;
     char err[1024];
     void *dev = NULL;
     float host[4] = {1, 2, 3, 4}, back[4] = {0, 0, 0, 0};
+    size_t held;
     vsd_status st = vsd_cuda_open(&c, err, sizeof err);
     CHECK_MSG(st == VSD_OK, "%s", err);
     if (st) return;
-    st = vsd_cuda_scratch(c, VSD_SLOT_ACCUM, 1, (size_t)1 << 50, 0, &dev, err, sizeof err);
+    st = vsd_cuda_scratch(c, test_huge, 1, (size_t)1 << 50, 0, &dev, err, sizeof err);
     CHECK(st == VSD_ERR_NOMEM);
     CHECK_CONTAINS(err, "allocating 1073741824.0 MiB");
+    CHECK_CONTAINS(err, "test_cuda huge scratch");
     CHECK_CONTAINS(err, "cudaErrorMemoryAllocation");
-    st = vsd_cuda_upload(c, VSD_SLOT_LIGHTS, 7, host, sizeof host, &dev, err, sizeof err);
+    st = vsd_cuda_upload(c, test_scene, 7, host, sizeof host, &dev, err, sizeof err);
     if (!st) st = vsd_cuda_download(c, back, dev, sizeof back, err, sizeof err);
     CHECK_MSG(st == VSD_OK && memcmp(host, back, sizeof host) == 0, "context unusable after OOM: %s", err);
+    /* a method slot lives while its method runs; the scene's stay */
+    vsd_cuda_set_method(c, "first");
+    held = vsd_cuda_resident_bytes(c);
+    if (!st) st = vsd_cuda_upload(c, test_method, 7, host, sizeof host, &dev, err, sizeof err);
+    CHECK_MSG(st == VSD_OK && vsd_cuda_resident_bytes(c) == held + sizeof host, "method slot: %s", err);
+    vsd_cuda_set_method(c, "first");
+    CHECK(vsd_cuda_resident_bytes(c) == held + sizeof host);
+    vsd_cuda_set_method(c, "second");
+    CHECK(vsd_cuda_resident_bytes(c) == held);
     vsd_cuda_close(c);
 
     setenv("VSD_CUDA_MAX_MB", "1", 1);
@@ -299,9 +363,10 @@ int main(void)
         return 77;
     }
     printf("CUDA device: %s\n", name);
+    test_settings_name_methods();
     test_distance_map();
     test_deterministic_parity();
-    test_reference_within_noise();
+    test_noisy_within_noise();
     test_camera_change_uploads_only_camera();
     test_out_of_memory();
     return test_finish("test_cuda");

@@ -8,10 +8,15 @@
  *     emulated device allocation holding at least the bytes the kernels read (a host
  *     pointer or a short upload is reported);
  *   - the launchers run the shared kernel functions serially, in the CUDA entry files'
- *     per-pixel sample order.
+ *     per-pixel sample order;
+ *   - slots are the backend's table by descriptor (core/device/cuda/cuda_slots.h): two
+ *     descriptors of one name are reported (names tell slots apart in messages), and a
+ *     change of method frees the method slots as the real backend does, so a buffer the
+ *     new method reads without uploading it first is reported as not a device pointer.
  * emulated_cuda_errors counts what was reported. Linked before the vsd libraries, these
  * definitions take the place of the real backend (or of cuda_absent.c). */
 #include "device/cuda/cuda_backend.h"
+#include "device/cuda/cuda_slots.h"
 #include "kernel/kernel_accum.h"
 #include "device/device_pass.h"
 #include "kernel/kernel_edt.h"
@@ -20,8 +25,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct { void *ptr; size_t bytes, used; uint64_t key; int valid; } buf;
-struct vsd_cuda { buf slot[VSD_SLOT_COUNT]; vsd_kernel_data *d_kd; void *d_method; size_t method_bytes; uint64_t uploaded; size_t budget; };
+typedef vsd_cuda_resident buf;
+struct vsd_cuda { vsd_cuda_slots slots; vsd_kernel_data *d_kd; void *d_method; size_t method_bytes; uint64_t uploaded; size_t budget; };
 
 int emulated_cuda_errors = 0;
 int vsd_cuda_built(void) { return 1; }
@@ -39,20 +44,43 @@ vsd_status vsd_cuda_open(vsd_cuda **out, char *err, size_t errlen)
 void vsd_cuda_close(vsd_cuda *c)
 {
     if (!c) return;
-    for (int i = 0; i < VSD_SLOT_COUNT; i++) free(c->slot[i].ptr);
+    for (size_t i = 0; i < c->slots.n; i++) free(c->slots.v[i].ptr);
+    free(c->slots.v);
     free(c->d_kd); free(c->d_method); free(c);
 }
 const char *vsd_cuda_device_name(const vsd_cuda *c) { (void)c; return "emulated CUDA (host)"; }
-size_t vsd_cuda_resident_bytes(const vsd_cuda *c) { size_t n = 0; for (int i = 0; i < VSD_SLOT_COUNT; i++) n += c->slot[i].bytes; return n; }
+size_t vsd_cuda_resident_bytes(const vsd_cuda *c) { return vsd_cuda_slots_bytes(&c->slots); }
 uint64_t vsd_cuda_uploaded_bytes(const vsd_cuda *c) { return c->uploaded; }
-
-static vsd_status reserve(vsd_cuda *c, vsd_cuda_slot s, size_t bytes, char *err, size_t errlen)
+void vsd_cuda_set_method(vsd_cuda *c, const char *method)
 {
-    buf *b = &c->slot[s];
+    if (!vsd_cuda_slots_method_changed(&c->slots, method)) return;
+    for (size_t i = 0; i < c->slots.n; i++) {
+        buf *b = &c->slots.v[i];
+        if (b->slot->kind != VSD_CUDA_METHOD_SLOT) continue;
+        free(b->ptr);
+        b->ptr = NULL; b->bytes = b->used = 0; b->key = 0; b->valid = 0;
+    }
+}
+
+/* s's entry (NULL after reporting when the host has no memory for it); a new descriptor
+ * whose name another one has is reported. */
+static buf *entry(vsd_cuda *c, vsd_cuda_slot s, char *err, size_t errlen)
+{
+    size_t n = c->slots.n, i;
+    buf *b = vsd_cuda_slots_get(&c->slots, s);
+    if (!b) { vsd_cuda_slots_no_entry(s, err, errlen); return NULL; }
+    if (c->slots.n > n)
+        for (i = 0; i < n; i++)
+            if (strcmp(c->slots.v[i].slot->name, s->name) == 0) { fprintf(stderr, "emulated CUDA: two slots are named '%s'\n", s->name); emulated_cuda_errors++; }
+    return b;
+}
+
+static vsd_status reserve(vsd_cuda *c, buf *b, size_t bytes, char *err, size_t errlen)
+{
     if (b->bytes >= bytes) return VSD_OK;
     if (c->budget && vsd_cuda_resident_bytes(c) - b->bytes + bytes > c->budget)
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "CUDA: would exceed VSD_CUDA_MAX_MB=%zu", c->budget >> 20);
-    if (bytes > ((size_t)1 << 40)) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "CUDA: allocating %.1f MiB of device memory: cudaErrorMemoryAllocation", (double)bytes/1048576.0);
+        return vsd_cuda_slots_over_budget(&c->slots, b, bytes, c->budget, err, errlen);
+    if (bytes > ((size_t)1 << 40)) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "CUDA: allocating %.1f MiB of device memory for %s: cudaErrorMemoryAllocation", (double)bytes/1048576.0, b->slot->name);
     free(b->ptr);
     b->ptr = malloc(bytes); memset(b->ptr, 0xA5, bytes);  /* poison */
     b->bytes = bytes; b->valid = 0;
@@ -60,24 +88,26 @@ static vsd_status reserve(vsd_cuda *c, vsd_cuda_slot s, size_t bytes, char *err,
 }
 vsd_status vsd_cuda_upload(vsd_cuda *c, vsd_cuda_slot s, uint64_t key, const void *host, size_t bytes, void **dev, char *err, size_t errlen)
 {
-    buf *b = &c->slot[s];
+    buf *b;
     *dev = NULL;
     if (!bytes) return VSD_OK;
+    if (!(b = entry(c, s, err, errlen))) return VSD_ERR_NOMEM;
     if (key && b->valid && b->key == key && b->used == bytes) {
-        if (memcmp(b->ptr, host, bytes)) { fprintf(stderr, "emulated CUDA: stale slot %d kept %zu bytes that differ from the host's\n", s, bytes); emulated_cuda_errors++; }
+        if (memcmp(b->ptr, host, bytes)) { fprintf(stderr, "emulated CUDA: stale slot '%s' kept %zu bytes that differ from the host's\n", s->name, bytes); emulated_cuda_errors++; }
         *dev = b->ptr; return VSD_OK;
     }
-    vsd_status st = reserve(c, s, bytes, err, errlen); if (st) return st;
+    vsd_status st = reserve(c, b, bytes, err, errlen); if (st) return st;
     memcpy(b->ptr, host, bytes);
     c->uploaded += bytes; b->used = bytes; b->key = key; b->valid = 1; *dev = b->ptr;
     return VSD_OK;
 }
 vsd_status vsd_cuda_scratch(vsd_cuda *c, vsd_cuda_slot s, uint64_t key, size_t bytes, int zero, void **dev, char *err, size_t errlen)
 {
-    buf *b = &c->slot[s];
+    buf *b;
     *dev = NULL;
     if (!bytes) return VSD_OK;
-    vsd_status st = reserve(c, s, bytes, err, errlen); if (st) return st;
+    if (!(b = entry(c, s, err, errlen))) return VSD_ERR_NOMEM;
+    vsd_status st = reserve(c, b, bytes, err, errlen); if (st) return st;
     if (zero) memset(b->ptr, 0, bytes); else memset(b->ptr, 0x5A, bytes);
     b->used = bytes; b->key = key; b->valid = 1; *dev = b->ptr;
     return VSD_OK;
@@ -98,10 +128,11 @@ static void chk(vsd_cuda *c, const void *p, size_t need, const char *what)
         return;
     }
     if (p == (const void *)c->d_kd || p == c->d_method) return;
-    for (int i = 0; i < VSD_SLOT_COUNT; i++) {
-        const char *b = c->slot[i].ptr;
-        if (b && (const char *)p >= b && (const char *)p < b + c->slot[i].bytes) {
-            if ((const char *)p + need > b + c->slot[i].used) { fprintf(stderr, "emulated CUDA: %s needs %zu bytes, slot %d holds %zu\n", what, need, i, c->slot[i].used); emulated_cuda_errors++; }
+    for (size_t i = 0; i < c->slots.n; i++) {
+        const buf *s = &c->slots.v[i];
+        const char *b = s->ptr;
+        if (b && (const char *)p >= b && (const char *)p < b + s->bytes) {
+            if ((const char *)p + need > b + s->used) { fprintf(stderr, "emulated CUDA: %s needs %zu bytes, slot '%s' holds %zu\n", what, need, s->slot->name, s->used); emulated_cuda_errors++; }
             return;
         }
     }

@@ -32,23 +32,41 @@ extern "C" {
 
 typedef struct vsd_cuda vsd_cuda;
 
-/* Resident slots. Frame slots change with the volume frame, lighting slots with the
- * environment or medium, view slots every render (scratch). The backend names only the
- * scene's slots; from VSD_SLOT_METHOD on, slots belong to the method the renderer runs
- * (a renderer runs one method, so methods may number theirs alike): the record grid
- * (src/render/record_grid_device.h) takes the first VSD_RECORD_GRID_SLOTS, and a method
- * that uses it numbers its own after those. */
-enum vsd_cuda_scene_slot {
-    VSD_SLOT_DENSITY_BRICKS, VSD_SLOT_DENSITY_VOXELS, VSD_SLOT_DENSITY_MAX,
-    VSD_SLOT_EMISSION_BRICKS, VSD_SLOT_EMISSION_VOXELS, VSD_SLOT_EMISSION_MAX,
-    VSD_SLOT_ENV_RGB, VSD_SLOT_ENV_ROWS, VSD_SLOT_ENV_COLS,
-    VSD_SLOT_LIGHTS,
-    VSD_SLOT_SCENE_LIGHTS,                            /* the scene's lights[] (kernel_lights.h) */
-    VSD_SLOT_ACCUM,                                   /* view: per-pixel sums (doubles) */
-    VSD_SLOT_METHOD,                                  /* first of the method's slots */
-    VSD_SLOT_COUNT = VSD_SLOT_METHOD + 24
-};
-typedef int vsd_cuda_slot; /* a scene slot above, or VSD_SLOT_METHOD + k */
+/* Resident slots. A slot is a static descriptor declared next to the code that uses it,
+ * and identified by its address: the backend keeps a growable table from descriptors to
+ * device buffers, allocated on first use, so adding an array is one declaration and two
+ * arrays can never share a slot by a numbering mistake (an overlap used to be silent).
+ *
+ *     VSD_DEVICE_SLOT(crm_view_nodes, "crm view nodes");
+ *     st = vsd_device_scratch(ctx, crm_view_nodes, bytes, 0, &dev, err, errlen);
+ *
+ * The name is what errors say ("allocating 12.0 MiB of device memory for crm view nodes:
+ * out of memory", and a $VSD_CUDA_MAX_MB refusal lists what each slot holds). Give every
+ * slot a name of its own: the emulated backend reports two of one name, and distinct
+ * contents also keep a linker that folds identical constants from merging two slots.
+ * Frame slots change with the volume frame, lighting slots with the environment or medium,
+ * view slots every render (scratch): that is the caller's key, not the slot's business.
+ *
+ * Scene slots (VSD_DEVICE_SCENE_SLOT: the volume, environment, lights, the view's sums)
+ * hold what every method reads. Method slots (VSD_DEVICE_SLOT) hold the arrays of the
+ * method the renderer runs: a renderer runs one method at a time, so when it names another
+ * (vsd_cuda_set_method, which src/render/device_frame.c calls before each method-slot
+ * access and each device pass) the buffers of all method slots are freed, and a renderer that changed method
+ * holds the new method's arrays only, as when methods numbered their slots alike and
+ * reused each other's buffers. */
+typedef enum vsd_cuda_slot_kind { VSD_CUDA_SCENE_SLOT, VSD_CUDA_METHOD_SLOT } vsd_cuda_slot_kind;
+typedef struct vsd_cuda_slot_desc {
+    const char *name;
+    vsd_cuda_slot_kind kind;
+} vsd_cuda_slot_desc;
+typedef const vsd_cuda_slot_desc *vsd_cuda_slot;
+
+/* A descriptor object `id` (an array of one, so that `id` is the slot's address). Static
+ * in the file that uses it; a slot shared by files defines it once with
+ * VSD_DEVICE_SLOT_OBJECT and declares it `extern const vsd_cuda_slot_desc id[1];`. */
+#define VSD_DEVICE_SLOT_OBJECT(id, kind, name) const vsd_cuda_slot_desc id[1] = {{name, kind}}
+#define VSD_DEVICE_SLOT(id, name) static VSD_DEVICE_SLOT_OBJECT(id, VSD_CUDA_METHOD_SLOT, name)
+#define VSD_DEVICE_SCENE_SLOT(id, name) static VSD_DEVICE_SLOT_OBJECT(id, VSD_CUDA_SCENE_SLOT, name)
 
 /* 1 when this build contains the CUDA backend (nvcc was found), else 0. */
 int vsd_cuda_built(void);
@@ -64,8 +82,13 @@ const char *vsd_cuda_device_name(const vsd_cuda *c);
 size_t vsd_cuda_resident_bytes(const vsd_cuda *c);
 uint64_t vsd_cuda_uploaded_bytes(const vsd_cuda *c);
 
-/* The device copy of host[0..bytes) in `slot`: copied only when `key` (or bytes) differs
- * from what the slot holds; key 0 always copies. bytes == 0 gives *dev = NULL. */
+/* The method whose slots c holds (NULL or "" = none named yet): naming a different one
+ * frees every VSD_CUDA_METHOD_SLOT slot's buffer (a renderer changed method). */
+void vsd_cuda_set_method(vsd_cuda *c, const char *method);
+
+/* The device copy of host[0..bytes) in `slot` (a buffer allocated on the slot's first use,
+ * grown when too small): copied only when `key` (or bytes) differs from what the slot
+ * holds; key 0 always copies. bytes == 0 gives *dev = NULL. */
 vsd_status vsd_cuda_upload(vsd_cuda *c, vsd_cuda_slot slot, uint64_t key, const void *host, size_t bytes,
                            void **dev, char *err, size_t errlen);
 /* A device buffer of `bytes` in `slot` for kernels to write (zeroed when zero != 0); the

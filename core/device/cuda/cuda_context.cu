@@ -1,5 +1,6 @@
 // The CUDA device layer: device discovery, the per-renderer stream, resident slots that
-// upload only when their key changes, and CUDA errors as vsd_status (cuda_backend.h).
+// upload only when their key changes (a table by slot descriptor, cuda_slots.h), and CUDA
+// errors as vsd_status (cuda_backend.h).
 #include "cuda_internal.cuh"
 #include <stdlib.h>
 #include <string.h>
@@ -54,7 +55,8 @@ extern "C" void vsd_cuda_close(vsd_cuda *c)
     if (!c) return;
     cudaSetDevice(c->device);
     if (c->stream) cudaStreamSynchronize(c->stream);
-    for (int i = 0; i < VSD_SLOT_COUNT; i++) cudaFree(c->slot[i].ptr);
+    for (size_t i = 0; i < c->slots.n; i++) cudaFree(c->slots.v[i].ptr);
+    free(c->slots.v);
     cudaFree(c->d_kd);
     cudaFree(c->d_method);
     if (c->stream) cudaStreamDestroy(c->stream);
@@ -64,26 +66,34 @@ extern "C" void vsd_cuda_close(vsd_cuda *c)
 
 extern "C" const char *vsd_cuda_device_name(const vsd_cuda *c) { return c->name; }
 
-extern "C" size_t vsd_cuda_resident_bytes(const vsd_cuda *c)
-{
-    size_t n = 0;
-    for (int i = 0; i < VSD_SLOT_COUNT; i++) n += c->slot[i].bytes;
-    return n;
-}
+extern "C" size_t vsd_cuda_resident_bytes(const vsd_cuda *c) { return vsd_cuda_slots_bytes(&c->slots); }
 
 extern "C" uint64_t vsd_cuda_uploaded_bytes(const vsd_cuda *c) { return c->uploaded; }
 
-// Grows the slot to hold `bytes` (allocations only grow, so a view of a new size or the
-// next frame's bricks reuse the buffer when they fit).
-static vsd_status slot_reserve(vsd_cuda *c, vsd_cuda_slot slot, size_t bytes, char *err, size_t errlen)
+extern "C" void vsd_cuda_set_method(vsd_cuda *c, const char *method)
 {
-    vsd_cuda_buffer *b = &c->slot[slot];
+    if (!vsd_cuda_slots_method_changed(&c->slots, method)) return;
+    vsd_cuda_use(c);
+    cudaStreamSynchronize(c->stream);   // a launch may still read them (none does: passes end synchronised)
+    cudaGetLastError();
+    for (size_t i = 0; i < c->slots.n; i++) {
+        vsd_cuda_resident *b = &c->slots.v[i];
+        if (b->slot->kind != VSD_CUDA_METHOD_SLOT || !b->ptr) continue;
+        cudaFree(b->ptr);
+        b->ptr = NULL;
+        b->bytes = b->used = 0;
+        b->key = 0;
+        b->valid = 0;
+    }
+}
+
+// Grows b, the entry of its slot, to hold `bytes` (allocations only grow, so a view of a
+// new size or the next frame's bricks reuse the buffer when they fit).
+static vsd_status slot_reserve(vsd_cuda *c, vsd_cuda_resident *b, size_t bytes, char *err, size_t errlen)
+{
     if (b->bytes >= bytes) return VSD_OK;
     if (c->budget && vsd_cuda_resident_bytes(c) - b->bytes + bytes > c->budget)
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen,
-                        "CUDA: %.1f MiB more device memory would exceed VSD_CUDA_MAX_MB=%zu (%.1f MiB held)",
-                        (double)bytes / (1024.0 * 1024.0), c->budget >> 20,
-                        (double)vsd_cuda_resident_bytes(c) / (1024.0 * 1024.0));
+        return vsd_cuda_slots_over_budget(&c->slots, b, bytes, c->budget, err, errlen);
     cudaError_t e = cudaStreamSynchronize(c->stream);   // the old buffer may still be read
     if (e != cudaSuccess) return vsd_cuda_fail(e, "waiting for the stream", err, errlen);
     cudaFree(b->ptr);
@@ -91,8 +101,9 @@ static vsd_status slot_reserve(vsd_cuda *c, vsd_cuda_slot slot, size_t bytes, ch
     b->bytes = 0;
     b->valid = 0;
     if ((e = cudaMalloc(&b->ptr, bytes)) != cudaSuccess) {
-        char what[96];
-        snprintf(what, sizeof what, "allocating %.1f MiB of device memory", (double)bytes / (1024.0 * 1024.0));
+        char what[256];
+        snprintf(what, sizeof what, "allocating %.1f MiB of device memory for %.160s", (double)bytes / (1024.0 * 1024.0),
+                 b->slot->name);
         b->ptr = NULL;
         return vsd_cuda_fail(e, what, err, errlen);
     }
@@ -104,14 +115,15 @@ extern "C" vsd_status vsd_cuda_upload(vsd_cuda *c, vsd_cuda_slot slot, uint64_t 
                                       void **dev, char *err, size_t errlen)
 {
     vsd_cuda_use(c);
-    vsd_cuda_buffer *b = &c->slot[slot];
     *dev = NULL;
     if (bytes == 0) return VSD_OK;
+    vsd_cuda_resident *b = vsd_cuda_slots_get(&c->slots, slot);
+    if (!b) return vsd_cuda_slots_no_entry(slot, err, errlen);
     if (key != 0 && b->valid && b->key == key && b->used == bytes) {
         *dev = b->ptr;
         return VSD_OK;
     }
-    vsd_status st = slot_reserve(c, slot, bytes, err, errlen);
+    vsd_status st = slot_reserve(c, b, bytes, err, errlen);
     if (st) return st;
     b->valid = 0;
     cudaError_t e = cudaMemcpyAsync(b->ptr, host, bytes, cudaMemcpyHostToDevice, c->stream);
@@ -128,10 +140,11 @@ extern "C" vsd_status vsd_cuda_scratch(vsd_cuda *c, vsd_cuda_slot slot, uint64_t
                                        void **dev, char *err, size_t errlen)
 {
     vsd_cuda_use(c);
-    vsd_cuda_buffer *b = &c->slot[slot];
     *dev = NULL;
     if (bytes == 0) return VSD_OK;
-    vsd_status st = slot_reserve(c, slot, bytes, err, errlen);
+    vsd_cuda_resident *b = vsd_cuda_slots_get(&c->slots, slot);
+    if (!b) return vsd_cuda_slots_no_entry(slot, err, errlen);
+    vsd_status st = slot_reserve(c, b, bytes, err, errlen);
     if (st) return st;
     if (zero) {
         cudaError_t e = cudaMemsetAsync(b->ptr, 0, bytes, c->stream);

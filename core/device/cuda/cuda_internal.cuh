@@ -4,23 +4,16 @@
 #ifndef VSD_CUDA_INTERNAL_CUH
 #define VSD_CUDA_INTERNAL_CUH
 #include "cuda_backend.h"
+#include "cuda_slots.h"
 #include "kernel/kernel_accum.h"
 #include <cuda_runtime.h>
 #include <stdio.h>
-
-struct vsd_cuda_buffer {
-    void *ptr;
-    size_t bytes;      // allocated
-    size_t used;       // bytes the holder asked for
-    uint64_t key;
-    int valid;
-};
 
 struct vsd_cuda {
     int device;
     cudaStream_t stream;
     char name[300];
-    vsd_cuda_buffer slot[VSD_SLOT_COUNT];
+    vsd_cuda_slots slots;   // the resident slots, by descriptor (cuda_slots.h)
     // per-launch copies of the kernel structs (the scene's and the method's)
     vsd_kernel_data *d_kd;
     void *d_method;

@@ -1,13 +1,15 @@
 #include "constellation_device.h"
 #include "src/render/device_frame.h"
-#include "src/render/record_grid_device.h"
 #include <stddef.h>
 
-/* The constellation's own resident slots, after the record grid's (its cached shadows). */
-enum {
-    CST_SLOT_DM_DENSITY = VSD_SLOT_METHOD + VSD_RECORD_GRID_SLOTS, CST_SLOT_DM_EMISSION, CST_SLOT_FIELD_DENSITY,
-    CST_SLOT_CODE_DENSITY, CST_SLOT_FIELD_EMISSION, CST_SLOT_CODE_EMISSION, CST_SLOT_FIRST
-};
+/* The constellation's own resident slots (its cached shadows' record grid has its own). */
+VSD_DEVICE_SLOT(cst_dm_density, "constellation distance map (density)");
+VSD_DEVICE_SLOT(cst_dm_emission, "constellation distance map (emission)");
+VSD_DEVICE_SLOT(cst_field_density, "constellation distance field (density)");
+VSD_DEVICE_SLOT(cst_field_emission, "constellation distance field (emission)");
+VSD_DEVICE_SLOT(cst_code_density, "constellation shadow codes (density)");
+VSD_DEVICE_SLOT(cst_code_emission, "constellation shadow codes (emission)");
+VSD_DEVICE_SLOT(cst_first, "constellation validity mask (first shell per view ray)");
 
 /* A distance map with its dense grid on the device; slots differ for density and emission. */
 static vsd_status device_distmap(const vsd_frame_ctx *ctx, const vsd_kdistmap *m, int emission, vsd_kdistmap *d,
@@ -18,15 +20,15 @@ static vsd_status device_distmap(const vsd_frame_ctx *ctx, const vsd_kdistmap *m
     const void *p;
     vsd_status st;
     *d = *m;
-    if ((st = vsd_device_array(ctx, emission ? CST_SLOT_DM_EMISSION : CST_SLOT_DM_DENSITY, ctx->frame_gen,
+    if ((st = vsd_device_array(ctx, emission ? cst_dm_emission : cst_dm_density, ctx->frame_gen,
                                m->skip, cells, &p, err, errlen)))
         return st;
     d->skip = p;
-    if ((st = vsd_device_array(ctx, emission ? CST_SLOT_FIELD_EMISSION : CST_SLOT_FIELD_DENSITY,
+    if ((st = vsd_device_array(ctx, emission ? cst_field_emission : cst_field_density,
                                ctx->frame_gen, m->field, voxels * sizeof(float), &p, err, errlen)))
         return st;
     d->field = p;
-    if ((st = vsd_device_array(ctx, emission ? CST_SLOT_CODE_EMISSION : CST_SLOT_CODE_DENSITY,
+    if ((st = vsd_device_array(ctx, emission ? cst_code_emission : cst_code_density,
                                ctx->frame_gen, m->shadow_code, cells, &p, err, errlen)))
         return st;
     d->shadow_code = p;
@@ -102,7 +104,7 @@ vsd_status vsd_cst_device_render(const vsd_frame_ctx *ctx, const vsd_kconstellat
         if (items > 0x7fffffff)
             return vsd_fail(VSD_ERR_INVALID, err, errlen, "validity mask: %zu view rays exceed the device pass's limit",
                             items);
-        if ((st = vsd_cuda_scratch(ctx->cuda, CST_SLOT_FIRST, 0, sizeof(int32_t) * items, 0, &first, err, errlen)) ||
+        if ((st = vsd_device_scratch(ctx, cst_first, sizeof(int32_t) * items, 0, &first, err, errlen)) ||
             (st = vsd_device_run(ctx, &cst_mask_pass, &dkc, kc->kd, a, (int)items, first, sizeof(int32_t) * items,
                                  0.0f, 0.05f, err, errlen)))
             return st;

@@ -3,11 +3,15 @@
 #include "device/cpu/cpu_tiles.h"
 #include <stddef.h>
 
-/* crm's resident slots (cuda_backend.h: from VSD_SLOT_METHOD on, the method's own) */
-enum {
-    CRM_SLOT_DTILDE = VSD_SLOT_METHOD, CRM_SLOT_NODES, CRM_SLOT_VALID, CRM_SLOT_OCC, CRM_SLOT_OFFSETS, CRM_SLOT_TABLE,
-    CRM_SLOT_VIEW_NODES, CRM_SLOT_DFULL
-};
+/* crm's resident slots (cuda_backend.h) */
+VSD_DEVICE_SLOT(crm_dtilde, "crm reduced density");
+VSD_DEVICE_SLOT(crm_dfull, "crm full density");
+VSD_DEVICE_SLOT(crm_nodes, "crm nodes");
+VSD_DEVICE_SLOT(crm_valid, "crm node validity");
+VSD_DEVICE_SLOT(crm_occ, "crm residual hash occupancy");
+VSD_DEVICE_SLOT(crm_offsets, "crm residual hash offsets");
+VSD_DEVICE_SLOT(crm_table, "crm residual hash table");
+VSD_DEVICE_SLOT(crm_view_nodes, "crm view nodes");
 
 static size_t voxels(const vsd_kcrm *c) { return (size_t)c->dims[0] * c->dims[1] * c->dims[2]; }
 static size_t nodes(const vsd_kcrm *c) { return (size_t)c->node_res[0] * c->node_res[1] * c->node_res[2]; }
@@ -84,14 +88,14 @@ vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void 
     *d = *h;
 #define PUT(field, slot, gen, bytes) \
     do { if ((st = vsd_device_array(ctx, slot, gen, h->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
-    PUT(dtilde, CRM_SLOT_DTILDE, ctx->frame_gen, voxels(h) * sizeof(float));
-    if (h->dfull) PUT(dfull, CRM_SLOT_DFULL, ctx->frame_gen, voxels(h) * sizeof(float));
-    PUT(nodes, CRM_SLOT_NODES, ctx->lighting_gen, nodes(h) * CRM_NODE_FLOATS * sizeof(float));
-    PUT(node_valid, CRM_SLOT_VALID, ctx->lighting_gen, nodes(h));
+    PUT(dtilde, crm_dtilde, ctx->frame_gen, voxels(h) * sizeof(float));
+    if (h->dfull) PUT(dfull, crm_dfull, ctx->frame_gen, voxels(h) * sizeof(float));
+    PUT(nodes, crm_nodes, ctx->lighting_gen, nodes(h) * CRM_NODE_FLOATS * sizeof(float));
+    PUT(node_valid, crm_valid, ctx->lighting_gen, nodes(h));
     if (!h->dfull) {
-        PUT(residual.occupancy, CRM_SLOT_OCC, ctx->frame_gen, h->residual.n_occupancy * sizeof(uint32_t));
-        PUT(residual.offsets, CRM_SLOT_OFFSETS, ctx->frame_gen, h->residual.n_offsets * sizeof(uint32_t));
-        PUT(residual.table, CRM_SLOT_TABLE, ctx->frame_gen, h->residual.n_table);
+        PUT(residual.occupancy, crm_occ, ctx->frame_gen, h->residual.n_occupancy * sizeof(uint32_t));
+        PUT(residual.offsets, crm_offsets, ctx->frame_gen, h->residual.n_offsets * sizeof(uint32_t));
+        PUT(residual.table, crm_table, ctx->frame_gen, h->residual.n_table);
     } else {
         d->residual.occupancy = d->residual.offsets = NULL;
         d->residual.table = NULL;
@@ -103,7 +107,7 @@ vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void 
         size_t bytes = nodes(h) * CRM_VIEW_FLOATS * sizeof(float);
         vsd_pass_args a = {0, 0, 0};
         void *view;
-        if ((st = vsd_cuda_scratch(ctx->cuda, CRM_SLOT_VIEW_NODES, 0, bytes, 0, &view, err, errlen))) return st;
+        if ((st = vsd_device_scratch(ctx, crm_view_nodes, bytes, 0, &view, err, errlen))) return st;
         d->view_nodes = view;
         if ((st = vsd_device_run(ctx, &crm_node_pass, d, h->kd, a, (int)nodes(h), view, bytes, 0.0f, 0.0f, err, errlen)))
             return st;

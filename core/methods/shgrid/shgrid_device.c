@@ -30,8 +30,7 @@ vsd_status vsd_shgrid_device_records(const vsd_frame_ctx *ctx, const vsd_krecord
     vsd_status st;
     if (bytes == 0) return VSD_OK;
     if ((st = vsd_record_grid_device(ctx, g, 0, &d, err, errlen)) ||
-        (st = vsd_cuda_scratch(ctx->cuda, lights ? VSD_SLOT_RG_LIGHT_TRANS : VSD_SLOT_RG_RECORDS, 0, bytes, 0, &out,
-                               err, errlen)) ||
+        (st = vsd_record_grid_output(ctx, lights, bytes, &out, err, errlen)) ||
         (st = vsd_device_run(ctx, &shgrid_record_pass, &d, g->kd, a, g->record_count, out, bytes, 0.0f, 1.0f, err,
                              errlen)))
         return st;

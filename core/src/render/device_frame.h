@@ -12,11 +12,24 @@
 /* The resident-slot key of host array `host` of generation `gen`. */
 uint64_t vsd_device_key(uint64_t gen, const void *host);
 
+/* Every resident slot a frame uses goes through these (not vsd_cuda_upload/scratch), which
+ * first name ctx's method to the backend for a method slot, as vsd_device_run does for
+ * every pass (vsd_cuda_set_method: a renderer that changed method frees the old one's
+ * arrays). A NULL host or 0 bytes gives
+ * *dev = NULL. */
+
 /* Device copy of host[bytes] in slot, re-uploaded only when gen or host changed. Such a
  * key is only safe for data that is final for its generation: arrays a prepare stage
- * still rewrites in place after uploading them must be copied with key 0 (always). */
+ * still rewrites in place after uploading them must use vsd_device_copy. */
 vsd_status vsd_device_array(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, uint64_t gen, const void *host,
                             size_t bytes, const void **dev, char *err, size_t errlen);
+/* Device copy of host[bytes] in slot, copied every time (key 0). */
+vsd_status vsd_device_copy(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, const void *host, size_t bytes,
+                           const void **dev, char *err, size_t errlen);
+/* A device buffer of `bytes` in slot for a pass to write (zeroed when zero != 0), key 0:
+ * the next vsd_device_array of the slot copies its host array again. */
+vsd_status vsd_device_scratch(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, size_t bytes, int zero, void **dev,
+                              char *err, size_t errlen);
 
 /* kv (a copy of ctx->kd.density, or .emission when emission != 0, for volume vol) with its
  * bricks replaced by their resident device copies. */

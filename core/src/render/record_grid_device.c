@@ -3,6 +3,21 @@
 #include "device_frame.h"
 #include <stddef.h>
 
+/* The grid's resident slots. */
+VSD_DEVICE_SLOT(rg_cells, "record grid cells");
+VSD_DEVICE_SLOT(rg_records, "record grid records");
+VSD_DEVICE_SLOT(rg_pos, "record grid positions");
+VSD_DEVICE_SLOT(rg_dirs, "record grid directions");
+VSD_DEVICE_SLOT(rg_basis, "record grid basis");
+VSD_DEVICE_SLOT(rg_radiance, "record grid direction radiance");
+VSD_DEVICE_SLOT(rg_light, "record grid light SH");
+VSD_DEVICE_SLOT(rg_lights, "record grid lights");
+VSD_DEVICE_SLOT(rg_light_trans, "record grid light transmittances");
+VSD_DEVICE_SLOT(rg_records_ms, "record grid multiple scattering");
+VSD_DEVICE_SLOT(rg_records_ms_dir, "record grid multiple scattering (direct emission)");
+VSD_DEVICE_SLOT(rg_local_lights, "record grid local lights");
+VSD_DEVICE_SLOT(rg_local_trans, "record grid local light transmittances");
+
 /* One array of the grid on the device (NULL stays NULL). At render time the arrays are
  * final for the lighting generation and stay resident; during the prepare stages shgrid.c
  * still rewrites some in place (the HEALPix radiance, the environment SH, the extracted
@@ -10,12 +25,14 @@
 static vsd_status put(const vsd_frame_ctx *ctx, int record_pass, vsd_cuda_slot slot, const void *host, size_t bytes,
                       const void **dev, char *err, size_t errlen)
 {
-    void *d = NULL;
-    vsd_status st = VSD_OK;
     if (!record_pass) return vsd_device_array(ctx, slot, ctx->lighting_gen, host, bytes, dev, err, errlen);
-    if (host && bytes) st = vsd_cuda_upload(ctx->cuda, slot, 0, host, bytes, &d, err, errlen);
-    *dev = d;
-    return st;
+    return vsd_device_copy(ctx, slot, host, bytes, dev, err, errlen);
+}
+
+vsd_status vsd_record_grid_output(const vsd_frame_ctx *ctx, int lights, size_t bytes, void **dev, char *err,
+                                  size_t errlen)
+{
+    return vsd_device_scratch(ctx, lights ? rg_light_trans : rg_records, bytes, 0, dev, err, errlen);
 }
 
 vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_grid *g, int with_records, vsd_krecord_grid *d,
@@ -28,35 +45,35 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
     *d = *g;
 #define PUT(field, slot, bytes) \
     do { if ((st = put(ctx, !with_records, slot, g->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
-    PUT(cell_record, VSD_SLOT_RG_CELLS, cells * sizeof(int32_t));
-    PUT(light, VSD_SLOT_RG_LIGHT, 3 * n2 * sizeof(float));
-    PUT(lights, VSD_SLOT_RG_LIGHTS, (lights + (size_t)g->sub_count) * 8 * sizeof(float));
+    PUT(cell_record, rg_cells, cells * sizeof(int32_t));
+    PUT(light, rg_light, 3 * n2 * sizeof(float));
+    PUT(lights, rg_lights, (lights + (size_t)g->sub_count) * 8 * sizeof(float));
     if (with_records) {
         /* the view pass reads the records, not what made them */
-        PUT(records, VSD_SLOT_RG_RECORDS, recs * (size_t)g->stride * sizeof(float));
-        PUT(light_trans, VSD_SLOT_RG_LIGHT_TRANS, recs * lights * sizeof(float));
+        PUT(records, rg_records, recs * (size_t)g->stride * sizeof(float));
+        PUT(light_trans, rg_light_trans, recs * lights * sizeof(float));
         if (g->records_ms_per_view) {
             /* a new view brings new values in the same host array: copied every time */
-            if ((st = vsd_device_array(ctx, VSD_SLOT_RG_RECORDS_MS, 0, g->records_ms, recs * 3 * sizeof(float), &p, err,
-                                       errlen)))
+            if ((st = vsd_device_copy(ctx, rg_records_ms, g->records_ms, recs * 3 * sizeof(float), &p, err,
+                                      errlen)))
                 return st;
             d->records_ms = p;
         } else {
-            PUT(records_ms, VSD_SLOT_RG_RECORDS_MS, g->records_ms ? recs * 3 * sizeof(float) : 0);
+            PUT(records_ms, rg_records_ms, g->records_ms ? recs * 3 * sizeof(float) : 0);
         }
-        PUT(records_ms_dir, VSD_SLOT_RG_RECORDS_MS_DIR, g->records_ms_dir ? recs * 3 * sizeof(float) : 0);
+        PUT(records_ms_dir, rg_records_ms_dir, g->records_ms_dir ? recs * 3 * sizeof(float) : 0);
         d->record_pos = d->dirs = d->basis = d->dir_radiance = NULL;
         if (g->local_count > 0) {
             /* the local lights' phase is toward the light from each record's position */
-            PUT(local_lights, VSD_SLOT_RG_LOCAL_LIGHTS, (size_t)g->local_count * VSD_KLIGHT_FLOATS * sizeof(float));
-            PUT(local_trans, VSD_SLOT_RG_LOCAL_TRANS, recs * (size_t)g->local_count * sizeof(float));
-            PUT(record_pos, VSD_SLOT_RG_POS, recs * 4 * sizeof(float));
+            PUT(local_lights, rg_local_lights, (size_t)g->local_count * VSD_KLIGHT_FLOATS * sizeof(float));
+            PUT(local_trans, rg_local_trans, recs * (size_t)g->local_count * sizeof(float));
+            PUT(record_pos, rg_pos, recs * 4 * sizeof(float));
         }
     } else {
-        PUT(record_pos, VSD_SLOT_RG_POS, recs * 4 * sizeof(float));
-        PUT(dirs, VSD_SLOT_RG_DIRS, dirs * 4 * sizeof(float));
-        PUT(basis, VSD_SLOT_RG_BASIS, dirs * n2 * sizeof(float));
-        PUT(dir_radiance, VSD_SLOT_RG_RADIANCE, dirs * 4 * sizeof(float));
+        PUT(record_pos, rg_pos, recs * 4 * sizeof(float));
+        PUT(dirs, rg_dirs, dirs * 4 * sizeof(float));
+        PUT(basis, rg_basis, dirs * n2 * sizeof(float));
+        PUT(dir_radiance, rg_radiance, dirs * 4 * sizeof(float));
         d->records = NULL;
         d->light_trans = NULL;
         d->records_ms = NULL;

@@ -8,17 +8,18 @@
 #include "kernel/kernel_record_grid.h"
 #include "device/cuda/cuda_backend.h"
 
-/* The grid's resident slots, the first of the method's (cuda_backend.h). */
-enum {
-    VSD_SLOT_RG_CELLS = VSD_SLOT_METHOD, VSD_SLOT_RG_RECORDS, VSD_SLOT_RG_POS, VSD_SLOT_RG_DIRS, VSD_SLOT_RG_BASIS,
-    VSD_SLOT_RG_RADIANCE, VSD_SLOT_RG_LIGHT, VSD_SLOT_RG_LIGHTS, VSD_SLOT_RG_LIGHT_TRANS, VSD_SLOT_RG_RECORDS_MS,
-    VSD_SLOT_RG_RECORDS_MS_DIR, VSD_SLOT_RG_LOCAL_LIGHTS, VSD_SLOT_RG_LOCAL_TRANS, VSD_RECORD_GRID_SLOTS = 13
-};
-
-/* d = g with its arrays on the device; with_records = 0 for a record pass, which writes
- * the records (so they are not uploaded) and reads the positions and directions. */
+/* d = g with its arrays on the device, in the grid's own resident slots (method slots of
+ * record_grid_device.c: the method that runs a record grid owns them); with_records = 0
+ * for a record pass, which writes the records (so they are not uploaded) and reads the
+ * positions and directions. */
 vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_grid *g, int with_records,
                                   vsd_krecord_grid *d, char *err, size_t errlen);
+
+/* The device buffer of `bytes` a record pass writes: the slot of the grid's records
+ * (lights = 0) or of its transmittances toward the lights (lights = 1), which the view
+ * later uploads into again (the scratch's key 0 never matches). */
+vsd_status vsd_record_grid_output(const vsd_frame_ctx *ctx, int lights, size_t bytes, void **dev, char *err,
+                                  size_t errlen);
 
 /* The device arrays a pass over grid m reads (view != 0: the view pass; lights: a record
  * pass toward the lights), for the device pass descriptors (device/device_pass.h). */
