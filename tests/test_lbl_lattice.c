@@ -1,6 +1,7 @@
 /* test_lbl_lattice.c — the two lighting passes of method `lbl` against physics:
  *   1. one lattice-Boltzmann step conserves the photons when nothing is absorbed
- *      (albedo 1; also with cell_light "path"), and loses exactly the absorbed part
+ *      (albedo 1; also with cell_light "path", where each direction's photons are also
+ *      checked against the path's exits), and loses exactly the absorbed part
  *      albedo < 1 says (with the paper's cell light and with the path); with an
  *      anisotropic phase and the path, one node's outflow is the series of in-cell
  *      collisions it sums in closed form (the first collision's exits by quadrature over
@@ -29,7 +30,9 @@
  *  10. the phase readout's cone weights: 1/6 each for isotropic scattering, summing to 1,
  *      and each the integral of HG over its cube-face cone by an independent quadrature;
  *  11. the surface escape: nothing deep in the medium or in empty space, and at a flat
- *      face the half-space's escape less the lattice's one axis, within 25%. */
+ *      face exactly the 98 directions' quadrature of the box (computed here from the
+ *      geometry), and the half-space's escape less the lattice's one axis within 10% where
+ *      that quadrature holds (x >= 1; it is 21% low for thin cells). */
 #include "test_common.h"
 #include "src/common/clock.h"
 #include "methods/lbl/lbl_lattice.h"
@@ -103,13 +106,51 @@ static void test_conservation(void)
     for (z = 2; z < 6; z++)
         for (y = 2; y < 6; y++)
             for (x = 2; x < 6; x++)
-                for (i = 0; i < 6; i++) l.f[((size_t)i * 3) * 512 + (z * 8 + y) * 8 + x] = (float)test_urand(&rng);
+                for (i = 0; i < 6; i++)   /* mostly along +x: forward, backward and sideways exits differ */
+                    l.f[((size_t)i * 3) * 512 + (z * 8 + y) * 8 + x] = (float)test_urand(&rng) * (i == 0 ? 1.0f : 0.1f);
     vsd_lbl_lattice_set_cell_light(&l, VSD_LBL_CELL_PATH);
     before = vsd_lbl_lattice_total(&l, 0);
-    vsd_lbl_lattice_steps(&l, collide, ones, NULL, 1);
-    after = vsd_lbl_lattice_total(&l, 0);
-    printf("[1] albedo 1, path in the cell: photons %.6f -> %.6f\n", before, after);
-    CHECK_MSG(fabs(after - before) <= 1e-5 * before, "albedo 1 step, path: %.7g -> %.7g", before, after);
+    /* With albedo 1 the in-cell escape esc = e / (1 - albedo (1 - e)) is 1 whatever the
+     * exits, so the total alone cannot fail for them: check each direction's photons after
+     * the step (they stream one cell and stay in the lattice). Per node, direction i gets
+     * what passes, (1 - p) f_i; what the first collision scatters from j toward i (p f_j / 6)
+     * times its exit (forward, backward or sideways: first_exits); and a sixth of all that
+     * collides again, which with albedo 1 all leaves, evenly over the six directions. The
+     * paper's cell light would give each direction p sum_j f_j / 6 instead. */
+    {
+        double want[6] = {0, 0, 0, 0, 0, 0}, paper[6] = {0, 0, 0, 0, 0, 0}, got[6], worst = 0.0, apart = 0.0;
+        for (c = 0; c < 512; c++) {
+            double x = -log(1.0 - collide[c]), exits[3], again = 0.0, s = 0.0;
+            first_exits(x, exits);
+            for (i = 0; i < 6; i++) s += l.f[((size_t)i * 3) * 512 + c];
+            for (i = 0; i < 6; i++) {
+                want[i] += (1.0 - collide[c]) * l.f[((size_t)i * 3) * 512 + c];
+                paper[i] += (1.0 - collide[c]) * l.f[((size_t)i * 3) * 512 + c] + collide[c] * s / 6.0;
+                for (ch = 0; ch < 6; ch++) {
+                    double born = collide[c] * l.f[((size_t)ch * 3) * 512 + c] / 6.0,
+                           exit = i == ch ? exits[0] : (i ^ 1) == ch ? exits[1] : exits[2];
+                    want[i] += born * exit;
+                    again += born * (1.0 - exit);
+                }
+            }
+            for (i = 0; i < 6; i++) want[i] += again / 6.0;
+        }
+        vsd_lbl_lattice_steps(&l, collide, ones, NULL, 1);
+        after = vsd_lbl_lattice_total(&l, 0);
+        for (i = 0; i < 6; i++) {
+            got[i] = 0.0;
+            for (c = 0; c < 512; c++) got[i] += l.f[((size_t)i * 3) * 512 + c];
+            worst = fmax(worst, fabs(got[i] - want[i]) / want[i]);
+            apart = fmax(apart, fabs(paper[i] - want[i]) / want[i]);
+        }
+        printf("[1] albedo 1, path in the cell: photons %.6f -> %.6f; per direction within %.2g of the exits' "
+               "split (the paper's cell light's split differs from it by up to %.3f)\n",
+               before, after, worst, apart);
+        CHECK_MSG(fabs(after - before) <= 1e-5 * before, "albedo 1 step, path: %.7g -> %.7g", before, after);
+        /* float sums over 512 nodes: measured 4.6e-8 (the paper's even split is 0.021 off) */
+        CHECK_MSG(worst < 1e-5, "albedo 1 step, path: a direction's photons off the exits' split by %.3g", worst);
+        CHECK_MSG(apart > 100 * 1e-5, "the test's photons do not tell the exits' split from an even one (%.3g)", apart);
+    }
     /* albedo 0.5 with the path: of what the first collision scatters toward each
      * direction, its exit probability (first_exits) leaves the cell; the rest collides
      * there again, scatters with the albedo and, born anywhere, leaves with
@@ -719,12 +760,63 @@ static double expint2(double t)
 }
 
 /* The surface escape (lbl_escape.h) in a homogeneous 33^3 box of optical depth x per cell:
- * nothing lost deep inside or in empty space; at the middle of a face, births at optical
- * depth x/2 leave through it with 1/2 E_2(x/2) in truth and (1/6) e^(-x/2) along the
- * lattice's one outward axis, and 1 - keep is their difference, up to the 98 directions'
- * quadrature: measured 0.166 against 0.211 for thin cells (x = 0.2: the sideways
- * directions' cells straddle the horizon, where thin medium lets light out), 0.066 against
- * 0.062 at x = 1; within 25% (or 0.00125 where the difference is below zero: none lost). */
+ * nothing lost deep inside or in empty space. At the middle of a face the loss is
+ * P - P_lattice, P = sum over the 98 lattice vectors v of share_v T_v, P_lattice the six
+ * axes' mean T; in a homogeneous box T_v = exp(-sigma |path from the cell's centre to the
+ * box along v|) exactly (the sweep adds sigma x step per cell and the fraction of a step up
+ * to the box), and share_v is each vector's solid angle (the Fibonacci points nearest it),
+ * so that value is computed here from the geometry alone: escape_quadrature. The loss must
+ * equal it to float rounding (measured within 5.3e-8 at x = 0.2, 1 and 3; bound 1e-4).
+ * Against the truth, the half-space's 1/2 E_2(x/2) - e^(-x/2)/6, the 98 directions are off
+ * by their own quadrature error: 21% low at x = 0.2 (measured 0.166 against 0.211: the
+ * sideways vectors' shares straddle the horizon, where thin medium lets light out;
+ * docs/methods/lbl.md), so the old 25% tolerance sat just above a known 21% discrepancy.
+ * The half-space check is kept where the quadrature holds, x >= 1 (measured +6.6% at x = 1:
+ * 0.0663 against 0.0622; both 0 at x = 3), within 10%; at x = 0.2 the quadrature's bias is
+ * printed, not checked. */
+#define ESC_TOL 1e-4
+static double escape_quadrature(double x)
+{
+    enum { FIB = 16384 };
+    static int vec[98][3];
+    double share[98], p[3] = {16.5, 16.5, 32.5}, sphere = 0.0, axes = 0.0;
+    int k = 0, v, a, vx, vy, vz;
+    for (vz = -2; vz <= 2; vz++)
+        for (vy = -2; vy <= 2; vy++)
+            for (vx = -2; vx <= 2; vx++) {
+                int g = abs(vx) > abs(vy) ? abs(vx) : abs(vy);
+                g = abs(vz) > g ? abs(vz) : g;
+                /* no common factor: not all even, and not (0, 0, 0) */
+                if (g == 0 || ((vx | vy | vz) & 1) == 0) continue;
+                vec[k][0] = vx, vec[k][1] = vy, vec[k][2] = vz;
+                k++;
+            }
+    CHECK(k == 98);
+    memset(share, 0, sizeof share);
+    for (k = 0; k < FIB; k++) {
+        double z = 1.0 - (2.0 * k + 1.0) / FIB, r = sqrt(1.0 - z * z), ph = k * 2.399963229728653, best = -2.0;
+        double q[3] = {r * cos(ph), r * sin(ph), z};
+        int arg = 0;
+        for (v = 0; v < 98; v++) {
+            double c = (q[0] * vec[v][0] + q[1] * vec[v][1] + q[2] * vec[v][2]) /
+                       sqrt((double)(vec[v][0] * vec[v][0] + vec[v][1] * vec[v][1] + vec[v][2] * vec[v][2]));
+            if (c > best) best = c, arg = v;
+        }
+        share[arg] += 1.0 / FIB;
+    }
+    for (v = 0; v < 98; v++) {
+        double len = sqrt((double)(vec[v][0] * vec[v][0] + vec[v][1] * vec[v][1] + vec[v][2] * vec[v][2])), dist = 1e30;
+        for (a = 0; a < 3; a++) {
+            double u = vec[v][a] / len;
+            if (u > 0) dist = fmin(dist, (33.0 - p[a]) / u);
+            if (u < 0) dist = fmin(dist, p[a] / -u);
+        }
+        sphere += share[v] * exp(-x * dist);
+        if (abs(vec[v][0]) + abs(vec[v][1]) + abs(vec[v][2]) == 1) axes += exp(-x * dist) / 6.0;
+    }
+    return sphere - axes;
+}
+
 static void test_escape(void)
 {
     const int32_t res[3] = {33, 33, 33};
@@ -738,17 +830,22 @@ static void test_escape(void)
     CHECK(vsd_lbl_escape_keep(res, sigma, 0.1, NULL, keep));
     for (c = 0; c < n; c++) CHECK_MSG(fabsf(keep[c] - 1.0f) < 1e-5f, "empty space keeps %g", (double)keep[c]);
     for (k = 0; k < 3; k++) {
-        const double want = 0.5 * expint2(0.5 * xs[k]) - exp(-0.5 * xs[k]) / 6.0;
+        const double half_space = 0.5 * expint2(0.5 * xs[k]) - exp(-0.5 * xs[k]) / 6.0;
+        const double quad = fmax(escape_quadrature(xs[k]), 0.0);
         double got;
         for (c = 0; c < n; c++) sigma[c] = (float)(xs[k] / 0.1);   /* cells of 0.1 world units */
         CHECK(vsd_lbl_escape_keep(res, sigma, 0.1, NULL, keep));
         got = 1.0 - keep[face];
-        printf("[11] surface escape, x = %.1f per cell: deep inside lost %.2g; a face's middle lost %.4f, "
-               "1/2 E_2(x/2) - e^(-x/2)/6 = %.4f\n",
-               xs[k], 1.0 - keep[centre], got, want);
+        printf("[11] surface escape, x = %.1f per cell: deep inside lost %.2g; a face's middle lost %.5f, the 98 "
+               "directions' quadrature of the box %.5f (off by %.2g), the half-space 1/2 E_2(x/2) - e^(-x/2)/6 %.4f "
+               "(quadrature %+.1f%%)\n",
+               xs[k], 1.0 - keep[centre], got, quad, got - quad, half_space, 100.0 * (quad / half_space - 1.0));
         CHECK_MSG(1.0 - keep[centre] < 1e-6, "x %.1f: %.3g lost deep in the medium", xs[k], 1.0 - keep[centre]);
-        CHECK_MSG(fabs(got - fmax(want, 0.0)) < 0.25 * fmax(want, 0.005), "x %.1f: a face loses %.4f, the half-space %.4f",
-                  xs[k], got, want);
+        CHECK_MSG(fabs(got - quad) < ESC_TOL, "x %.1f: a face loses %.5f, the 98 directions' quadrature %.5f", xs[k], got,
+                  quad);
+        if (xs[k] >= 1.0)
+            CHECK_MSG(fabs(got - fmax(half_space, 0.0)) < 0.10 * fmax(half_space, 0.005),
+                      "x %.1f: a face loses %.4f, the half-space %.4f", xs[k], got, half_space);
     }
     free(sigma);
     free(keep);

@@ -5,6 +5,7 @@
  * error decreasing with grid resolution and SH order, the record-grid cache across views
  * and environment rotations, and option validation. */
 #include "test_common.h"
+#include "method_vs_reference.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include "vsd/volume.h"
@@ -207,18 +208,22 @@ static double dir_error(const vsd_framebuffer *a, const vsd_framebuffer *ref, in
     return e;
 }
 
-/* shgrid's VolumeDir (default settings) against reference single scattering (2048 spp)
- * at 48x27; the noise floor f (two reference seeds) is measured in the same run. Each
- * reference carries noise of about f / sqrt(2), which adds in quadrature to the method's own
- * error e_m, so the checked estimate is e_m = sqrt(e^2 - f^2 / 2) against the issue's 5%
- * target (measured about 3% here, 3.6-4.0% at 64x36 against 8192 spp references:
- * docs/methods/shgrid.md). The raw error must also stay below 5% + f. shgrid renders 2x2
+/* shgrid's VolumeDir (default settings) against reference single scattering at 48x27
+ * through the harness (common/method_vs_reference.h): the mean of two 2048 spp seeds, its
+ * noise (half their difference) measured in the same run and under a third of the
+ * tolerance, the pass scaled by 0.9 as the control that must fail. The tolerance is the
+ * issue's 5% target on the raw error against that mean (it was 5% on a noise-corrected
+ * estimate, with 5% + the pair's difference on the raw one). Measured 2026-12-03: smoke64
+ * 0.0339 (noise of the mean 0.0104, 3x 0.031; noise-corrected 0.032), fire96 0.0327 (noise
+ * 0.0082; 0.032); controls 0.196 / 0.162 (3.6-4.0% at 64x36 against 8192 spp references:
+ * docs/methods/shgrid.md). shgrid renders 2x2
  * rays per pixel here: the reference averages over each pixel's area, and at 48x27 one
  * point sample per pixel adds about 8% of silhouette aliasing that says nothing about the
  * lighting this test is about (the default, 1 ray, is measured at real film sizes by
  * bench/tte). The references render with medium.emission_strength 0: the reference's
  * VolumeDir also holds emission scattered once (as Cycles'), which a single-scattering
  * method does not compute, and shgrid's VolumeDir does not depend on emission. */
+#define SH_TOL 0.05
 typedef struct dataset { const char *scene; int frame; } dataset;
 
 static void test_against_reference(void)
@@ -227,42 +232,37 @@ static void test_against_reference(void)
         {"scenes/smoke64_sunset.json", 24},
         {"scenes/fire96_studio.json", 48},
     };
+    const char *labels[2] = {"smoke64 shgrid", "fire96 shgrid"};
     int si;
     for (si = 0; si < 2; si++) {
         char fr[2][32];
-        const char *ref_ov[7], *sh_ov[6];
-        vsd_framebuffer *ref, *ref2, *sh;
+        const char *ref_ov[5], *sh_ov[6];
+        const mvr_scene sc = {sets[si].scene, NULL, NULL, NULL, sets[si].frame};
+        mvr_refs refs;
+        vsd_framebuffer *sh;
         snprintf(fr[0], sizeof fr[0], "frames.start=%d", sets[si].frame);
         snprintf(fr[1], sizeof fr[1], "frames.end=%d", sets[si].frame);
         ref_ov[0] = sh_ov[0] = fr[0];
         ref_ov[1] = sh_ov[1] = fr[1];
         ref_ov[2] = sh_ov[2] = "film.width=48";
         ref_ov[3] = sh_ov[3] = "film.height=27";
-        ref_ov[4] = "render.method=reference";
-        ref_ov[5] = "render.samples=2048";
-        ref_ov[6] = "medium.emission_strength=0";
+        ref_ov[4] = "medium.emission_strength=0";
         sh_ov[4] = "render.method=shgrid";
         sh_ov[5] = "render.options.pixel_samples=2";
-        ref = render_file(sets[si].scene, ref_ov, 7, sets[si].frame);
-        {
-            const char *ov2[8] = {ref_ov[0], ref_ov[1], ref_ov[2],           ref_ov[3],
-                                  ref_ov[4], "render.samples=2048", "render.seed=9", ref_ov[6]};
-            ref2 = render_file(sets[si].scene, ov2, 8, sets[si].frame);
+        if (!mvr_render_references(&sc, ref_ov, 5, 2048, &refs)) {
+            mvr_refs_free(&refs);
+            continue;
         }
-        sh = render_file(sets[si].scene, sh_ov, 6, sets[si].frame);
-        if (ref && ref2 && sh) {
-            double floor_ = dir_error(ref2, ref, 48, 27), e = dir_error(sh, ref, 48, 27), et = 1, em;
-            CHECK(vsd_block_rel_rmse(sh->pass[VSD_PASS_TRANSMITTANCE], ref->pass[VSD_PASS_TRANSMITTANCE], 48, 27, 3, 3, 4,
-                                     &et, NULL, 0) == VSD_OK);
-            em = sqrt(fmax(0.0, e * e - 0.5 * floor_ * floor_));
-            printf("%s: shgrid VolumeDir rel. RMSE %.4f (noise floor %.4f; noise-corrected %.4f), Transmittance %.4f\n",
-                   sets[si].scene, e, floor_, em, et);
-            CHECK_MSG(em < 0.05, "%s: noise-corrected VolumeDir rel. RMSE %.4f >= 0.05", sets[si].scene, em);
-            CHECK_MSG(e < 0.05 + floor_, "%s: VolumeDir rel. RMSE %.4f >= 0.05 + floor %.4f", sets[si].scene, e, floor_);
-            CHECK_MSG(et < 0.02, "%s: Transmittance rel. RMSE %.4f", sets[si].scene, et);
+        sh = mvr_render(&sc, sh_ov, 6, NULL, NULL);
+        CHECK(sh != NULL);
+        if (sh) {
+            mvr_result r = mvr_check(labels[si], sh, &refs, VSD_PASS_VOLUME_DIR, SH_TOL, 0.9);
+            double et = mvr_error(sh, &refs, VSD_PASS_TRANSMITTANCE);
+            printf("    %s: VolumeDir noise-corrected sqrt(error^2 - noise^2) %.4f, Transmittance %.4f\n", labels[si],
+                   sqrt(fmax(0.0, r.err * r.err - r.noise * r.noise)), et);
+            CHECK_MSG(et < 0.02, "%s: Transmittance rel. RMSE %.4f", labels[si], et);
         }
-        vsd_framebuffer_destroy(ref);
-        vsd_framebuffer_destroy(ref2);
+        mvr_refs_free(&refs);
         vsd_framebuffer_destroy(sh);
     }
 }

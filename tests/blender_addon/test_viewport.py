@@ -13,7 +13,7 @@
 # the smoke. With --docs it also writes docs/blender-panel.png and docs/blender-render.png.
 #
 # The viewport shows what F12 will show (issue 28): the preview runs the add-on's default
-# viewport method, which must be one with multiple scattering (ui.VIEWPORT_DEFAULT), and
+# viewport method (the catalog's viewport_default), which must have multiple scattering, and
 # with a transparent film the mean Combined of its full-resolution image is within
 # BRIGHTNESS_TOL of an F12 render with `reference` from the same view, size and scene (a
 # camera made from the viewport's view). The same check run on shgrid's preview (single
@@ -49,7 +49,11 @@ method_arg = rest[rest.index("--viewport-method") + 1] if "--viewport-method" in
 # crm 1.031, shgrid 0.508; `vsd render` of this scene's F12 view at 264x166 against 4096 spp:
 # lbl 1.005, crm 1.007, shgrid 0.484.
 BRIGHTNESS_TOL = 0.10
-SINGLE_SCATTERING = ("raymarch", "shgrid", "constellation")
+
+
+def single_scattering(method):
+    """Whether vsd says the method scatters light once only (its catalog's capabilities)."""
+    return not common.addon_module("method_catalog").has(method, "multiple_scattering")
 
 
 def window_parts():
@@ -113,9 +117,13 @@ CHANGES = [
 
 
 def apply_change(i):
+    """Make change i and forget the last preview. The image on screen before the change is
+    remembered: the add-on sets status["preview_image"] only when it draws a full-resolution
+    image of its current request (viewport.py: image_info's key == the view's key), so a
+    preview that is new for this change has that name set again, and a different one."""
     conn = state["connection"]
-    conn.status["preview_fps"] = None
-    conn.status["preview_prepared"] = None
+    state["image_before"] = conn.status.get("preview_image")
+    forget_preview()
     state["bytes0"] = common.vsd_stats(state["daemon"].sock)["blob_bytes_received"]
     CHANGES[i][1]()
 
@@ -210,9 +218,9 @@ def setup():
         scene.vsd_options.raymarch.lights = 4
         scene.vsd_options.raymarch.pixel_samples = 1
         scene.vsd.viewport_resolution = 25
-    ui = common.addon_module("ui")
+    catalog = common.addon_module("method_catalog")
     default = scene.vsd.viewport_method
-    check(default == ui.VIEWPORT_DEFAULT and default not in SINGLE_SCATTERING,
+    check(default == catalog.default_for("viewport_default") and not single_scattering(default),
           "the viewport's default method has multiple scattering (%s)" % default)
     if method_arg:
         scene.vsd.viewport_method = method_arg
@@ -322,8 +330,12 @@ def _step():
         return 0.25
     if s == 7:  # material, frame and world changes each start a new preview
         label, _, new_file = CHANGES[state["change"]]
-        if st.get("preview_fps"):
-            check(True, "%s: a new preview" % label)
+        if preview_ready(st):
+            # not check(True): preview_fps alone is also set by a render of the old request
+            # still in flight (a stale preview); the drawn image must be this change's
+            check(st["preview_image"] != state.get("image_before"),
+                  "%s: a new preview on screen (image %s, before the change %s)" % (
+                      label, st["preview_image"], state.get("image_before")))
             if new_file:
                 sent = common.vsd_stats(state["daemon"].sock)["blob_bytes_received"] - state["bytes0"]
                 new_file = new_file()
@@ -397,7 +409,7 @@ def brightness(view3d, st, el):
     ratio = vp_mean / state["f12"] if state["f12"] > 0 else float("nan")
     print("brightness: %s preview %dx%d mean Combined %.5f, F12 reference %.5f: ratio %.3f"
           % (method, img.size[0], img.size[1], vp_mean, state["f12"], ratio), flush=True)
-    if method in SINGLE_SCATTERING:
+    if single_scattering(method):
         check(ratio < 1.0 - 2 * BRIGHTNESS_TOL,
               "%s (single scattering only) is darker than F12's reference: the check sees it (ratio %.3f)"
               % (method, ratio))
@@ -405,7 +417,7 @@ def brightness(view3d, st, el):
         check(abs(ratio - 1.0) <= BRIGHTNESS_TOL,
               "the %s preview is as bright as F12 with reference (mean Combined ratio %.3f, tolerance %.2f)"
               % (method, ratio, BRIGHTNESS_TOL))
-    if state["sub"] == 1 and method not in SINGLE_SCATTERING:
+    if state["sub"] == 1 and not single_scattering(method):
         state.update(sub=2, t0=time.monotonic())
         return 0.25
     scene.vsd.viewport_method = state["method"]
