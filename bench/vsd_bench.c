@@ -31,10 +31,12 @@
  * --quick: 320x180, 4 spp, reference 256 spp, 20 s limit -- a few minutes in all once the
  * references are cached. */
 #define _POSIX_C_SOURCE 200809L
+#include "vsd/clock.h"
 #include "vsd/compare.h"
 #include "vsd/image.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
+#include "run_logged.h"
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -73,13 +75,6 @@ typedef struct options {
     int width, height, spp, ref_spp, threads, cycles, refresh;
     double time_limit;
 } options;
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 static int in_list(const char *list, const char *name)
 {
@@ -126,7 +121,7 @@ typedef struct watch {
 static void on_progress(void *user, const char *stage, float fraction)
 {
     watch *w = user;
-    double t = now();
+    double t = vsd_clock_seconds();
     pthread_mutex_lock(&w->lock);
     if (strncmp(w->stage, stage, sizeof w->stage - 1) != 0) {
         snprintf(w->stage, sizeof w->stage, "%s", stage);
@@ -147,7 +142,7 @@ static void *watchdog(void *arg)
         done = w->done;
         pthread_mutex_unlock(&w->lock);
         if (done) return NULL;
-        if (now() > w->deadline) w->cancel = 1;
+        if (vsd_clock_seconds() > w->deadline) w->cancel = 1;
         nanosleep(&ts, NULL);
     }
 }
@@ -188,7 +183,7 @@ static void render_once(const vsd_scene *sc, const options *o, vsd_framebuffer *
     memset(r, 0, sizeof *r);
     memset(&w, 0, sizeof w);
     pthread_mutex_init(&w.lock, NULL);
-    w.start = w.stage_start = now();
+    w.start = w.stage_start = vsd_clock_seconds();
     w.deadline = w.start + o->time_limit;
     memset(&ro, 0, sizeof ro);
     ro.threads = o->threads;
@@ -301,7 +296,7 @@ static int compute_reference(const char *scene_path, const char *name, const cha
     run_result r;
     options lim = *o;
     char err[1024], s_spp[32], s_rgb[32], s_a[32];
-    double t0 = now();
+    double t0 = vsd_clock_seconds();
     int i, p, ok = 1, half = (o->ref_spp + 1) / 2;
     lim.time_limit = 1e9; /* the reference always completes */
     fprintf(stderr, "[%s] reference: 2 x %d spp at %dx%d (cached in %s)\n", name, half, ACC_W, ACC_H, exr);
@@ -334,7 +329,7 @@ static int compute_reference(const char *scene_path, const char *name, const cha
         ref->samples = 2 * half;
         ref->noise_rgb = 0.5 * rel_rmse(h[0]->pass[VSD_PASS_COMBINED], h[1]->pass[VSD_PASS_COMBINED], 3, 4);
         ref->noise_alpha = 0.5 * rel_rmse(h[0]->pass[VSD_PASS_COMBINED] + 3, h[1]->pass[VSD_PASS_COMBINED] + 3, 1, 4);
-        ref->seconds = now() - t0;
+        ref->seconds = vsd_clock_seconds() - t0;
         ref->rgba = malloc(sizeof(float) * ACC_W * ACC_H * 4);
         if (!ref->rgba) ok = 0;
         else memcpy(ref->rgba, avg->pass[VSD_PASS_COMBINED], sizeof(float) * ACC_W * ACC_H * 4);
@@ -378,26 +373,6 @@ static int compute_reference(const char *scene_path, const char *name, const cha
 
 /* ---- Cycles ---------------------------------------------------------------------------- */
 
-static int run_logged(char *const argv[], const char *log)
-{
-    pid_t pid = fork();
-    int status;
-    if (pid < 0) return -1;
-    if (pid == 0) {
-        int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd >= 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-            close(fd);
-        }
-        execvp(argv[0], argv);
-        fprintf(stderr, "exec %s: %s\n", argv[0], strerror(errno));
-        _exit(127);
-    }
-    if (waitpid(pid, &status, 0) < 0) return -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-}
-
 /* "MM:SS.ss" or "HH:MM:SS.ss" -> seconds */
 static double parse_clock(const char *s)
 {
@@ -424,7 +399,7 @@ static void run_cycles(const char *scene_path, const char *name, const options *
     char out[PATHLEN + 64], log[PATHLEN + 64], tjson[PATHLEN + 64], s_w[16], s_h[16], s_spp[16], val[64], err[256];
     char *argv[24];
     int n = 0, rc;
-    double t0 = now();
+    double t0 = vsd_clock_seconds();
     memset(cr, 0, sizeof *cr);
     snprintf(out, sizeof out, "%s/%s_cycles.exr", o->cache_dir, name);
     snprintf(log, sizeof log, "%s/%s_cycles.log", o->cache_dir, name);
@@ -456,7 +431,7 @@ static void run_cycles(const char *scene_path, const char *name, const options *
     argv[n] = NULL;
     fprintf(stderr, "[%s] Cycles: %dx%d, %d spp (log %s)\n", name, o->width, o->height, o->spp, log);
     rc = run_logged(argv, log);
-    cr->wall = now() - t0;
+    cr->wall = vsd_clock_seconds() - t0;
     if (rc != 0 || access(out, R_OK) != 0) {
         fprintf(stderr, "[%s] Cycles failed (status %d), see %s\n", name, rc, log);
         return;
@@ -506,7 +481,7 @@ int main(int argc, char **argv)
     char table_buf[65536];
     size_t tl = 0;
     const char *const *methods = vsd_method_names();
-    double t_start = now();
+    double t_start = vsd_clock_seconds();
 
     memset(&o, 0, sizeof o);
     o.scene_dir = VSD_BENCH_SCENES;
@@ -689,7 +664,7 @@ int main(int argc, char **argv)
     table = stdout;
     printf("\nvsd_bench: %s, %dx%d timing renders, %d spp for progressive methods; accuracy at %dx%d vs a "
            "%d+ spp reference, 4x4 blocks; time limit %.0f s per render; total %.0f s\n\n",
-           vsd_version(), o.width, o.height, o.spp, ACC_W, ACC_H, o.ref_spp, o.time_limit, now() - t_start);
+           vsd_version(), o.width, o.height, o.spp, ACC_W, ACC_H, o.ref_spp, o.time_limit, vsd_clock_seconds() - t_start);
     fputs(table_buf, table);
     if (o.out) {
         FILE *f = fopen(o.out, "w");

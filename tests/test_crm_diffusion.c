@@ -13,6 +13,7 @@
 #include "test_common.h"
 #include "methods/crm/crm_cg.h"
 #include "methods/crm/crm_diffusion.h"
+#include "vsd/clock.h"
 #include "vsd/sh.h"
 #include <cblas.h>
 #include <lapacke.h>
@@ -49,13 +50,6 @@ static double max_abs_diff(const double *a, const double *b, size_t n)
     for (size_t i = 0; i < n; i++) m = fmax(m, fabs(a[i] - b[i]));
     return m;
 }
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* ---- CG --------------------------------------------------------------------------------------- */
 
 /* A = 2 I + R / sqrt(n), R uniform in [-1, 1]: singular values within about [0.8, 3.2]. */
@@ -429,7 +423,7 @@ static void test_single_rbf(void)
 
 /* A cubic lattice of m^3 equal RBFs, spacing = radius = 2 voxels (overlapping: D~ is
  * constant to ~1e-4 inside), D~ ~ 1 in the interior. */
-enum { LM = 9 };
+enum { LM = 9, LN = LM * LM * LM };
 static void lattice(vsd_crm_rbf *r, double *x0)
 {
     const double h = 2.0, w = 1.0 / pow(PI_D, 1.5);
@@ -446,6 +440,37 @@ static void lattice(vsd_crm_rbf *r, double *x0)
 static int interior(int l) { int i = l % LM, j = l / LM % LM, k = l / (LM * LM);
     return i >= 3 && i < LM - 3 && j >= 3 && j < LM - 3 && k >= 3 && k < LM - 3; }
 
+/* The lattice problem both source tests solve, in static storage (too large for the stack):
+ * the RBFs, the single-scattered source J_ss a test fills in, and the solution u, J_ms. */
+typedef struct {
+    vsd_crm_rbf r[LN];
+    vsd_crm_rbfs rb;
+    double jss[LN * 12], jms[LN * 12], u[LN * 3];
+    double x0[3]; /* the lattice's centre */
+    double xm[3]; /* the RBF centre nearest x0 */
+} lattice_problem;
+
+static lattice_problem *lattice_problem_make(void)
+{
+    static lattice_problem p;
+    const int mid = (LM / 2) * (1 + LM + LM * LM);
+    lattice(p.r, p.x0);
+    p.rb.rbf = p.r;
+    p.rb.count = LN;
+    for (int k = 0; k < 3; k++) p.xm[k] = p.r[mid].c[k];
+    return &p;
+}
+
+/* Solve from u = 0 to a tight tolerance (1e-10, at most 3000 iterations). */
+static int lattice_problem_solve(lattice_problem *p, double sigma, const double albedo[3], double g,
+                                 vsd_crm_diffusion_stats *st)
+{
+    char err[256] = "";
+    memset(p->u, 0, sizeof p->u);
+    return vsd_crm_diffusion_solve_ex(&p->rb, sigma, albedo, g, p->jss, p->u, p->jms, 1e-10, 3000, st, err,
+                                      sizeof err) == VSD_OK;
+}
+
 /* Quadratic isotropic source J0(x) = A0 + C |x - x0|^2 (as a field; its coefficients carry
  * the interpolation offset), J1 = 0, in an infinite homogeneous medium D:
  *   kappa lap L0 - sigma_a D L0 + sigma D J0 = 0  =>  L0 = alpha + beta rho^2,
@@ -455,32 +480,27 @@ static int interior(int l) { int i = l % LM, j = l / LM % LM, k = l / (LM * LM);
  * alpha here, so a factor 3 in kappa or a wrong sign fails by far. */
 static void test_quadratic_source(void)
 {
-    enum { N = LM * LM * LM };
-    static vsd_crm_rbf r[N];
-    static double jss[N * 12], jms[N * 12], u[N * 3];
-    double x0[3];
-    char err[256] = "";
-    lattice(r, x0);
-    vsd_crm_rbfs rb = { r, N };
+    enum { N = LN };
+    lattice_problem *p = lattice_problem_make();
+    const vsd_crm_rbf *r = p->r;
+    const double *x0 = p->x0, *xm = p->xm, *u = p->u, *jms = p->jms;
     const double sigma = 1.0, a = 0.5, g = 0.5, albedo[3] = { a, a, a }, C = 0.1, A0 = 0.5;
     const double sigma_tr = (1 - a * g) * sigma, sigma_a = (1 - a) * sigma;
     /* interpolation offset delta: the field of coefficients rho_l^2 at a lattice centre is
      * rho^2 + delta (delta = sum w B |c_l - x|^2 / D~ there, ~1.5 r^2) */
-    int mid = (LM / 2) * (1 + LM + LM * LM);
-    double xm[3] = { r[mid].c[0], r[mid].c[1], r[mid].c[2] }, num = 0.0;
+    double num = 0.0;
     for (int l = 0; l < N; l++) {
         double dx = r[l].c[0] - xm[0], dy = r[l].c[1] - xm[1], dz = r[l].c[2] - xm[2], q = (dx * dx + dy * dy + dz * dz) / 4.0;
         if (q < 9.0) num += r[l].w * exp(-q) * q * 4.0;
     }
-    const double D = dens(&rb, xm), delta = num / D;
+    const double D = dens(&p->rb, xm), delta = num / D;
     const double beta = C / (1 - a), alpha = (A0 + C * delta) / (1 - a) + 2 * beta / (sigma_tr * sigma_a * D * D);
     for (int l = 0; l < N; l++) {
         double dx = r[l].c[0] - x0[0], dy = r[l].c[1] - x0[1], dz = r[l].c[2] - x0[2], zero[3] = { 0, 0, 0 };
-        for (int c = 0; c < 3; c++) vsd_crm_taylor_to_sh2(A0 + C * (dx * dx + dy * dy + dz * dz), zero, jss + (l * 3 + c) * 4);
+        for (int c = 0; c < 3; c++) vsd_crm_taylor_to_sh2(A0 + C * (dx * dx + dy * dy + dz * dz), zero, p->jss + (l * 3 + c) * 4);
     }
     vsd_crm_diffusion_stats st;
-    memset(u, 0, sizeof u);
-    CHECK(vsd_crm_diffusion_solve_ex(&rb, sigma, albedo, g, jss, u, jms, 1e-10, 3000, &st, err, sizeof err) == VSD_OK);
+    CHECK(lattice_problem_solve(p, sigma, albedo, g, &st));
     double worst = 0.0, worst_l1 = 0.0, lap_share = 2 * beta / (sigma_tr * sigma_a * D * D) / alpha;
     for (int l = 0; l < N; l++) {
         if (!interior(l)) continue;
@@ -509,24 +529,18 @@ static void test_quadratic_source(void)
  * (light that leaves is not there) and L1 = J1 / (1 - a g). */
 static void test_diverging_source(void)
 {
-    enum { N = LM * LM * LM };
-    static vsd_crm_rbf r[N];
-    static double jss[N * 12], jms[N * 12], u[N * 3];
-    double x0[3];
-    char err[256] = "";
-    lattice(r, x0);
-    vsd_crm_rbfs rb = { r, N };
+    enum { N = LN };
+    lattice_problem *p = lattice_problem_make();
+    const vsd_crm_rbf *r = p->r;
+    const double *x0 = p->x0, *u = p->u, *jms = p->jms;
     const double sigma = 1.0, a = 0.5, g = 0.5, albedo[3] = { a, a, a }, S = 0.1, A0 = 1.0;
-    int mid = (LM / 2) * (1 + LM + LM * LM);
-    double xm[3] = { r[mid].c[0], r[mid].c[1], r[mid].c[2] };
-    const double D = dens(&rb, xm);
+    const double D = dens(&p->rb, p->xm);
     for (int l = 0; l < N; l++) {
         double t1[3] = { S * (r[l].c[0] - x0[0]), S * (r[l].c[1] - x0[1]), S * (r[l].c[2] - x0[2]) };
-        for (int c = 0; c < 3; c++) vsd_crm_taylor_to_sh2(A0, t1, jss + (l * 3 + c) * 4);
+        for (int c = 0; c < 3; c++) vsd_crm_taylor_to_sh2(A0, t1, p->jss + (l * 3 + c) * 4);
     }
     vsd_crm_diffusion_stats st;
-    memset(u, 0, sizeof u);
-    CHECK(vsd_crm_diffusion_solve_ex(&rb, sigma, albedo, g, jss, u, jms, 1e-10, 3000, &st, err, sizeof err) == VSD_OK);
+    CHECK(lattice_problem_solve(p, sigma, albedo, g, &st));
     const double expect = A0 / (1 - a) - S / ((1 - a) * (1 - a * g) * sigma * D);
     double worst = 0.0, worst_l1 = 0.0;
     for (int l = 0; l < N; l++) {
@@ -648,7 +662,7 @@ static int bench(void)
 int main(int argc, char **argv)
 {
     if (argc > 1 && strcmp(argv[1], "--bench") == 0) return bench();
-    double t = now_s();
+    double t = vsd_clock_seconds();
     test_cg_direct();
     test_cg_least_squares();
     test_cg_edges();
@@ -659,6 +673,6 @@ int main(int argc, char **argv)
     test_quadratic_source();
     test_diverging_source();
     test_invalid();
-    printf("total %.2f s\n", now_s() - t);
+    printf("total %.2f s\n", vsd_clock_seconds() - t);
     return test_finish("test_crm_diffusion");
 }

@@ -185,18 +185,24 @@ static vsd_crm_hash_stats check_hash(const char *name, int nx, int ny, int nz, c
     return s;
 }
 
+/* check_hash on random n^3 residuals, one for each nonzero fraction of fracs[3] */
+static void check_random_cubes(int n, const double fracs[3])
+{
+    int f;
+    for (f = 0; f < 3; f++) {
+        float *R = random_residual(n, n, n, fracs[f]);
+        char name[64];
+        snprintf(name, sizeof name, "random %d^3 %.0f%%", n, 100 * fracs[f]);
+        CHECK(R != NULL);
+        if (R) check_hash(name, n, n, n, R, 0.0f);
+        free(R);
+    }
+}
+
 static void test_random_grids(void)
 {
     static const double fracs[] = {0.05, 0.15, 0.30};
-    int f;
-    for (f = 0; f < 3; f++) {
-        float *R = random_residual(64, 64, 64, fracs[f]);
-        char name[64];
-        snprintf(name, sizeof name, "random 64^3 %.0f%%", 100 * fracs[f]);
-        CHECK(R != NULL);
-        if (R) check_hash(name, 64, 64, 64, R, 0.0f);
-        free(R);
-    }
+    check_random_cubes(64, fracs);
     { /* non-cubic grid, explicit step */
         float *R = random_residual(37, 50, 23, 0.2);
         if (R) check_hash("random 37x50x23 step", 37, 50, 23, R, 0.01f);
@@ -208,14 +214,7 @@ static void test_random_grids(void)
 static void test_128(void)
 {
     static const double fracs[] = {0.05, 0.20, 0.50};
-    int f;
-    for (f = 0; f < 3; f++) {
-        float *R = random_residual(128, 128, 128, fracs[f]);
-        char name[64];
-        snprintf(name, sizeof name, "random 128^3 %.0f%%", 100 * fracs[f]);
-        if (R) check_hash(name, 128, 128, 128, R, 0.0f);
-        free(R);
-    }
+    check_random_cubes(128, fracs);
     {
         float *R = plume_residual(128);
         vsd_crm_hash_stats s;

@@ -16,14 +16,7 @@
 
 static char g_err[2048];
 
-static const char *tmp_path(const char *name)
-{
-    static char buf[2][2048];
-    static int k;
-    k ^= 1;
-    snprintf(buf[k], sizeof buf[k], "%s/env/%s", VSD_TEST_TMP, name);
-    return buf[k];
-}
+static const char *tmp_path(const char *name) { return test_tmp_in("env", name); }
 
 static void write_bytes(const char *path, const void *data, size_t n)
 {
@@ -33,21 +26,6 @@ static void write_bytes(const char *path, const void *data, size_t n)
         fwrite(data, 1, n, f);
         fclose(f);
     }
-}
-
-static void copy_prefix(const char *src, const char *dst, size_t keep)
-{
-    FILE *in = fopen(src, "rb"), *out = fopen(dst, "wb");
-    char buf[65536];
-    size_t n;
-    while (in && out && keep && (n = fread(buf, 1, keep < sizeof buf ? keep : sizeof buf, in)) > 0) {
-        fwrite(buf, 1, n, out);
-        keep -= n;
-    }
-    if (in)
-        fclose(in);
-    if (out)
-        fclose(out);
 }
 
 static double channel_mean(const vsd_env *env, int c)
@@ -334,10 +312,10 @@ static void test_load_errors(void)
     expect_fail(empty, VSD_ERR_FORMAT, "empty");
 
     const char *cut_exr = tmp_path("cut.exr");
-    copy_prefix(test_data("env/studio.exr"), cut_exr, 50000);
+    test_copy_prefix(test_data("env/studio.exr"), cut_exr, 50000);
     expect_fail(cut_exr, VSD_ERR_FORMAT, "truncated");
     const char *cut_hdr = tmp_path("cut.hdr");
-    copy_prefix(test_data("env/interior.hdr"), cut_hdr, 700000);
+    test_copy_prefix(test_data("env/interior.hdr"), cut_hdr, 700000);
     expect_fail(cut_hdr, VSD_ERR_FORMAT, "truncated");
 
     /* an EXR without colour channels */

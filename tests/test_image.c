@@ -20,14 +20,7 @@ static char g_err[2048];
 
 /* ---- helpers ------------------------------------------------------------------------- */
 
-static const char *tmp_path(const char *name)
-{
-    static char buf[2][2048];
-    static int k;
-    k ^= 1;
-    snprintf(buf[k], sizeof buf[k], "%s/image/%s", VSD_TEST_TMP, name);
-    return buf[k];
-}
+static const char *tmp_path(const char *name) { return test_tmp_in("image", name); }
 
 static int file_exists(const char *path)
 {
@@ -50,22 +43,6 @@ static int stray_tmp_files(void)
     if (d)
         closedir(d);
     return n;
-}
-
-/* Copy the first `keep` bytes of src to dst (keep = (size_t)-1: all). */
-static void copy_prefix(const char *src, const char *dst, size_t keep)
-{
-    FILE *in = fopen(src, "rb"), *out = fopen(dst, "wb");
-    char buf[65536];
-    size_t n;
-    while (in && out && keep && (n = fread(buf, 1, keep < sizeof buf ? keep : sizeof buf, in)) > 0) {
-        fwrite(buf, 1, n, out);
-        keep -= n;
-    }
-    if (in)
-        fclose(in);
-    if (out)
-        fclose(out);
 }
 
 static long file_size(const char *path)
@@ -396,11 +373,11 @@ static void test_read_errors(void)
     vsd_framebuffer *fb = make_fb(64, 64, pattern);
     const char *whole = tmp_path("whole.exr"), *cut = tmp_path("truncated.exr");
     CHECK(fb && vsd_exr_write(whole, fb, NULL, g_err, sizeof g_err) == VSD_OK);
-    copy_prefix(whole, cut, (size_t)file_size(whole) / 2);
+    test_copy_prefix(whole, cut, (size_t)file_size(whole) / 2);
     CHECK(vsd_exr_read(cut, &img, g_err, sizeof g_err) == VSD_ERR_FORMAT);
     CHECK(img == NULL);
     CHECK_CONTAINS(g_err, cut);
-    copy_prefix(whole, cut, 40); /* inside the header */
+    test_copy_prefix(whole, cut, 40); /* inside the header */
     CHECK(vsd_exr_read(cut, &img, g_err, sizeof g_err) == VSD_ERR_FORMAT);
     CHECK_CONTAINS(g_err, cut);
     char value[64];

@@ -18,6 +18,7 @@
  *
  * Times are wall clock and process CPU time (user + system) of the render call; on a
  * shared machine CPU time is the steadier figure. Data come from VSD_SHARED_DATA. */
+#include "vsd/clock.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include "vsd/vdbio.h"
@@ -30,13 +31,6 @@
 #include <string.h>
 #include <sys/resource.h>
 #include <time.h>
-
-static double wall(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static double cpu(void)
 {
@@ -69,10 +63,10 @@ static int render_once(const char *scene, const char *const *ov, int nov, int fr
     vsd_status st = vsd_scene_load(data(scene), ov, nov, &sc, err, sizeof err);
     memset(out, 0, sizeof *out);
     if (!st) st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
-    w0 = wall();
+    w0 = vsd_clock_seconds();
     c0 = cpu();
     if (!st) st = vsd_renderer_render(r, frame, &out->fb, &stats, err, sizeof err);
-    out->wall = wall() - w0;
+    out->wall = vsd_clock_seconds() - w0;
     out->cpu = cpu() - c0;
     out->prepare = stats.prepare_seconds;
     vsd_renderer_destroy(r);
@@ -269,18 +263,18 @@ static int sequence(int argc, char **argv)
             fprintf(stderr, "%s\n", err);
             return 1;
         }
-        w0 = wall();
+        w0 = vsd_clock_seconds();
         if (vsd_renderer_render(r, f, &fb, &st, err, sizeof err)) {
             fprintf(stderr, "frame %d: %s\n", f, err);
             return 1;
         }
         printf("%5d %8llu %12.4f %10.4f %10.4f %10.3f %10.3f\n", f, (unsigned long long)st.active_voxels, dm.seconds,
-               dg.seconds, st.prepare_seconds, st.render_seconds, wall() - w0);
+               dg.seconds, st.prepare_seconds, st.render_seconds, vsd_clock_seconds() - w0);
         fflush(stdout);
         tot_dm += dm.seconds;
         tot_dense += dg.seconds;
         vsd_dense_grid_free(&dg);
-        tot_frame += wall() - w0;
+        tot_frame += vsd_clock_seconds() - w0;
         vsd_distance_map_free(&dm);
         vsd_volume_destroy(vol);
     }

@@ -18,6 +18,7 @@
 #define _GNU_SOURCE
 #include "vsd_client.h"
 #include "vsd_proto.h"
+#include "vsd/clock.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include <cjson/cJSON.h>
@@ -41,13 +42,6 @@ static const char *g_vsd = VSD_EXECUTABLE;
 static int g_repeat = 15;
 static char g_dir[256], g_sock[300], g_ready[300], g_log[300];
 static pid_t g_pid;
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 static int cmp_double(const void *a, const void *b)
 {
@@ -166,9 +160,9 @@ static int render_remote(vsdc *c, const char *scene, int frame, timed_result *tr
     rq.scene_json = scene;
     rq.frame = frame;
     rq.has_frame = 1;
-    t0 = now();
+    t0 = vsd_clock_seconds();
     s = vsdc_render(c, &rq, &res, err, sizeof err);
-    tr->wall = now() - t0;
+    tr->wall = vsd_clock_seconds() - t0;
     if (s) {
         fprintf(stderr, "vsd_bench_daemon: render: %s (%s)\n", err, vsdc_error_code(c));
         vsdc_result_free(&res);
@@ -237,12 +231,12 @@ static int bench_overhead(vsdc *c, const char *vol, const char *env)
         rnd[i] = tr.t_render;
         exr_len = tr.exr_len;
         snprintf(cache, sizeof cache, "%s", tr.cache);
-        t0 = now();
+        t0 = vsd_clock_seconds();
         if (vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err)) {
             fprintf(stderr, "vsd_bench_daemon: in-process render: %s\n", err);
             return -1;
         }
-        loc[i] = now() - t0;
+        loc[i] = vsd_clock_seconds() - t0;
         dif[i] = wall[i] - loc[i];
     }
     vsd_framebuffer_destroy(fb);
@@ -299,23 +293,23 @@ static int bench_upload(vsdc *c)
             x ^= x >> 27;
             buf[i] = x * 0x2545F4914F6CDD1Dull;
         }
-        t0 = now();
+        t0 = vsd_clock_seconds();
         vsd_hash_buffer(VSD_HASH_XXH3_128, buf, len, hash);
-        th = now() - t0;
-        t0 = now();
+        th = vsd_clock_seconds() - t0;
+        t0 = vsd_clock_seconds();
         if (vsdc_put(c, hash, buf, len, err, sizeof err)) {
             fprintf(stderr, "vsd_bench_daemon: PUT %zu MiB: %s (%s)\n", len >> 20, err, vsdc_error_code(c));
             free(buf);
             return -1;
         }
-        t1 = now() - t0;
-        t0 = now();
+        t1 = vsd_clock_seconds() - t0;
+        t0 = vsd_clock_seconds();
         if (vsdc_put(c, hash, buf, len, err, sizeof err)) {
             fprintf(stderr, "vsd_bench_daemon: PUT again %zu MiB: %s\n", len >> 20, err);
             free(buf);
             return -1;
         }
-        t2 = now() - t0;
+        t2 = vsd_clock_seconds() - t0;
         free(buf);
         printf("| %zu MiB | %.0f ms | %.3f s = **%.0f MB/s** | %.3f s = %.0f MB/s |\n", len >> 20, 1e3 * th, t1,
                len / t1 / 1e6, t2, len / t2 / 1e6);

@@ -20,6 +20,7 @@
  *                  one command 10 minutes)
  * Prints a markdown table on stdout (the header first, also without a GPU); exits 77 when
  * no CUDA device answers. */
+#include "vsd/clock.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include "vsd/compare.h"
@@ -35,13 +36,6 @@ typedef struct bench_opts {
     int width, height, orbit, samples, cpu_scale, cpu_threads, no_cpu;
     double max_seconds;
 } bench_opts;
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static const char *data_dir;
 
@@ -88,12 +82,12 @@ static vsd_status bench_one(const bench_opts *o, const char *scene, const char *
     res->first_view_s = st.render_seconds;
     res->samples = st.samples;
     snprintf(res->device_name, sizeof res->device_name, "%s", st.device_name);
-    t = now_seconds();
+    t = vsd_clock_seconds();
     for (i = 1; !s && i <= o->orbit; i++) {
         bench_orbit_camera(&sc, base, 2.0 * 3.14159265358979 * i / (o->orbit + 1));
         if (!(s = vsd_renderer_set_scene(r, &sc, err, errlen))) s = vsd_renderer_render(r, frame, &fb, &st, err, errlen);
     }
-    res->orbit_view_s = o->orbit > 0 ? (now_seconds() - t) / o->orbit : res->first_view_s;
+    res->orbit_view_s = o->orbit > 0 ? (vsd_clock_seconds() - t) / o->orbit : res->first_view_s;
     vsd_renderer_destroy(r);
     vsd_framebuffer_destroy(fb);
     r = NULL;
@@ -171,7 +165,7 @@ int main(int argc, char **argv)
     memset(&o, 0, sizeof o);
     if (!parse(argc, argv, &o)) return 2;
     data_dir = o.data;
-    start = now_seconds();
+    start = vsd_clock_seconds();
     if (vsd_render_cuda_probe(name, sizeof name, err, sizeof err)) {
         print_header();
         fprintf(stderr, "bench_device: no CUDA device: %s\n", err);
@@ -187,7 +181,7 @@ int main(int argc, char **argv)
         for (mv = strtok_r(methods, ",", &mp); mv; mv = strtok_r(NULL, ",", &mp)) {
             device_result r;
             vsd_status s;
-            if (o.max_seconds > 0 && now_seconds() - start > o.max_seconds) {
+            if (o.max_seconds > 0 && vsd_clock_seconds() - start > o.max_seconds) {
                 printf("| %s | %s | not run: the %.0f s budget (--max-seconds) was spent |\n", sv, mv, o.max_seconds);
                 fflush(stdout);
                 continue;

@@ -28,6 +28,7 @@
  * A render past --time-limit seconds (default 600) is cancelled and shown as "> limit".
  * --set key=value (up to 8) overrides a scene field for the methods' renders, not for the
  * reference (e.g. --set render.options.step=0.0156). */
+#include "vsd/clock.h"
 #include "vsd/compare.h"
 #include "vsd/image.h"
 #include "vsd/render.h"
@@ -57,20 +58,13 @@ typedef struct timed {
     volatile int cancel;
 } timed;
 
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* the progress callback doubles as the watchdog: past the limit it asks the render to stop */
 static void on_progress(void *user, const char *stage, float fraction)
 {
     timed *t = user;
     (void)stage;
     t->fraction = fraction;
-    if (now() - t->start > t->limit) t->cancel = 1;
+    if (vsd_clock_seconds() - t->start > t->limit) t->cancel = 1;
 }
 
 static int load(const tte_opts *o, const char *scene, const char *method, int w, int h, int spp, int seed,
@@ -106,7 +100,7 @@ static double render_timed(const tte_opts *o, const vsd_scene *sc, vsd_renderer 
     vsd_status s;
     memset(&t, 0, sizeof t);
     t.limit = o->time_limit;
-    t.start = now();
+    t.start = vsd_clock_seconds();
     memset(&ro, 0, sizeof ro);
     ro.threads = o->threads;
     ro.progress = on_progress;
@@ -118,7 +112,7 @@ static double render_timed(const tte_opts *o, const vsd_scene *sc, vsd_renderer 
         if (s != VSD_ERR_CANCELLED) fprintf(stderr, "bench_tte: %s\n", err);
         return -1.0;
     }
-    return now() - t.start;
+    return vsd_clock_seconds() - t.start;
 }
 
 static double block_error(const vsd_framebuffer *a, const float *ref, int pass, int w, int h)

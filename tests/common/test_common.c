@@ -20,6 +20,30 @@ const char *test_tmp(const char *rel)
     return buf;
 }
 
+const char *test_tmp_in(const char *folder, const char *name)
+{
+    static char buf[2][2048];
+    static int k;
+    k ^= 1;
+    snprintf(buf[k], sizeof buf[k], "%s/%s/%s", VSD_TEST_TMP, folder, name);
+    return buf[k];
+}
+
+void test_copy_prefix(const char *src, const char *dst, size_t keep)
+{
+    FILE *in = fopen(src, "rb"), *out = fopen(dst, "wb");
+    char buf[65536];
+    size_t n;
+    while (in && out && keep && (n = fread(buf, 1, keep < sizeof buf ? keep : sizeof buf, in)) > 0) {
+        fwrite(buf, 1, n, out);
+        keep -= n;
+    }
+    if (in)
+        fclose(in);
+    if (out)
+        fclose(out);
+}
+
 double test_urand(unsigned long long *state)
 {
     *state = *state * 6364136223846793005ull + 1442695040888963407ull;

@@ -26,6 +26,12 @@ extern int vsd_test_failures;
 const char *test_data(const char *rel);
 /* Path under the build's test-tmp folder (static buffer, valid until the next call). */
 const char *test_tmp(const char *rel);
+/* Path folder/name under the build's test-tmp folder; two buffers used in turn, so two such
+ * paths can be arguments of one call (each valid until the second call after it). */
+const char *test_tmp_in(const char *folder, const char *name);
+/* Copy the first `keep` bytes of src to dst ((size_t)-1: all of it), as a truncated file for
+ * the readers' error paths; nothing happens when either file cannot be opened. */
+void test_copy_prefix(const char *src, const char *dst, size_t keep);
 /* Reproducible randomness for tests: a uniform number in [0, 1) from a 64-bit LCG whose
  * state the caller keeps (and seeds), and a uniformly distributed unit direction. */
 double test_urand(unsigned long long *state);

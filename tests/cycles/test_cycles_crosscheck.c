@@ -66,10 +66,12 @@
  * deleted first. */
 #define _POSIX_C_SOURCE 200809L
 #include "test_common.h"
+#include "vsd/clock.h"
 #include "vsd/compare.h"
 #include "vsd/image.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
+#include "run_logged.h"
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
@@ -92,13 +94,6 @@
 #define BLOCK 4
 #define MEAN_SIGMAS 4.0    /* |mean difference| <= MEAN_SIGMAS se + MEAN_BIAS */
 #define MEAN_BIAS 0.005
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 /* ---- images ---------------------------------------------------------------------------- */
 
@@ -400,7 +395,7 @@ static int render_vsd(const char *scene_path, int seed, int spp, const char *exr
     vsd_framebuffer *fb = NULL;
     vsd_render_stats stats;
     vsd_render_options ro = {0};
-    double t0 = now();
+    double t0 = vsd_clock_seconds();
     int ok = 0;
     snprintf(ov_seed, sizeof ov_seed, "render.seed=%d", seed);
     snprintf(ov_spp, sizeof ov_spp, "render.samples=%d", spp);
@@ -415,32 +410,11 @@ static int render_vsd(const char *scene_path, int seed, int spp, const char *exr
         ok = 1;
     vsd_framebuffer_destroy(fb);
     vsd_renderer_destroy(r);
-    *seconds = now() - t0;
+    *seconds = vsd_clock_seconds() - t0;
     if (ok)
         printf("vsd reference seed %d: %d spp, %d threads, render %.2f s\n", seed, stats.samples, stats.threads,
                stats.render_seconds);
     return ok;
-}
-
-/* Run argv with stdout and stderr into `log`; returns the exit status (-1: not run). */
-static int run_logged(char *const argv[], const char *log)
-{
-    pid_t pid = fork();
-    int status;
-    if (pid < 0) return -1;
-    if (pid == 0) {
-        int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd >= 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-            close(fd);
-        }
-        execv(argv[0], argv);
-        fprintf(stderr, "exec %s: %s\n", argv[0], strerror(errno));
-        _exit(127);
-    }
-    if (waitpid(pid, &status, 0) < 0) return -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
 }
 
 static void print_tail(const char *log)
@@ -509,7 +483,7 @@ static int render_cycles(const command *blender, const command *extra, const cha
     char s_spp[32], s_seed[32], s_w[32], s_h[32], s_frame[32], tjson[1200], log[1200], version[64];
     char *argv[32 + 2 * MAX_WORDS];
     int n = 0, rc, k;
-    double t0 = now();
+    double t0 = vsd_clock_seconds();
     snprintf(s_spp, sizeof s_spp, "%d", spp);
     snprintf(s_seed, sizeof s_seed, "%d", seed);
     snprintf(s_w, sizeof s_w, "%d", WIDTH);
@@ -544,7 +518,7 @@ static int render_cycles(const command *blender, const command *extra, const cha
     for (k = 0; k < extra->n; k++) argv[n++] = extra->word[k];
     argv[n] = NULL;
     rc = run_logged(argv, log);
-    *seconds = now() - t0;
+    *seconds = vsd_clock_seconds() - t0;
     if (rc != 0 || access(exr, R_OK) != 0) {
         fprintf(stderr, "Cycles render (seed %d) failed with status %d\n", seed, rc);
         print_tail(log);
@@ -612,7 +586,7 @@ int main(int argc, char **argv)
     char blender[1024], blender_words[2048], dir[900], scene_path[1024], vexr[2][1024], cexr[2][1024];
     command cmd, extra;
     int vsd_spp = 2048, cycles_spp = 512, i, ok = 1;
-    double t_start = now(), tv[2] = {0, 0}, tc[2] = {0, 0};
+    double t_start = vsd_clock_seconds(), tv[2] = {0, 0}, tc[2] = {0, 0};
     planes p[4];
     metrics m[Q_COUNT];
 
@@ -692,6 +666,6 @@ int main(int argc, char **argv)
     }
     for (i = 0; i < 4; i++) planes_free(&p[i]);
     printf("time: vsd %.1f + %.1f s, Cycles (Blender runs) %.1f + %.1f s, total %.1f s\n", tv[0], tv[1], tc[0],
-           tc[1], now() - t_start);
+           tc[1], vsd_clock_seconds() - t_start);
     return test_finish("test_cycles_crosscheck");
 }

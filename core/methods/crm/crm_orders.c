@@ -47,26 +47,32 @@ typedef enum { SOURCE_J, SOURCE_J_EMISSION, SOURCE_EMISSION } source_kind;
 /* Y_0^0: an isotropic radiance L has the coefficient L / Y00 */
 #define Y00 0.28209479177387814
 
+/* Where coarse cell n = (k res[1] + j) res[0] + i lies in the pad (4 floats), past the
+ * one-cell border below on each axis. */
+static float *pad_cell(const coarse_grid *g, size_t n)
+{
+    size_t i = n % (size_t)g->res[0], j = n / (size_t)g->res[0] % (size_t)g->res[1],
+           k = n / ((size_t)g->res[0] * (size_t)g->res[1]);
+    return g->pad + 4 * ((k + 1) * g->sy + (j + 1) * g->sx + (i + 1));
+}
+
 /* The pad for marches that gather along directions whose light travels along -w: sigma J
  * evaluated there (y: the SH basis at -w, nb values; J's truncated SH rings below zero at
  * a cell, radiance does not), plus the emission where kind says. */
 static void fill_pad(coarse_grid *g, source_kind kind, const float *y)
 {
     const int nb = g->nb;
-    int32_t i, j, k, c, l;
-    for (k = 0; k < g->res[2]; k++)
-        for (j = 0; j < g->res[1]; j++)
-            for (i = 0; i < g->res[0]; i++) {
-                size_t n = ((size_t)k * g->res[1] + j) * g->res[0] + i;
-                float *p = g->pad + 4 * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
-                p[0] = g->sigma[n];
-                for (c = 0; c < 3; c++) {
-                    float v = 0.0f;
-                    if (kind != SOURCE_EMISSION)
-                        for (l = 0; l < nb; l++) v += g->j[(3 * n + c) * nb + l] * y[l];
-                    p[1 + c] = g->sigma[n] * (v > 0.0f ? v : 0.0f) + (kind != SOURCE_J && g->emit ? g->emit[3 * n + c] : 0.0f);
-                }
-            }
+    int c, l;
+    for (size_t n = 0; n < g->n; n++) {
+        float *p = pad_cell(g, n);
+        p[0] = g->sigma[n];
+        for (c = 0; c < 3; c++) {
+            float v = 0.0f;
+            if (kind != SOURCE_EMISSION)
+                for (l = 0; l < nb; l++) v += g->j[(3 * n + c) * nb + l] * y[l];
+            p[1 + c] = g->sigma[n] * (v > 0.0f ? v : 0.0f) + (kind != SOURCE_J && g->emit ? g->emit[3 * n + c] : 0.0f);
+        }
+    }
 }
 
 /* The pad with (sigma, sigma times coefficient l of v's SH, RGB; v laid out as g->j) per
@@ -74,15 +80,12 @@ static void fill_pad(coarse_grid *g, source_kind kind, const float *y)
 static void fill_pad_coefficient(coarse_grid *g, const float *v, int l)
 {
     const int nb = g->nb;
-    int32_t i, j, k, c;
-    for (k = 0; k < g->res[2]; k++)
-        for (j = 0; j < g->res[1]; j++)
-            for (i = 0; i < g->res[0]; i++) {
-                size_t n = ((size_t)k * g->res[1] + j) * g->res[0] + i;
-                float *p = g->pad + 4 * ((size_t)(k + 1) * g->sy + (size_t)(j + 1) * g->sx + (size_t)(i + 1));
-                p[0] = g->sigma[n];
-                for (c = 0; c < 3; c++) p[1 + c] = g->sigma[n] * v[(3 * n + c) * nb + l];
-            }
+    int c;
+    for (size_t n = 0; n < g->n; n++) {
+        float *p = pad_cell(g, n);
+        p[0] = g->sigma[n];
+        for (c = 0; c < 3; c++) p[1 + c] = g->sigma[n] * v[(3 * n + c) * nb + l];
+    }
 }
 
 /* Trilinear sigma and source per unit length (sigma J, plus emission on the first order) at

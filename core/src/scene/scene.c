@@ -404,16 +404,25 @@ static vsd_status read_string(parser *p, const field *f, const cJSON *item, cons
 
 /* ---- kinds ---------------------------------------------------------------------------- */
 
+/* The value of a number or integer field: the default when the key is absent, else the
+ * item read and checked against the field's range. */
+static vsd_status read_in_range(parser *p, const field *f, const cJSON *item, const char *path, int integer,
+                                double *v)
+{
+    vsd_status st;
+    *v = f->def;
+    if (!item)
+        return VSD_OK;
+    st = integer ? read_int(p, item, path, v) : read_number(p, item, path, v);
+    return st ? st : check_range(p, f, path, *v);
+}
+
 static vsd_status apply_number(parser *p, const field *f, const cJSON *item, const char *path)
 {
-    double v = f->def;
-    if (item) {
-        vsd_status st = read_number(p, item, path, &v);
-        if (!st)
-            st = check_range(p, f, path, v);
-        if (st)
-            return st;
-    }
+    double v;
+    vsd_status st = read_in_range(p, f, item, path, 0, &v);
+    if (st)
+        return st;
     if (f->size == sizeof(float))
         *(float *)dest(p, f) = (float)v;
     else
@@ -423,14 +432,10 @@ static vsd_status apply_number(parser *p, const field *f, const cJSON *item, con
 
 static vsd_status apply_int(parser *p, const field *f, const cJSON *item, const char *path)
 {
-    double v = f->def;
-    if (item) {
-        vsd_status st = read_int(p, item, path, &v);
-        if (!st)
-            st = check_range(p, f, path, v); /* every int field has a range inside int */
-        if (st)
-            return st;
-    }
+    double v;
+    vsd_status st = read_in_range(p, f, item, path, 1, &v); /* every int field has a range inside int */
+    if (st)
+        return st;
     *(int *)dest(p, f) = (int)v;
     return VSD_OK;
 }
