@@ -5,7 +5,7 @@ vsd_add_test(test_render SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_render.c LIBS 
 # The method option tables: the one checker, every method's published table round-tripped.
 vsd_add_test(test_method_options SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_method_options.c LIBS vsd_lib PkgConfig::CJSON
              LABELS unit render)
-# Adaptive view sampling (src/render/adaptive_view.c) through lbl and crm: the image against
+# Adaptive view sampling (src/method/adaptive_view.c) through lbl and crm: the image against
 # tracing every pixel, anchors exact, a threshold that interpolates everything fails, odd
 # film sizes, no adaptive sampling at low resolutions.
 vsd_add_test(test_adaptive_view SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_adaptive_view.c LIBS vsd_test_render LABELS integration render)

@@ -1,4 +1,4 @@
-/* test_adaptive_view.c — adaptive view sampling (src/render/adaptive_view.c), through lbl
+/* test_adaptive_view.c — adaptive view sampling (src/method/adaptive_view.c), through lbl
  * on the homogeneous ball (its silhouette is a hard edge) and crm on smoke64:
  *   1. at 256x256 the automatic spacing is 4 (a voxel covers ~9 pixels) and the image is
  *      within 1% (Combined, alpha) of tracing every pixel, while at most half the blocks

@@ -9,7 +9,7 @@
 #include "vsd/volume.h"
 #include "vsd/env.h"
 #include "vsd/compare.h"
-#include "src/render/distance_map.h"
+#include "src/grids/distance_map.h"
 #include "src/render/kernel_setup.h"
 #include "methods/constellation/dense_grid.h"
 #include "methods/constellation/constellation_kernel.h"

@@ -19,7 +19,7 @@
 #include "vsd/compare.h"
 #include "vsd/vdbio.h"
 #include "device/cuda/cuda_backend.h"
-#include "src/render/distance_map_device.h"
+#include "src/device_data/distance_map_device.h"
 #include "src/render/kernel_setup.h"
 #include <stdlib.h>
 

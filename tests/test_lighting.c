@@ -2,13 +2,13 @@
  * median cut, one bright texel giving a light in its direction, k-means, rotation
  * without recomputation agreeing with the environment lookup's own rotation, and the
  * sub-lights of a grouped constellation (the same lights, each split again), and the map
- * averaged per HEALPix pixel (src/render/env_healpix.h: a constant map stays constant and
+ * averaged per HEALPix pixel (src/lighting/env_healpix.h: a constant map stays constant and
  * the integral is kept). */
 #include "test_common.h"
 #include "vsd/lighting.h"
 #include "vsd/env.h"
 #include "kernel/kernel_env.h"
-#include "src/render/env_healpix.h"
+#include "src/lighting/env_healpix.h"
 #include "src/render/kernel_setup.h"
 #include <stdlib.h>
 #include <string.h>

@@ -1,4 +1,4 @@
-/* Method option tables (core/src/render/method_options.h): the checker against a table of
+/* Method option tables (core/src/method/method_options.h): the checker against a table of
  * its own, its "applies when" rules, every registered method's published table
  * (vsd_method_options_json) round-tripped through the checker the renderer uses, and the
  * registry's catalog (vsd_method_catalog_json, what `vsd methods --json` and HELLO send):
@@ -7,8 +7,8 @@
 #include "test_common.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
-#include "src/render/method.h"
-#include "src/render/method_options.h"
+#include "src/method/method.h"
+#include "src/method/method_options.h"
 #include <cjson/cJSON.h>
 #include <stddef.h>
 #include <stdlib.h>

@@ -13,7 +13,7 @@
  *      without refraction (the control) does not. */
 #include "test_common.h"
 #include "test_render_util.h"
-#include "src/render/refraction.h"
+#include "src/grids/refraction.h"
 #include "src/render/kernel_setup.h"
 #include "methods/reference/reference_kernel.h"
 #include "vsd/vdbio.h"

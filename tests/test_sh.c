@@ -5,7 +5,7 @@
  * against numerical integration, and exp* against numerical projection. */
 #include "test_common.h"
 #include "vsd/sh.h"
-#include "src/sh/sh_kernel.h"
+#include "kernel/kernel_sh.h"
 #include <stdlib.h>
 
 #define PI 3.14159265358979323846

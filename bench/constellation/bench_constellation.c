@@ -23,7 +23,7 @@
 #include "vsd/scene.h"
 #include "vsd/vdbio.h"
 #include "vsd/compare.h"
-#include "src/render/distance_map.h"
+#include "src/grids/distance_map.h"
 #include "methods/constellation/dense_grid.h"
 #include <math.h>
 #include <stdio.h>

@@ -1,6 +1,6 @@
 /* device_pass.h — a pass a method runs on a device, described as data. The CUDA backend
  * (core/device/cuda) launches any such pass, its host emulation (tests/device_emulation)
- * runs it serially, and the CPU's stratified view pass (src/render/stratified.c) runs the
+ * runs it serially, and the CPU's stratified view pass (src/method/stratified.c) runs the
  * same per-sample function on tiles: so the backend knows no method, and a method brings
  * one descriptor per pass plus a three-line CUDA entry file in its own folder
  * (core/device/cuda/cuda_pass.cuh, VSD_CUDA_PIXEL_PASS / VSD_CUDA_ITEM_PASS).
@@ -60,7 +60,7 @@ typedef struct vsd_device_pass {
 #endif
 
 /* Sample s of the n x n strata of a pixel: the centre of stratum (s mod n, s div n), the
- * order src/render/stratified.c has always used. */
+ * order src/method/stratified.c has always used. */
 VSD_DEVICE void vsd_stratum(int s, int n, float *u, float *v)
 {
     float inv = 1.0f / (float)n;

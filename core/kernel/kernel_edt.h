@@ -1,6 +1,6 @@
 /* kernel_edt.h — the one-dimensional pass of the exact squared Euclidean distance
  * transform (Felzenszwalb & Huttenlocher 2012), shared by the CPU distance map
- * (src/render/distance_map.c) and its CUDA pass (device/cuda/distance_map_cuda.cu), so
+ * (src/grids/distance_map.c) and its CUDA pass (device/cuda/distance_map_cuda.cu), so
  * both build the same map. */
 #ifndef VSD_KERNEL_EDT_H
 #define VSD_KERNEL_EDT_H
@@ -48,7 +48,7 @@ VSD_DEVICE void vsd_edt_line(const float *f, int32_t n, float *d, int32_t *v, do
 }
 
 /* Leap radius in voxels from a squared distance between cell centres: floor(D - sqrt(3)
- * - 1e-3), clamped to 0..255 (see src/render/distance_map.h for why sqrt(3)). */
+ * - 1e-3), clamped to 0..255 (see src/grids/distance_map.h for why sqrt(3)). */
 VSD_DEVICE uint8_t vsd_edt_skip(float d2)
 {
     float r = d2 >= VSD_EDT_INF ? 255.0f : floorf(sqrtf(d2) - 1.7320508f - 1e-3f);

@@ -4,7 +4,7 @@
  * lighting change). CPU and CUDA run these same functions.
  *
  * Records sit at the centres of the non-empty cells of a grid over the density's box
- * (src/render/record_grid.h builds it). A record holds what the view pass needs to get
+ * (src/grids/record_grid.h builds it). A record holds what the view pass needs to get
  * the in-scattered radiance per unit sigma_s at its centre, by kind:
  *   SH_SCALAR  SH of the transmittance T(w) (n^2 floats); S = (1/4pi) sum_i R_i L_i with
  *              the environment's SH (isotropic phase)
@@ -33,7 +33,7 @@
 #include "kernel_march.h"
 #include "kernel_phase.h"
 #include "kernel_lights.h"
-#include "src/sh/sh_kernel.h"
+#include "kernel_sh.h"
 #include "device/device_pass.h"
 
 enum { VSD_RECORDS_SH_SCALAR = 0, VSD_RECORDS_SH_RGB = 1, VSD_RECORDS_BAKED = 2, VSD_RECORDS_LIGHTS = 3 };
@@ -63,7 +63,7 @@ typedef struct VSD_ALIGN16 vsd_krecord_grid {
     /* [record_count * 3] or NULL: light that scattered once and is isotropic there — lbl's
      * emission scattered once, which Cycles counts as direct (VolumeDir); added linearly to
      * the in-scattered radiance the records give */
-    const float *records_ms_dir;
+    const float *records_emission_once;
     /* [local_count * VSD_KLIGHT_FLOATS] the scene's point and spot lights (kernel_lights.h),
      * and [record_count * local_count] each one's transmittance to the record times its
      * falloff there (vsd_light_falloff): their term sum_k phase(d . w_k(x)) I_k t_k, with w_k
@@ -188,7 +188,7 @@ typedef struct vsd_records_corners {
     int32_t valid;    /* bit a: corner a holds a record */
     vsd_f3 v[8];
     vsd_f3 m[8];      /* records_ms at the corners (linear values) */
-    vsd_f3 e[8];      /* records_ms_dir at the corners (linear values) */
+    vsd_f3 e[8];      /* records_emission_once at the corners (linear values) */
 } vsd_records_corners;
 
 /* A ray moving into a neighbouring cell shares 4 (or 2, or 1) corners with the last one:
@@ -231,8 +231,8 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
             const float *m = g->records_ms + 3 * (size_t)rec;
             c->m[a] = f3(m[0], m[1], m[2]);
         }
-        if (g->records_ms_dir) {
-            const float *e = g->records_ms_dir + 3 * (size_t)rec;
+        if (g->records_emission_once) {
+            const float *e = g->records_emission_once + 3 * (size_t)rec;
             c->e[a] = f3(e[0], e[1], e[2]);
         }
         c->valid |= 1 << a;
@@ -241,7 +241,7 @@ VSD_DEVICE void vsd_records_fill_corners(const vsd_krecord_grid *g, int32_t i0, 
 
 /* In-scattered radiance at world point p: nearest cell, or trilinear between the records
  * at the eight surrounding cell centres (weights renormalised over non-empty cells); *ms
- * gets the records_ms term the same way (linearly), or 0 without it; records_ms_dir, when
+ * gets the records_ms term the same way (linearly), or 0 without it; records_emission_once, when
  * present, is added to the returned radiance the same way (linearly). */
 VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, const float *w, const float *ph,
                                        vsd_records_corners *c, vsd_f3 *ms)
@@ -254,9 +254,9 @@ VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, con
         rec = g->cell_record[((size_t)k * g->res[1] + j) * g->res[0] + i];
         if (rec < 0) return f3s(0.0f);
         if (g->records_ms) *ms = f3(g->records_ms[3 * rec], g->records_ms[3 * rec + 1], g->records_ms[3 * rec + 2]);
-        if (g->records_ms_dir)
+        if (g->records_emission_once)
             return f3_add(vsd_records_radiance(g, rec, w, ph),
-                          f3(g->records_ms_dir[3 * rec], g->records_ms_dir[3 * rec + 1], g->records_ms_dir[3 * rec + 2]));
+                          f3(g->records_emission_once[3 * rec], g->records_emission_once[3 * rec + 1], g->records_emission_once[3 * rec + 2]));
         return vsd_records_radiance(g, rec, w, ph);
     } else {
         float fx = q.x - 0.5f, fy = q.y - 0.5f, fz = q.z - 0.5f;
@@ -270,7 +270,7 @@ VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, con
             if (!(c->valid & (1 << a)) || wt <= 0.0f) continue;
             s = f3_add(s, f3_scale(c->v[a], wt));
             if (g->records_ms) m = f3_add(m, f3_scale(c->m[a], wt));
-            if (g->records_ms_dir) e = f3_add(e, f3_scale(c->e[a], wt));
+            if (g->records_emission_once) e = f3_add(e, f3_scale(c->e[a], wt));
             wsum += wt;
         }
         if (!(wsum > 0.0f)) return f3s(0.0f);
@@ -278,7 +278,7 @@ VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, con
         if (g->records_ms) *ms = f3_scale(m, 1.0f / wsum);
         /* log-trilinear: the weighted geometric mean, exact where S falls exponentially */
         if (g->interp == VSD_RECORDS_LOG_TRILINEAR) s = f3(expf(s.x), expf(s.y), expf(s.z));
-        return g->records_ms_dir ? f3_add(s, f3_scale(e, 1.0f / wsum)) : s;
+        return g->records_emission_once ? f3_add(s, f3_scale(e, 1.0f / wsum)) : s;
     }
 }
 

@@ -7,7 +7,7 @@
 #include "farm_status.h"
 #include "frame_range.h"
 #include "pov_ini.h"
-#include "render_job.h"
+#include "render_args.h"
 #include "vsd/render.h"
 #include <stdio.h>
 #include <stdlib.h>

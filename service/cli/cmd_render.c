@@ -5,7 +5,7 @@
 #include "vsd/render.h"
 #include "render_remote.h"
 #include "render_progress.h"
-#include "render_job.h"
+#include "render_args.h"
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -3,7 +3,7 @@
  * later options win, and the sources apply in the order INI files, then command line. */
 #ifndef VSD_PIPELINE_POV_OPTIONS_H
 #define VSD_PIPELINE_POV_OPTIONS_H
-#include "render_job.h"
+#include "render_args.h"
 #include <stddef.h>
 
 typedef struct vsd_pov_source {

@@ -117,12 +117,15 @@ CHANGES = [
 
 
 def apply_change(i):
-    """Make change i and forget the last preview. The image on screen before the change is
-    remembered: the add-on sets status["preview_image"] only when it draws a full-resolution
-    image of its current request (viewport.py: image_info's key == the view's key), so a
-    preview that is new for this change has that name set again, and a different one."""
+    """Make change i and forget the last preview. The mean colour of the image on screen
+    before the change is remembered: the add-on sets status["preview_image"] only when it
+    draws a full-resolution image of its current request (viewport.py: image_info's key ==
+    the view's key), and that image must differ from the one before (every change here
+    changes the picture; a stale preview would not)."""
     conn = state["connection"]
-    state["image_before"] = conn.status.get("preview_image")
+    name = conn.status.get("preview_image")
+    # the preview reuses one image: its content, not its name, tells a new picture
+    state["mean_before"] = image_mean_rgb(bpy.data.images[name]) if name in bpy.data.images else None
     forget_preview()
     state["bytes0"] = common.vsd_stats(state["daemon"].sock)["blob_bytes_received"]
     CHANGES[i][1]()
@@ -333,9 +336,10 @@ def _step():
         if preview_ready(st):
             # not check(True): preview_fps alone is also set by a render of the old request
             # still in flight (a stale preview); the drawn image must be this change's
-            check(st["preview_image"] != state.get("image_before"),
-                  "%s: a new preview on screen (image %s, before the change %s)" % (
-                      label, st["preview_image"], state.get("image_before")))
+            before = state.get("mean_before")
+            after = image_mean_rgb(bpy.data.images[st["preview_image"]])
+            moved = before is not None and abs(after - before) > 1e-3 * max(abs(before), 1e-9)
+            check(moved, "%s: a new picture on screen (mean RGB %.6g, before the change %s)" % (label, after, before))
             if new_file:
                 sent = common.vsd_stats(state["daemon"].sock)["blob_bytes_received"] - state["bytes0"]
                 new_file = new_file()

@@ -20,7 +20,7 @@
 #include "kernel/kernel_accum.h"
 #include "device/device_pass.h"
 #include "kernel/kernel_edt.h"
-#include "src/render/distance_map.h"
+#include "src/grids/distance_map.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -50,7 +50,7 @@ typedef struct vsd_cuda vsd_cuda;
  * Scene slots (VSD_DEVICE_SCENE_SLOT: the volume, environment, lights, the view's sums)
  * hold what every method reads. Method slots (VSD_DEVICE_SLOT) hold the arrays of the
  * method the renderer runs: a renderer runs one method at a time, so when it names another
- * (vsd_cuda_set_method, which src/render/device_frame.c calls before each method-slot
+ * (vsd_cuda_set_method, which src/device_data/device_frame.c calls before each method-slot
  * access and each device pass) the buffers of all method slots are freed, and a renderer that changed method
  * holds the new method's arrays only, as when methods numbered their slots alike and
  * reused each other's buffers. */
@@ -117,7 +117,7 @@ vsd_status vsd_cuda_run_pass(vsd_cuda *c, const struct vsd_device_pass *pass, co
                              const vsd_kernel_data *kd, vsd_pass_args a, int items, void *out, size_t out_bytes,
                              const vsd_cuda_progress *p, char *err, size_t errlen);
 
-/* The distance map of src/render/distance_map.h for the volume kv (device arrays), built
+/* The distance map of src/grids/distance_map.h for the volume kv (device arrays), built
  * on the GPU: skip_host receives the 8*brick_dims cells' leap radii, *occupied the count of
  * occupied cells. */
 vsd_status vsd_cuda_distance_map(vsd_cuda *c, const vsd_kvolume *kv, float threshold, uint8_t *skip_host,

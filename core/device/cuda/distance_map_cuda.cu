@@ -1,7 +1,7 @@
 // The distance map of Navarro et al. §4.1 on the GPU (per volume frame, as the paper does):
 // voxel occupancy from the bricks, cell occupancy (a cell reads its 8 corner voxels), then
 // the separable exact EDT with one thread per line, running the line transform the CPU
-// runs (kernel/kernel_edt.h), and the leap radii. Same map as src/render/distance_map.c.
+// runs (kernel/kernel_edt.h), and the leap radii. Same map as src/grids/distance_map.c.
 #include "cuda_internal.cuh"
 #include "kernel/kernel_edt.h"
 

@@ -8,16 +8,16 @@
  *                     spherical shells with shadow rays to every light.
  * The kernels are in constellation_kernel.h; options are documented in
  * docs/methods/constellation.md. */
-#include "src/render/method.h"
+#include "src/method/method.h"
 #include "src/render/accum.h"
-#include "src/render/distance_map.h"
-#include "src/render/distance_map_device.h"
+#include "src/grids/distance_map.h"
+#include "src/device_data/distance_map_device.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/lighting.h"
 #include "constellation_kernel.h"
 #include "dense_grid.h"
 #include "constellation_device.h"
-#include "src/render/record_grid.h"
+#include "src/grids/record_grid.h"
 #include "kernel/kernel_record_grid.h"
 #include <math.h>
 #include <stddef.h>

@@ -1,5 +1,5 @@
 #include "constellation_device.h"
-#include "src/render/device_frame.h"
+#include "src/device_data/device_frame.h"
 #include <stddef.h>
 
 /* The constellation's own resident slots (its cached shadows' record grid has its own). */

@@ -4,7 +4,7 @@
  * CPU tiles run, summed into acc in the CPU's order. */
 #ifndef VSD_CONSTELLATION_DEVICE_H
 #define VSD_CONSTELLATION_DEVICE_H
-#include "src/render/method.h"
+#include "src/method/method.h"
 #include "src/render/accum.h"
 #include "constellation_kernel.h"
 

@@ -28,7 +28,7 @@
 #include "kernel/kernel_camera.h"
 #include "kernel/kernel_march.h"
 
-/* A distance map as kernels see it (see src/render/distance_map.h). */
+/* A distance map as kernels see it (see src/grids/distance_map.h). */
 typedef struct VSD_ALIGN16 vsd_kdistmap {
     const uint8_t *skip;      /* NULL = no map: never leap */
     const float *field;       /* dense copy of the grid over the same cells (dense_grid.h); NULL = read bricks */

@@ -29,7 +29,7 @@
 #include <stdint.h>
 #include "vsd/status.h"
 #include "vsd/volume.h"
-#include "src/render/distance_map.h"
+#include "src/grids/distance_map.h"
 
 /* Above this many voxels the copy is not made (v stays NULL) and kernels read the bricks:
  * 2^27 floats = 512 MiB, beyond any volume in ../shared/data. */

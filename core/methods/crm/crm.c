@@ -14,8 +14,8 @@
  *                     (crm_diffusion.c), and J~ on the node grid (crm_source_grid.c).
  *   render            §5.5, the compensated march (crm_kernel.h) on CPU tiles or CUDA.
  * Options: the table below (`vsd methods`). */
-#include "src/render/method.h"
-#include "src/render/env_healpix.h"
+#include "src/method/method.h"
+#include "src/lighting/env_healpix.h"
 #include "vsd/sh.h"
 #include "crm_fit.h"
 #include "crm_fit_cache.h"
@@ -45,7 +45,7 @@
 #define CRM_AUTO_RBFS_MAX 800
 
 typedef struct crm_options {
-    int rbf_count, fit_iterations, order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
+    int rbf_count, fit_iterations, sh_order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
     int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell, decode, sky, orders_phase;
     double node_spacing, step, early_termination, error_ratio;
     vsd_view_sampling view;
@@ -93,8 +93,10 @@ static const vsd_option_spec crm_option_rows[] = {
     {"error_ratio", VSD_OPT_NUMBER, 1.0, 10.0, 1.1, NULL,
      "coherent frames: insert while the fit error exceeds the first frame's by this factor (paper 1.05-1.2)",
      offsetof(crm_options, error_ratio), 0, NULL, .when = crm_on_coherent},
-    {"order", VSD_OPT_INT, 1, 4, 4, NULL, "SH order of single scattering (bands; multiple scattering is order 2)",
-     offsetof(crm_options, order), 0, NULL, NULL},
+    {"sh_order", VSD_OPT_INT, 1, 4, 4, NULL,
+     "SH order of single scattering (bands; multiple scattering is order 2; not the scattering orders of "
+     "multiple \"orders\")",
+     offsetof(crm_options, sh_order), 0, NULL, NULL},
     {"single", VSD_OPT_CHOICE, 0, 0, SINGLE_GRID, single_names,
      "single scattering: grid (at every medium node, marched), or at the RBF centres: direct (transmittance per "
      "direction) or sh (the paper's ZH table + exp*)",
@@ -195,7 +197,7 @@ static vsd_status crm_create(void **state, const vsd_scene *scene, const void *o
     s->fit_opt.insert_max = s->opt.insert_max;
     s->fit_opt.error_ratio = (float)s->opt.error_ratio;
     if ((st = vsd_crm_fit_options_check(&s->fit_opt, err, errlen)) ||
-        (st = vsd_crm_od_table_create(s->opt.order, 256, &s->table, err, errlen))) {
+        (st = vsd_crm_od_table_create(s->opt.sh_order, 256, &s->table, err, errlen))) {
         free(s);
         return st;
     }
@@ -439,7 +441,7 @@ static vsd_status node_emission(const crm_state *s, const vsd_frame_ctx *ctx, fl
 static vsd_status rbf_diffusion(crm_state *s, double sigma, const double albedo[3], double g, char *err,
                                 size_t errlen)
 {
-    int count = s->rbfs.count, n2 = s->opt.order * s->opt.order, l, c, q;
+    int count = s->rbfs.count, n2 = s->opt.sh_order * s->opt.sh_order, l, c, q;
     double ms_albedo[3], *j_ss2;
     vsd_status st;
     /* the system has no vacuum boundary and is singular without absorption
@@ -465,7 +467,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
 {
     crm_state *s = state;
     const vsd_scene *sc = ctx->scene;
-    int order = s->opt.order, n2 = order * order, count = s->rbfs.count, c, q;
+    int order = s->opt.sh_order, n2 = order * order, count = s->rbfs.count, c, q;
     double env_sh[3 * 16], albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
     double g = ctx->kd.medium.anisotropy;
     /* lighting at the RBF centres: the paper's forms, and what its diffusion reads */
@@ -596,7 +598,7 @@ static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     memcpy(kc.node_res, s->nodes.res, sizeof kc.node_res);
     kc.node_spacing = s->nodes.spacing > 0 ? s->nodes.spacing : 1.0f;
     kc.residual_mode = s->opt.residual;
-    kc.order = s->opt.order;
+    kc.order = s->opt.sh_order;
     ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_stop = (float)s->opt.early_termination;
     crm_info(s, ctx);

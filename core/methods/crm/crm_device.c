@@ -1,5 +1,5 @@
 #include "crm_device.h"
-#include "src/render/device_frame.h"
+#include "src/device_data/device_frame.h"
 #include "device/cpu/cpu_tiles.h"
 #include <stddef.h>
 

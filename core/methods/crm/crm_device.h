@@ -4,7 +4,7 @@
  * nodes by lighting_gen, so a camera change uploads only the structs). */
 #ifndef VSD_CRM_DEVICE_H
 #define VSD_CRM_DEVICE_H
-#include "src/render/method.h"
+#include "src/method/method.h"
 #include "device/device_pass.h"
 #include "crm_kernel.h"
 

@@ -26,7 +26,7 @@
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_camera.h"
 #include "kernel/kernel_march.h"
-#include "src/sh/sh_kernel.h"
+#include "kernel/kernel_sh.h"
 #include "kernel/kernel_record_grid.h" /* vsd_records_dot */
 #include "device/device_pass.h"
 #include "crm_hash_kernel.h"

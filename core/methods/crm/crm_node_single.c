@@ -1,7 +1,7 @@
 #include "crm_node_single.h"
 #include "crm_single_direct.h"
 #include "crm_kernel.h"
-#include "src/render/padded_grid.h"
+#include "src/grids/padded_grid.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>

@@ -37,7 +37,7 @@ typedef double (*vsd_crm_depth_fn)(const void *user, const double p[3], const do
 vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth_fn optical_depth, const void *user,
                                   int directions, int threads, float *od, char *err, size_t errlen);
 /* sky: NULL = L_in from env_sh (the map's order-`order` SH, the paper's); else the map
- * averaged over each of the `directions` HEALPix pixels (src/render/env_healpix.h, 4
+ * averaged over each of the `directions` HEALPix pixels (src/lighting/env_healpix.h, 4
  * floats each), so a lamp or a small sun is shadowed where it is, not as its SH blur. */
 vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3], double g,
                                       int order, const double *env_sh, const float *sky, int directions, int threads,

@@ -1,7 +1,7 @@
 /* Method `lbl` (Bernabei, Hakke-Patil, Banterle, Di Benedetto, Ganovelli, Pattanaik,
  * Scopigno 2012): light marching from the light sources plus lattice-Boltzmann diffusion
  * for the multiple scattering, on one grid of cells over the density's box.
- *   prepare_frame     the cell grid (src/render/record_grid.h: a record at the centre of
+ *   prepare_frame     the cell grid (src/grids/record_grid.h: a record at the centre of
  *                     every non-empty cell) and each cell's sigma_t (the mean of 27
  *                     samples of the density): the paper's material volume (§III-A);
  *   prepare_lighting  the environment as directional lights (the light constellation,
@@ -19,15 +19,15 @@
  *                     function: our media are not isotropic), VolumeInd from the diffused
  *                     light, the six populations weighed by the phase toward the eye
  *                     (the paper: phi / 4pi), plus Emit, Transmittance and Depth.
- * With medium.ior != 1 the frame stage also builds the n field (src/render/refraction.h)
+ * With medium.ior != 1 the frame stage also builds the n field (src/grids/refraction.h)
  * and the light and view rays bend through it (lbl_march.c, lbl_kernel.h; CPU only).
  * The paper's 4^3 blocks (lbl_blocked.c) and the D3Q18 lattice (lbl_d3q18.c) are options.
  * Marching and diffusion overlap in rounds of a ray history (option `history`, the paper's
  * k; off by default: slower on the CPU). Not built yet (issue 14): a device path for the
  * lighting stages (the unbent view runs on CUDA through the record grid).
  * docs/methods/lbl.md has the measurements. */
-#include "src/render/method.h"
-#include "src/render/record_grid.h"
+#include "src/method/method.h"
+#include "src/grids/record_grid.h"
 #include "src/render/kernel_setup.h"
 #include "kernel/kernel_record_grid.h"
 #include "vsd/lighting.h"
@@ -37,7 +37,7 @@
 #include "lbl_lattice.h"
 #include "lbl_kernel.h"
 #include "lbl_readout.h"
-#include "src/render/refraction.h"
+#include "src/grids/refraction.h"
 #include "lbl_escape.h"
 #include <math.h>
 #include <stddef.h>
@@ -189,9 +189,9 @@ typedef struct lbl_state {
     float *fluence;               /* [3][cells] */
     float *ms;                    /* [records * 3] VolumeInd source per unit sigma_s */
     /* with emission: the emission alone (source_e), its fluence before any scattering
-       (fluence_e, a lattice solve with albedo 0) and that fluence per record (ms_dir, the
+       (fluence_e, a lattice solve with albedo 0) and that fluence per record (emission_once, the
        emission scattered once toward the camera: VolumeDir, as Cycles counts it) */
-    float *source_e, *fluence_e, *ms_dir;
+    float *source_e, *fluence_e, *emission_once;
     vsd_lbl_lattice lattice_e;    /* the warm start of the emission's solve */
     float *view_baked;            /* [records * 3] the lights' term toward this view's camera */
     vsd_lbl_lattice lattice;      /* kept between lighting changes: the warm start */
@@ -229,9 +229,9 @@ static void free_lighting(lbl_state *s)
     s->ms6 = s->ms_view = NULL;
     free(s->source_e);
     free(s->fluence_e);
-    free(s->ms_dir);
+    free(s->emission_once);
     s->light_trans = s->source = s->fluence = s->ms = s->view_baked = NULL;
-    s->source_e = s->fluence_e = s->ms_dir = NULL;
+    s->source_e = s->fluence_e = s->emission_once = NULL;
     s->emission_steps = 0;
 }
 
@@ -629,10 +629,10 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if (ctx->kd.medium.has_emission) {
         s->source_e = malloc(3 * n * sizeof *s->source_e);
         s->fluence_e = malloc(3 * n * sizeof *s->fluence_e);
-        s->ms_dir = malloc(3 * recs * sizeof *s->ms_dir);
+        s->emission_once = malloc(3 * recs * sizeof *s->emission_once);
     }
     if (!s->light_trans || !s->local_trans || !s->source || !s->fluence || !s->ms ||
-        (ctx->kd.medium.has_emission && (!s->source_e || !s->fluence_e || !s->ms_dir)))
+        (ctx->kd.medium.has_emission && (!s->source_e || !s->fluence_e || !s->emission_once)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lighting of %zu cells", n);
     /* marching pass */
     memcpy(grid.res, s->rg.res, sizeof grid.res);
@@ -722,7 +722,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         s->emission_steps = stats_e.steps;
     }
     /* VolumeInd's source per unit sigma_s: phi / 4pi, phi = the cell's photons / lambda^2 (less the
-     * emission's unscattered fluence, VolumeDir's ms_dir) */
+     * emission's unscattered fluence, VolumeDir's emission_once) */
     for (c = 0; c < n; c++) {
         int32_t rec = s->rg.cell_record[c];
         if (rec < 0) continue;
@@ -730,7 +730,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             double k = 1.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D), phi = s->fluence[(size_t)a * n + c];
             if (s->fluence_e) {
                 double phi_e = s->fluence_e[(size_t)a * n + c];
-                s->ms_dir[3 * (size_t)rec + a] = (float)(phi_e * k);
+                s->emission_once[3 * (size_t)rec + a] = (float)(phi_e * k);
                 phi = phi > phi_e ? phi - phi_e : 0.0;
             }
             s->ms[3 * (size_t)rec + a] = (float)(phi * k);
@@ -797,7 +797,7 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
         g.records_ms = s->ms_view;
         g.records_ms_per_view = 1;
     }
-    g.records_ms_dir = s->ms_dir;
+    g.records_emission_once = s->emission_once;
     /* on the CPU the lights' term is baked per view; the device keeps its arrays per
      * lighting generation, so there the march sums the lights per ray (exact phase) */
     /* (bent view rays always read baked records: they run on the CPU) */

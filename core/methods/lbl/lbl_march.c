@@ -1,9 +1,9 @@
 #include "lbl_march.h"
 #include "device/cpu/cpu_tiles.h"
-#include "src/render/padded_grid.h"
+#include "src/grids/padded_grid.h"
 #include "kernel/kernel_refract.h"
 #include "kernel/kernel_lights.h"
-#include "src/render/distance_map.h"
+#include "src/grids/distance_map.h"
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>

@@ -22,7 +22,7 @@
  * ray's own, so it does concentrate.
  *
  * Grid coordinates: cell (i,j,k) spans [i, i+1) x ..., its centre at +0.5 (the record
- * grid's, src/render/record_grid.h). */
+ * grid's, src/grids/record_grid.h). */
 #ifndef VSD_LBL_MARCH_H
 #define VSD_LBL_MARCH_H
 #include <stdint.h>

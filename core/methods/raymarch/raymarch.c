@@ -3,8 +3,8 @@
  * n x n stratified rays per pixel (a box filter like the reference's, without noise).
  * Options: lights (K, default 256), step (world units, default half the smallest voxel),
  * pixel_samples (n, default 1), early_termination (default 1e-3). */
-#include "src/render/method.h"
-#include "src/render/env_lights.h"
+#include "src/method/method.h"
+#include "src/lighting/env_importance_lights.h"
 #include "raymarch_kernel.h"
 #include <stddef.h>
 #include <stdlib.h>

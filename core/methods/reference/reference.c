@@ -1,11 +1,11 @@
 /* Method `reference`: progressive unbiased volumetric path tracing (reference_kernel.h).
  * Samples are taken in rounds (1, 1, 2, 4, ... up to render.samples) over all tiles, so
  * progress and intermediate images reflect the whole frame. */
-#include "src/render/method.h"
+#include "src/method/method.h"
 #include "src/render/accum.h"
-#include "src/render/device_frame.h"
+#include "src/device_data/device_frame.h"
 #include "device/cpu/cpu_tiles.h"
-#include "src/render/refraction.h"
+#include "src/grids/refraction.h"
 #include "reference_kernel.h"
 #include <stddef.h>
 #include <stdlib.h>

@@ -22,11 +22,11 @@
  * beyond the paper, see shgrid_kernel.h; 0 = the paper's pure SH form), light_threshold
  * (default 3: texels brighter than this multiple of the map's mean luminance are
  * extracted). The paper's pure form is lights=0, interpolation="nearest". */
-#include "src/render/method.h"
+#include "src/method/method.h"
 #include "src/render/accum.h"
 #include "src/render/kernel_setup.h"
-#include "src/render/record_grid.h"
-#include "src/render/env_healpix.h"
+#include "src/grids/record_grid.h"
+#include "src/lighting/env_healpix.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/sh.h"
 #include "vsd/lighting.h"

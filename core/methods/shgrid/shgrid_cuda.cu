@@ -1,5 +1,5 @@
 // CUDA entry of `shgrid`'s record pass, one thread per record (the paper's per-frame GPU
-// pass); its view is the record grid's (src/render/record_grid_cuda.cu).
+// pass); its view is the record grid's (src/device_data/record_grid_cuda.cu).
 #include "device/cuda/cuda_pass.cuh"
 #include "shgrid_kernel.h"
 

@@ -1,6 +1,6 @@
 #include "shgrid_device.h"
-#include "src/render/device_frame.h"
-#include "src/render/record_grid_device.h"
+#include "src/device_data/device_frame.h"
+#include "src/device_data/record_grid_device.h"
 #include <stddef.h>
 
 static void record_item(const void *g, int i, int lights, void *out)

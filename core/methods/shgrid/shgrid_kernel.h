@@ -39,7 +39,7 @@
 #include "kernel/kernel_camera.h"
 #include "kernel/kernel_march.h"
 #include "kernel/kernel_phase.h"
-#include "src/sh/sh_kernel.h"
+#include "kernel/kernel_sh.h"
 #include "kernel/kernel_record_grid.h"
 
 /* Reduced-intensity record of one cell (the record pass), written to out[stride]. */

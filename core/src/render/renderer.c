@@ -4,7 +4,7 @@
  * so "what changed" is one comparison per stage. */
 #include "vsd/render.h"
 #include "vsd/vdbio.h"
-#include "method.h"
+#include "src/method/method.h"
 #include "kernel_setup.h"
 #include "kernel/kernel_lights.h"
 #include "device/cpu/cpu_tiles.h"

@@ -9,7 +9,7 @@
 
 #define PI 3.14159265358979323846
 
-/* Same recurrence as the kernel's vsd_sh_eval_f (src/sh/sh_kernel.h), in double: the
+/* Same recurrence as the kernel's vsd_sh_eval_f (kernel/kernel_sh.h), in double: the
  * basis is polynomial in (x, y, z) via sin^m e^{im phi} = (x + iy)^m. */
 void vsd_sh_eval(int order, const double d[3], double *y)
 {

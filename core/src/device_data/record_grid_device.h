@@ -4,7 +4,7 @@
  * shgrid (its record pass and view) and constellation's cached shadows (view). */
 #ifndef VSD_RECORD_GRID_DEVICE_H
 #define VSD_RECORD_GRID_DEVICE_H
-#include "method.h"
+#include "src/method/method.h"
 #include "kernel/kernel_record_grid.h"
 #include "device/cuda/cuda_backend.h"
 

@@ -19,7 +19,7 @@
  * footprint on the film apart (at the volume's centre), so low resolutions trace every
  * pixel. */
 #include "method.h"
-#include "accum.h"
+#include "src/render/accum.h"
 #include "device/cpu/cpu_tiles.h"
 #include "device/device_pass.h"
 #include <math.h>

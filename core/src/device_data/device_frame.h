@@ -5,8 +5,8 @@
  * its own extra arrays. */
 #ifndef VSD_DEVICE_FRAME_H
 #define VSD_DEVICE_FRAME_H
-#include "method.h"
-#include "accum.h"
+#include "src/method/method.h"
+#include "src/render/accum.h"
 #include "device/cuda/cuda_backend.h"
 
 /* The resident-slot key of host array `host` of generation `gen`. */

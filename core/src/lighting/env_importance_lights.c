@@ -1,4 +1,4 @@
-#include "env_lights.h"
+#include "env_importance_lights.h"
 #include "kernel/kernel_env.h"
 
 void vsd_env_importance_lights(const vsd_kenv *env, int count, float *out)

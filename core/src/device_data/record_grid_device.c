@@ -14,7 +14,7 @@ VSD_DEVICE_SLOT(rg_light, "record grid light SH");
 VSD_DEVICE_SLOT(rg_lights, "record grid lights");
 VSD_DEVICE_SLOT(rg_light_trans, "record grid light transmittances");
 VSD_DEVICE_SLOT(rg_records_ms, "record grid multiple scattering");
-VSD_DEVICE_SLOT(rg_records_ms_dir, "record grid multiple scattering (direct emission)");
+VSD_DEVICE_SLOT(rg_records_emission_once, "record grid emission scattered once");
 VSD_DEVICE_SLOT(rg_local_lights, "record grid local lights");
 VSD_DEVICE_SLOT(rg_local_trans, "record grid local light transmittances");
 
@@ -61,7 +61,7 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
         } else {
             PUT(records_ms, rg_records_ms, g->records_ms ? recs * 3 * sizeof(float) : 0);
         }
-        PUT(records_ms_dir, rg_records_ms_dir, g->records_ms_dir ? recs * 3 * sizeof(float) : 0);
+        PUT(records_emission_once, rg_records_emission_once, g->records_emission_once ? recs * 3 * sizeof(float) : 0);
         d->record_pos = d->dirs = d->basis = d->dir_radiance = NULL;
         if (g->local_count > 0) {
             /* the local lights' phase is toward the light from each record's position */
@@ -77,7 +77,7 @@ vsd_status vsd_record_grid_device(const vsd_frame_ctx *ctx, const vsd_krecord_gr
         d->records = NULL;
         d->light_trans = NULL;
         d->records_ms = NULL;
-        d->records_ms_dir = NULL;
+        d->records_emission_once = NULL;
         d->local_lights = d->local_trans = NULL;
     }
 #undef PUT
@@ -92,7 +92,7 @@ void vsd_record_grid_arrays(const vsd_krecord_grid *g, int view, int lights, vsd
         visit(user, g->records, rc * (size_t)g->stride * sizeof(float), "records.records");
         visit(user, g->light_trans, rc * lc * sizeof(float), "records.light_trans");
         if (g->records_ms) visit(user, g->records_ms, rc * 3 * sizeof(float), "records.records_ms");
-        if (g->records_ms_dir) visit(user, g->records_ms_dir, rc * 3 * sizeof(float), "records.records_ms_dir");
+        if (g->records_emission_once) visit(user, g->records_emission_once, rc * 3 * sizeof(float), "records.records_emission_once");
         if (g->kind == VSD_RECORDS_SH_SCALAR) visit(user, g->light, 3 * n2 * sizeof(float), "records.light");
         if (g->local_count > 0) {
             size_t lo = (size_t)g->local_count;

@@ -10,7 +10,7 @@
  * no acos/atan2, no division by sin(theta), exact at the poles. */
 #ifndef VSD_SH_KERNEL_H
 #define VSD_SH_KERNEL_H
-#include "kernel/kernel_types.h"
+#include "kernel_types.h"
 
 #define VSD_SH_MAX_ORDER 8
 #define VSD_SH_MAX_COEFFS (VSD_SH_MAX_ORDER * VSD_SH_MAX_ORDER)

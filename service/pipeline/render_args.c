@@ -1,6 +1,6 @@
-/* `vsd render`'s command line, INI files and switches into one job (render_job.h). */
+/* `vsd render`'s command line, INI files and switches into one job (render_args.h). */
 #define _POSIX_C_SOURCE 200809L
-#include "render_job.h"
+#include "render_args.h"
 #include "frame_range.h"
 #include "pov_ini.h"
 #include "pov_options.h"

@@ -1,6 +1,6 @@
 #include "refraction.h"
-#include "method.h"
-#include "kernel_setup.h"
+#include "src/method/method.h"
+#include "src/render/kernel_setup.h"
 #include "kernel/kernel_volume.h"
 #include <math.h>
 #include <stdlib.h>

@@ -3,8 +3,8 @@
  * into the passes. One loop, so the pixel filter (a box, like the reference's) is the same
  * for every such method and both backends. */
 #include "method.h"
-#include "accum.h"
-#include "device_frame.h"
+#include "src/render/accum.h"
+#include "src/device_data/device_frame.h"
 #include "device/cpu/cpu_tiles.h"
 #include "device/device_pass.h"
 #include <stdio.h>

@@ -4,9 +4,9 @@
 #include "device/cpu/cpu_tiles.h"
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_record_grid.h"
-#include "method.h"
-#include "record_grid_device.h"
-#include "kernel_setup.h"
+#include "src/method/method.h"
+#include "src/device_data/record_grid_device.h"
+#include "src/render/kernel_setup.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>

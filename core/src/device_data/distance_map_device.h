@@ -3,8 +3,8 @@
  * copied back to the host so the CPU backend and the host-side statistics can read it. */
 #ifndef VSD_DISTANCE_MAP_DEVICE_H
 #define VSD_DISTANCE_MAP_DEVICE_H
-#include "distance_map.h"
-#include "method.h"
+#include "src/grids/distance_map.h"
+#include "src/method/method.h"
 
 /* vol is ctx->density (emission = 0) or ctx->emission (emission = 1). */
 vsd_status vsd_distance_map_build_device(const vsd_frame_ctx *ctx, const vsd_volume *vol, int emission,

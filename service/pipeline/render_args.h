@@ -2,8 +2,8 @@
  * options, POV-Ray switches (+W640 +KFF240 ...). One parser for `vsd render` and for
  * `vsd farm`, which forwards a job's options to every task. Precedence: command line over
  * INI file over scene file (docs/pipeline.md). */
-#ifndef VSD_PIPELINE_RENDER_JOB_H
-#define VSD_PIPELINE_RENDER_JOB_H
+#ifndef VSD_PIPELINE_RENDER_ARGS_H
+#define VSD_PIPELINE_RENDER_ARGS_H
 #include "vsd/scene.h"
 #include <stdio.h>
 
