@@ -1,6 +1,6 @@
 # Kernels, methods and the render pipeline.
 vsd_add_test(test_kernel SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_kernel.c LIBS vsd_render LABELS unit kernel)
-vsd_add_test(test_render SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_render.c LIBS vsd_lib LABELS integration render
+vsd_add_test(test_render SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_render.c LIBS vsd_test_render LABELS integration render
              TIMEOUT 1200)
 # The method option tables: the one checker, every method's published table round-tripped.
 vsd_add_test(test_method_options SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_method_options.c LIBS vsd_lib PkgConfig::CJSON

@@ -2,6 +2,7 @@
  * transmittance, the white furnace, lighting from a known environment direction,
  * reference against raymarch single scattering, and determinism across thread counts. */
 #include "test_common.h"
+#include "test_render_util.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include "vsd/volume.h"
@@ -36,21 +37,7 @@ static int load_scene(const char *json, const char *const *ov, int nov, vsd_scen
 
 static vsd_framebuffer *render(const vsd_scene *sc, const vsd_volume *vol, const vsd_env *env, int threads)
 {
-    vsd_render_options ro = {0};
-    vsd_renderer *r = NULL;
-    vsd_framebuffer *fb = NULL;
-    char err[1024];
-    vsd_status st;
-    ro.threads = threads;
-    st = vsd_renderer_create(sc, &ro, &r, err, sizeof err);
-    CHECK_MSG(st == VSD_OK, "create: %s", err);
-    if (st) return NULL;
-    vsd_renderer_use_volumes(r, vol, NULL);
-    if (env) vsd_renderer_use_env(r, env);
-    st = vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err);
-    CHECK_MSG(st == VSD_OK, "render: %s", err);
-    vsd_renderer_destroy(r);
-    return fb;
+    return test_render_in_memory(sc, vol, env, threads);
 }
 
 static const char *ortho_scene =

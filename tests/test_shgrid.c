@@ -5,6 +5,7 @@
  * error decreasing with grid resolution and SH order, the record-grid cache across views
  * and environment rotations, and option validation. */
 #include "test_common.h"
+#include "test_render_util.h"
 #include "method_vs_reference.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
@@ -24,18 +25,7 @@ static int load_scene(const char *json, const char *const *ov, int nov, vsd_scen
 
 static vsd_framebuffer *render_mem(const vsd_scene *sc, const vsd_volume *vol, const vsd_env *env)
 {
-    vsd_renderer *r = NULL;
-    vsd_framebuffer *fb = NULL;
-    char err[1024];
-    vsd_status st = vsd_renderer_create(sc, NULL, &r, err, sizeof err);
-    CHECK_MSG(st == VSD_OK, "create: %s", err);
-    if (st) return NULL;
-    vsd_renderer_use_volumes(r, vol, NULL);
-    if (env) vsd_renderer_use_env(r, env);
-    st = vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err);
-    CHECK_MSG(st == VSD_OK, "render: %s", err);
-    vsd_renderer_destroy(r);
-    return fb;
+    return test_render_in_memory(sc, vol, env, 0);
 }
 
 /* E_2(x) = integral_0^1 exp(-x/mu) dmu, by Gauss-Legendre. */

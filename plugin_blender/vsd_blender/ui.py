@@ -144,6 +144,14 @@ class VSD_OT_stop_daemon(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def settings_column(panel, context):
+    """(Scene.vsd, a column of the panel laid out as Blender's own render panels are)."""
+    layout = panel.layout
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return context.scene.vsd, layout.column()
+
+
 class VSDPanel:
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
@@ -193,11 +201,7 @@ class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
     bl_label = "vsd"
 
     def draw(self, context):
-        s = context.scene.vsd
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        col = layout.column()
+        s, col = settings_column(self, context)
         col.prop(s, "method")
         method = method_catalog.chosen_for(s)
         if method_catalog.catalog() is not None and not method_catalog.has(method, "multiple_scattering"):
@@ -215,11 +219,7 @@ class RENDER_PT_vsd_options(VSDPanel, bpy.types.Panel):
     bl_parent_id = "RENDER_PT_vsd"
 
     def draw(self, context):
-        s = context.scene.vsd
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        col = layout.column()
+        s, col = settings_column(self, context)
         # one row per option of vsd's own table (vsd methods --json / HELLO)
         method_catalog.draw(col, context.scene, method_catalog.chosen_for(s))
         col.prop(s, "options_json")
@@ -230,11 +230,7 @@ class RENDER_PT_vsd_viewport(VSDPanel, bpy.types.Panel):
     bl_parent_id = "RENDER_PT_vsd"
 
     def draw(self, context):
-        s = context.scene.vsd
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        col = layout.column()
+        s, col = settings_column(self, context)
         col.prop(s, "viewport_method", text="Method")
         col.prop(s, "viewport_samples", text="Samples")
         col.prop(s, "viewport_resolution")

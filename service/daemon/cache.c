@@ -487,6 +487,23 @@ static int keep_loaded(vsdd_cache *k, int kind, const char *key, vsd_volume *vol
     vsdd_cache_trim_after_evictions(k);
     return rc;
 }
+/* The cached entry of `key` (*out, *hit = 1: returns 0), or the source's file pinned for a
+ * load (*blob, path: returns 1), under the cache lock; -1 when the source is unknown. */
+static int find_or_pin_source(vsdd_cache *k, int kind, const char *key, const char *src, char *path, size_t pathlen,
+                              vsdd_entry **blob, vsdd_entry **out, int *hit, vsdd_err *err)
+{
+    int rc;
+    vsdd_lock(&k->lock);
+    *out = lookup(k, kind, key);
+    rc = *out ? 0 : source_path(k, src, path, pathlen, blob, err);
+    vsdd_unlock(&k->lock);
+    if (*out) {
+        *hit = 1;
+        return 0;
+    }
+    return rc ? -1 : 1;
+}
+
 
 int vsdd_cache_get_volume(vsdd_cache *k, const char *src, const char *grid, int grid_index, vsdd_entry **out, int *hit,
                           vsdd_err *err)
@@ -498,15 +515,7 @@ int vsdd_cache_get_volume(vsdd_cache *k, const char *src, const char *grid, int 
     *hit = 0;
     source_stamp(src, stamp, sizeof stamp);
     snprintf(key, sizeof key, "vol|%s%s|%s|%d", src, stamp, grid, grid_index);
-    vsdd_lock(&k->lock);
-    *out = lookup(k, ENT_VOLUME, key);
-    rc = *out ? 0 : source_path(k, src, path, sizeof path, &blob, err);
-    vsdd_unlock(&k->lock);
-    if (*out) {
-        *hit = 1;
-        return 0;
-    }
-    if (rc) return -1;
+    if ((rc = find_or_pin_source(k, ENT_VOLUME, key, src, path, sizeof path, &blob, out, hit, err)) <= 0) return rc;
     /* decoded without the cache lock: other jobs go on meanwhile (the blob stays pinned) */
     if (vsdd_load_volume(k->loader, src, path, grid, grid_index, &vol, err)) {
         vsdd_cache_unpin(k, blob);
@@ -525,15 +534,7 @@ int vsdd_cache_get_env(vsdd_cache *k, const char *src, const char *conversion, v
     *hit = 0;
     source_stamp(src, stamp, sizeof stamp);
     snprintf(key, sizeof key, "env|%s%s|%s", src, stamp, conversion);
-    vsdd_lock(&k->lock);
-    *out = lookup(k, ENT_ENV, key);
-    rc = *out ? 0 : source_path(k, src, path, sizeof path, &blob, err);
-    vsdd_unlock(&k->lock);
-    if (*out) {
-        *hit = 1;
-        return 0;
-    }
-    if (rc) return -1;
+    if ((rc = find_or_pin_source(k, ENT_ENV, key, src, path, sizeof path, &blob, out, hit, err)) <= 0) return rc;
     if (vsdd_load_env(k->loader, src, path, conversion, &env, err)) {
         vsdd_cache_unpin(k, blob);
         return -1;

@@ -127,7 +127,7 @@ void mvr_check_scattering_controls(const char *what, const vsd_framebuffer *meth
 {
     static const float keep_ind[3] = {0.0f, 0.5f, -1.0f}; /* -1: no scattered light at all */
     static const char *const names[3] = {"no multiple scattering", "half the multiple scattering", "albedo 0"};
-    size_t n = (size_t)method->width * method->height, i;
+    size_t n = (size_t)method->width * method->height;
     float *img = malloc(n * 4 * sizeof(float));
     double e[3] = {0, 0, 0};
     int k;
@@ -135,14 +135,7 @@ void mvr_check_scattering_controls(const char *what, const vsd_framebuffer *meth
     CHECK(img != NULL);
     if (!img) return;
     for (k = 0; k < 3; k++) {
-        for (i = 0; i < n; i++) {
-            int c;
-            for (c = 0; c < 3; c++)
-                img[4 * i + c] = keep_ind[k] < 0 ? 0.0f
-                                                 : method->pass[VSD_PASS_COMBINED][4 * i + c] -
-                                                       (1.0f - keep_ind[k]) * method->pass[VSD_PASS_VOLUME_IND][3 * i + c];
-            img[4 * i + 3] = method->pass[VSD_PASS_COMBINED][4 * i + 3];
-        }
+        test_scattering_control(method, keep_ind[k], img);
         e[k] = mvr_check_control(what, names[k], img, refs, VSD_PASS_COMBINED, tol);
     }
     free(img);

@@ -161,24 +161,30 @@ void test_check_pass_sum(const char *what, const vsd_framebuffer *fb)
 /* Negative controls made from the method's own passes, scored like it against the reference's
  * Combined: multiple scattering removed (Combined - VolumeInd), halved (Combined -
  * VolumeInd / 2) and albedo 0 (no scattered light, its alpha kept). Each must fail `tol`. */
+void test_scattering_control(const vsd_framebuffer *method, float keep_ind, float *img)
+{
+    size_t n = (size_t)method->width * method->height, i;
+    for (i = 0; i < n; i++) {
+        int c;
+        for (c = 0; c < 3; c++)
+            img[4 * i + c] = keep_ind < 0 ? 0.0f
+                                          : method->pass[VSD_PASS_COMBINED][4 * i + c] -
+                                                (1.0f - keep_ind) * method->pass[VSD_PASS_VOLUME_IND][3 * i + c];
+        img[4 * i + 3] = method->pass[VSD_PASS_COMBINED][4 * i + 3];
+    }
+}
+
 void test_check_controls(const char *what, const vsd_framebuffer *method, const vsd_framebuffer *ref, double tol)
 {
     static const float keep_ind[3] = {0.0f, 0.5f, -1.0f};   /* -1: no scattered light at all */
-    size_t n = (size_t)method->width * method->height, i;
+    size_t n = (size_t)method->width * method->height;
     float *img = malloc(n * 4 * sizeof(float));
     double e[3] = {0, 0, 0};
     int k;
     CHECK(img != NULL);
     if (!img) return;
     for (k = 0; k < 3; k++) {
-        for (i = 0; i < n; i++) {
-            int c;
-            for (c = 0; c < 3; c++)
-                img[4 * i + c] = keep_ind[k] < 0 ? 0.0f
-                                                 : method->pass[VSD_PASS_COMBINED][4 * i + c] -
-                                                       (1.0f - keep_ind[k]) * method->pass[VSD_PASS_VOLUME_IND][3 * i + c];
-            img[4 * i + 3] = method->pass[VSD_PASS_COMBINED][4 * i + 3];
-        }
+        test_scattering_control(method, keep_ind[k], img);
         e[k] = test_rel_err_planes(img, ref->pass[VSD_PASS_COMBINED], method->width, method->height, 4);
     }
     free(img);
@@ -256,3 +262,21 @@ const char *const test_ball_json =
     "\"look_at\":[0.96875,0.96875,0.96875],\"up\":[0,0,1]},"
     "\"film\":{\"width\":32,\"height\":32},\"render\":{\"method\":\"crm\"}}";
 
+vsd_framebuffer *test_render_in_memory(const vsd_scene *sc, const vsd_volume *vol, const vsd_env *env, int threads)
+{
+    vsd_render_options ro = {0};
+    vsd_renderer *r = NULL;
+    vsd_framebuffer *fb = NULL;
+    char err[1024];
+    vsd_status st;
+    ro.threads = threads;
+    st = vsd_renderer_create(sc, &ro, &r, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "create: %s", err);
+    if (st) return NULL;
+    vsd_renderer_use_volumes(r, vol, NULL);
+    if (env) vsd_renderer_use_env(r, env);
+    st = vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "render: %s", err);
+    vsd_renderer_destroy(r);
+    return fb;
+}

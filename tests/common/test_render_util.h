@@ -11,6 +11,11 @@
 #include "vsd/env.h"
 #include "vsd/image.h"
 
+/* img (width x height x 4) = method's Combined with (1 - keep_ind) of its VolumeInd taken
+ * out (keep_ind < 0: no scattered light at all, black); alpha kept. The negative controls
+ * of the method-vs-reference checks. */
+void test_scattering_control(const vsd_framebuffer *method, float keep_ind, float *img);
+
 /* The value of `key` in a render's method_info ("key=value ..."); -1 (and a failed CHECK)
  * when absent. */
 double test_info(const vsd_render_stats *s, const char *key);
@@ -18,6 +23,9 @@ double test_info(const vsd_render_stats *s, const char *key);
 int test_load_scene(const char *rel, const char *const *ov, int nov, vsd_scene *sc);
 int test_parse_scene(const char *json, const char *const *ov, int nov, vsd_scene *sc);
 vsd_renderer *test_make_renderer(const vsd_scene *sc, const char *cache_dir);
+/* One render of sc with density volume vol (and env, NULL: sc's map is not loaded) already
+ * in memory, on `threads` CPU threads (0: all); NULL and a failed CHECK on an error. */
+vsd_framebuffer *test_render_in_memory(const vsd_scene *sc, const vsd_volume *vol, const vsd_env *env, int threads);
 int test_render(vsd_renderer *r, int frame, vsd_framebuffer **fb, vsd_render_stats *stats);
 /* One render by a fresh renderer (in-memory volume / environment when given); NULL on failure. */
 vsd_framebuffer *test_render_fresh(const vsd_scene *sc, const char *cache_dir, const vsd_volume *vol,
