@@ -386,7 +386,7 @@ static void test_rotation_equivalence(void)
         double r[16];
         a.environment.rotation_z = (float)-theta;
         rot_z(-theta, r);
-        vsd_mat4_mul(r, b.volume.matrix, b.volume.matrix);
+        vsd_mat4_mul(r, b.volumes[0].matrix, b.volumes[0].matrix);
         vsd_mat4_mul(r, b.camera.matrix, b.camera.matrix);
         fa = render_mem(&a, vol, vol, env);
         fb = render_mem(&b, vol, vol, env);

@@ -347,9 +347,9 @@ static void test_edits(void)
     edit_and_render(r, &sc, "environment rotation", &fb, &prev, &fits, &marches, 0);
     /* the renderer's frame stage runs again on a density change; the grid is the same. A
      * smaller scale than the marches stopped for marches again; a larger one reuses them */
-    sc.medium.density = 5.0f;   /* the scene's is 8 */
+    sc.volumes[0].medium.density = 5.0f;   /* the scene's is 8 */
     edit_and_render(r, &sc, "medium.density decrease", &fb, &prev, &fits, &marches, 1);
-    sc.medium.density = 12.0f;
+    sc.volumes[0].medium.density = 12.0f;
     edit_and_render(r, &sc, "medium.density increase", &fb, &prev, &fits, &marches, 0);
     fresh = test_render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
     if (fresh) {
@@ -363,11 +363,11 @@ static void test_edits(void)
         fresh = NULL;
     }
     /* back to the scale the marches ran for: reused, and exact again (checked below) */
-    sc.medium.density = 5.0f;
+    sc.volumes[0].medium.density = 5.0f;
     edit_and_render(r, &sc, "medium.density back", &fb, &prev, &fits, &marches, 0);
-    sc.medium.albedo[0] = 0.9f;
-    sc.medium.albedo[1] = 0.7f;
-    sc.medium.albedo[2] = 0.5f;
+    sc.volumes[0].medium.albedo[0] = 0.9f;
+    sc.volumes[0].medium.albedo[1] = 0.7f;
+    sc.volumes[0].medium.albedo[2] = 0.5f;
     edit_and_render(r, &sc, "medium.albedo change", &fb, &prev, &fits, &marches, 0);
     CHECK_MSG(fits == 1, "%g fits for one grid across camera, environment and medium edits", fits);
     /* what the edited renderer shows is what a fresh renderer shows for the edited scene
@@ -453,7 +453,7 @@ static void test_ball(void)
         }
         /* albedo 0, same renderer: no scattered light at all, the same extinction (the
          * transmittance bit for bit), and still no refit */
-        crm_sc.medium.albedo[0] = crm_sc.medium.albedo[1] = crm_sc.medium.albedo[2] = 0.0f;
+        crm_sc.volumes[0].medium.albedo[0] = crm_sc.volumes[0].medium.albedo[1] = crm_sc.volumes[0].medium.albedo[2] = 0.0f;
         CHECK(vsd_renderer_set_scene(r, &crm_sc, err, sizeof err) == VSD_OK);
         if (test_render(r, 1, &rot, &st)) {
             double mx = 0;

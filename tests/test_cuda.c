@@ -244,7 +244,7 @@ static void test_camera_change_uploads_only_camera(void)
             snprintf(what, sizeof what, "%s, new camera", methods[mi].name);
             check_equals_fresh(&sc, fb, what);
             sc.environment.rotation_z += 0.8f;
-            sc.medium.anisotropy = 0.3f;
+            sc.volumes[0].medium.anisotropy = 0.3f;
             st = vsd_renderer_set_scene(r, &sc, err, sizeof err);
             if (!st) st = vsd_renderer_render(r, 24, &fb, &s2, err, sizeof err);
             CHECK_MSG(st == VSD_OK, "%s: %s", methods[mi].name, err);

@@ -120,14 +120,14 @@ static void run_case(const residency_case *c)
     step(r, &sc, f, "camera 2", EDIT_CAMERA, &fb, c);
     sc.environment.strength *= 2.0f;
     step(r, &sc, f, "strength", EDIT_LIGHTING, &fb, c);
-    sc.medium.anisotropy = 0.5f;
+    sc.volumes[0].medium.anisotropy = 0.5f;
     step(r, &sc, f, "anisotropy 0.5", EDIT_LIGHTING, &fb, c);
-    sc.medium.anisotropy = 0.0f;
+    sc.volumes[0].medium.anisotropy = 0.0f;
     step(r, &sc, f, "anisotropy 0", EDIT_LIGHTING, &fb, c);
-    sc.medium.density *= 0.5f;
+    sc.volumes[0].medium.density *= 0.5f;
     step(r, &sc, f, "density", EDIT_LIGHTING, &fb, c);
     step(r, &sc, c->next_frame, "next frame", EDIT_FRAME, &fb, c);
-    sc.medium.albedo[0] = 0.5f;
+    sc.volumes[0].medium.albedo[0] = 0.5f;
     step(r, &sc, c->next_frame, "albedo", EDIT_LIGHTING, &fb, c);
     step(r, &sc, f, "previous frame", EDIT_FRAME, &fb, c);
     vsd_renderer_destroy(r);

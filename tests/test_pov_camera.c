@@ -65,7 +65,7 @@ static int write_pov(const char *dir, const vsd_scene *sc)
     FILE *f;
     snprintf(path, sizeof path, "%s/t.pov", dir);
     if (!(f = fopen(path, "w"))) return 0;
-    mul(sc->volume.matrix, I2W, m);  /* index -> Blender world */
+    mul(sc->volumes[0].matrix, I2W, m);  /* index -> Blender world */
     fprintf(f, "#version 3.7;\nglobal_settings { assumed_gamma 1 }\n#include \"cam_camera.inc\"\n"
                "background { rgbt <0, 0, 0, 1> }\n"
                "#ifdef (use_media)\n  #include \"cam_0001.inc\"\n  object { vsd_volume }\n#else\n");

@@ -212,11 +212,11 @@ static void check_inc(const vsd_volume *vol, const vsd_df3 *d)
     char err[512], dir[1100], path[1200], want[256];
     char *inc;
     vsd_scene_defaults(&sc);
-    sc.medium.density = 4;
-    sc.medium.albedo[0] = 0.5f, sc.medium.albedo[1] = 0.25f, sc.medium.albedo[2] = 1.0f;
-    sc.medium.anisotropy = 0.3f;
-    sc.medium.emission_strength = 2;
-    sc.medium.emission_color[0] = 1, sc.medium.emission_color[1] = 0.5f, sc.medium.emission_color[2] = 0;
+    sc.volumes[0].medium.density = 4;
+    sc.volumes[0].medium.albedo[0] = 0.5f, sc.volumes[0].medium.albedo[1] = 0.25f, sc.volumes[0].medium.albedo[2] = 1.0f;
+    sc.volumes[0].medium.anisotropy = 0.3f;
+    sc.volumes[0].medium.emission_strength = 2;
+    sc.volumes[0].medium.emission_color[0] = 1, sc.volumes[0].medium.emission_color[1] = 0.5f, sc.volumes[0].medium.emission_color[2] = 0;
     snprintf(dir, sizeof dir, "%s", test_tmp("pov_df3_export"));
     CHECK_MSG(vsd_pov_prepare_dir(dir, err, sizeof err) == VSD_OK, "%s", err);
     memset(&rep, 0, sizeof rep);

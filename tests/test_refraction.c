@@ -462,10 +462,10 @@ static void test_heat_haze(void)
     memset(&kd, 0, sizeof kd);
     memset(&f, 0, sizeof f);
     if (!test_load_scene("scenes/fire96_studio.json", ov, 5, &sc)) return;
-    CHECK(vsd_frame_path(sc.volume.file, 48, path, sizeof path, err, sizeof err) == VSD_OK);
+    CHECK(vsd_frame_path(sc.volumes[0].file, 48, path, sizeof path, err, sizeof err) == VSD_OK);
     CHECK_MSG(vsd_vdb_load(path, sel, &temp, err, sizeof err) == VSD_OK, "%s", err);
     if (!temp) return;
-    CHECK(vsd_kvolume_setup(&kv, temp, sc.volume.matrix, 1.0f, NULL, 0) == VSD_OK);
+    CHECK(vsd_kvolume_setup(&kv, temp, sc.volumes[0].matrix, 1.0f, NULL, 0) == VSD_OK);
     CHECK(vsd_refraction_build(&kv, &kv, "temperature", VSD_IOR_TEMPERATURE, 1.0f, 1.0f, 128, &f, err, sizeof err) ==
           VSD_OK);
     vsd_kcamera_setup(&kd.camera, &sc);

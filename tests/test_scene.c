@@ -64,23 +64,23 @@ static void test_defaults(void)
     vsd_scene_defaults(&d);
     CHECK(d.version == 1);
     CHECK(!strcmp(d.base_dir, ""));
-    CHECK(!strcmp(d.volume.file, ""));
-    CHECK(!strcmp(d.volume.grid, "density"));
-    CHECK(d.volume.grid_index == -1);
-    CHECK(!strcmp(d.volume.emission_grid, ""));
+    CHECK(!strcmp(d.volumes[0].file, ""));
+    CHECK(!strcmp(d.volumes[0].grid, "density"));
+    CHECK(d.volumes[0].grid_index == -1);
+    CHECK(!strcmp(d.volumes[0].emission_grid, ""));
     for (int i = 0; i < 16; i++)
-        CHECK(d.volume.matrix[i] == (i % 5 == 0 ? 1.0 : 0.0));
-    CHECK_NEAR(d.medium.density, 1, 0);
+        CHECK(d.volumes[0].matrix[i] == (i % 5 == 0 ? 1.0 : 0.0));
+    CHECK_NEAR(d.volumes[0].medium.density, 1, 0);
     for (int i = 0; i < 3; i++) {
-        CHECK_NEAR(d.medium.albedo[i], 0.8, 1e-7);
-        CHECK_NEAR(d.medium.emission_color[i], 1, 0);
+        CHECK_NEAR(d.volumes[0].medium.albedo[i], 0.8, 1e-7);
+        CHECK_NEAR(d.volumes[0].medium.emission_color[i], 1, 0);
         CHECK_NEAR(d.environment.color[i], 0.05, 1e-7);
     }
-    CHECK_NEAR(d.medium.anisotropy, 0, 0);
-    CHECK_NEAR(d.medium.emission_strength, 0, 0);
-    CHECK_NEAR(d.medium.ior, 1, 0);
-    CHECK_NEAR(d.volume.warn_above, 1e4, 0);
-    CHECK(!strcmp(d.volume.ior_grid, "") && !strcmp(d.medium.ior_from, "none"));
+    CHECK_NEAR(d.volumes[0].medium.anisotropy, 0, 0);
+    CHECK_NEAR(d.volumes[0].medium.emission_strength, 0, 0);
+    CHECK_NEAR(d.volumes[0].medium.ior, 1, 0);
+    CHECK_NEAR(d.volumes[0].warn_above, 1e4, 0);
+    CHECK(!strcmp(d.volumes[0].ior_grid, "") && !strcmp(d.volumes[0].medium.ior_from, "none"));
     CHECK(!strcmp(d.environment.file, ""));
     CHECK_NEAR(d.environment.strength, 1, 0);
     CHECK_NEAR(d.environment.rotation_z, 0, 0);
@@ -115,9 +115,9 @@ static void test_defaults(void)
     vsd_scene s;
     CHECK_MSG(parse("{" MIN "}", &s) == VSD_OK, "%s", err);
     CHECK(!strcmp(s.base_dir, BASE));
-    CHECK(!strcmp(s.volume.file, BASE "/v.vdb"));
+    CHECK(!strcmp(s.volumes[0].file, BASE "/v.vdb"));
     CHECK(!strcmp(s.output.exr, BASE "/out/frame_####.exr"));
-    memcpy(s.volume.file, d.volume.file, sizeof s.volume.file);
+    memcpy(s.volumes[0].file, d.volumes[0].file, sizeof s.volumes[0].file);
     memcpy(s.output.exr, d.output.exr, sizeof s.output.exr);
     memcpy(s.base_dir, d.base_dir, sizeof s.base_dir);
     CHECK(!memcmp(&s, &d, sizeof s));
@@ -135,18 +135,18 @@ static void test_full_fixture(void)
     CHECK(!strcmp(s.base_dir, dir));
     char want[2100];
     snprintf(want, sizeof want, "%s/vdb/smoke_####.vdb", dir);
-    CHECK(!strcmp(s.volume.file, want));
-    CHECK(!strcmp(s.volume.grid, "density") && s.volume.grid_index == -1);
-    CHECK(!strcmp(s.volume.emission_grid, "flame"));
-    CHECK(s.volume.matrix[0] == 2 && s.volume.matrix[3] == 1 && s.volume.matrix[7] == 2 &&
-          s.volume.matrix[11] == 3 && s.volume.matrix[10] == 2);
-    CHECK_NEAR(s.medium.density, 10, 0);
-    CHECK_NEAR(s.medium.albedo[0], 0.9, 1e-6);
-    CHECK_NEAR(s.medium.albedo[2], 0.7, 1e-6);
-    CHECK_NEAR(s.medium.anisotropy, 0.3, 1e-6);
-    CHECK_NEAR(s.medium.emission_color[1], 0.5, 1e-6);
-    CHECK_NEAR(s.medium.emission_strength, 2.5, 0);
-    CHECK_NEAR(s.medium.ior, 1.33, 1e-6);
+    CHECK(!strcmp(s.volumes[0].file, want));
+    CHECK(!strcmp(s.volumes[0].grid, "density") && s.volumes[0].grid_index == -1);
+    CHECK(!strcmp(s.volumes[0].emission_grid, "flame"));
+    CHECK(s.volumes[0].matrix[0] == 2 && s.volumes[0].matrix[3] == 1 && s.volumes[0].matrix[7] == 2 &&
+          s.volumes[0].matrix[11] == 3 && s.volumes[0].matrix[10] == 2);
+    CHECK_NEAR(s.volumes[0].medium.density, 10, 0);
+    CHECK_NEAR(s.volumes[0].medium.albedo[0], 0.9, 1e-6);
+    CHECK_NEAR(s.volumes[0].medium.albedo[2], 0.7, 1e-6);
+    CHECK_NEAR(s.volumes[0].medium.anisotropy, 0.3, 1e-6);
+    CHECK_NEAR(s.volumes[0].medium.emission_color[1], 0.5, 1e-6);
+    CHECK_NEAR(s.volumes[0].medium.emission_strength, 2.5, 0);
+    CHECK_NEAR(s.volumes[0].medium.ior, 1.33, 1e-6);
     CHECK(!strcmp(s.environment.file, "/abs/sunset.exr"));
     CHECK_NEAR(s.environment.strength, 1.5, 0);
     CHECK_NEAR(s.environment.rotation_z, 0.25, 0);
@@ -281,13 +281,13 @@ static void test_errors(void)
     EXPECT_ERR("{\"volume\": {\"file\": \"v.vdb\"}}", VSD_ERR_INVALID, "version: required");
     EXPECT_ERR("{\"version\": \"1\", \"volume\": {\"file\": \"v.vdb\"}}", VSD_ERR_TYPE, "version: expected integer");
     EXPECT_ERR(with("\"colour\": 1"), VSD_ERR_INVALID,
-               "colour: unknown key (known: version, volume, medium, environment, lights, camera, film, render, frames, output)");
-    EXPECT_ERR("{\"version\": 1}", VSD_ERR_INVALID, "volume.file: required");
+               "colour: unknown key (known: version, volumes, environment, lights, camera, film, render, frames, output)");
+    EXPECT_ERR("{\"version\": 1}", VSD_ERR_INVALID, "volumes: required (a list of volumes, or one `volume` with its `medium`)");
     EXPECT_ERR("{\"version\": 1, \"volume\": {}}", VSD_ERR_INVALID, "volume.file: required");
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"\"}}", VSD_ERR_INVALID, "volume.file: required");
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": 3}}", VSD_ERR_TYPE, "volume.file: expected string");
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"fiel\": \"v.vdb\"}}", VSD_ERR_INVALID,
-               "volume.fiel: unknown key (known: file, grid, emission_grid, matrix, warn_above, ior_grid)");
+               "volume.fiel: unknown key (known: file, grid, emission_grid, matrix, warn_above, ior_grid, frame_offset, medium)");
     EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"a_#_#.vdb\"}}", VSD_ERR_INVALID,
                "volume.file: \"/base/a_#_#.vdb\": more than one run of '#'");
     EXPECT_ERR(with("\"medium\": {\"albedo\": [1, 1]}"), VSD_ERR_TYPE, "medium.albedo: expected 3 numbers");
@@ -418,9 +418,9 @@ static void test_values(void)
 {
     vsd_scene s;
     CHECK_MSG(parse("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"grid\": 2}}", &s) == VSD_OK, "%s", err);
-    CHECK(s.volume.grid_index == 2 && !strcmp(s.volume.grid, ""));
+    CHECK(s.volumes[0].grid_index == 2 && !strcmp(s.volumes[0].grid, ""));
     CHECK_MSG(parse("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"grid\": \"\"}}", &s) == VSD_OK, "%s", err);
-    CHECK(s.volume.grid_index == -1 && !strcmp(s.volume.grid, ""));
+    CHECK(s.volumes[0].grid_index == -1 && !strcmp(s.volumes[0].grid, ""));
     CHECK_MSG(parse(with("\"environment\": {\"color\": [0.2, 0.3, 0.4]}"), &s) == VSD_OK, "%s", err);
     CHECK(!strcmp(s.environment.file, ""));
     CHECK_NEAR(s.environment.color[1], 0.3, 1e-7);
@@ -455,18 +455,18 @@ static void test_paths(void)
     vsd_scene s;
     char e[512];
     CHECK(vsd_scene_parse("{" MIN "}", "", NULL, 0, &s, e, sizeof e) == VSD_OK);
-    CHECK(!strcmp(s.volume.file, "v.vdb") && !strcmp(s.output.exr, "out/frame_####.exr"));
+    CHECK(!strcmp(s.volumes[0].file, "v.vdb") && !strcmp(s.output.exr, "out/frame_####.exr"));
     CHECK(vsd_scene_parse("{" MIN "}", NULL, NULL, 0, &s, e, sizeof e) == VSD_OK);
-    CHECK(!strcmp(s.volume.file, "v.vdb"));
+    CHECK(!strcmp(s.volumes[0].file, "v.vdb"));
     CHECK(vsd_scene_parse("{" MIN "}", "/dir/", NULL, 0, &s, e, sizeof e) == VSD_OK);
-    CHECK(!strcmp(s.volume.file, "/dir/v.vdb"));
+    CHECK(!strcmp(s.volumes[0].file, "/dir/v.vdb"));
     CHECK(vsd_scene_parse("{" MIN "}", "/", NULL, 0, &s, e, sizeof e) == VSD_OK);
-    CHECK(!strcmp(s.volume.file, "/v.vdb"));
+    CHECK(!strcmp(s.volumes[0].file, "/v.vdb"));
     const char *json = "{\"version\": 1, \"volume\": {\"file\": \"/abs/v_####.vdb\"},"
                        "\"environment\": {\"file\": \"blob:9f86d081\"},"
                        "\"output\": {\"exr\": \"../out/#.exr\", \"preview_png\": \"p/prev_####.png\"}}";
     CHECK_MSG(parse(json, &s) == VSD_OK, "%s", err);
-    CHECK(!strcmp(s.volume.file, "/abs/v_####.vdb"));
+    CHECK(!strcmp(s.volumes[0].file, "/abs/v_####.vdb"));
     CHECK(!strcmp(s.environment.file, "blob:9f86d081"));
     CHECK(!strcmp(s.output.exr, BASE "/../out/#.exr"));
     CHECK(!strcmp(s.output.preview_png, BASE "/p/prev_####.png"));
@@ -515,8 +515,8 @@ static void test_overrides(void)
     CHECK_MSG(parse_ov("{" MIN ", \"output\": {\"preview_png\": \"x.png\"}}", ov1, 13, &s) == VSD_OK, "%s", err);
     CHECK(s.render.samples == 256);
     CHECK(!strcmp(s.render.method, "shgrid"));
-    CHECK_NEAR(s.medium.albedo[0], 0.1, 1e-7);
-    CHECK_NEAR(s.medium.albedo[2], 0.3, 1e-7);
+    CHECK_NEAR(s.volumes[0].medium.albedo[0], 0.1, 1e-7);
+    CHECK_NEAR(s.volumes[0].medium.albedo[2], 0.3, 1e-7);
     CHECK(s.film.transparent == 0);
     CHECK(!strcmp(s.output.preview_png, ""));
     CHECK(!strcmp(s.output.layer, "Quoted"));
@@ -562,7 +562,7 @@ static void test_shared_scenes(void)
         if (st)
             continue;
         CHECK(!strncmp(path, s.base_dir, strlen(s.base_dir)) && strstr(s.base_dir, "scenes"));
-        CHECK(vsd_frame_path(s.volume.file, s.frames.start, file, sizeof file, err, sizeof err) == VSD_OK);
+        CHECK(vsd_frame_path(s.volumes[0].file, s.frames.start, file, sizeof file, err, sizeof err) == VSD_OK);
         CHECK_MSG(access(file, R_OK) == 0, "%s: volume %s", names[i], file);
         CHECK_MSG(access(s.environment.file, R_OK) == 0, "%s: environment %s", names[i], s.environment.file);
         CHECK(!strncmp(s.output.exr, s.base_dir, strlen(s.base_dir)));
@@ -618,7 +618,7 @@ static void test_file_errors(void)
     CHECK(chdir(VSD_SOURCE_DIR) == 0);
     CHECK_MSG(vsd_scene_load("tests/data/scenes/full.json", NULL, 0, &s, err, sizeof err) == VSD_OK, "%s", err);
     CHECK(!strcmp(s.base_dir, "tests/data/scenes"));
-    CHECK(!strcmp(s.volume.file, "tests/data/scenes/vdb/smoke_####.vdb"));
+    CHECK(!strcmp(s.volumes[0].file, "tests/data/scenes/vdb/smoke_####.vdb"));
 
     /* Overrides apply to loaded files too, and a bad one is named without the file prefix. */
     const char *bad[] = {"nonsense"};

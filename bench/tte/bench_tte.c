@@ -232,11 +232,11 @@ static int next_frame(const vsd_scene *sc)
 {
     int f;
     for (f = sc->frames.start + 1; f <= sc->frames.start + 30; f++) {
-        char path[sizeof sc->volume.file + 16];
-        const char *hash = strstr(sc->volume.file, "####");
+        char path[sizeof sc->volumes[0].file + 16];
+        const char *hash = strstr(sc->volumes[0].file, "####");
         FILE *fp;
         if (!hash) return 0;
-        snprintf(path, sizeof path, "%.*s%04d%s", (int)(hash - sc->volume.file), sc->volume.file, f, hash + 4);
+        snprintf(path, sizeof path, "%.*s%04d%s", (int)(hash - sc->volumes[0].file), sc->volumes[0].file, f, hash + 4);
         if ((fp = fopen(path, "rb"))) {
             fclose(fp);
             return f;

@@ -148,7 +148,7 @@ int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char
         for (attempt = 0; attempt < 2; attempt++) {
             char vblob[128];
             /* the frame's VDB and the map: sent only when the daemon lacks them */
-            if (vsd_frame_path(scene->volume.file, frame, frame_path, sizeof frame_path, err, sizeof err) ||
+            if (vsd_frame_path(scene->volumes[0].file, frame, frame_path, sizeof frame_path, err, sizeof err) ||
                 vsdc_upload_file(c, frame_path, vblob, sizeof vblob, &up, err, sizeof err)) {
                 fprintf(stderr, "vsd render: frame %d: %s\n", frame, err);
                 rc = strcmp(vsdc_error_code(c), "") ? exit_code_for_server(vsdc_error_code(c)) : VSD_EXIT_INPUT;

@@ -19,10 +19,10 @@ int vsdd_step_inputs(vsdd_run *run)
     const vsdd_config *cfg = &run->d->cfg;
     vsdd_cache *k = run->d->cache;
     const vsd_scene *sc = &run->sc;
-    const char *ior = vsd_scene_ior_grid(sc);
+    const char *ior = vsd_scene_ior_grid(&sc->volumes[0]);
     char conversion[2 * VSD_NAME_LEN + 2];
     cJSON *missing = NULL;
-    if (vsdd_resolve_source(cfg, "volume.file", sc->volume.file, run->frame, run->vsrc, sizeof run->vsrc, &run->err))
+    if (vsdd_resolve_source(cfg, "volume.file", sc->volumes[0].file, run->frame, run->vsrc, sizeof run->vsrc, &run->err))
         return VSDD_STEP_FAILED;
     run->esrc[0] = '\0';
     if (sc->environment.file[0] && vsdd_resolve_source(cfg, "environment.file", sc->environment.file, run->frame,
@@ -37,11 +37,11 @@ int vsdd_step_inputs(vsdd_run *run)
         return VSDD_STEP_FAILED;
     }
     vsdd_send_progress(run->job->conn, run->job->id, "load", 0.0f);
-    if (vsdd_cache_get_volume(k, run->vsrc, sc->volume.grid, sc->volume.grid_index, &run->pins[0], &run->hits[0],
+    if (vsdd_cache_get_volume(k, run->vsrc, sc->volumes[0].grid, sc->volumes[0].grid_index, &run->pins[0], &run->hits[0],
                               &run->err))
         return VSDD_STEP_FAILED;
-    if (sc->volume.emission_grid[0] &&
-        vsdd_cache_get_volume(k, run->vsrc, sc->volume.emission_grid, -1, &run->pins[1], &run->hits[1], &run->err))
+    if (sc->volumes[0].emission_grid[0] &&
+        vsdd_cache_get_volume(k, run->vsrc, sc->volumes[0].emission_grid, -1, &run->pins[1], &run->hits[1], &run->err))
         return VSDD_STEP_FAILED;
     if (run->esrc[0] &&
         vsdd_cache_get_env(k, run->esrc, vsd_scene_env_conversion(sc, conversion, sizeof conversion), &run->pins[2],

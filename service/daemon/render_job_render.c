@@ -20,11 +20,11 @@ static const char *code_for_status(vsd_status st)
 /* The scene fields a renderer's preparation depends on (the camera is not one). */
 static void prep_key_of(const vsd_scene *sc, char *out, size_t len)
 {
-    const double *m = sc->volume.matrix;
-    const float *a = sc->medium.albedo, *e = sc->medium.emission_color, *c = sc->environment.color;
+    const double *m = sc->volumes[0].matrix;
+    const float *a = sc->volumes[0].medium.albedo, *e = sc->volumes[0].medium.emission_color, *c = sc->environment.color;
     int n = snprintf(out, len, "%.9g|%.9g,%.9g,%.9g|%.9g|%.9g,%.9g,%.9g|%.9g|%.9g|%.9g|%.9g,%.9g,%.9g|",
-                     sc->medium.density, a[0], a[1], a[2], sc->medium.anisotropy, e[0], e[1], e[2],
-                     sc->medium.emission_strength, sc->environment.strength, sc->environment.rotation_z, c[0], c[1],
+                     sc->volumes[0].medium.density, a[0], a[1], a[2], sc->volumes[0].medium.anisotropy, e[0], e[1], e[2],
+                     sc->volumes[0].medium.emission_strength, sc->environment.strength, sc->environment.rotation_z, c[0], c[1],
                      c[2]);
     int i;
     for (i = 0; i < 16 && n > 0 && (size_t)n < len - 32; i++) n += snprintf(out + n, len - (size_t)n, "%.17g,", m[i]);
@@ -62,8 +62,8 @@ static int get_slot(vsdd_run *run)
     int rc;
     char conversion[2 * VSD_NAME_LEN + 2];
     snprintf(key, sizeof key, "%s|%s|%s|%s|%d|%s|%s|%s|%s", sc->render.method, sc->render.options_json, run->vsrc,
-             sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid, run->esrc,
-             vsd_scene_env_conversion(sc, conversion, sizeof conversion), vsd_scene_ior_grid(sc));
+             sc->volumes[0].grid, sc->volumes[0].grid_index, sc->volumes[0].emission_grid, run->esrc,
+             vsd_scene_env_conversion(sc, conversion, sizeof conversion), vsd_scene_ior_grid(&sc->volumes[0]));
     /* a new renderer may wait for memory: a cancel, a disconnect or the job's time limit
      * ends the wait through this flag as it would end a render */
     vsdd_cancel_watch(run->job->cancel, &wait_cancel);

@@ -61,9 +61,9 @@ static cJSON *result_json(const vsdd_run *run, size_t exr_len, size_t png_len, c
     cJSON_AddNumberToObject(t, "total", vsd_clock_seconds() - run->t_start);
     cache = cJSON_AddObjectToObject(o, "cache");
     cJSON_AddItemToObject(cache, "volume", hit_json(1, run->hits[0]));
-    cJSON_AddItemToObject(cache, "emission", hit_json(sc->volume.emission_grid[0] != 0, run->hits[1]));
+    cJSON_AddItemToObject(cache, "emission", hit_json(sc->volumes[0].emission_grid[0] != 0, run->hits[1]));
     cJSON_AddItemToObject(cache, "environment", hit_json(run->esrc[0] != 0, run->hits[2]));
-    cJSON_AddItemToObject(cache, "ior", hit_json(vsd_scene_ior_grid(sc)[0] != 0, run->hits[3]));
+    cJSON_AddItemToObject(cache, "ior", hit_json(vsd_scene_ior_grid(&sc->volumes[0])[0] != 0, run->hits[3]));
     cJSON_AddItemToObject(cache, "renderer", cJSON_CreateBool(run->slot_hit));
     cJSON_AddItemToObject(cache, "preparation", cJSON_CreateBool(run->prep_hit));
     return o;
@@ -80,7 +80,7 @@ static int encode(vsdd_run *run, vsd_scene *out, unsigned char **exr, size_t *ex
     vsd_status st;
     int rc = -1;
     *out = run->sc;
-    if (vsdd_cache_pin_file(k, run->vsrc, out->volume.file, sizeof out->volume.file, &file_pins[0], &run->err) ||
+    if (vsdd_cache_pin_file(k, run->vsrc, out->volumes[0].file, sizeof out->volumes[0].file, &file_pins[0], &run->err) ||
         (run->esrc[0] && vsdd_cache_pin_file(k, run->esrc, out->environment.file, sizeof out->environment.file,
                                              &file_pins[1], &run->err)))
         goto done;

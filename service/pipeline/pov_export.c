@@ -99,7 +99,7 @@ vsd_status vsd_pov_export(const vsd_scene *sc, const vsd_pov_export_options *opt
                           vsd_pov_export_report *rep, char *err, size_t errlen)
 {
     const char *name = opt->name && opt->name[0] ? opt->name : "vsd";
-    int want_emission = sc->volume.emission_grid[0] && sc->medium.emission_strength > 0.0f;
+    int want_emission = sc->volumes[0].emission_grid[0] && sc->volumes[0].medium.emission_strength > 0.0f;
     double lo_all[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, hi_all[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
     double centre[3] = {0, 0, 0}, extent = 1, floor_z = 0;
     vsd_status st;
@@ -115,12 +115,12 @@ vsd_status vsd_pov_export(const vsd_scene *sc, const vsd_pov_export_options *opt
         char file[VSD_PATH_LEN];
         vsd_volume *dv = NULL, *ev = NULL;
         double lo[3], hi[3];
-        if ((st = vsd_frame_path(sc->volume.file, frame, file, sizeof file, err, errlen))) return st;
-        st = load_grid(file, sc->volume.grid, sc->volume.grid_index, &dv, err, errlen);
-        if (!st && want_emission) st = load_grid(file, sc->volume.emission_grid, -1, &ev, err, errlen);
+        if ((st = vsd_frame_path(sc->volumes[0].file, frame, file, sizeof file, err, errlen))) return st;
+        st = load_grid(file, sc->volumes[0].grid, sc->volumes[0].grid_index, &dv, err, errlen);
+        if (!st && want_emission) st = load_grid(file, sc->volumes[0].emission_grid, -1, &ev, err, errlen);
         if (!st) st = vsd_pov_export_frame(sc, frame, dv, ev, outdir, name, rep, err, errlen);
         if (!st) {
-            vsd_volume_world_bounds(dv, sc->volume.matrix, lo, hi);
+            vsd_volume_world_bounds(dv, sc->volumes[0].matrix, lo, hi);
             for (a = 0; a < 3; a++) {
                 if (lo[a] < lo_all[a]) lo_all[a] = lo[a];
                 if (hi[a] > hi_all[a]) hi_all[a] = hi[a];

@@ -42,7 +42,7 @@ vsd_status vsd_pov_export_scene_files(const vsd_scene *scene, const vsd_pov_expo
                                       double floor_z, const double centre[3], double extent,
                                       const char *outdir, vsd_pov_export_report *rep, char *err, size_t errlen);
 
-/* The whole export, each frame's grids loaded from scene->volume.file. */
+/* The whole export, each frame's grids loaded from scene->volumes[0].file. */
 vsd_status vsd_pov_export(const vsd_scene *scene, const vsd_pov_export_options *opt, const char *outdir,
                           vsd_pov_export_report *rep, char *err, size_t errlen);
 

@@ -42,15 +42,15 @@ static void write_transform(FILE *f, const double m[16])
 void vsd_pov_write_volume(FILE *f, const vsd_scene *sc, int frame, const vsd_df3 *d, const vsd_volume *dg,
                           const char *dname, const vsd_df3 *e, const vsd_volume *eg, const char *ename)
 {
-    const float *al = sc->medium.albedo, *ec = sc->medium.emission_color;
-    double sigma = (double)sc->medium.density * d->scale, m[16];
-    float g = sc->medium.anisotropy;
-    vsd_pov_box_matrix(d, dg, sc->volume.matrix, m);
+    const float *al = sc->volumes[0].medium.albedo, *ec = sc->volumes[0].medium.emission_color;
+    double sigma = (double)sc->volumes[0].medium.density * d->scale, m[16];
+    float g = sc->volumes[0].medium.anisotropy;
+    vsd_pov_box_matrix(d, dg, sc->volumes[0].matrix, m);
     fprintf(f, "// vsd volume, frame %d, exported by vsd (docs/povray.md). Declares vsd_volume.\n", frame);
     fprintf(f, "// density grid '%s': df3 \"%s\", %dx%dx%d voxels from vsd index <%d, %d, %d>,\n"
                "//   df3 value 1 (65535) = grid value %.9g; sigma_t = medium.density %.9g * grid.\n",
             dg->grid_name, dname, d->size[0], d->size[1], d->size[2], d->index_min[0], d->index_min[1],
-            d->index_min[2], (double)d->scale, (double)sc->medium.density);
+            d->index_min[2], (double)d->scale, (double)sc->volumes[0].medium.density);
     if (d->negative)
         fprintf(f, "//   %llu negative voxels were written as 0.\n", (unsigned long long)d->negative);
     fprintf(f, "// Not mapped: environment lighting (POV-Ray media scatter light_sources only),\n"
@@ -74,12 +74,12 @@ void vsd_pov_write_volume(FILE *f, const vsd_scene *sc, int frame, const vsd_df3
     fprintf(f, "        density { density_file df3 \"%s\" interpolate 1 }\n      }\n    }\n", dname);
     write_transform(f, m);
     if (e) {
-        double s = (double)sc->medium.emission_strength * e->scale;
-        vsd_pov_box_matrix(e, eg, sc->volume.matrix, m);
+        double s = (double)sc->volumes[0].medium.emission_strength * e->scale;
+        vsd_pov_box_matrix(e, eg, sc->volumes[0].matrix, m);
         fprintf(f, "  // emission grid '%s': df3 \"%s\", %dx%dx%d voxels from vsd index <%d, %d, %d>,\n"
                    "  //   df3 value 1 = grid value %.9g; emission = color * strength %.9g * grid.\n",
                 eg->grid_name, ename, e->size[0], e->size[1], e->size[2], e->index_min[0], e->index_min[1],
-                e->index_min[2], (double)e->scale, (double)sc->medium.emission_strength);
+                e->index_min[2], (double)e->scale, (double)sc->volumes[0].medium.emission_strength);
         write_container(f, "emission");
         fprintf(f, "    interior {\n      media {\n        method 3 intervals 1 samples vsd_media_samples\n");
         fprintf(f, "        emission rgb <%.9g, %.9g, %.9g>\n", ec[0] * s, ec[1] * s, ec[2] * s);

@@ -29,9 +29,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         overrides[n++] = text + at;
     err[0] = '\0';
     if (vsd_scene_parse(text, "/fuzz/scenes", overrides, n, sc, err, sizeof err) == VSD_OK) {
-        (void)vsd_frame_path(sc->volume.file, sc->frames.start, path, sizeof path, err, sizeof err);
+        (void)vsd_frame_path(sc->volumes[0].file, sc->frames.start, path, sizeof path, err, sizeof err);
         (void)vsd_frame_path(sc->environment.file, sc->frames.end, path, sizeof path, err, sizeof err);
-        (void)vsd_scene_ior_grid(sc);
+        (void)vsd_scene_ior_grid(&sc->volumes[0]);
     } else if (err[0] == '\0') {
         __builtin_trap(); /* an error must say why */
     }

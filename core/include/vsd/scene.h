@@ -44,31 +44,47 @@ typedef struct vsd_scene_light {
                                             sends false there) */
 } vsd_scene_light;
 
+/* At most this many entries in volumes[] (docs/scene-file.md "volumes"): each costs a
+ * grid load, a kernel slot and its own lookups on every step of every ray. */
+#define VSD_MAX_VOLUMES 16
+
+/* The material of one volume: Blender's Principled Volume, in Cycles' units. */
+typedef struct vsd_scene_medium {
+    float density;                   /* default 1 */
+    float albedo[3];                 /* default 0.8 (Principled Volume's default colour is 0.5; see docs) */
+    float anisotropy;                /* default 0 */
+    float emission_color[3];         /* default 1,1,1 */
+    float emission_strength;         /* default 0 */
+    float ior;                       /* default 1 */
+    char ior_from[16];               /* "none" (default): ior_grid holds n;
+                                        "temperature": it holds Blender's temperature */
+} vsd_scene_medium;
+
+/* One entry of volumes[]: a VDB sequence placed in the world with its own material.
+ * Where volumes overlap their extinction, scattering and emission add, and the phase is
+ * the scattering-weighted mixture of their lobes (as Cycles does). */
+typedef struct vsd_scene_volume {
+    char file[VSD_PATH_LEN];         /* resolved path, may contain #### */
+    char grid[VSD_NAME_LEN];         /* default "density" ("" = first float grid) */
+    int grid_index;                  /* -1 = by name (default) */
+    char emission_grid[VSD_NAME_LEN];/* "" = none (default) */
+    double matrix[16];               /* object matrix, row-major, default identity */
+    float warn_above;                /* a grid value above this is reported (default 1e4) */
+    char ior_grid[VSD_NAME_LEN];     /* "" = none: a grid of the refractive index (or, with
+                                        medium.ior_from, of what it is computed from) */
+    int frame_offset;                /* the file of scene frame f is #### = f + frame_offset
+                                        (Blender's volume object "Offset"; default 0) */
+    vsd_scene_medium medium;
+} vsd_scene_volume;
+
 typedef struct vsd_scene {
     int version;                         /* 1 */
     char base_dir[VSD_PATH_LEN];         /* folder of the scene file ("" = cwd) */
 
-    struct {
-        char file[VSD_PATH_LEN];         /* resolved path, may contain #### */
-        char grid[VSD_NAME_LEN];         /* default "density" ("" = first float grid) */
-        int grid_index;                  /* -1 = by name (default) */
-        char emission_grid[VSD_NAME_LEN];/* "" = none (default) */
-        double matrix[16];               /* object matrix, row-major, default identity */
-        float warn_above;                /* a grid value above this is reported (default 1e4) */
-        char ior_grid[VSD_NAME_LEN];     /* "" = none: a grid of the refractive index (or, with
-                                            medium.ior_from, of what it is computed from) */
-    } volume;
-
-    struct {
-        float density;                   /* default 1 */
-        float albedo[3];                 /* default 0.8 (Principled Volume's default colour is 0.5; see docs) */
-        float anisotropy;                /* default 0 */
-        float emission_color[3];         /* default 1,1,1 */
-        float emission_strength;         /* default 0 */
-        float ior;                       /* default 1 */
-        char ior_from[16];               /* "none" (default): volume.ior_grid holds n;
-                                            "temperature": it holds Blender's temperature */
-    } medium;
+    /* volumes[0 .. volume_count-1]: at least one. A file's single `volume` + `medium`
+     * reads as a list of one. */
+    int volume_count;
+    vsd_scene_volume volumes[VSD_MAX_VOLUMES];
 
     struct {
         char file[VSD_PATH_LEN];         /* "" = uniform colour */
@@ -140,9 +156,12 @@ vsd_status vsd_scene_parse(const char *json, const char *base_dir,
 vsd_status vsd_frame_path(const char *pattern, int frame, char *out, size_t outlen,
                           char *err, size_t errlen);
 
-/* The grid the refractive index comes from: volume.ior_grid, else "temperature" when
- * medium.ior_from is "temperature", else "" (none). */
-const char *vsd_scene_ior_grid(const vsd_scene *s);
+/* The grid the refractive index of volume v comes from: its ior_grid, else "temperature"
+ * when its medium.ior_from is "temperature", else "" (none). */
+const char *vsd_scene_ior_grid(const vsd_scene_volume *v);
+/* The frame number volume v reads for scene frame `frame` (frame + frame_offset, clamped
+ * to Blender's frame range). */
+int vsd_scene_volume_frame(const vsd_scene_volume *v, int frame);
 /* The environment map's colour conversion as one string (vsd_env_conversion: "" none,
  * "FROM", or FROM and TO joined by VSD_ENV_SPACE_SEP), written into buf. */
 const char *vsd_scene_env_conversion(const vsd_scene *s, char *buf, size_t len);

@@ -305,7 +305,7 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
     job.out = s->light_trans;
     vsd_method_item_job(&tj, ctx, s->rg.count, shadow_tile, &job, "cached shadows");
     if ((st = vsd_cpu_run_tiles(&tj))) return vsd_fail(st, err, errlen, "cached shadows cancelled");
-    if (ctx->scene->medium.anisotropy == 0.0f) {
+    if (ctx->scene->volumes[0].medium.anisotropy == 0.0f) {
         vsd_krecord_grid g;
         records_view(s, &ctx->kd, &g);   /* the LIGHTS kind, while s->baked is NULL */
         if ((st = vsd_record_grid_bake(&g, &s->baked, err, errlen))) return st;

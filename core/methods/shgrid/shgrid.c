@@ -242,7 +242,7 @@ static int want_product(const shgrid_state *s, const vsd_scene *sc)
 {
     if (s->opt.form == FORM_PRODUCT) return 1;
     if (s->opt.form == FORM_FACTORED) return 0;
-    return sc->medium.anisotropy != 0.0f;
+    return sc->volumes[0].medium.anisotropy != 0.0f;
 }
 
 /* grid = 0: about 4 voxels per cell along the volume's longest axis, 32 to 64 cells. A
@@ -416,7 +416,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
         if ((st = run_records(s, ctx, VSD_RECORDS_SH_SCALAR, err, errlen))) return st;
         s->have_trans = 1;
     }
-    if (sc->medium.anisotropy == 0.0f) return bake_isotropic(s, &ctx->kd, err, errlen);
+    if (sc->volumes[0].medium.anisotropy == 0.0f) return bake_isotropic(s, &ctx->kd, err, errlen);
     /* factored form with an anisotropic phase: (T * L) per record by the triple product,
      * then the view pass convolves with HG */
     if (!s->tensor && (st = vsd_sh_tensor_create(s->opt.order, &s->tensor, err, errlen))) return st;

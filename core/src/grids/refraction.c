@@ -169,21 +169,21 @@ done:
 vsd_status vsd_refraction_for_frame(const vsd_frame_ctx *ctx, vsd_refraction_field *out, char *err, size_t errlen)
 {
     const vsd_scene *sc = ctx->scene;
-    const char *name = vsd_scene_ior_grid(sc);
+    const char *name = vsd_scene_ior_grid(&sc->volumes[0]);
     vsd_kvolume src;
     vsd_status st;
     memset(out, 0, sizeof *out);
     if (!name[0])
-        return sc->medium.ior == 1.0f ? VSD_OK
+        return sc->volumes[0].medium.ior == 1.0f ? VSD_OK
                                       : vsd_refraction_build(&ctx->kd.density, NULL, NULL, VSD_IOR_CONSTANT,
-                                                             sc->medium.ior, 1.0f, 128, out, err, errlen);
-    if (sc->medium.ior != 1.0f)
+                                                             sc->volumes[0].medium.ior, 1.0f, 128, out, err, errlen);
+    if (sc->volumes[0].medium.ior != 1.0f)
         return vsd_fail(VSD_ERR_INVALID, err, errlen,
                         "medium.ior (%g) and the grid '%s' (volume.ior_grid / medium.ior_from) both give the refractive "
-                        "index: set one", (double)sc->medium.ior, name);
+                        "index: set one", (double)sc->volumes[0].medium.ior, name);
     if (!ctx->ior) return vsd_fail(VSD_ERR_INVALID, err, errlen, "the refractive index's grid '%s' is not loaded", name);
-    if ((st = vsd_kvolume_setup(&src, ctx->ior, sc->volume.matrix, 1.0f, err, errlen))) return st;
+    if ((st = vsd_kvolume_setup(&src, ctx->ior, sc->volumes[0].matrix, 1.0f, err, errlen))) return st;
     return vsd_refraction_build(&ctx->kd.density, &src, name,
-                                strcmp(sc->medium.ior_from, "temperature") == 0 ? VSD_IOR_TEMPERATURE : VSD_IOR_GRID, 1.0f,
+                                strcmp(sc->volumes[0].medium.ior_from, "temperature") == 0 ? VSD_IOR_TEMPERATURE : VSD_IOR_GRID, 1.0f,
                                 1.0f, 128, out, err, errlen);
 }

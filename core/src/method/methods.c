@@ -40,7 +40,7 @@ vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, cha
     char which[256] = "";
     size_t i;
     if (sc->light_count == 0) return VSD_OK;
-    if (sc->medium.ior != 1.0f || vsd_scene_ior_grid(sc)[0])
+    if (sc->volumes[0].medium.ior != 1.0f || vsd_scene_ior_grid(&sc->volumes[0])[0])
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "lights: extra lights through a refracting medium (medium.ior, volume.ior_grid) are not "
                         "supported yet: a bent ray cannot be aimed at a point or a sun");

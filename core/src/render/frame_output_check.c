@@ -114,18 +114,18 @@ static void hash_scene_fields(XXH3_state_t *h, const vsd_scene *s)
 {
     int p;
     hash_int(h, s->version);
-    hash_str(h, s->volume.grid);
-    hash_int(h, s->volume.grid_index);
-    hash_str(h, s->volume.emission_grid);
-    hash_doubles(h, s->volume.matrix, 16);
-    hash_str(h, s->volume.ior_grid);
-    hash_floats(h, &s->medium.density, 1);
-    hash_floats(h, s->medium.albedo, 3);
-    hash_floats(h, &s->medium.anisotropy, 1);
-    hash_floats(h, s->medium.emission_color, 3);
-    hash_floats(h, &s->medium.emission_strength, 1);
-    hash_floats(h, &s->medium.ior, 1);
-    hash_str(h, s->medium.ior_from);
+    hash_str(h, s->volumes[0].grid);
+    hash_int(h, s->volumes[0].grid_index);
+    hash_str(h, s->volumes[0].emission_grid);
+    hash_doubles(h, s->volumes[0].matrix, 16);
+    hash_str(h, s->volumes[0].ior_grid);
+    hash_floats(h, &s->volumes[0].medium.density, 1);
+    hash_floats(h, s->volumes[0].medium.albedo, 3);
+    hash_floats(h, &s->volumes[0].medium.anisotropy, 1);
+    hash_floats(h, s->volumes[0].medium.emission_color, 3);
+    hash_floats(h, &s->volumes[0].medium.emission_strength, 1);
+    hash_floats(h, &s->volumes[0].medium.ior, 1);
+    hash_str(h, s->volumes[0].medium.ior_from);
     hash_floats(h, s->environment.color, 3);
     hash_floats(h, &s->environment.strength, 1);
     hash_floats(h, &s->environment.rotation_z, 1);
@@ -166,7 +166,7 @@ vsd_status vsd_scene_frame_hash(const vsd_scene *scene, int frame, char hex[33],
     hash_scene_fields(h, scene);
     /* The files' contents, not their names: a re-simulated cache under the same name is
      * a new frame, a renamed copy is the same one. */
-    st = vsd_frame_path(scene->volume.file, frame, vdb, sizeof vdb, err, errlen);
+    st = vsd_frame_path(scene->volumes[0].file, frame, vdb, sizeof vdb, err, errlen);
     if (!st) st = hash_file(h, vdb, err, errlen);
     if (!st && scene->environment.file[0]) st = hash_file(h, scene->environment.file, err, errlen);
     d = XXH3_128bits_digest(h);

@@ -204,12 +204,12 @@ int vsd_kscene_lights_setup(float *out, const vsd_scene *scene)
 
 void vsd_kernel_data_from_scene(vsd_kernel_data *kd, const vsd_scene *scene)
 {
-    const float *al = scene->medium.albedo, *ec = scene->medium.emission_color;
-    float es = scene->medium.emission_strength;
+    const float *al = scene->volumes[0].medium.albedo, *ec = scene->volumes[0].medium.emission_color;
+    float es = scene->volumes[0].medium.emission_strength;
     vsd_kcamera_setup(&kd->camera, scene);
     kd->medium.albedo = f3(al[0], al[1], al[2]);
     kd->medium.emission = f3(ec[0] * es, ec[1] * es, ec[2] * es);
-    kd->medium.anisotropy = scene->medium.anisotropy;
+    kd->medium.anisotropy = scene->volumes[0].medium.anisotropy;
     kd->transparent = scene->film.transparent;
     kd->seed = scene->render.seed;
 }

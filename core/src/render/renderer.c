@@ -171,26 +171,26 @@ static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t err
         }
         return VSD_OK;
     }
-    st = vsd_frame_path(sc->volume.file, frame, path, sizeof path, err, errlen);
+    st = vsd_frame_path(sc->volumes[0].file, frame, path, sizeof path, err, errlen);
     if (st) return st;
-    snprintf(key, sizeof key, "%s|%s|%d|%s|%s", path, sc->volume.grid, sc->volume.grid_index, sc->volume.emission_grid,
-             vsd_scene_ior_grid(sc));
+    snprintf(key, sizeof key, "%s|%s|%d|%s|%s", path, sc->volumes[0].grid, sc->volumes[0].grid_index, sc->volumes[0].emission_grid,
+             vsd_scene_ior_grid(&sc->volumes[0]));
     if (r->owned_density && strcmp(key, r->volume_key) == 0) return VSD_OK;
     free_owned_volumes(r);
-    sel.name = sc->volume.grid;
-    sel.index = sc->volume.grid_index;
+    sel.name = sc->volumes[0].grid;
+    sel.index = sc->volumes[0].grid_index;
     st = vsd_vdb_load(path, sel, &r->owned_density, err, errlen);
     if (st) return st;
-    if (sc->volume.emission_grid[0]) {
-        sel.name = sc->volume.emission_grid;
+    if (sc->volumes[0].emission_grid[0]) {
+        sel.name = sc->volumes[0].emission_grid;
         sel.index = -1;
         st = vsd_vdb_load(path, sel, &r->owned_emission, err, errlen);
         if (st) return st;
     }
-    if (vsd_scene_ior_grid(sc)[0]) {
+    if (vsd_scene_ior_grid(&sc->volumes[0])[0]) {
         /* the refractive index's grid (volume.ior_grid / medium.ior_from): a missing one is
          * the loader's error, which names it and lists what the file has */
-        sel.name = vsd_scene_ior_grid(sc);
+        sel.name = vsd_scene_ior_grid(&sc->volumes[0]);
         sel.index = -1;
         st = vsd_vdb_load(path, sel, &r->owned_ior, err, errlen);
         if (st) return st;
@@ -234,17 +234,17 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
 static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key)
 {
     const vsd_scene *sc = &r->scene;
-    const double *m = sc->volume.matrix;
-    const float *a = sc->medium.albedo, *e = sc->medium.emission_color;
-    int n = snprintf(frame_key, KEY_LEN, "%s|%g|%g|", r->volume_key, sc->medium.density, sc->medium.ior);
+    const double *m = sc->volumes[0].matrix;
+    const float *a = sc->volumes[0].medium.albedo, *e = sc->volumes[0].medium.emission_color;
+    int n = snprintf(frame_key, KEY_LEN, "%s|%g|%g|", r->volume_key, sc->volumes[0].medium.density, sc->volumes[0].medium.ior);
     int i;
     for (i = 0; i < 16 && n < KEY_LEN - 32; i++) n += snprintf(frame_key + n, KEY_LEN - n, "%.9g,", m[i]);
     float lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
     int count = vsd_kscene_lights_setup(lights, sc);
     /* the lights by the hash of their kernel layout (every float of it defined) */
     snprintf(lighting_key, KEY_LEN, "%.3000s|%.900s|%g|%g|%g,%g,%g|%g|%g,%g,%g,%g|%d:%016llx", frame_key, r->env_key,
-             sc->environment.strength, sc->environment.rotation_z, a[0], a[1], a[2], sc->medium.anisotropy,
-             e[0], e[1], e[2], sc->medium.emission_strength, count,
+             sc->environment.strength, sc->environment.rotation_z, a[0], a[1], a[2], sc->volumes[0].medium.anisotropy,
+             e[0], e[1], e[2], sc->volumes[0].medium.emission_strength, count,
              (unsigned long long)XXH3_64bits(lights, (size_t)count * VSD_KLIGHT_FLOATS * sizeof *lights));
 }
 
@@ -342,12 +342,12 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
         int v;
         size_t used = 0;
         for (v = 0; v < 2; v++)
-            if (vols[v] && vols[v]->value_max > sc->volume.warn_above && used < sizeof stats->warnings)
+            if (vols[v] && vols[v]->value_max > sc->volumes[0].warn_above && used < sizeof stats->warnings)
                 used += (size_t)snprintf(stats->warnings + used, sizeof stats->warnings - used,
                                          "%s%s: grid '%s' has values up to %g, above volume.warn_above (%g): check its "
                                          "units",
                                          used ? "; " : "", vols[v]->file[0] ? vols[v]->file : "(in memory)",
-                                         vols[v]->grid_name, (double)vols[v]->value_max, (double)sc->volume.warn_above);
+                                         vols[v]->grid_name, (double)vols[v]->value_max, (double)sc->volumes[0].warn_above);
     }
 
     memset(&ctx, 0, sizeof ctx);
@@ -368,11 +368,11 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     vsd_kernel_data_from_scene(&ctx.kd, sc);
     ctx.kd.scene_light_count = vsd_kscene_lights_setup(r->scene_lights, sc);
     ctx.kd.scene_lights = ctx.kd.scene_light_count ? r->scene_lights : NULL;
-    st = vsd_kvolume_setup(&ctx.kd.density, r->density, sc->volume.matrix, sc->medium.density, err, errlen);
-    if (!st) st = vsd_kvolume_setup(&ctx.kd.emission, r->emission, sc->volume.matrix, 1.0f, err, errlen);
+    st = vsd_kvolume_setup(&ctx.kd.density, r->density, sc->volumes[0].matrix, sc->volumes[0].medium.density, err, errlen);
+    if (!st) st = vsd_kvolume_setup(&ctx.kd.emission, r->emission, sc->volumes[0].matrix, 1.0f, err, errlen);
     if (st) return st;
     ctx.kd.medium.has_emission = r->emission && r->emission->brick_dims[0] > 0 &&
-                                 sc->medium.emission_strength > 0.0f;
+                                 sc->volumes[0].medium.emission_strength > 0.0f;
     vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.interpolation, sc->environment.strength,
                    sc->environment.rotation_z);
 

@@ -44,6 +44,7 @@ typedef struct scene_ext {
         double lens, sensor_width;
     } cam;
     vsd_scene_light light;   /* the lights[] entry being read, copied into s.lights */
+    vsd_scene_volume vol;    /* the volumes[] entry being read, copied into s.volumes */
 } scene_ext;
 
 typedef struct parser {
@@ -51,6 +52,7 @@ typedef struct parser {
     const char *base_dir;   /* relative paths resolve against it ("" = keep relative) */
     const char *prefix;     /* the scene file's path for messages, "" for strings */
     int defaults_only;      /* vsd_scene_defaults: no JSON, so nothing is required */
+    int single_volume;      /* the file wrote one `volume` + `medium`: messages use those names */
     char *err;
     size_t errlen;
 } parser;
@@ -133,6 +135,8 @@ struct table {
 
 static vsd_status apply_grid(parser *p, const field *f, const cJSON *item, const char *path);
 static vsd_status apply_lights(parser *p, const field *f, const cJSON *item, const char *path);
+static vsd_status apply_volumes(parser *p, const field *f, const cJSON *item, const char *path);
+static vsd_status apply_medium(parser *p, const field *f, const cJSON *item, const char *path);
 static vsd_status apply_options(parser *p, const field *f, const cJSON *item, const char *path);
 static vsd_status apply_passes(parser *p, const field *f, const cJSON *item, const char *path);
 static vsd_status apply_pass_names(parser *p, const field *f, const cJSON *item, const char *path);
@@ -171,26 +175,30 @@ static const field light_fields[] = {
 };
 TABLE(light, light_finish);
 
-static const field volume_fields[] = {
-    F_PATH("file", s.volume.file, "", F_REQUIRED | F_FRAMES),
-    F_CUSTOM("grid", apply_grid),
-    F_STR("emission_grid", s.volume.emission_grid, "", F_NULLABLE),
-    F_MAT4("matrix", s.volume.matrix),
-    F_NUM("warn_above", s.volume.warn_above, 1e4, GT0, 0, 0),
-    F_STR("ior_grid", s.volume.ior_grid, "", F_NULLABLE),
-};
-TABLE(volume, NULL);
-
 static const field medium_fields[] = {
-    F_NUM("density", s.medium.density, 1, GE0, 0, 0),
-    F_RGB("albedo", s.medium.albedo, 0.8, UNIT, 0, 1),
-    F_NUM("anisotropy", s.medium.anisotropy, 0, R_MIN | R_MAX | R_LO_OPEN | R_HI_OPEN, -1, 1),
-    F_RGB("emission_color", s.medium.emission_color, 1, GE0, 0, 0),
-    F_NUM("emission_strength", s.medium.emission_strength, 0, GE0, 0, 0),
-    F_NUM("ior", s.medium.ior, 1, GT0, 0, 0),
-    F_CHOICE("ior_from", s.medium.ior_from, ior_sources, "none"),
+    F_NUM("density", vol.medium.density, 1, GE0, 0, 0),
+    F_RGB("albedo", vol.medium.albedo, 0.8, UNIT, 0, 1),
+    F_NUM("anisotropy", vol.medium.anisotropy, 0, R_MIN | R_MAX | R_LO_OPEN | R_HI_OPEN, -1, 1),
+    F_RGB("emission_color", vol.medium.emission_color, 1, GE0, 0, 0),
+    F_NUM("emission_strength", vol.medium.emission_strength, 0, GE0, 0, 0),
+    F_NUM("ior", vol.medium.ior, 1, GT0, 0, 0),
+    F_CHOICE("ior_from", vol.medium.ior_from, ior_sources, "none"),
 };
 TABLE(medium, NULL);
+
+/* One entry of volumes[]; a file's single `volume` + `medium` arrive here as one entry
+ * (normalise_volumes). */
+static const field volume_fields[] = {
+    F_PATH("file", vol.file, "", F_REQUIRED | F_FRAMES),
+    F_CUSTOM("grid", apply_grid),
+    F_STR("emission_grid", vol.emission_grid, "", F_NULLABLE),
+    F_MAT4("matrix", vol.matrix),
+    F_NUM("warn_above", vol.warn_above, 1e4, GT0, 0, 0),
+    F_STR("ior_grid", vol.ior_grid, "", F_NULLABLE),
+    F_INT("frame_offset", vol.frame_offset, 0, MIN_FRAME, MAX_FRAME),
+    F_CUSTOM("medium", apply_medium),
+};
+TABLE(volume, NULL);
 
 static const field environment_fields[] = {
     F_PATH("file", s.environment.file, "", F_NULLABLE),
@@ -254,8 +262,7 @@ TABLE(output, NULL);
 
 static const field root_fields[] = {
     F_INT("version", s.version, 1, 1, 1), /* checked first, see check_version() */
-    F_OBJ("volume", volume_table),
-    F_OBJ("medium", medium_table),
+    F_CUSTOM("volumes", apply_volumes),
     F_OBJ("environment", environment_table),
     F_CUSTOM("lights", apply_lights),
     F_OBJ("camera", camera_table),
@@ -663,26 +670,26 @@ static vsd_status walk(parser *p, const table *t, const cJSON *obj, const char *
 static vsd_status apply_grid(parser *p, const field *f, const cJSON *item, const char *path)
 {
     (void)f;
-    vsd_scene *s = &p->out->s;
-    s->volume.grid_index = -1;
+    vsd_scene_volume *vol = &p->out->vol;
+    vol->grid_index = -1;
     if (!item || cJSON_IsString(item)) {
         const char *name = item ? item->valuestring : "density";
-        if (strlen(name) >= sizeof s->volume.grid)
+        if (strlen(name) >= sizeof vol->grid)
             return fail(p, VSD_ERR_INVALID, path, "too long (%zu characters, max %zu)",
-                        strlen(name), sizeof s->volume.grid - 1);
-        snprintf(s->volume.grid, sizeof s->volume.grid, "%s", name);
+                        strlen(name), sizeof vol->grid - 1);
+        snprintf(vol->grid, sizeof vol->grid, "%s", name);
         return VSD_OK;
     }
-    double v = 0;
-    if (read_int(p, item, path, &v) != VSD_OK)
+    double idx = 0;
+    if (read_int(p, item, path, &idx) != VSD_OK)
         return fail(p, VSD_ERR_TYPE, path, "expected string (grid name) or integer (grid index)");
-    if (v < 0 || v > INT_MAX) {
+    if (idx < 0 || idx > INT_MAX) {
         char num[32];
         return fail(p, VSD_ERR_INVALID, path, "%s is out of range (must be >= 0)",
-                    fmt_num(v, num, sizeof num));
+                    fmt_num(idx, num, sizeof num));
     }
-    s->volume.grid[0] = '\0';
-    s->volume.grid_index = (int)v;
+    vol->grid[0] = '\0';
+    vol->grid_index = (int)idx;
     return VSD_OK;
 }
 
@@ -709,6 +716,52 @@ static vsd_status apply_lights(parser *p, const field *f, const cJSON *item, con
         p->out->s.lights[p->out->s.light_count++] = p->out->light;
     }
     return VSD_OK;
+}
+
+/* volumes[]: one to VSD_MAX_VOLUMES entries (normalise_volumes has already turned a
+ * single `volume` + `medium` into a list of one). */
+static vsd_status apply_volumes(parser *p, const field *f, const cJSON *item, const char *path)
+{
+    (void)f;
+    vsd_scene *s = &p->out->s;
+    s->volume_count = 0;
+    if (!item) {
+        if (!p->defaults_only)
+            return fail(p, VSD_ERR_INVALID, path, "required (a list of volumes, or one `volume` with its `medium`)");
+        vsd_status st = walk(p, &volume_table, NULL, "volumes[0]");
+        s->volumes[s->volume_count++] = p->out->vol;
+        return st;
+    }
+    if (!cJSON_IsArray(item))
+        return fail(p, VSD_ERR_TYPE, path, "expected array (of volume objects)");
+    int n = cJSON_GetArraySize(item);
+    if (n == 0)
+        return fail(p, VSD_ERR_INVALID, path, "empty; a scene holds at least one volume");
+    if (n > VSD_MAX_VOLUMES)
+        return fail(p, VSD_ERR_UNSUPPORTED, path, "%d volumes; at most %d are supported", n, VSD_MAX_VOLUMES);
+    const cJSON *e;
+    cJSON_ArrayForEach(e, item) {
+        char sub[KEYPATH_LEN];
+        vsd_status st;
+        if (p->single_volume)
+            snprintf(sub, sizeof sub, "volume");
+        else
+            snprintf(sub, sizeof sub, "%s[%d]", path, s->volume_count);
+        if (!cJSON_IsObject(e))
+            return fail(p, VSD_ERR_TYPE, sub, "expected object");
+        if ((st = walk(p, &volume_table, e, sub)))
+            return st;
+        s->volumes[s->volume_count++] = p->out->vol;
+    }
+    return VSD_OK;
+}
+
+/* A volume's `medium`; in a file with one `volume` it is the top-level `medium`, and
+ * messages say so. */
+static vsd_status apply_medium(parser *p, const field *f, const cJSON *item, const char *path)
+{
+    (void)f;
+    return walk(p, &medium_table, item, p->single_volume ? "medium" : path);
 }
 
 /* What each type has (Blender's light properties): a sun has a strength (W/m^2), a
@@ -998,8 +1051,49 @@ static cJSON *override_value(const char *text)
     return v ? v : cJSON_CreateString(text);
 }
 
-/* Set root.a.b.c = value, creating missing objects on the way. What it writes is
- * validated afterwards like the file itself, so a misspelt key fails there. */
+/* A key-path component that indexes an array ("volumes.1.medium"): 0 .. size-1 names an
+ * entry, size appends one. -1 when comp is not such an index. */
+static int array_index(const cJSON *arr, const char *comp)
+{
+    char *end = NULL;
+    long i = strtol(comp, &end, 10);
+    if (!comp[0] || *end || i < 0 || i > cJSON_GetArraySize(arr))
+        return -1;
+    return (int)i;
+}
+
+/* The child `comp` of an object or array on an override's path, created as an object when
+ * it is missing (an array grows by one at index size). NULL with err set. */
+static cJSON *override_child(parser *p, cJSON *obj, const char *comp, const char *ov, const char *key)
+{
+    cJSON *child = NULL;
+    if (cJSON_IsArray(obj)) {
+        int i = array_index(obj, comp);
+        if (i < 0) {
+            vsd_fail(VSD_ERR_INVALID, p->err, p->errlen,
+                     "override \"%s\": %s: an index 0..%d of the list expected", ov, key, cJSON_GetArraySize(obj));
+            return NULL;
+        }
+        child = cJSON_GetArrayItem(obj, i);
+        if (!child && (child = cJSON_CreateObject()))
+            cJSON_AddItemToArray(obj, child);
+    } else {
+        child = cJSON_GetObjectItemCaseSensitive(obj, comp);
+        if (!child)
+            child = cJSON_AddObjectToObject(obj, comp);
+    }
+    if (!child)
+        vsd_fail(VSD_ERR_NOMEM, p->err, p->errlen, "override \"%s\": out of memory", ov);
+    else if (!cJSON_IsObject(child) && !cJSON_IsArray(child)) {
+        vsd_fail(VSD_ERR_INVALID, p->err, p->errlen, "override \"%s\": %s is not an object", ov, key);
+        return NULL;
+    }
+    return child;
+}
+
+/* Set root.a.b.c = value (a number component indexes a list: volumes.1.medium.density),
+ * creating missing objects on the way. What it writes is validated afterwards like the
+ * file itself, so a misspelt key fails there. */
 static vsd_status apply_override(parser *p, cJSON *root, const char *ov)
 {
     const char *eq = strchr(ov, '=');
@@ -1023,25 +1117,105 @@ static vsd_status apply_override(parser *p, cJSON *root, const char *ov)
                             "override \"%s\": empty key name in the key path", ov);
         if (!dot)
             break;
-        cJSON *child = cJSON_GetObjectItemCaseSensitive(obj, comp);
+        cJSON *child = override_child(p, obj, comp, ov, key);
         if (!child)
-            child = cJSON_AddObjectToObject(obj, comp);
-        if (!child)
-            return vsd_fail(VSD_ERR_NOMEM, p->err, p->errlen, "override \"%s\": out of memory", ov);
-        if (!cJSON_IsObject(child))
-            return vsd_fail(VSD_ERR_INVALID, p->err, p->errlen,
-                            "override \"%s\": %s is not an object", ov, key);
+            return VSD_ERR_INVALID;
         *dot = '.'; /* restore, so `key` names the path so far in messages */
         obj = child;
         comp = dot + 1;
     }
     cJSON *value = override_value(eq + 1);
-    int ok = value && (cJSON_GetObjectItemCaseSensitive(obj, comp)
+    int ok;
+    if (cJSON_IsArray(obj)) {
+        int i = array_index(obj, comp);
+        if (i < 0) {
+            cJSON_Delete(value);
+            return vsd_fail(VSD_ERR_INVALID, p->err, p->errlen,
+                            "override \"%s\": %s: an index 0..%d of the list expected", ov, key,
+                            cJSON_GetArraySize(obj));
+        }
+        ok = value && (i < cJSON_GetArraySize(obj) ? cJSON_ReplaceItemInArray(obj, i, value)
+                                                   : cJSON_AddItemToArray(obj, value));
+    } else {
+        ok = value && (cJSON_GetObjectItemCaseSensitive(obj, comp)
                            ? cJSON_ReplaceItemInObjectCaseSensitive(obj, comp, value)
                            : cJSON_AddItemToObject(obj, comp, value));
+    }
     if (!ok) {
         cJSON_Delete(value);
         return vsd_fail(VSD_ERR_NOMEM, p->err, p->errlen, "override \"%s\": out of memory", ov);
+    }
+    return VSD_OK;
+}
+
+/* ---- one volume or a list ----------------------------------------------------------- */
+
+/* A file with the single form (`volume`, `medium` at the top level) becomes a list of one
+ * in the tree, so one table reads both; a file with both forms is refused by name. */
+static vsd_status normalise_volumes(parser *p, cJSON *root)
+{
+    static const char *const keys[] = {"volumes", "volume", "medium"};
+    for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
+        int seen = 0;
+        for (const cJSON *c = root->child; c; c = c->next)
+            if (c->string && !strcmp(c->string, keys[k]) && seen++)
+                return fail(p, VSD_ERR_INVALID, keys[k], "duplicate key");
+    }
+    cJSON *list = cJSON_GetObjectItemCaseSensitive(root, "volumes");
+    cJSON *vol = cJSON_GetObjectItemCaseSensitive(root, "volume");
+    cJSON *med = cJSON_GetObjectItemCaseSensitive(root, "medium");
+    if (list && (vol || med))
+        return fail(p, VSD_ERR_INVALID, "volumes",
+                    "the scene also has `%s`: write either the list `volumes` (each entry with its own "
+                    "`medium`) or one `volume` with `medium`, not both", vol ? "volume" : "medium");
+    if (list || (!vol && !med))
+        return VSD_OK;
+    if (vol && !cJSON_IsObject(vol))
+        return fail(p, VSD_ERR_TYPE, "volume", "expected object");
+    if (vol && cJSON_GetObjectItemCaseSensitive(vol, "medium"))
+        return fail(p, VSD_ERR_INVALID, "volume.medium",
+                    "unknown key (a single volume's material is the top-level `medium`)");
+    cJSON *entry = vol ? cJSON_DetachItemViaPointer(root, vol) : cJSON_CreateObject();
+    cJSON *arr = cJSON_CreateArray();
+    if (!entry || !arr) {
+        cJSON_Delete(entry);
+        cJSON_Delete(arr);
+        return fail(p, VSD_ERR_NOMEM, "volume", "out of memory");
+    }
+    if (med)
+        cJSON_AddItemToObject(entry, "medium", cJSON_DetachItemViaPointer(root, med));
+    cJSON_AddItemToArray(arr, entry);
+    cJSON_AddItemToObject(root, "volumes", arr);
+    p->single_volume = 1;
+    return VSD_OK;
+}
+
+/* `volume[.K]` and `medium[.K]` overrides name the only volume of a one-volume scene
+ * ("medium.density=3" keeps working); with several they must say which one. Returns ov
+ * itself or a malloc'd rewrite in *owned (free it). */
+static vsd_status rewrite_single_volume_key(parser *p, const cJSON *root, const char *ov, const char **out,
+                                            char **owned)
+{
+    static const struct { const char *from, *to; } forms[] = {
+        {"volume.", "volumes.0."}, {"volume=", "volumes.0="},
+        {"medium.", "volumes.0.medium."}, {"medium=", "volumes.0.medium="}};
+    *out = ov;
+    *owned = NULL;
+    for (size_t i = 0; i < sizeof forms / sizeof forms[0]; i++) {
+        size_t len = strlen(forms[i].from);
+        if (strncmp(ov, forms[i].from, len))
+            continue;
+        int count = cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(root, "volumes"));
+        if (count > 1)
+            return vsd_fail(VSD_ERR_INVALID, p->err, p->errlen,
+                            "override \"%s\": the scene has %d volumes; say which, e.g. %.*s%s",
+                            ov, count, (int)strlen(forms[i].to) - 2, forms[i].to, ov + len - 1);
+        size_t n = strlen(forms[i].to) + strlen(ov + len) + 1;
+        if (!(*owned = malloc(n)))
+            return vsd_fail(VSD_ERR_NOMEM, p->err, p->errlen, "override \"%s\": out of memory", ov);
+        snprintf(*owned, n, "%s%s", forms[i].to, ov + len);
+        *out = *owned;
+        break;
     }
     return VSD_OK;
 }
@@ -1152,9 +1326,17 @@ static vsd_status parse_text(parser *p, const char *text, size_t len, const char
     vsd_status st = VSD_OK;
     if (!cJSON_IsObject(root))
         st = fail(p, VSD_ERR_TYPE, "", "expected a JSON object at the top level");
-    for (int i = 0; !st && i < override_count; i++)
-        st = overrides[i] ? apply_override(p, root, overrides[i])
-                          : vsd_fail(VSD_ERR_INVALID, p->err, p->errlen, "override %d is NULL", i);
+    if (!st)
+        st = normalise_volumes(p, root);
+    for (int i = 0; !st && i < override_count; i++) {
+        const char *ov = NULL;
+        char *owned = NULL;
+        st = !overrides[i] ? vsd_fail(VSD_ERR_INVALID, p->err, p->errlen, "override %d is NULL", i)
+             : rewrite_single_volume_key(p, root, overrides[i], &ov, &owned);
+        if (!st)
+            st = apply_override(p, root, ov);
+        free(owned);
+    }
     if (!st)
         st = check_version(p, root);
     if (!st)
@@ -1254,8 +1436,14 @@ const char *vsd_scene_env_conversion(const vsd_scene *s, char *buf, size_t len)
     return buf;
 }
 
-const char *vsd_scene_ior_grid(const vsd_scene *s)
+const char *vsd_scene_ior_grid(const vsd_scene_volume *v)
 {
-    if (s->volume.ior_grid[0]) return s->volume.ior_grid;
-    return strcmp(s->medium.ior_from, "temperature") == 0 ? "temperature" : "";
+    if (v->ior_grid[0]) return v->ior_grid;
+    return strcmp(v->medium.ior_from, "temperature") == 0 ? "temperature" : "";
+}
+
+int vsd_scene_volume_frame(const vsd_scene_volume *v, int frame)
+{
+    long f = (long)frame + v->frame_offset;
+    return f < MIN_FRAME ? MIN_FRAME : f > MAX_FRAME ? MAX_FRAME : (int)f;
 }
