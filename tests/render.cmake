@@ -9,3 +9,8 @@ vsd_add_test(test_method_options SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_method
 # tracing every pixel, anchors exact, a threshold that interpolates everything fails, odd
 # film sizes, no adaptive sampling at low resolutions.
 vsd_add_test(test_adaptive_view SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_adaptive_view.c LIBS vsd_test_render LABELS integration render)
+# Scenes with several volumes (issue 30): overlaps against the single volumes they equal
+# (summed density; scatterer + absorber = the mixture's albedo; emission adds), the
+# transmittance product of volumes in a row, per-volume frame offsets and caches, errors.
+vsd_add_test(test_volumes SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_volumes.c LIBS vsd_test_render
+             LABELS integration render TIMEOUT 900)

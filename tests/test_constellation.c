@@ -213,7 +213,7 @@ static vsd_framebuffer *render_mem(const vsd_scene *sc, const vsd_volume *vol, c
     vsd_status st = vsd_renderer_create(sc, NULL, &r, err, sizeof err);
     CHECK_MSG(st == VSD_OK, "create: %s", err);
     if (st) return NULL;
-    vsd_renderer_use_volumes(r, vol, emis);
+    vsd_renderer_use_volume(r, 0, vol, emis, NULL);
     if (env) vsd_renderer_use_env(r, env);
     st = vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err);
     CHECK_MSG(st == VSD_OK, "render: %s", err);

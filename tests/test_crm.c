@@ -416,7 +416,7 @@ static void test_ball(void)
     ref = refs.mean;
     r = test_make_renderer(&crm_sc, NULL);
     if (!r) goto done;
-    vsd_renderer_use_volumes(r, vol, NULL);
+    vsd_renderer_use_volume(r, 0, vol, NULL, NULL);
     if (!test_render(r, 1, &crm, &st)) goto done;
     printf("[2] ball crm info: %s\n", st.method_info);
     {

@@ -71,7 +71,7 @@ static void test_absurd_values(void)
             t0 = vsd_clock_seconds();
             s = vsd_renderer_create(&sc, &o, &r, err, sizeof err);
             if (s == VSD_OK) {
-                vsd_renderer_use_volumes(r, vol, NULL);
+                vsd_renderer_use_volume(r, 0, vol, NULL, NULL);
                 s = vsd_renderer_render(r, 1, &fb, &st, err, sizeof err);
             }
             t0 = vsd_clock_seconds() - t0;

@@ -297,7 +297,7 @@ static void test_move(void)
     char err[512];
     double before;
     if (!vol || !test_parse_scene(test_ball_json, ov, 3, &sc) || !(r = test_make_renderer(&sc, NULL))) goto done;
-    vsd_renderer_use_volumes(r, vol, NULL);
+    vsd_renderer_use_volume(r, 0, vol, NULL, NULL);
     if (!test_render(r, 1, &fb, &st)) goto done;
     before = test_pass_sum(fb, VSD_PASS_COMBINED);
     sc.lights[0].position[2] = -1.5;   /* from above the ball to below it */

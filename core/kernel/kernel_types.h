@@ -118,7 +118,17 @@ typedef struct VSD_ALIGN16 vsd_kmedium {
     int32_t has_emission;
 } vsd_kmedium;
 
+/* Several volumes in one scene (vsd_scene.volumes): each one's density (scale = its
+ * medium's density), emission and material. kernel_volumes.h walks them together. */
+#define VSD_KMAX_VOLUMES 16
+typedef struct VSD_ALIGN16 vsd_kobject {
+    vsd_kvolume density;
+    vsd_kvolume emission;
+    vsd_kmedium medium;
+} vsd_kobject;
+
 typedef struct VSD_ALIGN16 vsd_kernel_data {
+    /* Volume 0 (the only one of most scenes), which methods that render one volume read: */
     vsd_kvolume density;      /* scale = medium density: sigma_t = scale * field */
     vsd_kvolume emission;     /* scale = 1; L_e = medium.emission * field */
     vsd_kenv env;
@@ -138,7 +148,12 @@ typedef struct VSD_ALIGN16 vsd_kernel_data {
     int32_t max_bounces;
     float march_step;         /* ray-march step in world units (raymarch) */
     float march_stop;         /* view marches stop once transmittance is below this (0 = never) */
-    int32_t pad_[1];
+    /* Every volume of the scene, volume 0 included (its entry equals density, emission and
+     * medium above); kernel_volumes.h reads these when volume_count > 1. Host memory: only
+     * the CPU renders several volumes (renderer.c keeps such scenes off the GPU). */
+    int32_t volume_count;
+    const vsd_kobject *volumes;
+    int32_t pad_[2];
 } vsd_kernel_data;
 
 VSD_STATIC_ASSERT(sizeof(vsd_kvolume) % 16 == 0, "vsd_kvolume must stay 16-byte aligned");

@@ -200,8 +200,8 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, 
         free(e);
         goto failed;
     }
-    vsd_renderer_use_volumes(s->r, vsdd_entry_volume(pins[0]), vsdd_entry_volume(pins[1]));
-    vsd_renderer_use_ior_volume(s->r, vsdd_entry_volume(pins[3]));
+    vsd_renderer_use_volume(s->r, 0, vsdd_entry_volume(pins[0]), vsdd_entry_volume(pins[1]),
+                            vsdd_entry_volume(pins[3]));
     if (pins[2]) vsd_renderer_use_env(s->r, pins[2]->env);
     for (i = 0; i < VSDD_SLOT_PINS; i++) s->pins[i] = pins[i];
     s->self = e;

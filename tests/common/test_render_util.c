@@ -75,7 +75,7 @@ vsd_framebuffer *test_render_fresh(const vsd_scene *sc, const char *cache_dir, c
     vsd_renderer *r = test_make_renderer(sc, cache_dir);
     vsd_framebuffer *fb = NULL;
     if (!r) return NULL;
-    if (vol) vsd_renderer_use_volumes(r, vol, NULL);
+    if (vol) vsd_renderer_use_volume(r, 0, vol, NULL, NULL);
     if (env) vsd_renderer_use_env(r, env);
     if (!test_render(r, frame, &fb, stats)) {
         vsd_framebuffer_destroy(fb);
@@ -273,7 +273,7 @@ vsd_framebuffer *test_render_in_memory(const vsd_scene *sc, const vsd_volume *vo
     st = vsd_renderer_create(sc, &ro, &r, err, sizeof err);
     CHECK_MSG(st == VSD_OK, "create: %s", err);
     if (st) return NULL;
-    vsd_renderer_use_volumes(r, vol, NULL);
+    vsd_renderer_use_volume(r, 0, vol, NULL, NULL);
     if (env) vsd_renderer_use_env(r, env);
     st = vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err);
     CHECK_MSG(st == VSD_OK, "render: %s", err);

@@ -65,14 +65,15 @@ vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fb,
                                vsd_render_stats *stats, char *err, size_t errlen);
 void vsd_renderer_destroy(vsd_renderer *r);
 
-/* Render from volumes / an environment already in memory instead of the scene's files
- * (the daemon's blob caches, tests, synthetic scenes). Borrowed: the caller keeps them
- * alive until the renderer is destroyed or they are replaced; NULL returns to files.
- * The pointer identity is the cache key, so pass a new object for new contents. */
-void vsd_renderer_use_volumes(vsd_renderer *r, const vsd_volume *density, const vsd_volume *emission);
-/* After vsd_renderer_use_volumes: the grid volume.ior_grid (or medium.ior_from) names, or
- * NULL. Borrowed like the others. */
-void vsd_renderer_use_ior_volume(vsd_renderer *r, const vsd_volume *ior);
+/* Render volume `index` of the scene's volumes[] (0 .. VSD_MAX_VOLUMES-1), or the
+ * environment, from grids / a map already in memory instead of the scene's files (the
+ * daemon's blob caches, tests, synthetic scenes): its density grid, its emission grid
+ * (NULL = none) and the grid its ior_grid / medium.ior_from names (NULL = none).
+ * Borrowed: the caller keeps them alive until the renderer is destroyed or they are
+ * replaced; a NULL density returns that volume to its files. The pointer identity is the
+ * cache key, so pass a new object for new contents. */
+void vsd_renderer_use_volume(vsd_renderer *r, int index, const vsd_volume *density, const vsd_volume *emission,
+                             const vsd_volume *ior);
 void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env);
 
 /* Write the frame's EXR (and preview PNG when the scene asks for one) with header
@@ -115,7 +116,8 @@ enum {
     VSD_METHOD_CAP_REFRACTION = 1u << 1,          /* bends rays by medium.ior / volume.ior_grid ("refraction") */
     VSD_METHOD_CAP_SCENE_LIGHTS = 1u << 2,        /* the scene's lights[]: sun, point, spot ("scene_lights") */
     VSD_METHOD_CAP_EMISSION_SCATTERING = 1u << 3, /* the medium scatters its own emission ("emission_scattering") */
-    VSD_METHOD_CAP_CUDA_VIEW = 1u << 4            /* renders on render.device "cuda" ("cuda_view") */
+    VSD_METHOD_CAP_CUDA_VIEW = 1u << 4,           /* renders on render.device "cuda" ("cuda_view") */
+    VSD_METHOD_CAP_SEVERAL_VOLUMES = 1u << 5      /* scenes with several volumes[] ("several_volumes") */
 };
 
 /* The VSD_METHOD_CAP_* bits of method `name`; 0 for an unknown name. */

@@ -156,7 +156,7 @@ const vsd_method vsd_method_reference = {
     .label = "Reference",
     .summary = "Unbiased volumetric path tracing, all bounces (matches Cycles)",
     .caps = VSD_METHOD_CAP_MULTIPLE_SCATTERING | VSD_METHOD_CAP_REFRACTION | VSD_METHOD_CAP_SCENE_LIGHTS |
-            VSD_METHOD_CAP_EMISSION_SCATTERING | VSD_METHOD_CAP_CUDA_VIEW,
+            VSD_METHOD_CAP_EMISSION_SCATTERING | VSD_METHOD_CAP_CUDA_VIEW | VSD_METHOD_CAP_SEVERAL_VOLUMES,
     .roles = VSD_METHOD_ROLE_FINAL_DEFAULT,
     .options = VSD_OPTION_TABLE(reference_option_rows, reference_options),
     .create = reference_create,

@@ -19,6 +19,7 @@
 #include "kernel/kernel_types.h"
 #include "kernel/kernel_rng.h"
 #include "kernel/kernel_volume.h"
+#include "kernel/kernel_volumes.h"
 #include "kernel/kernel_env.h"
 #include "kernel/kernel_phase.h"
 #include "kernel/kernel_camera.h"
@@ -37,13 +38,10 @@ VSD_DEVICE void vsd_add_path_light(vsd_sample_result *r, int bounce, vsd_f3 l)
     else r->indirect = f3_add(r->indirect, l);
 }
 
-/* Emission along the free-flight segment [0, t_end) of ray (o, d). */
+/* Emission of every volume along the free-flight segment [0, t_end) of ray (o, d). */
 VSD_DEVICE vsd_f3 vsd_segment_emission(const vsd_kernel_data *kd, vsd_f3 o, vsd_f3 d, float t_end, vsd_rng *rng)
 {
-    float integral;
-    if (!kd->medium.has_emission) return f3s(0.0f);
-    integral = vsd_field_integral(&kd->emission, o, d, 0.0f, t_end, vsd_rng_float(rng));
-    return f3_scale(kd->medium.emission, integral);
+    return vsd_kvolumes_emission_integral(kd, o, d, t_end, rng);
 }
 
 /* Refraction (r != NULL: medium.ior != 1, kernel_refract.h): every ray — camera,
@@ -140,6 +138,7 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
     vsd_f3 o, d, throughput = f3s(1.0f);
     float g = kd->medium.anisotropy, last_phase_pdf = 0.0f;
     int bounce = 0;
+    int32_t which = 0;   /* the volume of the last collision (kernel_volumes.h) */
 
     res.direct = res.indirect = res.emit = res.background = f3s(0.0f);
     res.depth = VSD_INF;
@@ -148,7 +147,7 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
         vsd_f3 exit;
         res.transmittance = vsd_bent_ratio_track(kd, r, o, d, &rng, &exit);
     } else {
-        res.transmittance = vsd_ratio_track(&kd->density, o, d, VSD_INF, &rng);
+        res.transmittance = vsd_kvolumes_ratio_track(kd, o, d, VSD_INF, &rng);
     }
 
     for (;;) {
@@ -157,7 +156,7 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
         if (r) {
             t = vsd_bent_delta_track(kd, r, &o, &d, &rng, &e);
         } else {
-            t = vsd_delta_track(&kd->density, o, d, VSD_INF, &rng);
+            t = vsd_kvolumes_delta_track(kd, o, d, VSD_INF, &rng, &which);
             e = vsd_segment_emission(kd, o, d, t, &rng);
         }
         if (bounce == 0) res.emit = f3_add(res.emit, e);
@@ -176,7 +175,9 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
         }
         if (bounce == 0) res.depth = t;
         if (!r) o = f3_madd(o, d, t);   /* a bent track leaves o at the collision */
-        throughput = f3_mul(throughput, kd->medium.albedo);
+        /* scatter with the collided volume's material (the mixture, in expectation) */
+        throughput = f3_mul(throughput, vsd_kvolumes_medium(kd, which)->albedo);
+        g = vsd_kvolumes_medium(kd, which)->anisotropy;
         bounce++;
 
         { /* next-event estimation toward the environment */
@@ -192,7 +193,7 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
                     /* the light arriving along wl left the map at the bent ray's exit */
                     le = vsd_env_eval(&kd->env, exit);
                 } else {
-                    tr = vsd_ratio_track(&kd->density, o, wl, VSD_INF, &rng);
+                    tr = vsd_kvolumes_ratio_track(kd, o, wl, VSD_INF, &rng);
                 }
                 /* at the last vertex no phase-sampled path follows, so NEE takes the full weight */
                 float w = (bounce >= kd->max_bounces) ? 1.0f : vsd_power_heuristic(pdf_l, ph);
@@ -209,7 +210,7 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
                 vsd_f3 wl, weight;
                 float dist, u1 = vsd_rng_float(&rng), u2 = vsd_rng_float(&rng);
                 if (vsd_light_sample(kd->scene_lights + (size_t)VSD_KLIGHT_FLOATS * k, o, u1, u2, &wl, &dist, &weight)) {
-                    float tr = vsd_ratio_track(&kd->density, o, wl, dist, &rng);
+                    float tr = vsd_kvolumes_ratio_track(kd, o, wl, dist, &rng);
                     if (tr > 0.0f)
                         vsd_add_path_light(&res, bounce,
                                            f3_scale(f3_mul(throughput, weight), vsd_hg_eval(f3_dot(d, wl), g) * tr));

@@ -21,6 +21,10 @@
 /* Everything a method may read while preparing or rendering one frame. */
 typedef struct vsd_frame_ctx {
     const vsd_scene *scene;
+    int volume_count;                   /* the scene's volumes; kd.volumes holds them all. A
+                                           method without VSD_METHOD_CAP_SEVERAL_VOLUMES only
+                                           ever sees 1 (the renderer refuses the rest) */
+    /* volume 0's grids: */
     const vsd_volume *density;          /* never NULL (empty volume when the grid is empty) */
     const vsd_volume *emission;         /* NULL when no emission grid */
     const vsd_volume *ior;              /* volume.ior_grid's grid (of n or of temperature), or NULL */
@@ -62,6 +66,9 @@ typedef struct vsd_method {
     void (*destroy)(void *state);
 } vsd_method;
 
+/* Whether m renders sc's volumes[]: an error naming the methods that do when there are
+ * several and m renders one, or when one of several volumes refracts. */
+vsd_status vsd_method_check_volumes(const vsd_method *m, const vsd_scene *sc, char *err, size_t errlen);
 /* Whether m renders sc's lights[]: an error naming the methods that do when it does not,
  * or when the lights would have to shine through a refracting medium. */
 vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, char *err, size_t errlen);

@@ -14,7 +14,7 @@ static const vsd_method *const registry[] = { VSD_METHOD_REGISTRY(VSD_METHOD_ADD
 
 /* The catalog's name of each capability bit (vsd/render.h), in bit order. */
 static const char *const cap_names[] = { "multiple_scattering", "refraction", "scene_lights", "emission_scattering",
-                                         "cuda_view" };
+                                         "cuda_view", "several_volumes" };
 static const char *const role_names[] = { "final_default", "viewport_default" };
 
 const char *const *vsd_method_names(void)
@@ -33,6 +33,32 @@ const vsd_method *vsd_method_find(const char *name)
     for (i = 0; i < REGISTRY_COUNT; i++)
         if (strcmp(registry[i]->name, name) == 0) return registry[i];
     return NULL;
+}
+
+/* The methods with capability `cap`, comma separated, into which[n]. */
+static const char *methods_with(unsigned cap, char *which, size_t n)
+{
+    which[0] = '\0';
+    for (size_t i = 0; i < REGISTRY_COUNT; i++)
+        if (registry[i]->caps & cap)
+            snprintf(which + strlen(which), n - strlen(which), "%s%s", which[0] ? ", " : "", registry[i]->name);
+    return which;
+}
+
+vsd_status vsd_method_check_volumes(const vsd_method *m, const vsd_scene *sc, char *err, size_t errlen)
+{
+    char which[256];
+    if (sc->volume_count <= 1) return VSD_OK;
+    for (int i = 0; i < sc->volume_count; i++)
+        if (sc->volumes[i].medium.ior != 1.0f || vsd_scene_ior_grid(&sc->volumes[i])[0])
+            return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                            "volumes[%d].medium: refraction (ior, ior_grid) in a scene with several volumes is not "
+                            "supported yet: render the refracting volume alone",
+                            i);
+    if (m->caps & VSD_METHOD_CAP_SEVERAL_VOLUMES) return VSD_OK;
+    return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                    "volumes: the scene has %d volumes; method '%s' renders one volume so far (%s render several)",
+                    sc->volume_count, m->name, methods_with(VSD_METHOD_CAP_SEVERAL_VOLUMES, which, sizeof which));
 }
 
 vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, char *err, size_t errlen)

@@ -202,14 +202,19 @@ int vsd_kscene_lights_setup(float *out, const vsd_scene *scene)
     return scene->light_count;
 }
 
+void vsd_kmedium_setup(vsd_kmedium *k, const vsd_scene_medium *m)
+{
+    const float *al = m->albedo, *ec = m->emission_color;
+    float es = m->emission_strength;
+    k->albedo = f3(al[0], al[1], al[2]);
+    k->emission = f3(ec[0] * es, ec[1] * es, ec[2] * es);
+    k->anisotropy = m->anisotropy;
+}
+
 void vsd_kernel_data_from_scene(vsd_kernel_data *kd, const vsd_scene *scene)
 {
-    const float *al = scene->volumes[0].medium.albedo, *ec = scene->volumes[0].medium.emission_color;
-    float es = scene->volumes[0].medium.emission_strength;
     vsd_kcamera_setup(&kd->camera, scene);
-    kd->medium.albedo = f3(al[0], al[1], al[2]);
-    kd->medium.emission = f3(ec[0] * es, ec[1] * es, ec[2] * es);
-    kd->medium.anisotropy = scene->volumes[0].medium.anisotropy;
+    vsd_kmedium_setup(&kd->medium, &scene->volumes[0].medium);
     kd->transparent = scene->film.transparent;
     kd->seed = scene->render.seed;
 }

@@ -32,7 +32,10 @@ void vsd_kcamera_setup(vsd_kcamera *kc, const vsd_scene *scene);
 /* The scene's lights[] in kernel layout (kernel/kernel_lights.h) into out[VSD_KLIGHT_FLOATS *
  * VSD_MAX_LIGHTS]; returns how many. */
 int vsd_kscene_lights_setup(float *out, const vsd_scene *scene);
-/* Medium, film and camera from the scene (volumes and env set separately). */
+/* A volume's material in kernel form (has_emission is left to the caller, who knows
+ * whether the emission grid has anything in it). */
+void vsd_kmedium_setup(vsd_kmedium *k, const vsd_scene_medium *m);
+/* Volume 0's medium, film and camera from the scene (volumes and env set separately). */
 void vsd_kernel_data_from_scene(vsd_kernel_data *kd, const vsd_scene *scene);
 
 #endif

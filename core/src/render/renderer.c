@@ -16,6 +16,17 @@
 #include "src/common/clock.h"
 
 #define KEY_LEN 4096
+_Static_assert(VSD_MAX_VOLUMES == VSD_KMAX_VOLUMES, "the scene's and the kernel's volume limits must agree");
+
+/* One entry of the scene's volumes[] as loaded: its grids, owned (read from the frame's
+ * file) or borrowed (vsd_renderer_use_volume), and the key of what is loaded. */
+typedef struct loaded_volume {
+    char key[KEY_LEN];
+    const vsd_volume *density, *emission, *ior;   /* in use: owned_* or borrowed */
+    vsd_volume *owned_density, *owned_emission, *owned_ior;
+    const vsd_volume *ext_density, *ext_emission, *ext_ior;
+    unsigned long serial;   /* bumped by use_volume: new contents may sit at a freed address */
+} loaded_volume;
 
 struct vsd_renderer {
     vsd_scene scene;
@@ -23,10 +34,9 @@ struct vsd_renderer {
     char cache_dir[4096];
     const vsd_method *method;
     void *method_state;
-    char volume_key[KEY_LEN];
-    const vsd_volume *density, *emission, *ior;   /* in use: owned_* or borrowed */
-    vsd_volume *owned_density, *owned_emission, *owned_ior;
-    const vsd_volume *ext_density, *ext_emission, *ext_ior;
+    loaded_volume volumes[VSD_MAX_VOLUMES];
+    /* the kernel form of every volume (kd.volumes points here, so it outlives the render) */
+    vsd_kobject kvolumes[VSD_MAX_VOLUMES];
     char env_key[KEY_LEN];
     const vsd_env *env;
     vsd_env *owned_env;
@@ -40,9 +50,8 @@ struct vsd_renderer {
     /* generations of the loaded inputs and of the method's stages (method.h): one counter,
      * bumped where the data they stand for changes */
     uint64_t generation, frame_gen, lighting_gen, volume_gen, env_gen;
-    /* bumped by use_volumes / use_env and part of their cache keys: new contents may sit
-     * at a freed object's address */
-    unsigned long volumes_serial, env_serial;
+    /* bumped by use_env and part of its cache key: a new map may sit at a freed address */
+    unsigned long env_serial;
     /* the scene's lights[] in kernel layout; kd.scene_lights points here, so the device
      * copy's key (lighting generation, address) stays valid between renders */
     float scene_lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
@@ -72,7 +81,8 @@ static vsd_status pick_method(vsd_renderer *r, char *err, size_t errlen)
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "render.method: unknown method '%s' (available: %s)", sc->render.method, known);
     }
-    if ((st = vsd_method_check_lights(m, sc, err, errlen))) return st;
+    if ((st = vsd_method_check_lights(m, sc, err, errlen)) || (st = vsd_method_check_volumes(m, sc, err, errlen)))
+        return st;
     void *options;
     st = vsd_method_parse_options(m, sc, &options, err, errlen);
     if (st) return st;
@@ -112,14 +122,19 @@ vsd_status vsd_renderer_set_scene(vsd_renderer *r, const vsd_scene *scene, char 
     return pick_method(r, err, errlen);
 }
 
+static void free_owned_volume(loaded_volume *v)
+{
+    vsd_volume_destroy(v->owned_density);
+    vsd_volume_destroy(v->owned_emission);
+    vsd_volume_destroy(v->owned_ior);
+    v->owned_density = v->owned_emission = v->owned_ior = NULL;
+    v->density = v->emission = v->ior = NULL;
+    v->key[0] = '\0';
+}
+
 static void free_owned_volumes(vsd_renderer *r)
 {
-    vsd_volume_destroy(r->owned_density);
-    vsd_volume_destroy(r->owned_emission);
-    vsd_volume_destroy(r->owned_ior);
-    r->owned_density = r->owned_emission = r->owned_ior = NULL;
-    r->density = r->emission = r->ior = NULL;
-    r->volume_key[0] = '\0';
+    for (int i = 0; i < VSD_MAX_VOLUMES; i++) free_owned_volume(&r->volumes[i]);
 }
 
 static void free_owned_env(vsd_renderer *r)
@@ -131,19 +146,16 @@ static void free_owned_env(vsd_renderer *r)
     r->env_key[0] = '\0';
 }
 
-void vsd_renderer_use_volumes(vsd_renderer *r, const vsd_volume *density, const vsd_volume *emission)
+void vsd_renderer_use_volume(vsd_renderer *r, int index, const vsd_volume *density, const vsd_volume *emission,
+                             const vsd_volume *ior)
 {
-    free_owned_volumes(r);
-    r->volumes_serial++;
-    r->ext_density = density;
-    r->ext_emission = density ? emission : NULL;
-    r->ext_ior = NULL;
-}
-
-void vsd_renderer_use_ior_volume(vsd_renderer *r, const vsd_volume *ior)
-{
-    r->volumes_serial++;
-    r->ext_ior = r->ext_density ? ior : NULL;
+    if (index < 0 || index >= VSD_MAX_VOLUMES) return;
+    loaded_volume *v = &r->volumes[index];
+    free_owned_volume(v);
+    v->serial++;
+    v->ext_density = density;
+    v->ext_emission = density ? emission : NULL;
+    v->ext_ior = density ? ior : NULL;
 }
 
 void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env)
@@ -153,53 +165,86 @@ void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env)
     r->ext_env = env;
 }
 
-static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t errlen)
+/* Volume `index` of the scene for scene frame `frame` (its own frame_offset applied):
+ * reused when its key is unchanged; *changed tells whether it was (re)loaded. */
+static vsd_status load_volume(vsd_renderer *r, int index, int frame, int *changed, char *err, size_t errlen)
 {
-    const vsd_scene *sc = &r->scene;
+    const vsd_scene_volume *sv = &r->scene.volumes[index];
+    loaded_volume *v = &r->volumes[index];
     char path[VSD_PATH_LEN], key[KEY_LEN];
     vsd_grid_select sel;
     vsd_status st;
-    if (r->ext_density) {
-        r->density = r->ext_density;
-        r->emission = r->ext_emission;
-        r->ior = r->ext_ior;
-        snprintf(key, sizeof key, "memory:%lu:%p:%p:%p", r->volumes_serial, (const void *)r->density,
-                 (const void *)r->emission, (const void *)r->ior);
-        if (strcmp(key, r->volume_key) != 0) {
-            r->volume_gen = ++r->generation;
-            snprintf(r->volume_key, sizeof r->volume_key, "%s", key);
+    *changed = 0;
+    if (v->ext_density) {
+        v->density = v->ext_density;
+        v->emission = v->ext_emission;
+        v->ior = v->ext_ior;
+        snprintf(key, sizeof key, "memory:%lu:%p:%p:%p", v->serial, (const void *)v->density,
+                 (const void *)v->emission, (const void *)v->ior);
+        if (strcmp(key, v->key) != 0) {
+            *changed = 1;
+            snprintf(v->key, sizeof v->key, "%s", key);
         }
         return VSD_OK;
     }
-    st = vsd_frame_path(sc->volumes[0].file, frame, path, sizeof path, err, errlen);
+    st = vsd_frame_path(sv->file, vsd_scene_volume_frame(sv, frame), path, sizeof path, err, errlen);
     if (st) return st;
-    snprintf(key, sizeof key, "%s|%s|%d|%s|%s", path, sc->volumes[0].grid, sc->volumes[0].grid_index, sc->volumes[0].emission_grid,
-             vsd_scene_ior_grid(&sc->volumes[0]));
-    if (r->owned_density && strcmp(key, r->volume_key) == 0) return VSD_OK;
-    free_owned_volumes(r);
-    sel.name = sc->volumes[0].grid;
-    sel.index = sc->volumes[0].grid_index;
-    st = vsd_vdb_load(path, sel, &r->owned_density, err, errlen);
-    if (st) return st;
-    if (sc->volumes[0].emission_grid[0]) {
-        sel.name = sc->volumes[0].emission_grid;
+    snprintf(key, sizeof key, "%s|%s|%d|%s|%s", path, sv->grid, sv->grid_index, sv->emission_grid,
+             vsd_scene_ior_grid(sv));
+    if (v->owned_density && strcmp(key, v->key) == 0) return VSD_OK;
+    free_owned_volume(v);
+    *changed = 1;
+    sel.name = sv->grid;
+    sel.index = sv->grid_index;
+    st = vsd_vdb_load(path, sel, &v->owned_density, err, errlen);
+    if (!st && sv->emission_grid[0]) {
+        sel.name = sv->emission_grid;
         sel.index = -1;
-        st = vsd_vdb_load(path, sel, &r->owned_emission, err, errlen);
-        if (st) return st;
+        st = vsd_vdb_load(path, sel, &v->owned_emission, err, errlen);
     }
-    if (vsd_scene_ior_grid(&sc->volumes[0])[0]) {
+    if (!st && vsd_scene_ior_grid(sv)[0]) {
         /* the refractive index's grid (volume.ior_grid / medium.ior_from): a missing one is
          * the loader's error, which names it and lists what the file has */
-        sel.name = vsd_scene_ior_grid(&sc->volumes[0]);
+        sel.name = vsd_scene_ior_grid(sv);
         sel.index = -1;
-        st = vsd_vdb_load(path, sel, &r->owned_ior, err, errlen);
-        if (st) return st;
+        st = vsd_vdb_load(path, sel, &v->owned_ior, err, errlen);
     }
-    r->density = r->owned_density;
-    r->emission = r->owned_emission;
-    r->ior = r->owned_ior;
-    r->volume_gen = ++r->generation;
-    snprintf(r->volume_key, sizeof r->volume_key, "%s", key);
+    if (st) {
+        free_owned_volume(v);
+        return st;
+    }
+    v->density = v->owned_density;
+    v->emission = v->owned_emission;
+    v->ior = v->owned_ior;
+    snprintf(v->key, sizeof v->key, "%s", key);
+    return VSD_OK;
+}
+
+/* Every volume of the scene; an error names the volume (index and file) when there are
+ * several. A new volume generation whenever any of them changed. */
+static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t errlen)
+{
+    const vsd_scene *sc = &r->scene;
+    int any = 0;
+    for (int i = 0; i < sc->volume_count; i++) {
+        int changed = 0;
+        vsd_status st = load_volume(r, i, frame, &changed, err, errlen);
+        if (st) {
+            if (sc->volume_count > 1 && err && errlen) {
+                char inner[1024];
+                snprintf(inner, sizeof inner, "%s", err);
+                snprintf(err, errlen, "volumes[%d] (%s): %s", i, sc->volumes[i].file, inner);
+            }
+            return st;
+        }
+        any |= changed;
+    }
+    for (int i = sc->volume_count; i < VSD_MAX_VOLUMES; i++)
+        if (r->volumes[i].key[0]) {
+            free_owned_volume(&r->volumes[i]);
+            any = 1;
+        }
+    if (any) r->volume_gen = ++r->generation;
     return VSD_OK;
 }
 
@@ -231,20 +276,35 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
     return VSD_OK;
 }
 
+/* The frame key: every volume's grids, density, ior and matrix. The lighting key adds
+ * the map, the lights and every volume's material. Long scenes hash rather than list. */
 static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key)
 {
     const vsd_scene *sc = &r->scene;
-    const double *m = sc->volumes[0].matrix;
-    const float *a = sc->volumes[0].medium.albedo, *e = sc->volumes[0].medium.emission_color;
-    int n = snprintf(frame_key, KEY_LEN, "%s|%g|%g|", r->volume_key, sc->volumes[0].medium.density, sc->volumes[0].medium.ior);
-    int i;
-    for (i = 0; i < 16 && n < KEY_LEN - 32; i++) n += snprintf(frame_key + n, KEY_LEN - n, "%.9g,", m[i]);
+    XXH3_state_t *fh = XXH3_createState(), *lh = XXH3_createState();
+    XXH3_64bits_reset(fh);
+    XXH3_64bits_reset(lh);
+    for (int v = 0; v < sc->volume_count; v++) {
+        const vsd_scene_volume *sv = &sc->volumes[v];
+        const vsd_scene_medium *m = &sv->medium;
+        char part[KEY_LEN + 512];
+        int n = snprintf(part, sizeof part, "%d:%s|%g|%g|", v, r->volumes[v].key, m->density, m->ior);
+        for (int i = 0; i < 16 && n < (int)sizeof part - 32; i++) n += snprintf(part + n, sizeof part - n, "%.9g,", sv->matrix[i]);
+        XXH3_64bits_update(fh, part, strlen(part));
+        n = snprintf(part, sizeof part, "%d:%g,%g,%g|%g|%g,%g,%g|%g;", v, m->albedo[0], m->albedo[1], m->albedo[2],
+                     m->anisotropy, m->emission_color[0], m->emission_color[1], m->emission_color[2],
+                     m->emission_strength);
+        XXH3_64bits_update(lh, part, (size_t)n);
+    }
+    unsigned long long fk = XXH3_64bits_digest(fh), lk = XXH3_64bits_digest(lh);
+    XXH3_freeState(fh);
+    XXH3_freeState(lh);
+    snprintf(frame_key, KEY_LEN, "%d volumes:%016llx", sc->volume_count, fk);
     float lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
     int count = vsd_kscene_lights_setup(lights, sc);
     /* the lights by the hash of their kernel layout (every float of it defined) */
-    snprintf(lighting_key, KEY_LEN, "%.3000s|%.900s|%g|%g|%g,%g,%g|%g|%g,%g,%g,%g|%d:%016llx", frame_key, r->env_key,
-             sc->environment.strength, sc->environment.rotation_z, a[0], a[1], a[2], sc->volumes[0].medium.anisotropy,
-             e[0], e[1], e[2], sc->volumes[0].medium.emission_strength, count,
+    snprintf(lighting_key, KEY_LEN, "%.64s|%.3000s|%g|%g|%016llx|%d:%016llx", frame_key, r->env_key,
+             sc->environment.strength, sc->environment.rotation_z, lk, count,
              (unsigned long long)XXH3_64bits(lights, (size_t)count * VSD_KLIGHT_FLOATS * sizeof *lights));
 }
 
@@ -266,6 +326,14 @@ static vsd_status pick_device(vsd_renderer *r, vsd_cuda **cuda, char *err, size_
     vsd_status st;
     *cuda = NULL;
     if (strcmp(want, "cpu") == 0) return VSD_OK;
+    if (r->scene.volume_count > 1) {
+        /* the device copies of the volumes hold one volume so far (device_frame.c) */
+        if (strcmp(want, "cuda") == 0)
+            return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                            "render.device: 'cuda' renders one volume so far; this scene has %d (use \"cpu\" or "
+                            "\"auto\")", r->scene.volume_count);
+        return VSD_OK;
+    }
     if (!r->cuda && !r->cuda_error[0]) {
         st = vsd_cuda_open(&r->cuda, r->cuda_error, sizeof r->cuda_error);
         if (st && !r->cuda_error[0]) snprintf(r->cuda_error, sizeof r->cuda_error, "CUDA unavailable");
@@ -329,32 +397,38 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     snprintf(stats->method, sizeof stats->method, "%s", r->method->name);
     snprintf(stats->device, sizeof stats->device, "%s", cuda ? "cuda" : "cpu");
     if (cuda) snprintf(stats->device_name, sizeof stats->device_name, "%s", vsd_cuda_device_name(cuda));
-    else if (strcmp(sc->render.device, "auto") == 0) snprintf(stats->device_note, sizeof stats->device_note, "%s", r->cuda_error);
+    else if (strcmp(sc->render.device, "auto") == 0)
+        snprintf(stats->device_note, sizeof stats->device_note, "%s",
+                 sc->volume_count > 1 ? "several volumes render on the CPU so far" : r->cuda_error);
+    /* set_scene may have brought more volumes than the method renders */
+    if ((st = vsd_method_check_volumes(r->method, sc, err, errlen))) return st;
 
     if ((st = load_volumes(r, frame, err, errlen)) || (st = load_env(r, err, errlen))) return st;
     t1 = vsd_clock_seconds();
     stats->load_seconds = t1 - t0;
-    stats->active_voxels = r->density->active_voxels;
     /* values no real medium has (a corrupt file, or a grid in the wrong units) render, but
      * as opaque and with the trackers at their cap (docs/reliability.md): say so */
     {
-        const vsd_volume *vols[2] = {r->density, r->emission};
-        int v;
         size_t used = 0;
-        for (v = 0; v < 2; v++)
-            if (vols[v] && vols[v]->value_max > sc->volumes[0].warn_above && used < sizeof stats->warnings)
-                used += (size_t)snprintf(stats->warnings + used, sizeof stats->warnings - used,
-                                         "%s%s: grid '%s' has values up to %g, above volume.warn_above (%g): check its "
-                                         "units",
-                                         used ? "; " : "", vols[v]->file[0] ? vols[v]->file : "(in memory)",
-                                         vols[v]->grid_name, (double)vols[v]->value_max, (double)sc->volumes[0].warn_above);
+        for (int i = 0; i < sc->volume_count; i++) {
+            const vsd_volume *vols[2] = {r->volumes[i].density, r->volumes[i].emission};
+            float above = sc->volumes[i].warn_above;
+            stats->active_voxels += r->volumes[i].density->active_voxels;
+            for (int v = 0; v < 2; v++)
+                if (vols[v] && vols[v]->value_max > above && used < sizeof stats->warnings)
+                    used += (size_t)snprintf(stats->warnings + used, sizeof stats->warnings - used,
+                                             "%s%s: grid '%s' has values up to %g, above volume.warn_above (%g): check "
+                                             "its units",
+                                             used ? "; " : "", vols[v]->file[0] ? vols[v]->file : "(in memory)",
+                                             vols[v]->grid_name, (double)vols[v]->value_max, (double)above);
+        }
     }
 
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = sc;
-    ctx.density = r->density;
-    ctx.emission = r->emission;
-    ctx.ior = r->ior;
+    ctx.density = r->volumes[0].density;
+    ctx.emission = r->volumes[0].emission;
+    ctx.ior = r->volumes[0].ior;
     ctx.env = r->env;
     ctx.threads = vsd_cpu_thread_count(r->opt.threads > 0 ? r->opt.threads : sc->render.threads);
     ctx.progress = r->opt.progress;
@@ -368,11 +442,22 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     vsd_kernel_data_from_scene(&ctx.kd, sc);
     ctx.kd.scene_light_count = vsd_kscene_lights_setup(r->scene_lights, sc);
     ctx.kd.scene_lights = ctx.kd.scene_light_count ? r->scene_lights : NULL;
-    st = vsd_kvolume_setup(&ctx.kd.density, r->density, sc->volumes[0].matrix, sc->volumes[0].medium.density, err, errlen);
-    if (!st) st = vsd_kvolume_setup(&ctx.kd.emission, r->emission, sc->volumes[0].matrix, 1.0f, err, errlen);
-    if (st) return st;
-    ctx.kd.medium.has_emission = r->emission && r->emission->brick_dims[0] > 0 &&
-                                 sc->volumes[0].medium.emission_strength > 0.0f;
+    for (int i = 0; i < sc->volume_count; i++) {
+        const vsd_scene_volume *sv = &sc->volumes[i];
+        vsd_kobject *o = &r->kvolumes[i];
+        const vsd_volume *em = r->volumes[i].emission;
+        if ((st = vsd_kvolume_setup(&o->density, r->volumes[i].density, sv->matrix, sv->medium.density, err, errlen)) ||
+            (st = vsd_kvolume_setup(&o->emission, em, sv->matrix, 1.0f, err, errlen)))
+            return st;
+        vsd_kmedium_setup(&o->medium, &sv->medium);
+        o->medium.has_emission = em && em->brick_dims[0] > 0 && sv->medium.emission_strength > 0.0f;
+    }
+    ctx.kd.density = r->kvolumes[0].density;
+    ctx.kd.emission = r->kvolumes[0].emission;
+    ctx.kd.medium = r->kvolumes[0].medium;
+    ctx.kd.volume_count = sc->volume_count;
+    ctx.kd.volumes = r->kvolumes;
+    ctx.volume_count = sc->volume_count;
     vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.interpolation, sc->environment.strength,
                    sc->environment.rotation_z);
 

@@ -1,0 +1,245 @@
+/* test_volumes.c — scenes with several volumes (issue 30): the overlap rules against
+ * single volumes they must equal, volumes shadowing each other, per-volume frames and
+ * caches, and the errors of what does not render several volumes yet.
+ *
+ * Overlap as Cycles does it: extinction and scattering add, emission adds, the phase is the
+ * scattering-weighted mixture. Two volumes on the same grid and transform therefore equal
+ * one volume with the summed density, and a scattering volume overlapping a pure absorber
+ * equals one volume whose albedo is the scattering fraction. Transmittance along a ray
+ * through two volumes is the product of each one's. */
+#include "test_common.h"
+#include "test_render_util.h"
+#include "method_vs_reference.h"
+#include "vsd/render.h"
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SMOKE VSD_SHARED_DATA "/smoke64/fluid_data_####.vdb"
+#define FIRE VSD_SHARED_DATA "/fire96/fluid_data_####.vdb"
+#define SUNSET VSD_SHARED_DATA "/env/sunset.exr"
+#define FILM "\"film\": {\"width\": 64, \"height\": 36, \"transparent\": true}, "
+#define CAMERA "\"camera\": {\"position\": [1.0, -3.9745, 1.8771], \"look_at\": [1.0, 1.0, 1.0], \"up\": [0, 0, 1], " \
+               "\"fov\": 0.7}, "
+#define ENV "\"environment\": {\"file\": \"" SUNSET "\"}, "
+
+/* The scene around `volumes` (a JSON array's contents) at frame `frame`. */
+static char *scene_json(const char *volumes, int frame)
+{
+    size_t n = strlen(volumes) + 1024;
+    char *s = malloc(n);
+    snprintf(s, n,
+             "{\"version\": 1, \"volumes\": [%s], " ENV CAMERA FILM
+             "\"render\": {\"method\": \"reference\", \"samples\": 16}, \"frames\": {\"start\": %d, \"end\": %d}}",
+             volumes, frame, frame);
+    return s;
+}
+
+/* Tolerances: each beside the measurement it rests on (64x36; 2-core VM, 2026-12-03). */
+#define SUM_SPP 2048
+#define TOL_SUM_COMBINED 0.045     /* 512 spp: error 0.0315, noise 0.0196: hence 2048 spp */
+#define TOL_SUM_T 0.01             /* 512 spp: error 0.0008, noise 0.0007 */
+#define MIX_SPP 1024
+#define TOL_MIX 0.04               /* 512 spp: Combined error 0.0178 (noise 0.0095), Emit 0.0250 (0.0143) */
+#define TOL_PRODUCT_T 0.03         /* 2048 spp: 512 gave error 0.0109, noise 0.0116 */
+
+/* Two volumes on one grid with densities 3 and 5 render as one of density 8. */
+static void test_summed_density(void)
+{
+    char *one = scene_json("{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8}}", 11);
+    char *two = scene_json("{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3}}, "
+                           "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5}}", 11);
+    mvr_scene s1 = {.json = one, .frame = 11}, s2 = {.json = two, .frame = 11};
+    mvr_refs refs;
+    const char *ov[] = {"render.samples=2048"};
+    if (mvr_render_references(&s1, NULL, 0, SUM_SPP, &refs)) {
+        vsd_framebuffer *fb = mvr_render(&s2, ov, 1, NULL, NULL);
+        CHECK(fb != NULL);
+        if (fb) {
+            mvr_check("density 3 + 5 vs 8", fb, &refs, VSD_PASS_COMBINED, TOL_SUM_COMBINED, 0.8);
+            mvr_check("density 3 + 5 vs 8", fb, &refs, VSD_PASS_TRANSMITTANCE, TOL_SUM_T, 0.8);
+        }
+        vsd_framebuffer_destroy(fb);
+        mvr_refs_free(&refs);
+    }
+    free(one);
+    free(two);
+}
+
+/* A scattering volume (density 4, albedo 0.9/0.6/0.3, g 0.5, emission 2) overlapping a pure
+ * absorber on the same grid (density 2, albedo 0, emission 3) is one volume of density 6,
+ * albedo 0.6/0.4/0.2 (the scattering fraction), g 0.5 (the absorber has no lobe to mix)
+ * and emission 5: the albedo and phase mixture and the emission sum in one check. */
+static void test_material_mixture(void)
+{
+    char *one = scene_json("{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, "
+                           "\"albedo\": [0.6, 0.4, 0.2], \"anisotropy\": 0.5, \"emission_strength\": 5}}",
+                           48);
+    char *two = scene_json("{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, "
+                           "\"albedo\": [0.9, 0.6, 0.3], \"anisotropy\": 0.5, \"emission_strength\": 2}}, "
+                           "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 2, "
+                           "\"albedo\": [0, 0, 0], \"anisotropy\": -0.7, \"emission_strength\": 3}}",
+                           48);
+    mvr_scene s1 = {.json = one, .frame = 48}, s2 = {.json = two, .frame = 48};
+    mvr_refs refs;
+    const char *ov[] = {"render.samples=1024"};
+    if (mvr_render_references(&s1, NULL, 0, MIX_SPP, &refs)) {
+        vsd_framebuffer *fb = mvr_render(&s2, ov, 1, NULL, NULL);
+        CHECK(fb != NULL);
+        if (fb) {
+            mvr_check("scatterer + absorber vs mixture", fb, &refs, VSD_PASS_COMBINED, TOL_MIX, 0.8);
+            mvr_check("scatterer + absorber vs mixture", fb, &refs, VSD_PASS_EMIT, TOL_MIX, 0.8);
+        }
+        vsd_framebuffer_destroy(fb);
+        mvr_refs_free(&refs);
+    }
+    free(one);
+    free(two);
+}
+
+/* Green channel of the Transmittance pass, w x h. */
+static float *transmittance(const vsd_framebuffer *fb)
+{
+    size_t n = (size_t)fb->width * fb->height;
+    float *t = malloc(n * sizeof *t);
+    const float *p = fb->pass[VSD_PASS_TRANSMITTANCE];
+    int ch = vsd_pass_channels(VSD_PASS_TRANSMITTANCE);
+    for (size_t i = 0; i < n; i++) t[i] = p[i * ch + 1];
+    return t;
+}
+
+/* The smoke and a copy of it 1.5 m further along +y (behind it from the camera) and 0.25 m
+ * to the side: where both cover a pixel, its transmittance is the product of each one's. */
+static void test_transmittance_product(void)
+{
+    const char *a = "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 6}}";
+    const char *b = "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 6}, "
+                    "\"matrix\": [1,0,0,0.25, 0,1,0,1.5, 0,0,1,0, 0,0,0,1]}";
+    char both_list[1024];
+    snprintf(both_list, sizeof both_list, "%s, %s", a, b);
+    char *ja = scene_json(a, 11), *jb = scene_json(b, 11), *jab = scene_json(both_list, 11);
+    const char *ov1[] = {"render.samples=2048", "render.seed=1"}, *ov2[] = {"render.samples=2048", "render.seed=7"};
+    mvr_scene sa = {.json = ja, .frame = 11}, sb = {.json = jb, .frame = 11}, sab = {.json = jab, .frame = 11};
+    vsd_framebuffer *fa = mvr_render(&sa, ov1, 2, NULL, NULL), *fb = mvr_render(&sb, ov1, 2, NULL, NULL);
+    vsd_framebuffer *f1 = mvr_render(&sab, ov1, 2, NULL, NULL), *f2 = mvr_render(&sab, ov2, 2, NULL, NULL);
+    CHECK(fa && fb && f1 && f2);
+    if (fa && fb && f1 && f2) {
+        int w = fa->width, h = fa->height;
+        size_t n = (size_t)w * h;
+        float *ta = transmittance(fa), *tb = transmittance(fb), *t1 = transmittance(f1), *t2 = transmittance(f2);
+        float *prod = malloc(n * sizeof *prod), *mean = malloc(n * sizeof *mean), *none = malloc(n * sizeof *none);
+        double covered = 0;
+        for (size_t i = 0; i < n; i++) {
+            prod[i] = ta[i] * tb[i];
+            mean[i] = 0.5f * (t1[i] + t2[i]);
+            none[i] = ta[i];   /* control: the second volume not shadowing at all */
+            covered += (ta[i] < 0.9f && tb[i] < 0.9f);
+        }
+        /* 1 - T is the signal: compare absorbed fractions, so empty pixels do not dilute it */
+        for (size_t i = 0; i < n; i++) {
+            prod[i] = 1 - prod[i];
+            mean[i] = 1 - mean[i];
+            none[i] = 1 - none[i];
+            t1[i] = 1 - t1[i];
+        }
+        double err = test_rel_err_planes(mean, prod, w, h, 1);
+        double noise = test_rel_err_planes(t1, mean, w, h, 1);
+        double control = test_rel_err_planes(none, prod, w, h, 1);
+        printf("two volumes in a row, 1 - T: error %.4f, noise %.4f (3x %.4f), tolerance %.3f, control %.4f, "
+               "%.0f pixels behind both\n",
+               err, noise, 3 * noise, TOL_PRODUCT_T, control, covered);
+        CHECK(covered > 50);
+        CHECK(err < TOL_PRODUCT_T);
+        CHECK(TOL_PRODUCT_T >= 3 * noise);
+        CHECK(control >= TOL_PRODUCT_T);
+        free(ta), free(tb), free(t1), free(t2), free(prod), free(mean), free(none);
+    }
+    vsd_framebuffer_destroy(fa), vsd_framebuffer_destroy(fb), vsd_framebuffer_destroy(f1), vsd_framebuffer_destroy(f2);
+    free(ja), free(jb), free(jab);
+}
+
+/* frame_offset: volume frame = scene frame + offset, each volume its own; and a change to
+ * volumes[1] alone reaches the image through the renderer's caches. */
+static void test_frames_and_caches(void)
+{
+    char *shifted = scene_json("{\"file\": \"" SMOKE "\", \"frame_offset\": 3}, "
+                               "{\"file\": \"" SMOKE "\", \"frame_offset\": -2, \"medium\": {\"density\": 2}}",
+                               10);
+    char *plain = scene_json("{\"file\": \"" SMOKE "\"}, {\"file\": \"" SMOKE "\", \"medium\": {\"density\": 2}}", 13);
+    vsd_scene a, b;
+    CHECK(test_parse_scene(shifted, NULL, 0, &a));
+    const char *set_b[] = {"volumes.1.file=" VSD_SHARED_DATA "/smoke64/fluid_data_0008.vdb"};
+    CHECK(test_parse_scene(plain, set_b, 1, &b));
+    vsd_framebuffer *fa = test_render_fresh(&a, NULL, NULL, NULL, 10, NULL);
+    vsd_framebuffer *fb = test_render_fresh(&b, NULL, NULL, NULL, 13, NULL);
+    CHECK(fa && fb && test_identical(fa, fb));   /* frames 13 and 8, by offsets or by files */
+
+    /* one renderer: frame 10, then volumes[1]'s density changed, against a fresh renderer */
+    vsd_renderer *r = test_make_renderer(&a, NULL);
+    vsd_framebuffer *first = NULL, *second = NULL;
+    CHECK(r && test_render(r, 10, &first, NULL));
+    vsd_scene a2 = a;
+    a2.volumes[1].medium.density = 7;
+    char err[512];
+    CHECK(vsd_renderer_set_scene(r, &a2, err, sizeof err) == VSD_OK);
+    CHECK(test_render(r, 10, &second, NULL));
+    vsd_framebuffer *fresh = test_render_fresh(&a2, NULL, NULL, NULL, 10, NULL);
+    CHECK(first && second && fresh && !test_identical(first, second) && test_identical(second, fresh));
+    vsd_framebuffer_destroy(first), vsd_framebuffer_destroy(second), vsd_framebuffer_destroy(fresh);
+    vsd_framebuffer_destroy(fa), vsd_framebuffer_destroy(fb);
+    vsd_renderer_destroy(r);
+    free(shifted), free(plain);
+}
+
+/* What cannot render several volumes says so, by name, before any work. */
+static void test_errors(void)
+{
+    char *two = scene_json("{\"file\": \"" SMOKE "\"}, {\"file\": \"" SMOKE "\", \"medium\": {\"density\": 2}}", 11);
+    vsd_scene sc;
+    vsd_renderer *r = NULL;
+    char err[1024] = "";
+    vsd_render_options o = {.threads = 2};
+
+    const char *lbl[] = {"render.method=lbl"};
+    CHECK(test_parse_scene(two, lbl, 1, &sc));
+    CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
+    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'lbl' renders one volume so far (reference render several)");
+    vsd_renderer_destroy(r);
+    r = NULL;
+
+    const char *cuda[] = {"render.device=cuda"};
+    CHECK(test_parse_scene(two, cuda, 1, &sc));
+    CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_OK);
+    vsd_framebuffer *fb = NULL;
+    if (r) CHECK(vsd_renderer_render(r, 11, &fb, NULL, err, sizeof err) == VSD_ERR_UNSUPPORTED);
+    CHECK_CONTAINS(err, "render.device: 'cuda' renders one volume so far; this scene has 2");
+    vsd_renderer_destroy(r);
+    r = NULL;
+
+    const char *missing[] = {"volumes.1.file=" VSD_TEST_TMP "/no_such_####.vdb"};
+    CHECK(test_parse_scene(two, missing, 1, &sc));
+    CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_OK);
+    if (r) CHECK(vsd_renderer_render(r, 11, &fb, NULL, err, sizeof err) != VSD_OK);
+    CHECK_CONTAINS(err, "volumes[1] (" VSD_TEST_TMP "/no_such_####.vdb): ");
+    CHECK_CONTAINS(err, "no_such_0011.vdb");
+    vsd_renderer_destroy(r);
+    r = NULL;
+
+    const char *ior[] = {"volumes.1.medium.ior=1.3"};
+    CHECK(test_parse_scene(two, ior, 1, &sc));
+    CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
+    CHECK_CONTAINS(err, "volumes[1].medium: refraction");
+    vsd_renderer_destroy(r);
+    vsd_framebuffer_destroy(fb);
+    free(two);
+}
+
+int main(void)
+{
+    test_errors();
+    test_frames_and_caches();
+    test_transmittance_product();
+    test_summed_density();
+    test_material_mixture();
+    return test_finish("test_volumes");
+}
