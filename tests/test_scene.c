@@ -7,6 +7,7 @@
 #include "vsd/scene.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -648,6 +649,323 @@ static void test_frame_path(void)
     CHECK(vsd_frame_path(NULL, 1, out, sizeof out, e, sizeof e) == VSD_ERR_INVALID);
 }
 
+/* volumes[]: several volumes, each with its own fields and `medium` (docs/scene-file.md
+ * "volumes"). The single `volume` + `medium` of the other tests reads as a list of one. */
+#define VOLS2 "\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"file\": \"b.vdb\"}]"
+
+static void test_volumes_list(void)
+{
+    vsd_scene s;
+    const char *three =
+        "{\"version\": 1, \"volumes\": ["
+        " {\"file\": \"fire_####.vdb\", \"grid\": \"density\", \"emission_grid\": \"flame\", \"frame_offset\": -2,"
+        "  \"medium\": {\"density\": 5, \"albedo\": [0.5, 0.4, 0.3], \"emission_color\": [1, 0.5, 0.1],"
+        "              \"emission_strength\": 10}},"
+        " {\"file\": \"/abs/smoke_####.vdb\", \"grid\": 3, \"matrix\": [1,0,0,0.5, 0,1,0,0, 0,0,1,0, 0,0,0,1],"
+        "  \"warn_above\": 100, \"medium\": {\"density\": 2, \"anisotropy\": 0.5}},"
+        " {\"file\": \"cloud.vdb\", \"grid\": \"\", \"ior_grid\": \"n\", \"frame_offset\": 7,"
+        "  \"medium\": {\"density\": 0.25, \"albedo\": [1, 1, 1], \"anisotropy\": -0.2, \"ior_from\": \"temperature\"}}]}";
+    CHECK_MSG(parse(three, &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 3);
+    /* the fire */
+    CHECK(!strcmp(s.volumes[0].file, BASE "/fire_####.vdb"));
+    CHECK(!strcmp(s.volumes[0].grid, "density") && s.volumes[0].grid_index == -1);
+    CHECK(!strcmp(s.volumes[0].emission_grid, "flame"));
+    CHECK(s.volumes[0].frame_offset == -2);
+    CHECK_NEAR(s.volumes[0].medium.density, 5, 0);
+    CHECK_NEAR(s.volumes[0].medium.albedo[1], 0.4, 1e-7);
+    CHECK_NEAR(s.volumes[0].medium.emission_color[2], 0.1, 1e-7);
+    CHECK_NEAR(s.volumes[0].medium.emission_strength, 10, 0);
+    CHECK_NEAR(s.volumes[0].medium.anisotropy, 0, 0);
+    /* the smoke: an absolute path, a grid by index, its own matrix and warn_above */
+    CHECK(!strcmp(s.volumes[1].file, "/abs/smoke_####.vdb"));
+    CHECK(!strcmp(s.volumes[1].grid, "") && s.volumes[1].grid_index == 3);
+    CHECK(!strcmp(s.volumes[1].emission_grid, ""));
+    CHECK(s.volumes[1].matrix[3] == 0.5 && s.volumes[1].matrix[0] == 1 && s.volumes[1].matrix[15] == 1);
+    CHECK_NEAR(s.volumes[1].warn_above, 100, 0);
+    CHECK(s.volumes[1].frame_offset == 0);
+    CHECK_NEAR(s.volumes[1].medium.density, 2, 0);
+    CHECK_NEAR(s.volumes[1].medium.anisotropy, 0.5, 0);
+    CHECK_NEAR(s.volumes[1].medium.albedo[0], 0.8, 1e-7); /* the defaults of its own medium */
+    CHECK_NEAR(s.volumes[1].medium.emission_strength, 0, 0);
+    CHECK(!strcmp(vsd_scene_ior_grid(&s.volumes[1]), ""));
+    /* the cloud */
+    CHECK(!strcmp(s.volumes[2].file, BASE "/cloud.vdb"));
+    CHECK(!strcmp(s.volumes[2].grid, "") && s.volumes[2].grid_index == -1);
+    CHECK(!strcmp(s.volumes[2].ior_grid, "n") && !strcmp(s.volumes[2].medium.ior_from, "temperature"));
+    CHECK(!strcmp(vsd_scene_ior_grid(&s.volumes[2]), "n"));
+    CHECK_NEAR(s.volumes[2].medium.density, 0.25, 0);
+    CHECK_NEAR(s.volumes[2].medium.albedo[2], 1, 0);
+    CHECK_NEAR(s.volumes[2].medium.anisotropy, -0.2, 1e-7);
+    CHECK(s.volumes[2].frame_offset == 7);
+
+    /* frame_offset: volume v reads #### = frame + frame_offset (Blender's Offset) */
+    CHECK(vsd_scene_volume_frame(&s.volumes[0], 10) == 8);
+    CHECK(vsd_scene_volume_frame(&s.volumes[1], 10) == 10);
+    CHECK(vsd_scene_volume_frame(&s.volumes[2], -3) == 4);
+    char file[VSD_PATH_LEN + 32];
+    CHECK(vsd_frame_path(s.volumes[0].file, vsd_scene_volume_frame(&s.volumes[0], 1), file, sizeof file, err,
+                         sizeof err) == VSD_OK);
+    CHECK_MSG(!strcmp(file, BASE "/fire_-001.vdb"), "%s", file);
+    /* ... clamped to Blender's frame range */
+    CHECK_MSG(parse("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"frame_offset\": -1048574},"
+                    " {\"file\": \"b.vdb\", \"frame_offset\": 1048574}]}", &s) == VSD_OK, "%s", err);
+    CHECK(vsd_scene_volume_frame(&s.volumes[0], -5) == -1048574);
+    CHECK(vsd_scene_volume_frame(&s.volumes[0], 5) == -1048569);
+    CHECK(vsd_scene_volume_frame(&s.volumes[1], 1) == 1048574);
+    CHECK(vsd_scene_volume_frame(&s.volumes[1], -1048574) == 0);
+
+    /* Defaults per entry: a second volume with only a file has every default, whatever the
+     * first one sets. */
+    CHECK_MSG(parse("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"grid\": \"heat\", \"emission_grid\": \"flame\","
+                    " \"matrix\": [2,0,0,0, 0,2,0,0, 0,0,2,0, 0,0,0,1], \"warn_above\": 5, \"ior_grid\": \"t\","
+                    " \"frame_offset\": 3, \"medium\": {\"density\": 9, \"albedo\": [0.1, 0.1, 0.1], \"anisotropy\": 0.9,"
+                    " \"emission_color\": [2, 2, 2], \"emission_strength\": 4, \"ior\": 1.2, \"ior_from\": \"temperature\"}},"
+                    " {\"file\": \"b.vdb\"}]}", &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 2);
+    CHECK_NEAR(s.volumes[0].medium.ior, 1.2, 1e-7);
+    {
+        vsd_scene d;
+        vsd_scene_defaults(&d);
+        CHECK(d.volume_count == 1);
+        const vsd_scene_volume *b = &s.volumes[1], *w = &d.volumes[0];
+        CHECK(!strcmp(b->file, BASE "/b.vdb"));
+        CHECK(!strcmp(b->grid, w->grid) && b->grid_index == w->grid_index);
+        CHECK(!strcmp(b->emission_grid, "") && !strcmp(b->ior_grid, ""));
+        CHECK(!memcmp(b->matrix, w->matrix, sizeof b->matrix));
+        CHECK(b->warn_above == w->warn_above && b->frame_offset == 0);
+        CHECK(!memcmp(&b->medium.density, &w->medium.density,
+                      offsetof(vsd_scene_medium, ior_from) - offsetof(vsd_scene_medium, density)));
+        CHECK(!strcmp(b->medium.ior_from, "none"));
+    }
+    /* A medium that is absent or {} is the default medium. */
+    CHECK_MSG(parse("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"medium\": {}}]}", &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 1 && s.volumes[0].medium.density == 1.0f && !strcmp(s.volumes[0].medium.ior_from, "none"));
+
+    /* The single form is a list of one: the same scene either way. */
+    {
+        vsd_scene a, b;
+        CHECK_MSG(parse("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"grid\": \"heat\", \"frame_offset\": 2},"
+                        " \"medium\": {\"density\": 3, \"albedo\": [0.5, 0.5, 0.5]}}", &a) == VSD_OK, "%s", err);
+        CHECK_MSG(parse("{\"version\": 1, \"volumes\": [{\"file\": \"v.vdb\", \"grid\": \"heat\", \"frame_offset\": 2,"
+                        " \"medium\": {\"density\": 3, \"albedo\": [0.5, 0.5, 0.5]}}]}", &b) == VSD_OK, "%s", err);
+        CHECK(a.volume_count == 1 && !memcmp(&a, &b, sizeof a));
+        /* a top-level medium without a volume is still a volume without its file */
+        EXPECT_ERR("{\"version\": 1, \"medium\": {\"density\": 3}}", VSD_ERR_INVALID, "volume.file: required");
+    }
+
+    /* The limit: 16 volumes read, 17 are refused. */
+    {
+        static char many[4096];
+        int n = snprintf(many, sizeof many, "{\"version\": 1, \"volumes\": [");
+        for (int i = 0; i < VSD_MAX_VOLUMES; i++)
+            n += snprintf(many + n, sizeof many - (size_t)n, "%s{\"file\": \"v%d.vdb\", \"medium\": {\"density\": %d}}",
+                          i ? ", " : "", i, i);
+        snprintf(many + n, sizeof many - (size_t)n, "]}");
+        CHECK_MSG(parse(many, &s) == VSD_OK, "%s", err);
+        CHECK(s.volume_count == VSD_MAX_VOLUMES);
+        CHECK(!strcmp(s.volumes[15].file, BASE "/v15.vdb") && s.volumes[15].medium.density == 15.0f);
+        snprintf(many + n, sizeof many - (size_t)n, ", {\"file\": \"v16.vdb\"}]}");
+        EXPECT_ERR(many, VSD_ERR_UNSUPPORTED, "volumes: 17 volumes; at most 16 are supported");
+        /* an override that appends a 17th is refused the same way */
+        const char *ov17[] = {"volumes.16.file=v16.vdb"};
+        snprintf(many + n, sizeof many - (size_t)n, "]}");
+        EXPECT_OV_ERR(many, ov17, VSD_ERR_UNSUPPORTED, "volumes: 17 volumes; at most 16 are supported");
+    }
+}
+
+static void test_volumes_errors(void)
+{
+    /* both forms */
+    EXPECT_ERR("{" VOLS2 ", \"volume\": {\"file\": \"v.vdb\"}}", VSD_ERR_INVALID,
+               "volumes: the scene also has `volume`: write either the list `volumes` (each entry with its own "
+               "`medium`) or one `volume` with `medium`, not both");
+    EXPECT_ERR("{" VOLS2 ", \"medium\": {\"density\": 2}}", VSD_ERR_INVALID,
+               "volumes: the scene also has `medium`: write either the list `volumes` (each entry with its own "
+               "`medium`) or one `volume` with `medium`, not both");
+    {
+        vsd_scene s;
+        CHECK(parse("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}], \"volume\": {\"file\": \"v.vdb\"}}", &s) ==
+              VSD_ERR_INVALID);
+        CHECK_MSG(!strcmp(err, "volumes: the scene also has `volume`: write either the list `volumes` (each entry "
+                               "with its own `medium`) or one `volume` with `medium`, not both"), "%s", err);
+    }
+    /* the list's shape */
+    EXPECT_ERR("{\"version\": 1, \"volumes\": []}", VSD_ERR_INVALID, "volumes: empty; a scene holds at least one volume");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": {\"file\": \"a.vdb\"}}", VSD_ERR_TYPE,
+               "volumes: expected array (of volume objects)");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": null}", VSD_ERR_TYPE, "volumes: expected array (of volume objects)");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, \"b.vdb\"]}", VSD_ERR_TYPE,
+               "volumes[1]: expected object");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [[]]}", VSD_ERR_TYPE, "volumes[0]: expected object");
+    EXPECT_ERR("{\"version\": 1, \"volume\": [{\"file\": \"a.vdb\"}]}", VSD_ERR_TYPE, "volume: expected object");
+    /* errors name the entry */
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"file\": \"b.vdb\", \"medium\": {\"density\": -1}}]}",
+               VSD_ERR_INVALID, "volumes[1].medium.density: -1 is out of range (must be >= 0)");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"file\": \"b.vdb\", \"medium\": {\"density\": \"x\"}}]}",
+               VSD_ERR_TYPE, "volumes[1].medium.density: expected number");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"file\": \"b.vdb\"},"
+               " {\"file\": \"c.vdb\", \"medium\": {\"albedo\": [0.5, 2, 0.5]}}]}",
+               VSD_ERR_INVALID, "volumes[2].medium.albedo[1]: 2 is out of range 0..1");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"medium\": {\"dens\": 1}}]}", VSD_ERR_INVALID,
+               "volumes[0].medium.dens: unknown key (known: density, albedo, anisotropy, emission_color, "
+               "emission_strength, ior, ior_from)");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"medium\": [1]}]}", VSD_ERR_TYPE,
+               "volumes[0].medium: expected object");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"grid\": \"density\"}]}", VSD_ERR_INVALID,
+               "volumes[1].file: required");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"file\": \"b.vdb\", \"fiel\": 1}]}", VSD_ERR_INVALID,
+               "volumes[1].fiel: unknown key (known: file, grid, emission_grid, matrix, warn_above, ior_grid, "
+               "frame_offset, medium)");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"file\": \"b.vdb\", \"frame_offset\": 0.5}]}",
+               VSD_ERR_TYPE, "volumes[1].frame_offset: expected integer");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"frame_offset\": 2000000}]}", VSD_ERR_INVALID,
+               "volumes[0].frame_offset: 2000000 is out of range -1048574..1048574");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"file\": \"b_##_##.vdb\"}]}", VSD_ERR_INVALID,
+               "volumes[1].file: \"/base/b_##_##.vdb\": more than one run of '#'");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0, 1,0,0,1]}]}",
+               VSD_ERR_INVALID, "volumes[0].matrix: last row must be 0, 0, 0, 1");
+    /* the single form keeps its own names; a `medium` inside `volume` is not its place */
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"medium\": {}}}", VSD_ERR_INVALID,
+               "volume.medium: unknown key (a single volume's material is the top-level `medium`)");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"v.vdb\", \"frame_offset\": \"2\"}}", VSD_ERR_TYPE,
+               "volume.frame_offset: expected integer");
+    /* repeated keys */
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"a.vdb\"}, \"volume\": {\"file\": \"b.vdb\"}}", VSD_ERR_INVALID,
+               "volume: duplicate key");
+    EXPECT_ERR("{\"version\": 1, \"volume\": {\"file\": \"a.vdb\"}, \"medium\": {}, \"medium\": {}}", VSD_ERR_INVALID,
+               "medium: duplicate key");
+    EXPECT_ERR("{" VOLS2 ", \"volumes\": [{\"file\": \"c.vdb\"}]}", VSD_ERR_INVALID, "volumes: duplicate key");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"file\": \"b.vdb\"}]}", VSD_ERR_INVALID,
+               "volumes[0].file: duplicate key");
+    EXPECT_ERR("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"medium\": {\"ior\": 1.1, \"ior\": 1.2}}]}",
+               VSD_ERR_INVALID, "volumes[0].medium.ior: duplicate key");
+
+    /* From a file, the message starts with its path. */
+    {
+        vsd_scene s;
+        char path[2048], want[2400];
+        snprintf(path, sizeof path, "%s", test_tmp("scene_volumes_bad.json"));
+        FILE *f = fopen(path, "wb");
+        CHECK_MSG(f != NULL, "cannot write %s", path);
+        if (f) {
+            fputs("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\"}, {\"file\": \"b.vdb\", \"medium\": {\"density\": -2}}]}",
+                  f);
+            fclose(f);
+        }
+        CHECK(vsd_scene_load(path, NULL, 0, &s, err, sizeof err) == VSD_ERR_INVALID);
+        snprintf(want, sizeof want, "%s: volumes[1].medium.density: -2 is out of range (must be >= 0)", path);
+        CHECK_MSG(!strcmp(err, want), "%s", err);
+    }
+}
+
+static void test_volumes_overrides(void)
+{
+    vsd_scene s;
+    /* volumes.N.... indexes the list (0-based) */
+    const char *ov1[] = {"volumes.1.medium.density=3", "volumes.0.grid=heat", "volumes.1.frame_offset=-4",
+                         "volumes.0.medium.albedo=[0.1, 0.2, 0.3]"};
+    CHECK_MSG(parse_ov("{" VOLS2 "}", ov1, 4, &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 2);
+    CHECK_NEAR(s.volumes[1].medium.density, 3, 0);
+    CHECK_NEAR(s.volumes[0].medium.density, 1, 0);
+    CHECK(!strcmp(s.volumes[0].grid, "heat") && !strcmp(s.volumes[1].grid, "density"));
+    CHECK(s.volumes[1].frame_offset == -4 && s.volumes[0].frame_offset == 0);
+    CHECK_NEAR(s.volumes[0].medium.albedo[1], 0.2, 1e-7);
+    /* index == length appends an entry; its path resolves like the file's own */
+    const char *ov2[] = {"volumes.2.file=c_####.vdb", "volumes.2.medium.emission_strength=5"};
+    CHECK_MSG(parse_ov("{" VOLS2 "}", ov2, 2, &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 3);
+    CHECK(!strcmp(s.volumes[2].file, BASE "/c_####.vdb"));
+    CHECK_NEAR(s.volumes[2].medium.emission_strength, 5, 0);
+    CHECK_NEAR(s.volumes[2].medium.density, 1, 0);
+    /* a whole entry as JSON, appended */
+    const char *ov3[] = {"volumes.2={\"file\": \"d.vdb\", \"medium\": {\"density\": 7}}"};
+    CHECK_MSG(parse_ov("{" VOLS2 "}", ov3, 1, &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 3 && !strcmp(s.volumes[2].file, BASE "/d.vdb") && s.volumes[2].medium.density == 7.0f);
+    /* ... or replaced */
+    const char *ov4[] = {"volumes.0={\"file\": \"e.vdb\"}"};
+    CHECK_MSG(parse_ov("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"medium\": {\"density\": 9}}]}", ov4, 1, &s) ==
+                  VSD_OK, "%s", err);
+    CHECK(s.volume_count == 1 && !strcmp(s.volumes[0].file, BASE "/e.vdb") && s.volumes[0].medium.density == 1.0f);
+    /* ... or the whole list */
+    const char *ov5[] = {"volumes=[{\"file\": \"x.vdb\"}, {\"file\": \"y.vdb\"}, {\"file\": \"z.vdb\"}]"};
+    CHECK_MSG(parse_ov("{" MIN "}", ov5, 1, &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 3 && !strcmp(s.volumes[2].file, BASE "/z.vdb"));
+    /* an appended entry without a file is named */
+    const char *ov6[] = {"volumes.2.medium.density=3"};
+    EXPECT_OV_ERR("{" VOLS2 "}", ov6, VSD_ERR_INVALID, "volumes[2].file: required");
+    /* what an override writes is validated and named like the file's own */
+    const char *ov7[] = {"volumes.1.medium.density=-3"};
+    EXPECT_OV_ERR("{" VOLS2 "}", ov7, VSD_ERR_INVALID, "volumes[1].medium.density: -3 is out of range (must be >= 0)");
+    const char *ov8[] = {"volumes.1.medium.densty=3"};
+    EXPECT_OV_ERR("{" VOLS2 "}", ov8, VSD_ERR_INVALID, "volumes[1].medium.densty: unknown key (known: density,");
+
+    /* a bad index */
+    const char *bad1[] = {"volumes.7.file=x.vdb"};
+    EXPECT_OV_ERR("{" VOLS2 "}", bad1, VSD_ERR_INVALID,
+                  "override \"volumes.7.file=x.vdb\": volumes.7: an index 0..2 of the list expected");
+    {
+        CHECK(parse_ov("{" VOLS2 "}", bad1, 1, &s) == VSD_ERR_INVALID);
+        CHECK_MSG(!strcmp(err, "override \"volumes.7.file=x.vdb\": volumes.7: an index 0..2 of the list expected"), "%s",
+                  err);
+    }
+    const char *bad2[] = {"volumes.-1.file=x.vdb"};
+    EXPECT_OV_ERR("{" VOLS2 "}", bad2, VSD_ERR_INVALID,
+                  "override \"volumes.-1.file=x.vdb\": volumes.-1: an index 0..2 of the list expected");
+    const char *bad3[] = {"volumes.one.file=x.vdb"};
+    EXPECT_OV_ERR("{" VOLS2 "}", bad3, VSD_ERR_INVALID,
+                  "override \"volumes.one.file=x.vdb\": volumes.one: an index 0..2 of the list expected");
+    const char *bad4[] = {"volumes.5={\"file\": \"x.vdb\"}"};
+    EXPECT_OV_ERR("{" VOLS2 "}", bad4, VSD_ERR_INVALID,
+                  "override \"volumes.5={\"file\": \"x.vdb\"}\": volumes.5: an index 0..2 of the list expected");
+    const char *bad5[] = {"volumes.0.file.x=1"};
+    EXPECT_OV_ERR("{" VOLS2 "}", bad5, VSD_ERR_INVALID,
+                  "override \"volumes.0.file.x=1\": volumes.0.file is not an object");
+
+    /* medium.K / volume.K name the only volume of a one-volume scene, in either form ... */
+    const char *one[] = {"medium.density=3", "volume.grid=heat", "volume.frame_offset=5"};
+    CHECK_MSG(parse_ov("{\"version\": 1, \"volumes\": [{\"file\": \"a.vdb\", \"medium\": {\"albedo\": [0.5, 0.5, 0.5]}}]}",
+                       one, 3, &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 1);
+    CHECK_NEAR(s.volumes[0].medium.density, 3, 0);
+    CHECK_NEAR(s.volumes[0].medium.albedo[0], 0.5, 0);
+    CHECK(!strcmp(s.volumes[0].grid, "heat") && s.volumes[0].frame_offset == 5);
+    CHECK_MSG(parse_ov("{" MIN "}", one, 3, &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 1 && s.volumes[0].medium.density == 3.0f && !strcmp(s.volumes[0].grid, "heat"));
+    const char *whole[] = {"medium={\"density\": 4}", "volume={\"file\": \"w.vdb\"}"};
+    CHECK_MSG(parse_ov("{" MIN ", \"medium\": {\"albedo\": [0.5, 0.5, 0.5]}}", whole, 2, &s) == VSD_OK, "%s", err);
+    CHECK(!strcmp(s.volumes[0].file, BASE "/w.vdb"));
+    /* `volume={...}` replaces the entry, and with it the medium the entry held */
+    CHECK_NEAR(s.volumes[0].medium.density, 1, 0);
+    /* ... and are refused on a scene of several, saying which form to use */
+    const char *two_m[] = {"medium.density=3"};
+    EXPECT_OV_ERR("{" VOLS2 "}", two_m, VSD_ERR_INVALID,
+                  "override \"medium.density=3\": the scene has 2 volumes; say which, e.g. volumes.0.medium.density=3");
+    CHECK(parse_ov("{" VOLS2 "}", two_m, 1, &s) == VSD_ERR_INVALID);
+    CHECK_MSG(!strcmp(err, "override \"medium.density=3\": the scene has 2 volumes; say which, e.g. "
+                           "volumes.0.medium.density=3"), "%s", err);
+    const char *two_v[] = {"volume.file=x.vdb"};
+    EXPECT_OV_ERR("{" VOLS2 "}", two_v, VSD_ERR_INVALID,
+                  "override \"volume.file=x.vdb\": the scene has 2 volumes; say which, e.g. volumes.0.file=x.vdb");
+    const char *two_w[] = {"medium={\"density\": 3}"};
+    EXPECT_OV_ERR("{" VOLS2 "}", two_w, VSD_ERR_INVALID,
+                  "override \"medium={\"density\": 3}\": the scene has 2 volumes; say which, e.g. "
+                  "volumes.0.medium={\"density\": 3}");
+    /* counted when the override is applied: after an append, the scene has two */
+    const char *grow[] = {"volumes.1.file=b.vdb", "medium.density=3"};
+    EXPECT_OV_ERR("{" MIN "}", grow, VSD_ERR_INVALID,
+                  "override \"medium.density=3\": the scene has 2 volumes; say which, e.g. volumes.0.medium.density=3");
+    /* an entry appended to a single-form scene is named by its index */
+    const char *grow2[] = {"volumes.1.file=b.vdb", "volumes.1.medium.density=-1"};
+    EXPECT_OV_ERR("{" MIN "}", grow2, VSD_ERR_INVALID, "volumes[1].medium.density: -1 is out of range (must be >= 0)");
+    const char *grow3[] = {"volumes.1.medium.density=2"};
+    EXPECT_OV_ERR("{" MIN "}", grow3, VSD_ERR_INVALID, "volumes[1].file: required");
+    const char *grow4[] = {"volumes.1.file=b.vdb", "volumes.1.medium.density=2"};
+    CHECK_MSG(parse_ov("{" MIN ", \"medium\": {\"density\": 6}}", grow4, 2, &s) == VSD_OK, "%s", err);
+    CHECK(s.volume_count == 2 && s.volumes[0].medium.density == 6.0f && s.volumes[1].medium.density == 2.0f);
+}
+
 int main(void)
 {
     test_defaults();
@@ -663,5 +981,8 @@ int main(void)
     test_shared_scenes();
     test_file_errors();
     test_frame_path();
+    test_volumes_list();
+    test_volumes_errors();
+    test_volumes_overrides();
     return test_finish("test_scene");
 }

@@ -97,6 +97,44 @@ static void test_material_mixture(void)
     free(two);
 }
 
+/* raymarch is deterministic: where two volumes' grids coincide they must give the single
+ * volume's image to float rounding (sums of the same samples in another order), for the
+ * summed density and for the scatterer + absorber mixture with its emission. */
+static void test_raymarch_exact(void)
+{
+    static const char *const ov[] = {"render.method=raymarch", "render.options.lights=16"};
+    struct { const char *what, *one, *two; int frame; } cases[] = {
+        {"density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8}}",
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3}}, {\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5}}",
+         11},
+        {"scatterer + absorber vs mixture",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.6, 0.4, 0.2], "
+         "\"anisotropy\": 0.5, \"emission_strength\": 5}}",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
+         "\"anisotropy\": 0.5, \"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
+         "\"medium\": {\"density\": 2, \"albedo\": [0, 0, 0], \"anisotropy\": -0.7, \"emission_strength\": 3}}",
+         48},
+    };
+    static const vsd_pass passes[] = {VSD_PASS_COMBINED, VSD_PASS_VOLUME_DIR, VSD_PASS_EMIT, VSD_PASS_TRANSMITTANCE};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        char *j1 = scene_json(cases[c].one, cases[c].frame), *j2 = scene_json(cases[c].two, cases[c].frame);
+        vsd_scene s1, s2;
+        CHECK(test_parse_scene(j1, ov, 2, &s1) && test_parse_scene(j2, ov, 2, &s2));
+        vsd_framebuffer *f1 = test_render_fresh(&s1, NULL, NULL, NULL, cases[c].frame, NULL);
+        vsd_framebuffer *f2 = test_render_fresh(&s2, NULL, NULL, NULL, cases[c].frame, NULL);
+        CHECK(f1 && f2);
+        for (size_t p = 0; f1 && f2 && p < sizeof passes / sizeof passes[0]; p++) {
+            double diff = test_max_rel_diff(f2, f1, passes[p]), sum = test_pass_sum(f1, passes[p]);
+            printf("raymarch %s, %s: max relative difference %.2e (pass sum %.4g)\n", cases[c].what,
+                   vsd_pass_name(passes[p]), diff, sum);
+            CHECK(diff < 1e-4);
+            CHECK(passes[p] == VSD_PASS_EMIT && c == 0 ? sum == 0 : sum > 0);
+        }
+        vsd_framebuffer_destroy(f1), vsd_framebuffer_destroy(f2);
+        free(j1), free(j2);
+    }
+}
+
 /* Green channel of the Transmittance pass, w x h. */
 static float *transmittance(const vsd_framebuffer *fb)
 {
@@ -191,6 +229,54 @@ static void test_frames_and_caches(void)
     free(shifted), free(plain);
 }
 
+/* vsd_scene_frame_hash covers every volume (core/src/render/frame_output_check.c): the
+ * fields and medium of volumes[1], its frame_offset and the file it reads change the hash
+ * that `vsd render --continue` compares; warn_above (a warning only) does not; a scene of
+ * one volume hashes the same in either form. Needs: #include "vsd/render.h", "vsd/scene.h". */
+static void frame_hash_of(const char *json, const char *const *ov, int nov, int frame, char hex[33])
+{
+    vsd_scene *sc = malloc(sizeof *sc);
+    char err[1024];
+    hex[0] = '\0';
+    CHECK(sc != NULL);
+    if (!sc) return;
+    vsd_status st = vsd_scene_parse(json, "", ov, nov, sc, err, sizeof err);
+    CHECK_MSG(st == VSD_OK, "scene: %s", err);
+    if (st == VSD_OK) {
+        st = vsd_scene_frame_hash(sc, frame, hex, err, sizeof err);
+        CHECK_MSG(st == VSD_OK, "hash: %s", err);
+    }
+    free(sc);
+}
+
+static void test_frame_hash_volumes(void)
+{
+    char one[2048], one_list[2048], two[4096], base[33], h[33];
+    char smoke[1024];
+    snprintf(smoke, sizeof smoke, "%s", VSD_SHARED_DATA "/smoke64/fluid_data_####.vdb");
+    snprintf(one, sizeof one, "{\"version\":1,\"volume\":{\"file\":\"%s\"},\"medium\":{\"density\":4}}", smoke);
+    snprintf(one_list, sizeof one_list, "{\"version\":1,\"volumes\":[{\"file\":\"%s\",\"medium\":{\"density\":4}}]}", smoke);
+    snprintf(two, sizeof two,
+             "{\"version\":1,\"volumes\":[{\"file\":\"%s\",\"medium\":{\"density\":4}},"
+             "{\"file\":\"%s\",\"medium\":{\"density\":2}}]}", smoke, smoke);
+    frame_hash_of(one, NULL, 0, 3, base);
+    frame_hash_of(one_list, NULL, 0, 3, h);
+    CHECK_MSG(!strcmp(base, h), "one volume, two forms: %s %s", base, h);
+    frame_hash_of(two, NULL, 0, 3, base);
+    CHECK(strlen(base) == 32);
+    frame_hash_of(one, NULL, 0, 3, h);
+    CHECK_MSG(strcmp(base, h) != 0, "a second volume leaves the hash at %s", h);
+    const char *density[] = {"volumes.1.medium.density=3"};
+    frame_hash_of(two, density, 1, 3, h);
+    CHECK_MSG(strcmp(base, h) != 0, "volumes[1].medium.density 2 -> 3 leaves the hash at %s", h);
+    const char *offset[] = {"volumes.1.frame_offset=1"}; /* reads fluid_data_0004.vdb */
+    frame_hash_of(two, offset, 1, 3, h);
+    CHECK_MSG(strcmp(base, h) != 0, "volumes[1].frame_offset leaves the hash at %s", h);
+    const char *warn[] = {"volumes.1.warn_above=5"};
+    frame_hash_of(two, warn, 1, 3, h);
+    CHECK_MSG(!strcmp(base, h), "volumes[1].warn_above changes the hash: %s %s", base, h);
+}
+
 /* What cannot render several volumes says so, by name, before any work. */
 static void test_errors(void)
 {
@@ -203,7 +289,7 @@ static void test_errors(void)
     const char *lbl[] = {"render.method=lbl"};
     CHECK(test_parse_scene(two, lbl, 1, &sc));
     CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
-    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'lbl' renders one volume so far (reference render several)");
+    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'lbl' renders one volume so far (reference, raymarch render several)");
     vsd_renderer_destroy(r);
     r = NULL;
 
@@ -237,7 +323,9 @@ static void test_errors(void)
 int main(void)
 {
     test_errors();
+    test_frame_hash_volumes();
     test_frames_and_caches();
+    test_raymarch_exact();
     test_transmittance_product();
     test_summed_density();
     test_material_mixture();

@@ -10,6 +10,9 @@
 # docs/scene-file.md's "Blender" columns, so that Cycles renders what vsd's `reference`
 # method is meant to render:
 #
+# * volumes: each entry of `volumes` (or the single `volume` + `medium`) becomes its own
+#   Volume object with its own material; Cycles adds overlapping volumes' extinction,
+#   scattering and emission and mixes their phase functions, which is vsd's rule.
 # * volume: the frame's concrete .vdb (#### replaced like vsd_frame_path) on a fresh Volume
 #   datablock; matrix_world is set explicitly from volume.matrix (never left to the importer,
 #   which rotates Houdini files). Volume precision FULL (Blender's default HALF quantises
@@ -204,19 +207,26 @@ def clear_scene():
             coll.remove(item)
 
 
-def build_volume(sc, scene, base, frame, voxel_centres):
-    vol_desc = sc["volume"]
+def scene_volumes(sc):
+    """The scene's volumes as (volume fields, medium) pairs: `volumes`, or the single form."""
+    if "volumes" in sc:
+        return [(v, v.get("medium", {})) for v in sc["volumes"]]
+    return [(sc["volume"], sc.get("medium", {}))]
+
+
+def build_volume(vol_desc, scene, base, frame, voxel_centres, index=0):
+    frame = frame + int(vol_desc.get("frame_offset", 0))
     path = frame_path(resolve(base, vol_desc["file"]), frame)
     if not os.path.isfile(path):
-        raise SystemExit(f"volume.file: {path}: no such file")
-    vol = bpy.data.volumes.new("vsd_volume")
+        raise SystemExit(f"volumes[{index}].file: {path}: no such file")
+    vol = bpy.data.volumes.new("vsd_volume%d" % index)
     vol.filepath = path
     vol.is_sequence = False
     vol.render.precision = "FULL"
     vol.render.clipping = 0.0
     vol.render.space = "OBJECT"
     vol.render.step_size = 0.0  # automatic: one voxel, times the step rates below
-    ob = bpy.data.objects.new("vsd_volume", vol)
+    ob = bpy.data.objects.new("vsd_volume%d" % index, vol)
     scene.collection.objects.link(ob)
     m = [float(x) for x in vol_desc.get("matrix", [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])]
     ob.matrix_world = mathutils.Matrix([m[0:4], m[4:8], m[8:12], m[12:16]])
@@ -243,14 +253,13 @@ def build_volume(sc, scene, base, frame, voxel_centres):
     return ob, grid, path
 
 
-def build_material(sc, ob, grid):
-    med = sc.get("medium", {})
+def build_material(vol_desc, med, ob, grid):
     density = float(med.get("density", 1.0))
     albedo = med.get("albedo", [0.8, 0.8, 0.8])
     g = float(med.get("anisotropy", 0.0))
     ecol = med.get("emission_color", [1.0, 1.0, 1.0])
     estr = float(med.get("emission_strength", 0.0))
-    egrid = sc["volume"].get("emission_grid") or ""
+    egrid = vol_desc.get("emission_grid") or ""
 
     mat = bpy.data.materials.new("vsd_medium")
     nt = use_nodes(mat)
@@ -444,8 +453,12 @@ def main():
     scene = bpy.context.scene
     clear_scene()
     scene.frame_set(frame)
-    ob, grid, vdb_path = build_volume(sc, scene, base, frame, args.voxel_centres)
-    build_material(sc, ob, grid)
+    vdb_paths = []
+    for i, (vol_desc, med) in enumerate(scene_volumes(sc)):
+        ob, grid, vdb_path = build_volume(vol_desc, scene, base, frame, args.voxel_centres, i)
+        build_material(vol_desc, med, ob, grid)
+        vdb_paths.append(vdb_path)
+    vdb_path = vdb_paths[0] if len(vdb_paths) == 1 else vdb_paths
     build_world(sc, scene, base)
     build_lights(sc, scene)
     build_camera(sc, scene, width, height)

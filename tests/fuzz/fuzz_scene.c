@@ -29,9 +29,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         overrides[n++] = text + at;
     err[0] = '\0';
     if (vsd_scene_parse(text, "/fuzz/scenes", overrides, n, sc, err, sizeof err) == VSD_OK) {
-        (void)vsd_frame_path(sc->volumes[0].file, sc->frames.start, path, sizeof path, err, sizeof err);
+        if (sc->volume_count < 1 || sc->volume_count > VSD_MAX_VOLUMES) __builtin_trap();
+        for (int v = 0; v < sc->volume_count; v++) {
+            (void)vsd_frame_path(sc->volumes[v].file, vsd_scene_volume_frame(&sc->volumes[v], sc->frames.start), path,
+                                 sizeof path, err, sizeof err);
+            (void)vsd_scene_ior_grid(&sc->volumes[v]);
+        }
         (void)vsd_frame_path(sc->environment.file, sc->frames.end, path, sizeof path, err, sizeof err);
-        (void)vsd_scene_ior_grid(&sc->volumes[0]);
     } else if (err[0] == '\0') {
         __builtin_trap(); /* an error must say why */
     }

@@ -87,7 +87,7 @@ const vsd_method vsd_method_raymarch = {
     .summary = "The papers' brute-force baseline, for comparisons: single scattering only, every march step "
                "sends a shadow ray to each of K environment directions (256 by default), with no acceleration. "
                "Slow: smoke128 at 640x360 takes hours on a few cores; reference, lbl or crm for pictures",
-    .caps = VSD_METHOD_CAP_CUDA_VIEW,
+    .caps = VSD_METHOD_CAP_CUDA_VIEW | VSD_METHOD_CAP_SEVERAL_VOLUMES,
     .roles = 0,
     .options = VSD_OPTION_TABLE(raymarch_option_rows, raymarch_options),
     .create = raymarch_create,

@@ -18,10 +18,12 @@ static void hash_floats(XXH3_state_t *h, const float *v, int n) { hash_bytes(h, 
 static void hash_doubles(XXH3_state_t *h, const double *v, int n) { hash_bytes(h, v, sizeof *v * (size_t)n); }
 
 /* The last files digested, by identity (device, inode, size, modification time): a
- * sequence's environment map, and a frame's VDB that the --continue check and the writer
- * both hash, are read once, not once per frame and per use. A file rewritten in place
- * changes its modification time, so it is read again. A hit is checked with stat() before
- * the file is opened. */
+ * sequence's environment map, a volume whose file has no frame number, and a frame's VDBs
+ * that the --continue check and the writer both hash, are read once, not once per frame and
+ * per use. A file rewritten in place changes its modification time, so it is read again. A
+ * hit is checked with stat() before the file is opened. Room for two frames of a scene with
+ * the most volumes (each volume's VDB and the map), so the map stays cached from frame to
+ * frame. */
 typedef struct file_digest {
     dev_t dev;
     ino_t ino;
@@ -32,7 +34,7 @@ typedef struct file_digest {
     unsigned long long last_use;  /* the least recently used entry is replaced */
 } file_digest;
 
-static file_digest g_digests[8];
+static file_digest g_digests[2 * (VSD_MAX_VOLUMES + 1)];
 static unsigned long long g_digest_clock;
 static pthread_mutex_t g_digest_lock = PTHREAD_MUTEX_INITIALIZER;
 
@@ -107,25 +109,54 @@ static vsd_status hash_file(XXH3_state_t *h, const char *path, char *err, size_t
     return st;
 }
 
+/* A volume's fields that change pixels: all but its file (hashed by content, for the frame
+ * it reads), warn_above (it only adds a warning) and frame_offset (see hash_scene_fields). */
+static void hash_volume_fields(XXH3_state_t *h, const vsd_scene_volume *v)
+{
+    hash_str(h, v->grid);
+    hash_int(h, v->grid_index);
+    hash_str(h, v->emission_grid);
+    hash_doubles(h, v->matrix, 16);
+    hash_str(h, v->ior_grid);
+    hash_floats(h, &v->medium.density, 1);
+    hash_floats(h, v->medium.albedo, 3);
+    hash_floats(h, &v->medium.anisotropy, 1);
+    hash_floats(h, v->medium.emission_color, 3);
+    hash_floats(h, &v->medium.emission_strength, 1);
+    hash_floats(h, &v->medium.ior, 1);
+    hash_str(h, v->medium.ior_from);
+}
+
+static void hash_light(XXH3_state_t *h, const vsd_scene_light *l)
+{
+    hash_int(h, (int)l->type);
+    hash_floats(h, l->color, 3);
+    hash_floats(h, &l->strength, 1);
+    hash_floats(h, &l->power, 1);
+    hash_doubles(h, l->position, 3);
+    hash_doubles(h, l->direction, 3);
+    hash_floats(h, &l->radius, 1);
+    hash_floats(h, &l->angle, 1);
+    hash_floats(h, &l->spot_size, 1);
+    hash_floats(h, &l->spot_blend, 1);
+    hash_int(h, l->spot_cosine);
+}
+
 /* Everything in vsd_scene that changes pixels. Left out: base_dir, frames (a farm splits
  * the range), render.threads (images do not depend on it), output.exr/preview_png/view
- * (where and how the preview goes). A new scene field that changes pixels belongs here. */
+ * (where and how the preview goes). A new scene field that changes pixels belongs here.
+ *
+ * Compatibility with the hashes EXRs already record (--continue keeps their frames): the
+ * fields of a scene with one volume, frame_offset 0 and no lights are hashed in the same
+ * order as before volumes[] and lights[] existed, and what came later is appended only when
+ * present. So a one-volume scene without an offset keeps its hash; a scene with several
+ * volumes (volume_count, then each volume's frame_offset and, from volumes[1] on, its
+ * fields), an offset or lights gets a new one. */
 static void hash_scene_fields(XXH3_state_t *h, const vsd_scene *s)
 {
-    int p;
+    int p, v;
     hash_int(h, s->version);
-    hash_str(h, s->volumes[0].grid);
-    hash_int(h, s->volumes[0].grid_index);
-    hash_str(h, s->volumes[0].emission_grid);
-    hash_doubles(h, s->volumes[0].matrix, 16);
-    hash_str(h, s->volumes[0].ior_grid);
-    hash_floats(h, &s->volumes[0].medium.density, 1);
-    hash_floats(h, s->volumes[0].medium.albedo, 3);
-    hash_floats(h, &s->volumes[0].medium.anisotropy, 1);
-    hash_floats(h, s->volumes[0].medium.emission_color, 3);
-    hash_floats(h, &s->volumes[0].medium.emission_strength, 1);
-    hash_floats(h, &s->volumes[0].medium.ior, 1);
-    hash_str(h, s->volumes[0].medium.ior_from);
+    hash_volume_fields(h, &s->volumes[0]);
     hash_floats(h, s->environment.color, 3);
     hash_floats(h, &s->environment.strength, 1);
     hash_floats(h, &s->environment.rotation_z, 1);
@@ -152,23 +183,45 @@ static void hash_scene_fields(XXH3_state_t *h, const vsd_scene *s)
     hash_str(h, s->output.layer);
     for (p = 0; p < VSD_PASS_COUNT; p++) hash_str(h, s->output.pass_names[p]);
     hash_int(h, s->output.half);
+    /* Appended, only when present (see above). The lights' count was hashed from the start,
+     * their settings only since (a light moved or dimmed is another image). */
+    for (p = 0; p < s->light_count && p < VSD_MAX_LIGHTS; p++) hash_light(h, &s->lights[p]);
+    if (s->volume_count > 1 || s->volumes[0].frame_offset != 0) {
+        hash_int(h, s->volume_count);
+        for (v = 0; v < s->volume_count && v < VSD_MAX_VOLUMES; v++) {
+            hash_int(h, s->volumes[v].frame_offset);
+            if (v > 0) hash_volume_fields(h, &s->volumes[v]);
+        }
+    }
+}
+
+/* The contents of the VDB that volume v reads for scene frame `frame` (its frame_offset
+ * applied). */
+static vsd_status hash_volume_file(XXH3_state_t *h, const vsd_scene_volume *v, int frame, char *err,
+                                   size_t errlen)
+{
+    char vdb[VSD_PATH_LEN];
+    vsd_status st = vsd_frame_path(v->file, vsd_scene_volume_frame(v, frame), vdb, sizeof vdb, err, errlen);
+    return st ? st : hash_file(h, vdb, err, errlen);
 }
 
 vsd_status vsd_scene_frame_hash(const vsd_scene *scene, int frame, char hex[33], char *err, size_t errlen)
 {
-    char vdb[VSD_PATH_LEN];
     XXH128_hash_t d;
     vsd_status st;
+    int v;
     XXH3_state_t *h = XXH3_createState();
     hex[0] = '\0';
     if (!h) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "out of memory hashing the scene");
     XXH3_128bits_reset(h);
     hash_scene_fields(h, scene);
     /* The files' contents, not their names: a re-simulated cache under the same name is
-     * a new frame, a renamed copy is the same one. */
-    st = vsd_frame_path(scene->volumes[0].file, frame, vdb, sizeof vdb, err, errlen);
-    if (!st) st = hash_file(h, vdb, err, errlen);
+     * a new frame, a renamed copy is the same one. volumes[0]'s VDB and the map come first
+     * (the order of one-volume scenes before volumes[]), the other volumes' VDBs after. */
+    st = hash_volume_file(h, &scene->volumes[0], frame, err, errlen);
     if (!st && scene->environment.file[0]) st = hash_file(h, scene->environment.file, err, errlen);
+    for (v = 1; !st && v < scene->volume_count && v < VSD_MAX_VOLUMES; v++)
+        st = hash_volume_file(h, &scene->volumes[v], frame, err, errlen);
     d = XXH3_128bits_digest(h);
     XXH3_freeState(h);
     if (st) return st;

@@ -739,6 +739,8 @@ static vsd_status apply_volumes(parser *p, const field *f, const cJSON *item, co
         return fail(p, VSD_ERR_INVALID, path, "empty; a scene holds at least one volume");
     if (n > VSD_MAX_VOLUMES)
         return fail(p, VSD_ERR_UNSUPPORTED, path, "%d volumes; at most %d are supported", n, VSD_MAX_VOLUMES);
+    if (n > 1) /* an override appended to a single `volume`: name the entries by index */
+        p->single_volume = 0;
     const cJSON *e;
     cJSON_ArrayForEach(e, item) {
         char sub[KEYPATH_LEN];
@@ -749,6 +751,7 @@ static vsd_status apply_volumes(parser *p, const field *f, const cJSON *item, co
             snprintf(sub, sizeof sub, "%s[%d]", path, s->volume_count);
         if (!cJSON_IsObject(e))
             return fail(p, VSD_ERR_TYPE, sub, "expected object");
+        memset(&p->out->vol, 0, sizeof p->out->vol); /* entries equal field for field compare equal */
         if ((st = walk(p, &volume_table, e, sub)))
             return st;
         s->volumes[s->volume_count++] = p->out->vol;
@@ -1209,7 +1212,7 @@ static vsd_status rewrite_single_volume_key(parser *p, const cJSON *root, const 
         if (count > 1)
             return vsd_fail(VSD_ERR_INVALID, p->err, p->errlen,
                             "override \"%s\": the scene has %d volumes; say which, e.g. %.*s%s",
-                            ov, count, (int)strlen(forms[i].to) - 2, forms[i].to, ov + len - 1);
+                            ov, count, (int)strlen(forms[i].to) - 1, forms[i].to, ov + len - 1);
         size_t n = strlen(forms[i].to) + strlen(ov + len) + 1;
         if (!(*owned = malloc(n)))
             return vsd_fail(VSD_ERR_NOMEM, p->err, p->errlen, "override \"%s\": out of memory", ov);
