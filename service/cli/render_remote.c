@@ -1,4 +1,5 @@
-/* `vsd render --remote`: hash the scene's local inputs, upload what the daemon lacks,
+/* `vsd render --remote`: hash the scene's local inputs (each volume's file for the frame
+ * it reads, and the map), upload what the daemon lacks,
  * render each frame through it, and write the returned EXR / PNG bytes where in-process
  * rendering writes its files. The daemon encodes them with the same library writer
  * (vsd_write_frame_outputs), so the files carry the same channels and attributes. */
@@ -99,16 +100,49 @@ static const char *str(const cJSON *o, const char *a)
     return cJSON_IsString(x) ? x->valuestring : "";
 }
 
+/* Upload the file each volume of the scene reads for `frame` (its frame_offset applied),
+ * unless the daemon has it, and name it in overrides[v] ("volume.file=\"blob:...\"" for a
+ * scene of one volume, which every daemon reads, else "volumes.V.file=..."). *sent gets the
+ * bytes uploaded. A file two volumes read is hashed once. */
+static int upload_volumes(vsdc *c, const vsd_scene *scene, int frame, char overrides[][200], uint64_t *sent,
+                          char *err, size_t errlen)
+{
+    char paths[VSD_MAX_VOLUMES][VSD_PATH_LEN], blobs[VSD_MAX_VOLUMES][128];
+    int v, w;
+    *sent = 0;
+    for (v = 0; v < scene->volume_count && v < VSD_MAX_VOLUMES; v++) {
+        const vsd_scene_volume *vol = &scene->volumes[v];
+        uint64_t up = 0;
+        if (vsd_frame_path(vol->file, vsd_scene_volume_frame(vol, frame), paths[v], sizeof paths[v], err, errlen))
+            return -1;
+        for (w = 0; w < v && strcmp(paths[w], paths[v]) != 0; w++) {}
+        if (w < v) {
+            snprintf(blobs[v], sizeof blobs[v], "%s", blobs[w]);
+        } else if (vsdc_upload_file(c, paths[v], blobs[v], sizeof blobs[v], &up, err, errlen)) {
+            if (scene->volume_count > 1) {
+                char inner[1024];
+                snprintf(inner, sizeof inner, "%.1000s", err);
+                snprintf(err, errlen, "volumes[%d]: %.1000s", v, inner);
+            }
+            return -1;
+        }
+        *sent += up;
+        if (scene->volume_count == 1) snprintf(overrides[v], 200, "volume.file=\"%.120s\"", blobs[v]);
+        else snprintf(overrides[v], 200, "volumes.%d.file=\"%.120s\"", v, blobs[v]);
+    }
+    return 0;
+}
+
 int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char *const *overrides,
                       int override_count, const vsd_remote_options *opt)
 {
     char err[2048], token[512] = "", env_blob[128] = "", env_override[200] = "";
     const char *sent[MAX_SENT_OVERRIDES];
-    char vol_override[200], frame_path[VSD_PATH_LEN];
+    char vol_override[VSD_MAX_VOLUMES][200];
     char *text = NULL;
     vsdc *c = NULL;
     int frame, i, rc = VSD_EXIT_OK, n;
-    if (override_count > MAX_SENT_OVERRIDES - 2) {
+    if (override_count > MAX_SENT_OVERRIDES - VSD_MAX_VOLUMES - 1) {
         fprintf(stderr, "vsd render: too many overrides\n");
         return VSD_EXIT_USAGE;
     }
@@ -146,10 +180,8 @@ int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char
         if (opt->skip_frame && opt->skip_frame(opt->skip_user, frame)) continue;
         if (opt->begin_frame) opt->begin_frame(opt->user, frame);
         for (attempt = 0; attempt < 2; attempt++) {
-            char vblob[128];
-            /* the frame's VDB and the map: sent only when the daemon lacks them */
-            if (vsd_frame_path(scene->volumes[0].file, frame, frame_path, sizeof frame_path, err, sizeof err) ||
-                vsdc_upload_file(c, frame_path, vblob, sizeof vblob, &up, err, sizeof err)) {
+            /* each volume's VDB for this frame and the map: sent only when the daemon lacks them */
+            if (upload_volumes(c, scene, frame, vol_override, &up, err, sizeof err)) {
                 fprintf(stderr, "vsd render: frame %d: %s\n", frame, err);
                 rc = strcmp(vsdc_error_code(c), "") ? exit_code_for_server(vsdc_error_code(c)) : VSD_EXIT_INPUT;
                 break;
@@ -162,8 +194,7 @@ int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char
             }
             n = 0;
             for (i = 0; i < override_count; i++) sent[n++] = overrides[i];
-            snprintf(vol_override, sizeof vol_override, "volume.file=\"%s\"", vblob);
-            sent[n++] = vol_override;
+            for (i = 0; i < scene->volume_count && i < VSD_MAX_VOLUMES; i++) sent[n++] = vol_override[i];
             if (env_blob[0]) {
                 snprintf(env_override, sizeof env_override, "environment.file=\"%s\"", env_blob);
                 sent[n++] = env_override;
@@ -207,7 +238,7 @@ int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char
             printf("frame %d: %s  (%s, %d spp, load %.2fs, prepare %.2fs, render %.2fs, %d threads, remote%s)\n", frame,
                    out_path, str(info, "method"), (int)num(info, "samples", NULL), num(info, "timings", "load"),
                    num(info, "timings", "prepare"), num(info, "timings", "render"), (int)num(info, "threads", NULL),
-                   up ? "" : ", volume cached");
+                   up ? "" : scene->volume_count > 1 ? ", volumes cached" : ", volume cached");
             if (str(info, "preview_note")[0]) printf("  preview: %s\n", str(info, "preview_note"));
             fflush(stdout);
         }

@@ -23,6 +23,7 @@ struct vsdc {
     double next_id;
     char *hello;
     char code[64];
+    char *error_json;              /* the last ERROR message, whole (vsdc_error_json) */
     uint64_t uploaded;
 };
 
@@ -168,6 +169,8 @@ static int server_error(vsdc *c, const cJSON *m, char *err, size_t errlen)
     const cJSON *code = cJSON_GetObjectItemCaseSensitive(m, "code");
     const cJSON *text = cJSON_GetObjectItemCaseSensitive(m, "message");
     snprintf(c->code, sizeof c->code, "%s", cJSON_IsString(code) ? code->valuestring : "unknown");
+    free(c->error_json);
+    c->error_json = cJSON_PrintUnformatted(m);
     return fail(c, VSDC_ERR_SERVER, err, errlen, "daemon: %s: %s", c->code,
                 cJSON_IsString(text) ? text->valuestring : "(no message)");
 }
@@ -226,6 +229,7 @@ int vsdc_connect(const char *address, const char *token, vsdc **out, char *err, 
     if (!rc) rc = wait_reply(c, c->next_id++, VSD_MSG_HELLO, &reply, err, errlen);
     if (rc) {
         close(fd);
+        free(c->error_json);
         free(c);
         return rc;
     }
@@ -250,11 +254,13 @@ void vsdc_close(vsdc *c)
     }
     close(c->fd);
     free(c->hello);
+    free(c->error_json);
     free(c);
 }
 
 const char *vsdc_server_info(const vsdc *c) { return c->hello; }
 const char *vsdc_error_code(const vsdc *c) { return c->code; }
+const char *vsdc_error_json(const vsdc *c) { return c->code[0] && c->error_json ? c->error_json : NULL; }
 int vsdc_fd(const vsdc *c) { return c->fd; }
 uint64_t vsdc_bytes_uploaded(const vsdc *c) { return c->uploaded; }
 

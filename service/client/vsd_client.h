@@ -35,6 +35,9 @@ void vsdc_close(vsdc *c);            /* BYE, then close; NULL is fine */
 
 const char *vsdc_server_info(const vsdc *c);   /* the HELLO reply, JSON text */
 const char *vsdc_error_code(const vsdc *c);    /* code of the last ERROR, "" if none */
+/* The last ERROR as JSON text, with its extra fields (missing_blob's "missing": the hashes
+ * to PUT), or NULL when the last call got none. Valid until the next call on c. */
+const char *vsdc_error_json(const vsdc *c);
 int vsdc_fd(const vsdc *c);
 uint64_t vsdc_bytes_uploaded(const vsdc *c);   /* blob bytes sent by PUT on this connection */
 

@@ -7,8 +7,13 @@
 #define VSD_DAEMON_CACHE_H
 #include "reply.h"
 
-/* A renderer slot's inputs: density, emission, environment, the refractive index's grid */
-#define VSDD_SLOT_PINS 4
+/* A renderer slot's inputs: the environment map, then per volume of the scene's volumes[]
+ * its density, emission and refractive index's grids (each NULL when not used):
+ * pins[VSDD_PIN_ENV], pins[VSDD_PIN(v, VSDD_PIN_DENSITY)], ... */
+enum { VSDD_PIN_DENSITY = 0, VSDD_PIN_EMISSION, VSDD_PIN_IOR, VSDD_PINS_PER_VOLUME };
+#define VSDD_PIN_ENV 0
+#define VSDD_PIN(v, what) (1 + (v) * VSDD_PINS_PER_VOLUME + (what))
+#define VSDD_SLOT_PINS (1 + VSD_MAX_VOLUMES * VSDD_PINS_PER_VOLUME)
 
 /* Make the private folder under cfg->cache_parent (removing orphans of dead daemons there);
  * misses are decoded by `loader`. cfg and loader must outlive the cache. NULL with err. */
@@ -36,7 +41,7 @@ void vsdd_cache_unpin(vsdd_cache *k, vsdd_entry *e); /* NULL is fine */
  * confined path, *blob = NULL): what the EXR's vsd/scene_hash reads (the file's bytes). */
 int vsdd_cache_pin_file(vsdd_cache *k, const char *src, char *path, size_t len, vsdd_entry **blob, vsdd_err *e);
 
-/* A renderer kept per (method, options, volume, emission, environment): a camera change
+/* A renderer kept per (method, options, every volume's grids, environment): a camera change
  * re-renders from its prepared state. The slot is the cache's (cache_internal.h) but for
  * its use record, which belongs to the one job holding the slot (render_job_render.c):
  * the renderer's progress callback gets it as `user`, and its cancel flag. */
@@ -55,7 +60,9 @@ vsd_renderer *vsdd_slot_renderer(vsdd_slot *s);
 /* The renderer's progress callback; `user` is the slot's use record. Passed in by the jobs layer, so
  * the cache does not call up into it. */
 typedef void (*vsdd_slot_progress_fn)(void *user, const char *stage, float fraction);
-/* Find an idle renderer for key or create one. A new one first waits until the memory
+/* Find an idle renderer for key or create one (key names every input; a long one is kept
+ * by its hash). A new one is handed the pinned grids of each of the scene's volumes and the
+ * map (vsd_renderer_use_volume / _use_env). A new one first waits until the memory
  * budget can hold it, or until no other renderer is busy (then it renders alone and is not
  * kept); raising *cancel ends the wait with -VSD_ERR_CANCELLED. Takes over the caller's
  * pins in every case (kept by a new slot, released on a hit or a failure); returns 0 or
@@ -64,6 +71,8 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, 
                         vsdd_slot_progress_fn progress, volatile int *cancel, vsdd_slot **out, int *hit, char *msg,
                         size_t msglen);
 void vsdd_cache_release_slot(vsdd_cache *k, vsdd_slot *s, int keep);
+/* key into out[len]: as it is when it fits, else its head and the XXH3-128 of all of it. */
+void vsdd_key_fit(const char *key, char *out, size_t len);
 /* The heap in use now (glibc's mallinfo2: arenas plus mmap'd blocks). */
 uint64_t vsdd_heap_in_use(void);
 /* Around one render of slot s. A renderer's memory cannot be asked for, and a fixed

@@ -25,7 +25,7 @@ struct vsdd_entry {
 struct vsdd_slot {
     vsdd_slot_use use;                /* its holder's (cache.h); never read here */
     vsd_renderer *r;
-    vsdd_entry *pins[VSDD_SLOT_PINS]; /* density, emission, env, ior grid entries (may be NULL) */
+    vsdd_entry *pins[VSDD_SLOT_PINS]; /* the map, each volume's density, emission, ior grid (cache.h; may be NULL) */
     vsdd_entry *self;
     char method[32];                  /* render.method: what learned bytes are kept by */
     int64_t held;                     /* heap bytes the renderer was seen to keep (sum of the

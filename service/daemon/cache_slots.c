@@ -25,14 +25,34 @@ static uint64_t *learned_bytes(vsdd_cache *k, const char *method)
 }
 
 /* A renderer's first estimate, before it is measured: the sampling tables of the map plus
- * as much again as the density grid, or its method's last working size if more. */
+ * as much again as the density grids of its volumes, or its method's last working size if
+ * more. */
 static uint64_t slot_bytes(vsdd_cache *k, vsdd_entry *pins[VSDD_SLOT_PINS], const char *method)
 {
     uint64_t b = 256 * 1024, *l = learned_bytes(k, method);
-    if (pins[0]) b += pins[0]->bytes;
-    if (pins[2] && pins[2]->env) b += (uint64_t)pins[2]->env->width * pins[2]->env->height * 8;
+    const vsdd_entry *env = pins[VSDD_PIN_ENV];
+    int v;
+    for (v = 0; v < VSD_MAX_VOLUMES; v++)
+        if (pins[VSDD_PIN(v, VSDD_PIN_DENSITY)]) b += pins[VSDD_PIN(v, VSDD_PIN_DENSITY)]->bytes;
+    if (env && env->env) b += (uint64_t)env->env->width * env->env->height * 8;
     else b += 64 * 32 * 8;
     return l && *l > b ? *l : b;
+}
+
+/* The entry key of a slot (and a slot's preparation key): the caller's key, or, when it is
+ * too long (a scene with many volumes, long options), its head and the XXH3-128 of the whole
+ * of it, so two different inputs never share a renderer and the same inputs always find
+ * theirs. */
+void vsdd_key_fit(const char *key, char *out, size_t len)
+{
+    char hex[VSD_HASH_HEX_MAX];
+    size_t n = strlen(key);
+    if (n < len) {
+        memcpy(out, key, n + 1);
+        return;
+    }
+    vsd_hash_buffer(VSD_HASH_XXH3_128, key, n, hex);
+    snprintf(out, len, "%.*s...#%s", (int)(len - sizeof hex - 8), key, hex);
 }
 
 uint64_t vsdd_heap_in_use(void)
@@ -144,10 +164,12 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, 
     vsd_status st;
     uint64_t est;
     int i, cached = 0;
+    char ekey[sizeof e->key];
     *out = NULL;
     *hit = 0;
+    vsdd_key_fit(key, ekey, sizeof ekey);
     vsdd_lock(&k->lock);
-    e = vsdd_cache_find(k, ENT_SLOT, key, 1);
+    e = vsdd_cache_find(k, ENT_SLOT, ekey, 1);
     if (e) {
         e->refs = 1;
         k->busy_slots++;
@@ -200,13 +222,16 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, 
         free(e);
         goto failed;
     }
-    vsd_renderer_use_volume(s->r, 0, vsdd_entry_volume(pins[0]), vsdd_entry_volume(pins[1]),
-                            vsdd_entry_volume(pins[3]));
-    if (pins[2]) vsd_renderer_use_env(s->r, pins[2]->env);
+    /* each volume of the scene from its pinned grids (the slot keeps the pins) */
+    for (i = 0; i < scene->volume_count && i < VSD_MAX_VOLUMES; i++)
+        vsd_renderer_use_volume(s->r, i, vsdd_entry_volume(pins[VSDD_PIN(i, VSDD_PIN_DENSITY)]),
+                                vsdd_entry_volume(pins[VSDD_PIN(i, VSDD_PIN_EMISSION)]),
+                                vsdd_entry_volume(pins[VSDD_PIN(i, VSDD_PIN_IOR)]));
+    if (pins[VSDD_PIN_ENV]) vsd_renderer_use_env(s->r, pins[VSDD_PIN_ENV]->env);
     for (i = 0; i < VSDD_SLOT_PINS; i++) s->pins[i] = pins[i];
     s->self = e;
     e->kind = ENT_SLOT;
-    snprintf(e->key, sizeof e->key, "%s", key);
+    snprintf(e->key, sizeof e->key, "%s", ekey);
     e->slot = s;
     vsdd_lock(&k->lock);
     end_admission(k, est, cached);

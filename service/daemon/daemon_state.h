@@ -40,7 +40,8 @@ typedef struct vsdd_config {
     uint32_t max_json;             /* JSON part of one frame */
     int max_dim;                   /* film width/height */
     uint64_t max_pixels;
-    uint64_t max_voxels;           /* active voxels of one grid */
+    uint64_t max_voxels;           /* active voxels of one grid, and of the density grids of
+                                      a scene's volumes together (render_job_inputs.c) */
     double max_job_seconds;
     int log_level;                 /* 0 error, 1 warn, 2 info, 3 debug */
     int loader;                    /* VSDD_LOADER_*: --loader isolated|inprocess */

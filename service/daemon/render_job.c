@@ -30,7 +30,7 @@ static void report_outcome(vsdd_run *run, int rc)
 
 void vsdd_run_job(vsdd_daemon *d, const vsdd_job_info *j, int worker)
 {
-    vsdd_run *run = calloc(1, sizeof *run); /* ~30 KiB: off the worker's stack */
+    vsdd_run *run = calloc(1, sizeof *run); /* ~100 KiB (16 volumes): off the worker's stack */
     int rc, i;
     if (!run) {
         vsdd_send_error_id(j->conn, j->id, 1, VSD_E_INTERNAL, "out of memory", NULL);

@@ -4,7 +4,9 @@
  * flag. The slot's use record (cache.h) is this file's while the job holds the slot. */
 #define _GNU_SOURCE
 #include "render_job_steps.h"
+#include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static const char *code_for_status(vsd_status st)
@@ -17,17 +19,60 @@ static const char *code_for_status(vsd_status st)
     }
 }
 
-/* The scene fields a renderer's preparation depends on (the camera is not one). */
+/* Append printf text to a heap string (*buf of *cap bytes, grown); -1 when out of memory. */
+static int append(char **buf, size_t *cap, size_t *used, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+static int append(char **buf, size_t *cap, size_t *used, const char *fmt, ...)
+{
+    va_list ap;
+    int n;
+    for (;;) {
+        va_start(ap, fmt);
+        n = vsnprintf(*buf + *used, *cap - *used, fmt, ap);
+        va_end(ap);
+        if (n < 0) return -1;
+        if ((size_t)n < *cap - *used) break;
+        {
+            size_t ncap = *cap * 2 + (size_t)n;
+            char *nb = realloc(*buf, ncap);
+            if (!nb) return -1;
+            *buf = nb;
+            *cap = ncap;
+        }
+    }
+    *used += (size_t)n;
+    return 0;
+}
+
+/* The scene fields a renderer's preparation depends on (the camera is not one): every
+ * volume's medium and matrix, the environment's strength, rotation and colour. Fitted into
+ * out (vsdd_key_fit). */
 static void prep_key_of(const vsd_scene *sc, char *out, size_t len)
 {
-    const double *m = sc->volumes[0].matrix;
-    const float *a = sc->volumes[0].medium.albedo, *e = sc->volumes[0].medium.emission_color, *c = sc->environment.color;
-    int n = snprintf(out, len, "%.9g|%.9g,%.9g,%.9g|%.9g|%.9g,%.9g,%.9g|%.9g|%.9g|%.9g|%.9g,%.9g,%.9g|",
-                     sc->volumes[0].medium.density, a[0], a[1], a[2], sc->volumes[0].medium.anisotropy, e[0], e[1], e[2],
-                     sc->volumes[0].medium.emission_strength, sc->environment.strength, sc->environment.rotation_z, c[0], c[1],
-                     c[2]);
-    int i;
-    for (i = 0; i < 16 && n > 0 && (size_t)n < len - 32; i++) n += snprintf(out + n, len - (size_t)n, "%.17g,", m[i]);
+    size_t cap = 4096, used = 0;
+    char *key = malloc(cap);
+    const float *c = sc->environment.color;
+    int v, i, bad;
+    if (!key) {
+        snprintf(out, len, "(out of memory)"); /* never equal to a real key: no preparation hit */
+        return;
+    }
+    key[0] = '\0';
+    bad = append(&key, &cap, &used, "%.9g|%.9g|%.9g,%.9g,%.9g|%d", sc->environment.strength, sc->environment.rotation_z,
+                 c[0], c[1], c[2], sc->volume_count);
+    for (v = 0; v < sc->volume_count && !bad; v++) {
+        const vsd_scene_medium *m = &sc->volumes[v].medium;
+        const float *a = m->albedo, *e = m->emission_color;
+        bad = append(&key, &cap, &used, "|%.9g|%.9g,%.9g,%.9g|%.9g|%.9g,%.9g,%.9g|%.9g|%.9g|", m->density, a[0], a[1],
+                     a[2], m->anisotropy, e[0], e[1], e[2], m->emission_strength, m->ior);
+        for (i = 0; i < 16 && !bad; i++) bad = append(&key, &cap, &used, "%.17g,", sc->volumes[v].matrix[i]);
+    }
+    if (bad) snprintf(out, len, "(out of memory)");
+    else vsdd_key_fit(key, out, len);
+    free(key);
 }
 
 /* The renderer's progress callback (user = the slot): PROGRESS to the job rendering now on
@@ -54,22 +99,45 @@ static void slot_progress(void *user, const char *stage, float fraction)
     vsdd_send_progress(j->conn, j->id, stage, fraction);
 }
 
+/* The renderer slot's key: the method, its options, the map and every volume's sources
+ * and grids (the inputs a renderer is made for). Malloc'd; NULL when out of memory. */
+static char *slot_key_of(const vsdd_run *run)
+{
+    const vsd_scene *sc = &run->sc;
+    char conversion[2 * VSD_NAME_LEN + 2];
+    size_t cap = 8192, used = 0;
+    char *key = malloc(cap);
+    int v, bad;
+    if (!key) return NULL;
+    key[0] = '\0';
+    bad = append(&key, &cap, &used, "%s|%s|%s|%s|%d", sc->render.method, sc->render.options_json, run->esrc,
+                 vsd_scene_env_conversion(sc, conversion, sizeof conversion), sc->volume_count);
+    for (v = 0; v < sc->volume_count && !bad; v++) {
+        const vsd_scene_volume *vol = &sc->volumes[v];
+        bad = append(&key, &cap, &used, "|%s|%s|%d|%s|%s", run->vsrc[v], vol->grid, vol->grid_index,
+                     vol->emission_grid, vsd_scene_ior_grid(vol));
+    }
+    if (bad) {
+        free(key);
+        return NULL;
+    }
+    return key;
+}
+
 static int get_slot(vsdd_run *run)
 {
     const vsd_scene *sc = &run->sc;
-    char key[12000], err[2048];
+    char err[2048], *key = slot_key_of(run);
     volatile int wait_cancel;
     int rc;
-    char conversion[2 * VSD_NAME_LEN + 2];
-    snprintf(key, sizeof key, "%s|%s|%s|%s|%d|%s|%s|%s|%s", sc->render.method, sc->render.options_json, run->vsrc,
-             sc->volumes[0].grid, sc->volumes[0].grid_index, sc->volumes[0].emission_grid, run->esrc,
-             vsd_scene_env_conversion(sc, conversion, sizeof conversion), vsd_scene_ior_grid(&sc->volumes[0]));
+    if (!key) return vsdd_fail(&run->err, VSD_E_INTERNAL, "out of memory");
     /* a new renderer may wait for memory: a cancel, a disconnect or the job's time limit
      * ends the wait through this flag as it would end a render */
     vsdd_cancel_watch(run->job->cancel, &wait_cancel);
     rc = vsdd_cache_get_slot(run->d->cache, key, sc, run->pins, slot_progress, &wait_cancel, &run->slot,
                              &run->slot_hit, err, sizeof err);
     vsdd_cancel_unwatch(run->job->cancel);
+    free(key);
     memset(run->pins, 0, sizeof run->pins); /* the slot owns them now, or get_slot released them */
     if (rc == -(int)VSD_ERR_CANCELLED) return rc;
     if (rc) return vsdd_fail(&run->err, code_for_status((vsd_status)-rc), "%s", err);
@@ -94,7 +162,7 @@ int vsdd_step_render(vsdd_run *run)
 {
     const vsdd_job_info *j = run->job;
     vsdd_slot_use *use;
-    char prep[1024], err[2048];
+    char prep[sizeof use->prep_key], err[2048];
     vsd_status st;
     int reason, rc;
     rc = get_slot(run);

@@ -33,11 +33,22 @@ static int read_whole(const char *path, unsigned char **data, size_t *len)
 
 static cJSON *hit_json(int used, int hit) { return used ? cJSON_CreateBool(hit) : cJSON_CreateNull(); }
 
+/* "volume", "emission", "ior" of volumes[v]: found in the cache (true), loaded (false), not
+ * used (null). */
+static void add_volume_hits(cJSON *o, const vsdd_run *run, int v)
+{
+    const vsd_scene_volume *vol = &run->sc.volumes[v];
+    cJSON_AddItemToObject(o, "volume", hit_json(1, run->hits[VSDD_PIN(v, VSDD_PIN_DENSITY)]));
+    cJSON_AddItemToObject(o, "emission", hit_json(vol->emission_grid[0] != 0, run->hits[VSDD_PIN(v, VSDD_PIN_EMISSION)]));
+    cJSON_AddItemToObject(o, "ior", hit_json(vsd_scene_ior_grid(vol)[0] != 0, run->hits[VSDD_PIN(v, VSDD_PIN_IOR)]));
+}
+
 static cJSON *result_json(const vsdd_run *run, size_t exr_len, size_t png_len, const char *note, double t_encode)
 {
     const vsd_render_stats *stats = &run->stats;
     const vsd_scene *sc = &run->sc;
-    cJSON *o = cJSON_CreateObject(), *t, *cache;
+    cJSON *o = cJSON_CreateObject(), *t, *cache, *list;
+    int v;
     cJSON_AddNumberToObject(o, "id", run->job->id);
     cJSON_AddNumberToObject(o, "frame", run->frame);
     cJSON_AddStringToObject(o, "method", stats->method);
@@ -60,12 +71,17 @@ static cJSON *result_json(const vsdd_run *run, size_t exr_len, size_t png_len, c
     cJSON_AddNumberToObject(t, "encode", t_encode);
     cJSON_AddNumberToObject(t, "total", vsd_clock_seconds() - run->t_start);
     cache = cJSON_AddObjectToObject(o, "cache");
-    cJSON_AddItemToObject(cache, "volume", hit_json(1, run->hits[0]));
-    cJSON_AddItemToObject(cache, "emission", hit_json(sc->volumes[0].emission_grid[0] != 0, run->hits[1]));
-    cJSON_AddItemToObject(cache, "environment", hit_json(run->esrc[0] != 0, run->hits[2]));
-    cJSON_AddItemToObject(cache, "ior", hit_json(vsd_scene_ior_grid(&sc->volumes[0])[0] != 0, run->hits[3]));
+    /* volumes[0]'s at the top (clients from before volumes[]), every volume's in "volumes" */
+    add_volume_hits(cache, run, 0);
+    cJSON_AddItemToObject(cache, "environment", hit_json(run->esrc[0] != 0, run->hits[VSDD_PIN_ENV]));
     cJSON_AddItemToObject(cache, "renderer", cJSON_CreateBool(run->slot_hit));
     cJSON_AddItemToObject(cache, "preparation", cJSON_CreateBool(run->prep_hit));
+    list = cJSON_AddArrayToObject(cache, "volumes");
+    for (v = 0; v < sc->volume_count; v++) {
+        cJSON *one = cJSON_CreateObject();
+        add_volume_hits(one, run, v);
+        cJSON_AddItemToArray(list, one);
+    }
     return o;
 }
 
@@ -76,13 +92,17 @@ static int encode(vsdd_run *run, vsd_scene *out, unsigned char **exr, size_t *ex
 {
     char exr_path[VSD_PATH_LEN], png_path[VSD_PATH_LEN], err[2048];
     vsdd_cache *k = run->d->cache;
-    vsdd_entry *file_pins[2] = {NULL, NULL};
+    vsdd_entry *file_pins[VSD_MAX_VOLUMES + 1]; /* each volume's file, the map's */
     vsd_status st;
-    int rc = -1;
+    int rc = -1, v;
+    memset(file_pins, 0, sizeof file_pins);
     *out = run->sc;
-    if (vsdd_cache_pin_file(k, run->vsrc, out->volumes[0].file, sizeof out->volumes[0].file, &file_pins[0], &run->err) ||
-        (run->esrc[0] && vsdd_cache_pin_file(k, run->esrc, out->environment.file, sizeof out->environment.file,
-                                             &file_pins[1], &run->err)))
+    for (v = 0; v < out->volume_count; v++)
+        if (vsdd_cache_pin_file(k, run->vsrc[v], out->volumes[v].file, sizeof out->volumes[v].file, &file_pins[v],
+                                &run->err))
+            goto done;
+    if (run->esrc[0] && vsdd_cache_pin_file(k, run->esrc, out->environment.file, sizeof out->environment.file,
+                                            &file_pins[VSD_MAX_VOLUMES], &run->err))
         goto done;
     snprintf(exr_path, sizeof exr_path, "%.960s/job-%lu.exr", vsdd_cache_dir(k), run->job->seq);
     snprintf(png_path, sizeof png_path, "%.960s/job-%lu.png", vsdd_cache_dir(k), run->job->seq);
@@ -97,8 +117,7 @@ static int encode(vsdd_run *run, vsd_scene *out, unsigned char **exr, size_t *ex
     if (st) vsdd_fail(&run->err, VSD_E_RENDER_FAILED, "encoding the result failed: %.2000s", err);
     else rc = 0;
 done:
-    vsdd_cache_unpin(k, file_pins[0]);
-    vsdd_cache_unpin(k, file_pins[1]);
+    for (v = 0; v <= VSD_MAX_VOLUMES; v++) vsdd_cache_unpin(k, file_pins[v]);
     return rc;
 }
 

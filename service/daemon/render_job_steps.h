@@ -19,9 +19,12 @@ typedef struct vsdd_run {
     char *scene_text;
     vsd_scene sc;
     int frame, preview;
-    /* inputs: sources and the cache entries pinned for this job */
-    char vsrc[VSD_PATH_LEN + 8], esrc[VSD_PATH_LEN + 8];
-    vsdd_entry *pins[VSDD_SLOT_PINS]; /* density, emission, environment, ior; NULL once a slot owns them */
+    /* inputs: sources and the cache entries pinned for this job. vsrc[v]: where volumes[v]
+     * reads its frame (vsd_scene_volume_frame) from, "blob:<hash>" or a confined path */
+    char vsrc[VSD_MAX_VOLUMES][VSD_PATH_LEN + 8], esrc[VSD_PATH_LEN + 8];
+    /* the map and each volume's density, emission, ior grid (cache.h: VSDD_PIN_ENV,
+     * VSDD_PIN(v, ...)); NULL once a slot owns them. hits: each was found in the cache */
+    vsdd_entry *pins[VSDD_SLOT_PINS];
     int hits[VSDD_SLOT_PINS];
     /* render */
     vsdd_slot *slot;

@@ -1,8 +1,11 @@
 /* pov_export.h — `vsd export pov`: a vsd scene as POV-Ray files (docs/povray.md).
  *
  * For frames first..last, in outdir:
- *   NAME_density_####.df3, NAME_emission_####.df3   the grids (df3.h)
- *   NAME_####.inc                                    declares vsd_volume (pov_volume.h)
+ *   NAME_density_####.df3, NAME_emission_####.df3   the grids (df3.h) of a one-volume scene;
+ *   NAME_vI_density_####.df3, NAME_vI_emission_####.df3   those of volumes[I] when the
+ *                                                    scene has several (#### = scene frame)
+ *   NAME_####.inc                                    declares vsd_volume: every volume's
+ *                                                    media (pov_volume.h)
  *   NAME_camera.inc                                  the camera (pov_camera.h)
  *   NAME.pov, NAME.ini                               a scene using them, and the frame range
  * POV-Ray restricts file access to its working folder by default: run it inside outdir. */
@@ -30,8 +33,15 @@ typedef struct vsd_pov_export_report {
  * folder. */
 vsd_status vsd_pov_prepare_dir(const char *outdir, char *err, size_t errlen);
 
-/* One frame from grids already in memory (emission may be NULL: no emission media).
- * Writes the df3 files and NAME_####.inc. */
+/* One frame from grids already in memory: density[i] and emission[i] (NULL: no emission
+ * media) of scene->volumes[i], i < scene->volume_count. Writes every volume's df3 files
+ * and NAME_####.inc (a media block per volume, with its own material and volume.matrix). */
+vsd_status vsd_pov_export_frame_volumes(const vsd_scene *scene, int frame, const vsd_volume *const *density,
+                                        const vsd_volume *const *emission, const char *outdir, const char *name,
+                                        vsd_pov_export_report *rep, char *err, size_t errlen);
+
+/* The same for scene->volumes[0] alone, as a one-volume scene (file names without a
+ * volume index), whatever scene->volume_count is. */
 vsd_status vsd_pov_export_frame(const vsd_scene *scene, int frame, const vsd_volume *density,
                                 const vsd_volume *emission, const char *outdir, const char *name,
                                 vsd_pov_export_report *rep, char *err, size_t errlen);
@@ -42,7 +52,10 @@ vsd_status vsd_pov_export_scene_files(const vsd_scene *scene, const vsd_pov_expo
                                       double floor_z, const double centre[3], double extent,
                                       const char *outdir, vsd_pov_export_report *rep, char *err, size_t errlen);
 
-/* The whole export, each frame's grids loaded from scene->volumes[0].file. */
+/* The whole export: for each frame and each volume, the grids loaded from the volume's
+ * file at vsd_scene_volume_frame() (its emission grid only when it names one and its
+ * emission_strength > 0). In a scene of several volumes a load error reads
+ * "volumes[I] (FILE): what went wrong". */
 vsd_status vsd_pov_export(const vsd_scene *scene, const vsd_pov_export_options *opt, const char *outdir,
                           vsd_pov_export_report *rep, char *err, size_t errlen);
 

@@ -26,9 +26,32 @@ int vsd_pov_default_samples(const vsd_df3 *d)
     return n < 16 ? 16 : n > 1000 ? 1000 : n;
 }
 
-static void write_container(FILE *f, const char *what)
+/* The container of the k-th box of the .inc (k = 0, 1, ... over every volume's density and
+ * emission boxes): the df3's unit cube, for k > 0 grown on every side by k times half a
+ * voxel, and by at least k * VSD_POV_BOX_MARGIN world units. POV-Ray 3.7 (measured)
+ * keeps only one of two media containers whose surfaces coincide (to about 1e-4 units):
+ * a volume whose emission grid is its density grid, or two volumes of one grid in one
+ * place, would lose a medium. df3 density is 0 outside the unit cube (measured) and the
+ * df3's own border voxels are 0, so the field is unchanged. m: the box's matrix. */
+#define VSD_POV_BOX_MARGIN 0.002
+static void write_container(FILE *f, const char *what, int k, const vsd_df3 *d, const double m[16])
 {
-    fprintf(f, "  box { <0, 0, 0>, <1, 1, 1>  // the df3 file's unit box: %s\n", what);
+    double lo[3], hi[3];
+    int a;
+    if (k == 0) {
+        fprintf(f, "  box { <0, 0, 0>, <1, 1, 1>  // the df3 file's unit box: %s\n", what);
+    } else {
+        for (a = 0; a < 3; a++) {
+            double len = sqrt(m[a] * m[a] + m[4 + a] * m[4 + a] + m[8 + a] * m[8 + a]);  /* world length of unit axis a */
+            double g = 0.5 / d->size[a];
+            if (len > 0 && VSD_POV_BOX_MARGIN / len > g) g = VSD_POV_BOX_MARGIN / len;
+            lo[a] = -k * g;
+            hi[a] = 1 + k * g;
+        }
+        fprintf(f, "  box { <%.9g, %.9g, %.9g>, <%.9g, %.9g, %.9g>  // the df3 file's unit box: %s,\n"
+                   "    // grown (its density is 0 outside) so that no two containers coincide\n",
+                lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], what);
+    }
     fprintf(f, "    hollow\n    pigment { rgbt 1 }  // an invisible surface: only the media show\n");
 }
 
@@ -39,28 +62,34 @@ static void write_transform(FILE *f, const double m[16])
     fprintf(f, "\n  }\n");
 }
 
-void vsd_pov_write_volume(FILE *f, const vsd_scene *sc, int frame, const vsd_df3 *d, const vsd_volume *dg,
-                          const char *dname, const vsd_df3 *e, const vsd_volume *eg, const char *ename)
+/* A path in a comment: control characters (a newline would end the comment) as '?'. */
+static void print_comment_text(FILE *f, const char *s)
 {
-    const float *al = sc->volumes[0].medium.albedo, *ec = sc->volumes[0].medium.emission_color;
-    double sigma = (double)sc->volumes[0].medium.density * d->scale, m[16];
-    float g = sc->volumes[0].medium.anisotropy;
-    vsd_pov_box_matrix(d, dg, sc->volumes[0].matrix, m);
-    fprintf(f, "// vsd volume, frame %d, exported by vsd (docs/povray.md). Declares vsd_volume.\n", frame);
-    fprintf(f, "// density grid '%s': df3 \"%s\", %dx%dx%d voxels from vsd index <%d, %d, %d>,\n"
-               "//   df3 value 1 (65535) = grid value %.9g; sigma_t = medium.density %.9g * grid.\n",
-            dg->grid_name, dname, d->size[0], d->size[1], d->size[2], d->index_min[0], d->index_min[1],
-            d->index_min[2], (double)d->scale, (double)sc->volumes[0].medium.density);
+    for (; *s; s++) fputc((unsigned char)*s < 0x20 || *s == 0x7f ? '?' : *s, f);
+}
+
+/* The density grid's df3 in comments, each line starting with `lead` ("" or "  "). */
+static void describe_density(FILE *f, const char *lead, const vsd_pov_volume_part *p)
+{
+    const vsd_df3 *d = p->density;
+    fprintf(f, "%s// density grid '%s': df3 \"%s\", %dx%dx%d voxels from vsd index <%d, %d, %d>,\n"
+               "%s//   df3 value 1 (65535) = grid value %.9g; sigma_t = medium.density %.9g * grid.\n",
+            lead, p->density_grid->grid_name, p->density_df3, d->size[0], d->size[1], d->size[2], d->index_min[0],
+            d->index_min[1], d->index_min[2], lead, (double)d->scale, (double)p->volume->medium.density);
     if (d->negative)
-        fprintf(f, "//   %llu negative voxels were written as 0.\n", (unsigned long long)d->negative);
-    fprintf(f, "// Not mapped: environment lighting (POV-Ray media scatter light_sources only),\n"
-               "//   medium.ior. Override the sampling with Declare=vsd_media_samples=N.\n");
-    fprintf(f, "#ifndef (vsd_media_samples)\n  #declare vsd_media_samples = %d;\n#end\n",
-            vsd_pov_default_samples(e && e->size[0] * e->size[1] * e->size[2] > d->size[0] * d->size[1] * d->size[2]
-                                        ? e
-                                        : d));
-    fprintf(f, "#declare vsd_volume = union {\n");
-    write_container(f, "density");
+        fprintf(f, "%s//   %llu negative voxels were written as 0.\n", lead, (unsigned long long)d->negative);
+}
+
+/* One volume's boxes inside the union: density media, then emission media. */
+static void write_part(FILE *f, const vsd_pov_volume_part *p, int *box)
+{
+    const vsd_scene_medium *md = &p->volume->medium;
+    const float *al = md->albedo, *ec = md->emission_color;
+    const vsd_df3 *d = p->density, *e = p->emission;
+    double sigma = (double)md->density * d->scale, m[16];
+    float g = md->anisotropy;
+    vsd_pov_box_matrix(d, p->density_grid, p->volume->matrix, m);
+    write_container(f, "density", (*box)++, d, m);
     fprintf(f, "    interior {\n      media {\n        method 3 intervals 1 samples vsd_media_samples\n");
     fprintf(f, "        // at the grid maximum: sigma_s = albedo * sigma_t, sigma_a = (1 - albedo) * sigma_t\n");
     if (g == 0.0f)
@@ -71,20 +100,58 @@ void vsd_pov_write_volume(FILE *f, const vsd_scene *sc, int frame, const vsd_df3
                 (double)al[0] * sigma, (double)al[1] * sigma, (double)al[2] * sigma, (double)g);
     fprintf(f, "        absorption rgb <%.9g, %.9g, %.9g>\n", (1.0 - al[0]) * sigma, (1.0 - al[1]) * sigma,
             (1.0 - al[2]) * sigma);
-    fprintf(f, "        density { density_file df3 \"%s\" interpolate 1 }\n      }\n    }\n", dname);
+    fprintf(f, "        density { density_file df3 \"%s\" interpolate 1 }\n      }\n    }\n", p->density_df3);
     write_transform(f, m);
     if (e) {
-        double s = (double)sc->volumes[0].medium.emission_strength * e->scale;
-        vsd_pov_box_matrix(e, eg, sc->volumes[0].matrix, m);
+        double s = (double)md->emission_strength * e->scale;
+        vsd_pov_box_matrix(e, p->emission_grid, p->volume->matrix, m);
         fprintf(f, "  // emission grid '%s': df3 \"%s\", %dx%dx%d voxels from vsd index <%d, %d, %d>,\n"
                    "  //   df3 value 1 = grid value %.9g; emission = color * strength %.9g * grid.\n",
-                eg->grid_name, ename, e->size[0], e->size[1], e->size[2], e->index_min[0], e->index_min[1],
-                e->index_min[2], (double)e->scale, (double)sc->volumes[0].medium.emission_strength);
-        write_container(f, "emission");
+                p->emission_grid->grid_name, p->emission_df3, e->size[0], e->size[1], e->size[2], e->index_min[0],
+                e->index_min[1], e->index_min[2], (double)e->scale, (double)md->emission_strength);
+        write_container(f, "emission", (*box)++, e, m);
         fprintf(f, "    interior {\n      media {\n        method 3 intervals 1 samples vsd_media_samples\n");
         fprintf(f, "        emission rgb <%.9g, %.9g, %.9g>\n", ec[0] * s, ec[1] * s, ec[2] * s);
-        fprintf(f, "        density { density_file df3 \"%s\" interpolate 1 }\n      }\n    }\n", ename);
+        fprintf(f, "        density { density_file df3 \"%s\" interpolate 1 }\n      }\n    }\n", p->emission_df3);
         write_transform(f, m);
+    }
+}
+
+static long long voxels(const vsd_df3 *d)
+{
+    return (long long)d->size[0] * d->size[1] * d->size[2];
+}
+
+void vsd_pov_write_volumes(FILE *f, int frame, const vsd_pov_volume_part *parts, int count)
+{
+    int i, samples = 16, box = 0;
+    for (i = 0; i < count; i++) {
+        const vsd_df3 *d = parts[i].density, *e = parts[i].emission;
+        int n = vsd_pov_default_samples(e && voxels(e) > voxels(d) ? e : d);
+        if (n > samples) samples = n;
+    }
+    if (count == 1) {
+        fprintf(f, "// vsd volume, frame %d, exported by vsd (docs/povray.md). Declares vsd_volume.\n", frame);
+        describe_density(f, "", &parts[0]);
+    } else
+        fprintf(f, "// vsd volumes[0..%d], frame %d, exported by vsd (docs/povray.md). Declares vsd_volume,\n"
+                   "// a union of every volume's boxes, each with its own media and transform.\n",
+                count - 1, frame);
+    fprintf(f, "// Not mapped: environment lighting (POV-Ray media scatter light_sources only),\n"
+               "//   medium.ior. Override the sampling with Declare=vsd_media_samples=N.\n");
+    fprintf(f, "#ifndef (vsd_media_samples)\n  #declare vsd_media_samples = %d;\n#end\n", samples);
+    fprintf(f, "#declare vsd_volume = union {\n");
+    for (i = 0; i < count; i++) {
+        if (count > 1) {
+            char path[VSD_PATH_LEN], perr[8];
+            const vsd_scene_volume *v = parts[i].volume;
+            int vf = vsd_scene_volume_frame(v, frame);
+            fprintf(f, "  // volumes[%d]: ", parts[i].index);
+            print_comment_text(f, vsd_frame_path(v->file, vf, path, sizeof path, perr, sizeof perr) ? v->file : path);
+            fprintf(f, " (frame %d)\n", vf);
+            describe_density(f, "  ", &parts[i]);
+        }
+        write_part(f, &parts[i], &box);
     }
     fprintf(f, "}\n");
 }

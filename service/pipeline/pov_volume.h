@@ -1,5 +1,5 @@
-/* pov_volume.h — one frame's vsd volume as a POV-Ray include: hollow unit boxes holding
- * media whose density is a df3 file, placed where vsd renders the grid.
+/* pov_volume.h — one frame's vsd volumes as a POV-Ray include: per volume, hollow unit
+ * boxes holding media whose density is a df3 file, placed where vsd renders the grid.
  *
  * Physics (docs/povray.md). vsd: sigma_t = medium.density * grid, sigma_s = albedo *
  * sigma_t, sigma_a = (1 - albedo) * sigma_t, emitted radiance per unit length
@@ -22,11 +22,28 @@ void vsd_pov_box_matrix(const vsd_df3 *d, const vsd_volume *grid, const double o
  * (clamped to 16..1000), so the adaptive method 3 sees every voxel a ray crosses. */
 int vsd_pov_default_samples(const vsd_df3 *density);
 
-/* The frame's .inc declaring `vsd_volume`. density_df3 / emission_df3 are the file names
- * as POV-Ray will open them (relative to where it runs); emission may be NULL (no
- * emission media). The grids give the transforms. */
-void vsd_pov_write_volume(FILE *f, const vsd_scene *scene, int frame, const vsd_df3 *density,
-                          const vsd_volume *density_grid, const char *density_df3, const vsd_df3 *emission,
-                          const vsd_volume *emission_grid, const char *emission_df3);
+/* One volume of a frame as the .inc shows it: scene->volumes[index] (its medium and
+ * volume.matrix), its grids and their df3 files. density_df3 / emission_df3 are the file
+ * names as POV-Ray will open them (relative to where it runs); emission may be NULL (no
+ * emission media). The grids give the transforms; only the df3's size, index_min, scale
+ * and negative are read (its data may already be freed). */
+typedef struct vsd_pov_volume_part {
+    int index;                        /* in scene->volumes[] */
+    const vsd_scene_volume *volume;
+    const vsd_df3 *density;
+    const vsd_volume *density_grid;
+    const char *density_df3;
+    const vsd_df3 *emission;
+    const vsd_volume *emission_grid;
+    const char *emission_df3;
+} vsd_pov_volume_part;
+
+/* The frame's .inc declaring `vsd_volume`: one union holding, for every part in order, a
+ * hollow box with that volume's density media (its own coefficients and box matrix) and,
+ * with emission, a second box with its emission media. With more than one part each
+ * volume's boxes are headed by a comment naming volumes[i], its VDB file and the frame it
+ * reads (vsd_scene_volume_frame); one part writes what a one-volume scene always wrote.
+ * vsd_media_samples defaults to the largest of the parts' vsd_pov_default_samples. */
+void vsd_pov_write_volumes(FILE *f, int frame, const vsd_pov_volume_part *parts, int count);
 
 #endif
