@@ -2,13 +2,16 @@
  * the encoder's bounds and values, the file bytes (big-endian header and voxels, x
  * fastest) and their round trip, POV-Ray's measured interpolation rule over the padded
  * grid against vsd's own field, the box transform, the coefficients in the .inc, and
- * the errors. No POV-Ray needed. */
+ * the errors. Scenes of several volumes (shared data's VDBs): a df3 per volume and grid,
+ * each volume's own media block, box matrix and frame, and load errors naming the
+ * volume. No POV-Ray needed. */
 #define _POSIX_C_SOURCE 200809L
 #include "test_common.h"
 #include "df3.h"
 #include "pov_export.h"
 #include "pov_volume.h"
 #include "vsd/scene.h"
+#include "vsd/vdbio.h"
 #include "vsd/volume.h"
 #include <stdint.h>
 #include <stdio.h>
@@ -255,6 +258,371 @@ static void check_inc(const vsd_volume *vol, const vsd_df3 *d)
     CHECK_CONTAINS(err, "name 'a b'");
 }
 
+/* ---- scenes of several volumes ---------------------------------------------------- */
+
+static vsd_volume *load(const char *file, const char *grid)
+{
+    vsd_grid_select sel;
+    vsd_volume *v = NULL;
+    char err[1024];
+    sel.name = grid;
+    sel.index = -1;
+    CHECK_MSG(vsd_vdb_load(file, sel, &v, err, sizeof err) == VSD_OK, "%s", err);
+    return v;
+}
+
+/* The df3 file `path` holds exactly what the encoder makes of `grid`, and every voxel of it
+ * decodes to the grid's own value at its index (to half a quantisation step). `*enc`
+ * receives the encoding (placement and scale) for the caller's checks of the .inc. */
+static void check_df3_file(const char *path, const vsd_volume *grid, vsd_df3 *enc)
+{
+    char err[1024];
+    vsd_df3 back;
+    int x, y, z;
+    size_t n;
+    long nonzero = 0;
+    memset(enc, 0, sizeof *enc);
+    CHECK_MSG(vsd_df3_from_volume(grid, enc, err, sizeof err) == VSD_OK, "%s", err);
+    CHECK_NEAR(enc->scale, grid->value_max, 0);
+    CHECK_MSG(vsd_df3_read(path, &back, err, sizeof err) == VSD_OK, "%s", err);
+    n = (size_t)enc->size[0] * enc->size[1] * enc->size[2];
+    CHECK_MSG(back.size[0] == enc->size[0] && back.size[1] == enc->size[1] && back.size[2] == enc->size[2],
+              "%s: %dx%dx%d, grid '%s' encodes as %dx%dx%d", path, back.size[0], back.size[1], back.size[2],
+              grid->grid_name, enc->size[0], enc->size[1], enc->size[2]);
+    if (back.data && back.size[0] == enc->size[0] && back.size[1] == enc->size[1] && back.size[2] == enc->size[2]) {
+        CHECK_MSG(memcmp(back.data, enc->data, 2 * n) == 0, "%s: voxels differ from grid '%s'", path,
+                  grid->grid_name);
+        for (z = 0; z < back.size[2]; z++)
+            for (y = 0; y < back.size[1]; y++)
+                for (x = 0; x < back.size[0]; x++) {
+                    double p[3] = {enc->index_min[0] + x, enc->index_min[1] + y, enc->index_min[2] + z};
+                    double g = vsd_volume_sample_index(grid, p), v;
+                    if (g < 0) g = 0;
+                    v = back.data[((size_t)z * back.size[1] + y) * back.size[0] + x] * (double)enc->scale / 65535.0;
+                    if (v > 0) nonzero++;
+                    if (fabs(v - g) > 0.5 * enc->scale / 65535.0 + 1e-6 * enc->scale) {
+                        CHECK_MSG(0, "%s voxel %d %d %d: %.9g, grid '%s' %.9g", path, x, y, z, v, grid->grid_name, g);
+                        z = back.size[2];
+                        break;
+                    }
+                }
+        CHECK_MSG(nonzero > 100, "%s: only %ld non-zero voxels", path, nonzero);
+    }
+    vsd_df3_free(&back);
+}
+
+/* The first "matrix <...>" after `after` in `s`, as a row-major 4x4 (column vectors). */
+static int parse_box_matrix(const char *s, const char *after, double m[16])
+{
+    const char *p = s ? strstr(s, after) : NULL;
+    double c[12];
+    int k;
+    if (!p || !(p = strstr(p, "matrix <"))) return 0;
+    if (sscanf(p, "matrix <%lf ,%lf ,%lf ,%lf ,%lf ,%lf ,%lf ,%lf ,%lf ,%lf ,%lf ,%lf >", &c[0], &c[1], &c[2], &c[3],
+               &c[4], &c[5], &c[6], &c[7], &c[8], &c[9], &c[10], &c[11]) != 12)
+        return 0;
+    /* POV-Ray: p' = x*<c0,c1,c2> + y*<c3,c4,c5> + z*<c6,c7,c8> + <c9,c10,c11> */
+    memset(m, 0, 16 * sizeof *m);
+    for (k = 0; k < 4; k++) {
+        m[0 * 4 + k] = c[3 * k];
+        m[1 * 4 + k] = c[3 * k + 1];
+        m[2 * 4 + k] = c[3 * k + 2];
+    }
+    m[15] = 1;
+    return 1;
+}
+
+/* The box matrix written after `after` in `inc` sends df3 voxel n to the POV-Ray point of
+ * vsd's world point volume.matrix * index_to_world * (index_min + n), y and z swapped. */
+static void check_box(const char *inc, const char *after, const vsd_df3 *enc, const vsd_volume *grid,
+                      const double obj[16])
+{
+    static const int corners[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    double m[16];
+    int c, a;
+    if (!parse_box_matrix(inc, after, m)) {
+        CHECK_MSG(0, "no box matrix after '%s'", after);
+        return;
+    }
+    for (c = 0; c < 5; c++) {
+        int n[3];
+        double u[3], idx[3], gw[3], bw[3], w[3], scale = 0;
+        for (a = 0; a < 3; a++) {
+            n[a] = c < 4 ? corners[c][a] * (enc->size[a] - 1) : enc->size[a] / 2;
+            u[a] = (double)n[a] / enc->size[a];
+            idx[a] = enc->index_min[a] + n[a];
+        }
+        for (a = 0; a < 3; a++) {
+            w[a] = m[a * 4] * u[0] + m[a * 4 + 1] * u[1] + m[a * 4 + 2] * u[2] + m[a * 4 + 3];
+            gw[a] = grid->index_to_world[a * 4] * idx[0] + grid->index_to_world[a * 4 + 1] * idx[1] +
+                    grid->index_to_world[a * 4 + 2] * idx[2] + grid->index_to_world[a * 4 + 3];
+        }
+        for (a = 0; a < 3; a++) {
+            bw[a] = obj[a * 4] * gw[0] + obj[a * 4 + 1] * gw[1] + obj[a * 4 + 2] * gw[2] + obj[a * 4 + 3];
+            scale += fabs(bw[a]);
+        }
+        CHECK_NEAR(w[0], bw[0], 1e-12 * (1 + scale));
+        CHECK_NEAR(w[1], bw[2], 1e-12 * (1 + scale));  /* POV-Ray y = Blender z */
+        CHECK_NEAR(w[2], bw[1], 1e-12 * (1 + scale));
+    }
+}
+
+static int exists(const char *dir, const char *file)
+{
+    char path[1400];
+    snprintf(path, sizeof path, "%s/%s", dir, file);
+    return access(path, F_OK) == 0;
+}
+
+/* The same small VDB twice: volumes[0] its density, scaled and moved, a grey-blue
+ * isotropic medium; volumes[1] rotated and moved, another density, albedo and a backward
+ * lobe, with its `heat` grid as emission. */
+static void check_two_volumes(void)
+{
+    static const double M0[16] = {2, 0, 0, 1, 0, 1, 0, -3, 0, 0, 0.5, 2, 0, 0, 0, 1};
+    static const double M1[16] = {0, -1, 0, 10, 1, 0, 0, 0, 0, 0, 1.5, -4, 0, 0, 0, 1};
+    char json[4096], err[2048], dir[1100], path[1300], want[1200], file[1100];
+    vsd_scene sc;
+    vsd_pov_export_options opt;
+    vsd_pov_export_report rep;
+    vsd_volume *dens, *heat;
+    vsd_df3 d0, d1, e1;
+    char *inc, *sec1;
+    snprintf(file, sizeof file, "%s", test_data("external/usd_densityAndHeat.vdb"));
+    snprintf(json, sizeof json,
+             "{\"version\":1,\"frames\":{\"start\":3,\"end\":3},\"volumes\":["
+             "{\"file\":\"%s\",\"matrix\":[2,0,0,1, 0,1,0,-3, 0,0,0.5,2, 0,0,0,1],"
+             "\"medium\":{\"density\":3,\"albedo\":[0.9,0.5,0.2]}},"
+             "{\"file\":\"%s\",\"emission_grid\":\"heat\",\"matrix\":[0,-1,0,10, 1,0,0,0, 0,0,1.5,-4, 0,0,0,1],"
+             "\"medium\":{\"density\":0.25,\"albedo\":[0.1,0.6,0.3],\"anisotropy\":-0.4,"
+             "\"emission_color\":[1,0.5,0.25],\"emission_strength\":7}}]}",
+             file, file);
+    CHECK_MSG(vsd_scene_parse(json, "", NULL, 0, &sc, err, sizeof err) == VSD_OK, "%s", err);
+    CHECK(sc.volume_count == 2);
+    snprintf(dir, sizeof dir, "%s", test_tmp("pov_two_volumes"));
+    memset(&opt, 0, sizeof opt);
+    opt.name = "two";
+    opt.first = opt.last = 3;
+    CHECK_MSG(vsd_pov_export(&sc, &opt, dir, &rep, err, sizeof err) == VSD_OK, "%s", err);
+    CHECK(rep.frames == 1);
+    /* a df3 per volume, emission only where the volume has it; no un-indexed names */
+    CHECK(exists(dir, "two_v0_density_0003.df3"));
+    CHECK(exists(dir, "two_v1_density_0003.df3"));
+    CHECK(exists(dir, "two_v1_emission_0003.df3"));
+    CHECK(!exists(dir, "two_v0_emission_0003.df3"));
+    CHECK(!exists(dir, "two_density_0003.df3") && !exists(dir, "two_emission_0003.df3"));
+    CHECK(exists(dir, "two_0003.inc") && exists(dir, "two.pov") && exists(dir, "two_camera.inc"));
+
+    dens = load(sc.volumes[0].file, "density");
+    heat = load(sc.volumes[1].file, "heat");
+    if (!dens || !heat) goto done;
+    snprintf(path, sizeof path, "%s/two_v0_density_0003.df3", dir);
+    check_df3_file(path, dens, &d0);
+    snprintf(path, sizeof path, "%s/two_v1_density_0003.df3", dir);
+    check_df3_file(path, dens, &d1);
+    snprintf(path, sizeof path, "%s/two_v1_emission_0003.df3", dir);
+    check_df3_file(path, heat, &e1);
+
+    snprintf(path, sizeof path, "%s/two_0003.inc", dir);
+    inc = slurp(path);
+    CHECK_MSG(inc != NULL, "%s missing", path);
+    if (!inc) goto free_df3;
+    CHECK_CONTAINS(inc, "#declare vsd_volume = union {");
+    sec1 = strstr(inc, "  // volumes[1]: ");
+    CHECK_MSG(sec1 != NULL, "no volumes[1] section in %s", path);
+    CHECK(strstr(inc, "  // volumes[0]: ") && strstr(inc, "  // volumes[0]: ") < sec1);
+    if (sec1) {
+        double s0 = 3.0 * d0.scale, s1 = 0.25 * d1.scale, se = 7.0 * e1.scale;
+        char *sec0 = inc;
+        *sec1 = '\0';  /* inc: header + volumes[0]; sec1 + 1: volumes[1] to the end */
+        sec1++;
+        snprintf(want, sizeof want, "%s (frame 3)\n", sc.volumes[1].file);
+        CHECK_CONTAINS(sec1, want);
+        /* volumes[0]: its own df3, coefficients (density 3 at its maximum), no emission */
+        CHECK_CONTAINS(sec0, "density { density_file df3 \"two_v0_density_0003.df3\" interpolate 1 }");
+        snprintf(want, sizeof want, "scattering { 1, rgb <%.9g, %.9g, %.9g> extinction 1 }", 0.9f * s0, 0.5f * s0,
+                 0.2f * s0);
+        CHECK_CONTAINS(sec0, want);
+        snprintf(want, sizeof want, "absorption rgb <%.9g, %.9g, %.9g>", (1.0 - 0.9f) * s0, (1.0 - 0.5f) * s0,
+                 (1.0 - 0.2f) * s0);
+        CHECK_CONTAINS(sec0, want);
+        CHECK(!strstr(sec0, "emission rgb") && !strstr(sec0, "two_v1_"));
+        check_box(sec0, "two_v0_density_0003.df3\" interpolate", &d0, dens, M0);
+        /* volumes[1]: density 0.25, its albedo, Henyey-Greenstein g = -0.4, heat as emission */
+        CHECK_CONTAINS(sec1, "density { density_file df3 \"two_v1_density_0003.df3\" interpolate 1 }");
+        CHECK_CONTAINS(sec1, "density { density_file df3 \"two_v1_emission_0003.df3\" interpolate 1 }");
+        snprintf(want, sizeof want, "scattering { 5, rgb <%.9g, %.9g, %.9g> eccentricity %.9g extinction 1 }",
+                 0.1f * s1, 0.6f * s1, 0.3f * s1, (double)-0.4f);
+        CHECK_CONTAINS(sec1, want);
+        snprintf(want, sizeof want, "absorption rgb <%.9g, %.9g, %.9g>", (1.0 - 0.1f) * s1, (1.0 - 0.6f) * s1,
+                 (1.0 - 0.3f) * s1);
+        CHECK_CONTAINS(sec1, want);
+        snprintf(want, sizeof want, "emission rgb <%.9g, %.9g, %.9g>", 1.0f * se, 0.5f * se, 0.25f * se);
+        CHECK_CONTAINS(sec1, want);
+        CHECK(!strstr(sec1, "two_v0_"));
+        check_box(sec1, "two_v1_density_0003.df3\" interpolate", &d1, dens, M1);
+        check_box(sec1, "two_v1_emission_0003.df3\" interpolate", &e1, heat, M1);
+    }
+    free(inc);
+free_df3:
+    vsd_df3_free(&d0);
+    vsd_df3_free(&d1);
+    vsd_df3_free(&e1);
+done:
+    vsd_volume_destroy(dens);
+    vsd_volume_destroy(heat);
+}
+
+/* volumes[1] reads its file at frame + frame_offset; the df3 names keep the scene frame. */
+static void check_frame_offset(void)
+{
+    char json[4096], err[2048], dir[1100], path[1300], file[1100], want[1200];
+    vsd_scene sc;
+    vsd_pov_export_options opt;
+    vsd_pov_export_report rep;
+    vsd_volume *f5, *f8;
+    vsd_df3 a, b;
+    char *inc;
+    snprintf(file, sizeof file, "%s", test_data("smoke64/fluid_data_####.vdb"));
+    snprintf(json, sizeof json,
+             "{\"version\":1,\"volumes\":[{\"file\":\"%s\"},"
+             "{\"file\":\"%s\",\"frame_offset\":3,\"matrix\":[1,0,0,3, 0,1,0,0, 0,0,1,0, 0,0,0,1]}]}",
+             file, file);
+    CHECK_MSG(vsd_scene_parse(json, "", NULL, 0, &sc, err, sizeof err) == VSD_OK, "%s", err);
+    snprintf(dir, sizeof dir, "%s", test_tmp("pov_frame_offset"));
+    memset(&opt, 0, sizeof opt);
+    opt.name = "off";
+    opt.first = opt.last = 5;
+    CHECK_MSG(vsd_pov_export(&sc, &opt, dir, &rep, err, sizeof err) == VSD_OK, "%s", err);
+    f5 = load(test_data("smoke64/fluid_data_0005.vdb"), "density");
+    f8 = load(test_data("smoke64/fluid_data_0008.vdb"), "density");
+    if (f5 && f8) {
+        snprintf(path, sizeof path, "%s/off_v0_density_0005.df3", dir);
+        check_df3_file(path, f5, &a);
+        vsd_df3_free(&a);
+        snprintf(path, sizeof path, "%s/off_v1_density_0005.df3", dir);
+        check_df3_file(path, f8, &b);
+        vsd_df3_free(&b);
+        /* the two frames differ, so the check above tells them apart */
+        CHECK(vsd_df3_from_volume(f5, &a, err, sizeof err) == VSD_OK);
+        CHECK(a.scale != b.scale || a.size[0] != b.size[0] || a.size[2] != b.size[2] ||
+              memcmp(a.data, b.data, 2 * (size_t)a.size[0] * a.size[1] * a.size[2]) != 0);
+        vsd_df3_free(&a);
+    }
+    snprintf(path, sizeof path, "%s/off_0005.inc", dir);
+    inc = slurp(path);
+    CHECK_MSG(inc != NULL, "%s missing", path);
+    if (inc) {
+        snprintf(want, sizeof want, "fluid_data_0005.vdb (frame 5)\n");
+        CHECK_CONTAINS(inc, want);
+        snprintf(want, sizeof want, "fluid_data_0008.vdb (frame 8)\n");
+        CHECK_CONTAINS(inc, want);
+        free(inc);
+    }
+    vsd_volume_destroy(f5);
+    vsd_volume_destroy(f8);
+}
+
+/* Boxes that would coincide get containers that do not: POV-Ray keeps only one medium
+ * of coinciding containers (docs/povray.md). Two volumes of one grid in one place, the
+ * second with that grid as its emission too: three boxes on one df3 placement. Each
+ * container holds the df3's unit cube (its density is 0 outside), the first is the cube,
+ * and no two share a face plane (at least 1e-3 world units apart on every side). */
+static void check_coincident_boxes(void)
+{
+    char json[4096], err[2048], dir[1100], path[1300], file[1100];
+    vsd_scene sc;
+    vsd_pov_export_options opt;
+    vsd_pov_export_report rep;
+    double wlo[3][3], whi[3][3];
+    const char *p;
+    char *inc;
+    int n = 0, i, j, a;
+    snprintf(file, sizeof file, "%s", test_data("external/usd_densityAndHeat.vdb"));
+    snprintf(json, sizeof json,
+             "{\"version\":1,\"volumes\":[{\"file\":\"%s\",\"matrix\":[0.5,0,0,1, 0,0.5,0,2, 0,0,0.5,3, 0,0,0,1]},"
+             "{\"file\":\"%s\",\"emission_grid\":\"density\",\"matrix\":[0.5,0,0,1, 0,0.5,0,2, 0,0,0.5,3, 0,0,0,1],"
+             "\"medium\":{\"emission_strength\":2}}]}",
+             file, file);
+    CHECK_MSG(vsd_scene_parse(json, "", NULL, 0, &sc, err, sizeof err) == VSD_OK, "%s", err);
+    snprintf(dir, sizeof dir, "%s", test_tmp("pov_coincident"));
+    memset(&opt, 0, sizeof opt);
+    opt.name = "co";
+    opt.first = opt.last = 1;
+    CHECK_MSG(vsd_pov_export(&sc, &opt, dir, &rep, err, sizeof err) == VSD_OK, "%s", err);
+    snprintf(path, sizeof path, "%s/co_0001.inc", dir);
+    inc = slurp(path);
+    CHECK_MSG(inc != NULL, "%s missing", path);
+    if (!inc) return;
+    for (p = strstr(inc, "  box { <"); p && n < 3; p = strstr(p + 1, "  box { <"), n++) {
+        double lo[3], hi[3], m[16];
+        CHECK(sscanf(p, "  box { <%lf, %lf, %lf>, <%lf, %lf, %lf>", &lo[0], &lo[1], &lo[2], &hi[0], &hi[1], &hi[2]) == 6);
+        CHECK(parse_box_matrix(p, "box", m));
+        for (a = 0; a < 3; a++) {
+            CHECK(lo[a] <= 0 && hi[a] >= 1);
+            if (n == 0) CHECK(lo[a] == 0 && hi[a] == 1);
+        }
+        /* the matrices are diagonal with positive scales here: world bounds are the mapped corners */
+        for (a = 0; a < 3; a++) {
+            wlo[n][a] = m[a * 4] * lo[0] + m[a * 4 + 1] * lo[1] + m[a * 4 + 2] * lo[2] + m[a * 4 + 3];
+            whi[n][a] = m[a * 4] * hi[0] + m[a * 4 + 1] * hi[1] + m[a * 4 + 2] * hi[2] + m[a * 4 + 3];
+        }
+    }
+    CHECK_MSG(n == 3, "%d boxes in %s", n, path);
+    for (i = 0; i < n; i++)
+        for (j = i + 1; j < n; j++)
+            for (a = 0; a < 3; a++) {
+                CHECK_MSG(fabs(wlo[i][a] - wlo[j][a]) >= 1e-3 && fabs(whi[i][a] - whi[j][a]) >= 1e-3,
+                          "boxes %d and %d share a face on axis %d: %.9g/%.9g, %.9g/%.9g", i, j, a, wlo[i][a],
+                          wlo[j][a], whi[i][a], whi[j][a]);
+                /* grown by at most a few voxels (0.35 world units each here) */
+                CHECK(wlo[j][a] >= wlo[0][a] - 3 && whi[j][a] <= whi[0][a] + 3);
+            }
+    free(inc);
+}
+
+/* A load error of one volume names it and its file (once), and keeps the loader's reason. */
+static void check_volume_errors(void)
+{
+    char json[4096], err[2048], dir[1100], file[1100], want[1300];
+    const char *p;
+    vsd_scene sc;
+    vsd_pov_export_options opt;
+    vsd_pov_export_report rep;
+    snprintf(file, sizeof file, "%s", test_data("external/usd_densityAndHeat.vdb"));
+    snprintf(dir, sizeof dir, "%s", test_tmp("pov_volume_errors"));
+    memset(&opt, 0, sizeof opt);
+    opt.name = "bad";
+    opt.first = opt.last = 1;
+    /* a missing file */
+    snprintf(json, sizeof json, "{\"version\":1,\"volumes\":[{\"file\":\"%s\"},{\"file\":\"/nonexistent-dir/x.vdb\"}]}",
+             file);
+    CHECK_MSG(vsd_scene_parse(json, "", NULL, 0, &sc, err, sizeof err) == VSD_OK, "%s", err);
+    CHECK(vsd_pov_export(&sc, &opt, dir, &rep, err, sizeof err) != VSD_OK);
+    CHECK_CONTAINS(err, "volumes[1] (/nonexistent-dir/x.vdb): ");
+    CHECK(!rep.output_error);
+    /* a missing grid: the loader's message (it names the grid) without its path again */
+    snprintf(json, sizeof json,
+             "{\"version\":1,\"volumes\":[{\"file\":\"%s\"},{\"file\":\"%s\",\"grid\":\"nosuch\"}]}", file, file);
+    CHECK_MSG(vsd_scene_parse(json, "", NULL, 0, &sc, err, sizeof err) == VSD_OK, "%s", err);
+    CHECK(vsd_pov_export(&sc, &opt, dir, &rep, err, sizeof err) == VSD_ERR_NOT_FOUND);
+    snprintf(want, sizeof want, "volumes[1] (%s): ", sc.volumes[1].file);
+    CHECK_MSG(strncmp(err, want, strlen(want)) == 0, "'%s' should start with '%s'", err, want);
+    CHECK_CONTAINS(err, "nosuch");
+    p = strstr(err, sc.volumes[1].file);
+    CHECK(p && !strstr(p + 1, sc.volumes[1].file));
+    /* volumes[0]'s emission grid missing: index 0 named */
+    snprintf(json, sizeof json,
+             "{\"version\":1,\"volumes\":[{\"file\":\"%s\",\"emission_grid\":\"nosuch_heat\","
+             "\"medium\":{\"emission_strength\":1}},{\"file\":\"%s\"}]}",
+             file, file);
+    CHECK_MSG(vsd_scene_parse(json, "", NULL, 0, &sc, err, sizeof err) == VSD_OK, "%s", err);
+    CHECK(vsd_pov_export(&sc, &opt, dir, &rep, err, sizeof err) == VSD_ERR_NOT_FOUND);
+    snprintf(want, sizeof want, "volumes[0] (%s): ", sc.volumes[0].file);
+    CHECK_MSG(strncmp(err, want, strlen(want)) == 0, "'%s' should start with '%s'", err, want);
+    CHECK_CONTAINS(err, "nosuch_heat");
+}
+
 int main(void)
 {
     vsd_volume *vol = make_volume(), *empty = NULL;
@@ -267,6 +635,10 @@ int main(void)
     check_box_matrix(vol, &d);
     check_inc(vol, &d);
     vsd_df3_free(&d);
+    check_two_volumes();
+    check_frame_offset();
+    check_coincident_boxes();
+    check_volume_errors();
     /* an empty grid: a valid 2x2x2 file of zeros, scale 0 */
     CHECK(vsd_volume_create_empty(NULL, &empty, err, sizeof err) == VSD_OK);
     CHECK(vsd_df3_from_volume(empty, &d, err, sizeof err) == VSD_OK);

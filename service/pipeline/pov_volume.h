@@ -43,7 +43,9 @@ typedef struct vsd_pov_volume_part {
  * with emission, a second box with its emission media. With more than one part each
  * volume's boxes are headed by a comment naming volumes[i], its VDB file and the frame it
  * reads (vsd_scene_volume_frame); one part writes what a one-volume scene always wrote.
- * vsd_media_samples defaults to the largest of the parts' vsd_pov_default_samples. */
+ * vsd_media_samples defaults to the largest of the parts' vsd_pov_default_samples. Every
+ * box after the first gets a container grown by k half voxels (at least k * 0.002 world
+ * units), k its place in the .inc: POV-Ray drops one medium of coinciding containers. */
 void vsd_pov_write_volumes(FILE *f, int frame, const vsd_pov_volume_part *parts, int count);
 
 #endif
