@@ -5,7 +5,7 @@ vsd_add_test(test_protocol SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_protocol.c L
              TIMEOUT 60)
 
 add_executable(test_daemon ${CMAKE_CURRENT_SOURCE_DIR}/test_daemon.c)
-target_link_libraries(test_daemon PRIVATE vsd_testlib vsd_client vsd_lib Threads::Threads)
+target_link_libraries(test_daemon PRIVATE vsd_test_render vsd_client Threads::Threads)
 set_target_properties(test_daemon PROPERTIES LINKER_LANGUAGE CXX)
 target_compile_options(test_daemon PRIVATE -Wno-format-truncation)
 target_include_directories(test_daemon PRIVATE ${CMAKE_SOURCE_DIR}/core)
@@ -16,7 +16,7 @@ set_tests_properties(test_daemon PROPERTIES LABELS "integration;service" TIMEOUT
 # bit against the in-process renderer, missing blobs of every volume, per-volume cache hits,
 # the voxel limit over a scene's volumes.
 add_executable(test_daemon_volumes ${CMAKE_CURRENT_SOURCE_DIR}/test_daemon_volumes.c)
-target_link_libraries(test_daemon_volumes PRIVATE vsd_testlib vsd_client vsd_lib Threads::Threads)
+target_link_libraries(test_daemon_volumes PRIVATE vsd_test_render vsd_client Threads::Threads)
 set_target_properties(test_daemon_volumes PROPERTIES LINKER_LANGUAGE CXX)
 target_compile_options(test_daemon_volumes PRIVATE -Wno-format-truncation)
 target_include_directories(test_daemon_volumes PRIVATE ${CMAKE_SOURCE_DIR}/core)

@@ -9,6 +9,7 @@
  * mid-render exits cleanly and removes the socket. */
 #define _GNU_SOURCE
 #include "test_common.h"
+#include "test_render_util.h"
 #include "test_daemon_proc.h"
 #include "vsd_client.h"
 #include "vsd_proto.h"
@@ -91,47 +92,6 @@ static vsd_framebuffer *render_local(const char *vol, const char *env, double ca
     return fb;
 }
 
-/* Decode EXR bytes and compare every pass with fb: number of differing floats (-1 = error). */
-static long compare_exr_bytes(const unsigned char *exr, size_t len, const vsd_framebuffer *fb, const char *tag)
-{
-    char path[1200];
-    FILE *f;
-    vsd_exr_image *img = NULL;
-    char err[512];
-    long diff = 0;
-    int p, ch;
-    snprintf(path, sizeof path, "%s/cmp_%s_%lx.exr", g_dir, tag, (unsigned long)pthread_self());
-    f = fopen(path, "wb");
-    if (!f) return -1;
-    fwrite(exr, 1, len, f);
-    fclose(f);
-    if (vsd_exr_read(path, &img, err, sizeof err)) {
-        fprintf(stderr, "%s\n", err);
-        return -1;
-    }
-    unlink(path);
-    if (img->width != fb->width || img->height != fb->height) diff = -1;
-    for (p = 0; p < VSD_PASS_COUNT && diff >= 0; p++) {
-        static const char *const rgba[] = {"R", "G", "B", "A"};
-        int nch = vsd_pass_channels((vsd_pass)p);
-        for (ch = 0; ch < nch; ch++) {
-            char name[128];
-            const float *plane;
-            long i, n = (long)fb->width * fb->height;
-            snprintf(name, sizeof name, "ViewLayer.%s.%s", vsd_pass_name((vsd_pass)p), nch == 1 ? "Z" : rgba[ch]);
-            plane = vsd_exr_channel(img, name);
-            if (!plane) {
-                fprintf(stderr, "missing channel %s\n", name);
-                diff = -1;
-                break;
-            }
-            for (i = 0; i < n; i++)
-                if (memcmp(&plane[i], &fb->pass[p][i * nch + ch], sizeof(float)) != 0) diff++;
-        }
-    }
-    vsd_exr_image_destroy(img);
-    return diff;
-}
 
 /* ---- raw frames ----------------------------------------------------------------------- */
 static int raw_connect(const char *sock)
@@ -245,7 +205,7 @@ static void check_still_serves(const char *sock, const vsd_framebuffer *expect, 
     vsdc_upload_file(c, g_env, eb, sizeof eb, NULL, err, sizeof err);
     scene_json(scene, sizeof scene, vb, eb, 1.0, 32, 18, RAYMARCH);
     if (render_remote(c, scene, 1, &res, err, sizeof err)) CHECK_MSG(0, "after %s: render failed: %s", after, err);
-    else CHECK_MSG(compare_exr_bytes(res.exr, res.exr_len, expect, "still") == 0, "after %s: wrong image", after);
+    else CHECK_MSG(test_exr_bytes_diff(res.exr, res.exr_len, expect, g_dir, "still") == 0, "after %s: wrong image", after);
     vsdc_result_free(&res);
     vsdc_close(c);
 }
@@ -286,7 +246,7 @@ static void *client_thread(void *p)
             break;
         }
         snprintf(tag, sizeof tag, "c%d_%d", a->index, k);
-        if (compare_exr_bytes(res.exr, res.exr_len, a->expect[cam], tag) != 0) {
+        if (test_exr_bytes_diff(res.exr, res.exr_len, a->expect[cam], g_dir, tag) != 0) {
             fprintf(stderr, "client %d: render %d differs\n", a->index, k);
             a->ok = 0;
         } else {
@@ -489,7 +449,7 @@ int main(int argc, char **argv)
     /* 3. remote == in-process, bit for bit (raymarch is deterministic) */
     scene_json(scene, sizeof scene, vb[0], eb, 1.0, 32, 18, RAYMARCH);
     if (render_remote(c, scene, 1, &res, err, sizeof err) == 0) {
-        long d = compare_exr_bytes(res.exr, res.exr_len, ref, "remote");
+        long d = test_exr_bytes_diff(res.exr, res.exr_len, ref, g_dir, "remote");
         CHECK_MSG(d == 0, "remote and in-process renders differ in %ld values", d);
     } else CHECK_MSG(0, "render: %s", err);
     vsdc_result_free(&res);
@@ -642,7 +602,7 @@ int main(int argc, char **argv)
         char path_scene[4096];
         scene_json(path_scene, sizeof path_scene, "fluid_data_0001.vdb", eb, 1.0, 32, 18, RAYMARCH);
         if (render_remote(c, path_scene, 1, &res, err, sizeof err) == 0)
-            CHECK_MSG(compare_exr_bytes(res.exr, res.exr_len, ref, "path") == 0, "server-path render differs");
+            CHECK_MSG(test_exr_bytes_diff(res.exr, res.exr_len, ref, g_dir, "path") == 0, "server-path render differs");
         else CHECK_MSG(0, "render with an allowed server path: %s", err);
         vsdc_result_free(&res);
     }

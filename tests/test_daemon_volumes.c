@@ -12,6 +12,7 @@
  * server-side paths renders as in-process and finds its renderer again. */
 #define _GNU_SOURCE
 #include "test_common.h"
+#include "test_render_util.h"
 #include "test_daemon_proc.h"
 #include "vsd_client.h"
 #include "vsd_proto.h"
@@ -82,62 +83,10 @@ static void scene_max(char *out, size_t len, const char *dir)
 
 static vsd_framebuffer *render_local(const char *json)
 {
-    char err[1024];
     vsd_scene sc;
-    vsd_renderer *r = NULL;
-    vsd_framebuffer *fb = NULL;
-    if (vsd_scene_parse(json, "", NULL, 0, &sc, err, sizeof err) ||
-        vsd_renderer_create(&sc, NULL, &r, err, sizeof err) || vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err)) {
-        fprintf(stderr, "local render: %s\n", err);
-        vsd_framebuffer_destroy(fb);
-        fb = NULL;
-    }
-    vsd_renderer_destroy(r);
-    return fb;
+    return test_parse_scene(json, NULL, 0, &sc) ? test_render_fresh(&sc, NULL, NULL, NULL, 1, NULL) : NULL;
 }
 
-/* Decode EXR bytes and compare every pass with fb: the number of floats that differ in any
- * bit (-1 = error). */
-static long compare_exr_bytes(const unsigned char *exr, size_t len, const vsd_framebuffer *fb)
-{
-    char path[1200], err[512];
-    FILE *f;
-    vsd_exr_image *img = NULL;
-    long diff = 0;
-    int p, ch;
-    if (!fb) return -1;
-    snprintf(path, sizeof path, "%s/cmp.exr", g_dir);
-    f = fopen(path, "wb");
-    if (!f) return -1;
-    fwrite(exr, 1, len, f);
-    fclose(f);
-    if (vsd_exr_read(path, &img, err, sizeof err)) {
-        fprintf(stderr, "%s\n", err);
-        return -1;
-    }
-    unlink(path);
-    if (img->width != fb->width || img->height != fb->height) diff = -1;
-    for (p = 0; p < VSD_PASS_COUNT && diff >= 0; p++) {
-        static const char *const rgba[] = {"R", "G", "B", "A"};
-        int nch = vsd_pass_channels((vsd_pass)p);
-        for (ch = 0; ch < nch; ch++) {
-            char name[128];
-            const float *plane;
-            long i, n = (long)fb->width * fb->height;
-            snprintf(name, sizeof name, "ViewLayer.%s.%s", vsd_pass_name((vsd_pass)p), nch == 1 ? "Z" : rgba[ch]);
-            plane = vsd_exr_channel(img, name);
-            if (!plane) {
-                fprintf(stderr, "missing channel %s\n", name);
-                diff = -1;
-                break;
-            }
-            for (i = 0; i < n; i++)
-                if (memcmp(&plane[i], &fb->pass[p][i * nch + ch], sizeof(float)) != 0) diff++;
-        }
-    }
-    vsd_exr_image_destroy(img);
-    return diff;
-}
 
 static long compare_fb(const vsd_framebuffer *a, const vsd_framebuffer *b)
 {
@@ -356,7 +305,7 @@ int main(int argc, char **argv)
     upload(c, frame_file(16), b16, sizeof b16);
     scene2(scene, sizeof scene, b10, b15, eb, "reference");
     if (render_remote(c, scene, &res, &info, err, sizeof err) == 0) {
-        diff = compare_exr_bytes(res.exr, res.exr_len, fb2);
+        diff = test_exr_bytes_diff(res.exr, res.exr_len, fb2, g_dir, "volumes");
         CHECK_MSG(diff == 0, "two volumes: the daemon's image and the in-process one differ in %ld values", diff);
         CHECK_MSG(cache_volume_count(info) == 2, "cache.volumes: %s", res.json);
         CHECK(cache_flag(info, 0, "volume") == 0 && cache_flag(info, 1, "volume") == 0);
@@ -373,7 +322,7 @@ int main(int argc, char **argv)
     cJSON_Delete(info);
     /* the same again: every input and the renderer from the cache, the same image */
     if (render_remote(c, scene, &res, &info, err, sizeof err) == 0) {
-        CHECK(compare_exr_bytes(res.exr, res.exr_len, fb2) == 0);
+        CHECK(test_exr_bytes_diff(res.exr, res.exr_len, fb2, g_dir, "volumes") == 0);
         CHECK_MSG(cache_flag(info, 0, "volume") == 1 && cache_flag(info, 1, "volume") == 1 &&
                       cache_flag(info, 1, "emission") == 1 && cache_flag(info, -1, "renderer") == 1 &&
                       cache_flag(info, -1, "preparation") == 1,
@@ -409,7 +358,7 @@ int main(int argc, char **argv)
                       cache_flag(info, 1, "emission") == 0 && cache_flag(info, -1, "volume") == 1 &&
                       cache_flag(info, -1, "environment") == 1,
                   "volumes[1] to another frame: %s", res.json);
-        diff = compare_exr_bytes(res.exr, res.exr_len, fb16);
+        diff = test_exr_bytes_diff(res.exr, res.exr_len, fb16, g_dir, "volumes");
         CHECK_MSG(diff == 0, "volumes[1] at frame 16: %ld values differ from in-process", diff);
         print_field("volumes[1] to another frame: cache", info, "cache");
     } else {
@@ -457,7 +406,7 @@ int main(int argc, char **argv)
         int pass;
         for (pass = 0; pass < 2; pass++) {
             if (render_remote(c, big, &res, &info, err, sizeof err) == 0) {
-                diff = compare_exr_bytes(res.exr, res.exr_len, fbmax);
+                diff = test_exr_bytes_diff(res.exr, res.exr_len, fbmax, g_dir, "volumes");
                 CHECK_MSG(diff == 0, "%d volumes: %ld values differ from in-process", VSD_MAX_VOLUMES, diff);
                 CHECK(cache_volume_count(info) == VSD_MAX_VOLUMES);
                 CHECK_MSG(cache_flag(info, -1, "renderer") == pass && cache_flag(info, VSD_MAX_VOLUMES - 1, "volume") == pass,

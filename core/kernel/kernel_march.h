@@ -31,18 +31,25 @@
 #include "kernel_volume.h"
 #include "kernel_env.h"
 
-/* The view ray's extent: the union of the density and emission boxes, so flames where
- * there is no smoke are still marched. Returns 0 when the ray misses both. */
-VSD_DEVICE int vsd_march_extent(const vsd_kernel_data *kd, vsd_f3 o, vsd_f3 d, float *t0, float *t1)
+/* A ray's extent in one volume: the union of its density and emission boxes, so flames
+ * where there is no smoke are still marched. Returns 0 when the ray misses both. */
+VSD_DEVICE int vsd_march_volume_extent(const vsd_kvolume *density, const vsd_kvolume *emission, int32_t has_emission,
+                                       vsd_f3 o, vsd_f3 d, float *t0, float *t1)
 {
     float a0, a1;
-    int hit = vsd_kvolume_clip(&kd->density, o, d, t0, t1);
-    if (kd->medium.has_emission && vsd_kvolume_clip(&kd->emission, o, d, &a0, &a1)) {
+    int hit = vsd_kvolume_clip(density, o, d, t0, t1);
+    if (has_emission && vsd_kvolume_clip(emission, o, d, &a0, &a1)) {
         if (!hit) { *t0 = a0; *t1 = a1; }
         else { *t0 = vsd_minf(*t0, a0); *t1 = vsd_maxf(*t1, a1); }
         hit = 1;
     }
     return hit;
+}
+
+/* The view ray's extent in the scene's volume (volume 0). */
+VSD_DEVICE int vsd_march_extent(const vsd_kernel_data *kd, vsd_f3 o, vsd_f3 d, float *t0, float *t1)
+{
+    return vsd_march_volume_extent(&kd->density, &kd->emission, kd->medium.has_emission, o, d, t0, t1);
 }
 
 /* The steps of a view ray (see the top of this file). */

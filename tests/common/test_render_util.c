@@ -8,6 +8,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <pthread.h>
+#include <unistd.h>
 
 /* Value of `key` in a "key=value key=value" string; 0 when absent (and a failed CHECK). */
 static int info_value(const char *info, const char *key, double *v)
@@ -279,4 +281,46 @@ vsd_framebuffer *test_render_in_memory(const vsd_scene *sc, const vsd_volume *vo
     CHECK_MSG(st == VSD_OK, "render: %s", err);
     vsd_renderer_destroy(r);
     return fb;
+}
+
+long test_exr_bytes_diff(const unsigned char *exr, size_t len, const vsd_framebuffer *fb, const char *dir,
+                         const char *tag)
+{
+    char path[1200], err[512];
+    FILE *f;
+    vsd_exr_image *img = NULL;
+    long diff = 0;
+    int p, ch;
+    if (!fb) return -1;
+    snprintf(path, sizeof path, "%s/cmp_%s_%lx.exr", dir, tag, (unsigned long)pthread_self());
+    f = fopen(path, "wb");
+    if (!f) return -1;
+    fwrite(exr, 1, len, f);
+    fclose(f);
+    if (vsd_exr_read(path, &img, err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
+        return -1;
+    }
+    unlink(path);
+    if (img->width != fb->width || img->height != fb->height) diff = -1;
+    for (p = 0; p < VSD_PASS_COUNT && diff >= 0; p++) {
+        static const char *const rgba[] = {"R", "G", "B", "A"};
+        int nch = vsd_pass_channels((vsd_pass)p);
+        for (ch = 0; ch < nch; ch++) {
+            char name[128];
+            const float *plane;
+            long i, n = (long)fb->width * fb->height;
+            snprintf(name, sizeof name, "ViewLayer.%s.%s", vsd_pass_name((vsd_pass)p), nch == 1 ? "Z" : rgba[ch]);
+            plane = vsd_exr_channel(img, name);
+            if (!plane) {
+                fprintf(stderr, "missing channel %s\n", name);
+                diff = -1;
+                break;
+            }
+            for (i = 0; i < n; i++)
+                if (memcmp(&plane[i], &fb->pass[p][i * nch + ch], sizeof(float)) != 0) diff++;
+        }
+    }
+    vsd_exr_image_destroy(img);
+    return diff;
 }

@@ -54,6 +54,12 @@ void test_check_controls(const char *what, const vsd_framebuffer *method, const 
 void test_check_emission_split(const char *label, const char *method, double tol_dir, double tol_ind,
                                double ratio_dir, double ratio_ind);
 
+/* EXR file bytes (a daemon's RESULT) decoded through a file in `dir` (named with `tag`)
+ * against fb, every pass: the number of floats that differ bit for bit, -1 when the bytes
+ * do not decode or a channel is missing. */
+long test_exr_bytes_diff(const unsigned char *exr, size_t len, const vsd_framebuffer *fb, const char *dir,
+                         const char *tag);
+
 /* A homogeneous ball: 32^3 voxels over [0,2]^3 (voxel 1/16), density 1 within 12 voxels
  * (0.75) of the centre; with test_ball_json (medium density 4: optical radius 3, albedo
  * 0.9, g 0, a uniform white environment, an orthographic camera, 32x32, method crm) a few

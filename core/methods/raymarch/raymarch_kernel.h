@@ -61,21 +61,6 @@ VSD_DEVICE float vsd_march_volumes_transmittance(const vsd_kernel_data *kd, vsd_
     return expf(-tau * h);
 }
 
-/* The ray's extent in volume i (its density box, joined with its emission box when it
- * emits); 0 when the ray misses it. */
-VSD_DEVICE int vsd_march_volume_extent(const vsd_kernel_data *kd, int32_t i, vsd_f3 o, vsd_f3 d, float *t0, float *t1)
-{
-    const vsd_kobject *v = &kd->volumes[i];
-    float a0, a1;
-    int hit = vsd_kvolume_clip(&v->density, o, d, t0, t1);
-    if (v->medium.has_emission && vsd_kvolume_clip(&v->emission, o, d, &a0, &a1)) {
-        if (!hit) { *t0 = a0; *t1 = a1; }
-        else { *t0 = vsd_minf(*t0, a0); *t1 = vsd_maxf(*t1, a1); }
-        hit = 1;
-    }
-    return hit;
-}
-
 VSD_DEVICE vsd_sample_result vsd_raymarch_pixel_volumes(const vsd_kernel_data *kd, int32_t px, int32_t py, float jx,
                                                        float jy)
 {
@@ -86,7 +71,12 @@ VSD_DEVICE vsd_sample_result vsd_raymarch_pixel_volumes(const vsd_kernel_data *k
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
     for (i = 0; i < n; i++) {
-        if (!vsd_march_volume_extent(kd, i, o, d, &lo[i], &hi[i])) { lo[i] = VSD_INF; hi[i] = -VSD_INF; continue; }
+        const vsd_kobject *v = &kd->volumes[i];
+        if (!vsd_march_volume_extent(&v->density, &v->emission, v->medium.has_emission, o, d, &lo[i], &hi[i])) {
+            lo[i] = VSD_INF;
+            hi[i] = -VSD_INF;
+            continue;
+        }
         start = vsd_minf(start, lo[i]);
         end = vsd_maxf(end, hi[i]);
     }
