@@ -27,7 +27,8 @@ if(NOT VSD_BLENDER_TESTS STREQUAL "OFF")
   if(BLENDER_EXE)
     # versions: what differs between Blender versions (findings of issue 28); feedback: the
     # render header's progress, time left and kept done line, warnings (header, viewport)
-    foreach(t render stream options ior lights versions feedback)
+    # volumes: several volume objects in one scene (issue 30)
+    foreach(t render stream options ior lights versions feedback volumes)
       add_test(NAME blender_addon_${t}
                COMMAND ${BLENDER_EXE} --background --factory-startup --python-exit-code 1
                        --python ${CMAKE_CURRENT_SOURCE_DIR}/blender_addon/test_${t}.py --
@@ -72,7 +73,7 @@ endif()
 # versions: the engine's constructor, colour spaces, pass names against that version's own
 # Cycles, lights, cameras, deprecated node flags), which runs in 3.4 too. Names:
 # blender42_addon_render, ... The viewport test needs a window and stays on 3.4 (Xvfb).
-foreach(t render stream options ior lights versions feedback)
+foreach(t render stream options ior lights versions feedback volumes)
   vsd_add_wheel_addon_tests(${t})
 endforeach()
 # The add-on's mapping against each wheel's own Cycles (test_cycles.py as blender_addon_cycles

@@ -76,6 +76,21 @@ def main():
         check(c.bytes_uploaded == first, "second pass uploads no bytes")
         check(all(r.cache.get("preparation") for _, r in results), "second pass reuses the preparation")
 
+        # a scene with two volumes (reference renders several): each frame's files go to their
+        # own volume
+        two = {k: v for k, v in scene.items() if k not in ("volume", "medium")}
+        two["volumes"] = [{"grid": "density", "medium": {"density": 8}},
+                          {"grid": "density", "matrix": [1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1],
+                           "medium": {"density": 4, "albedo": [0.9, 0.5, 0.2]}}]
+        two["render"] = {"method": "reference", "samples": 2}
+        pairs = {1: [vol[0], vol[1]], 2: [vol[0], vol[2]]}
+        before = c.bytes_uploaded
+        results = list(vsd_client.render_sequence(c, two, pairs, env_file=env))
+        check(len(results) == 2 and all(len(r.cache.get("volumes", [])) == 2 for _, r in results),
+              "two volumes: two frames rendered, a cache entry per volume")
+        check(c.bytes_uploaded == before, "two volumes: files the daemon has are not uploaded again")
+        check(results[0][1].exr != results[1][1].exr, "two volumes: frame 2's second volume changes the image")
+
         # camera change: the prepared renderer is reused
         s = dict(scene, volume=dict(scene["volume"], file=c.upload_file(vol[0])),
                  environment={"file": c.upload_file(env)})

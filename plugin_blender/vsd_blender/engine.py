@@ -264,9 +264,11 @@ class VSDRenderEngine(bpy.types.RenderEngine):
             self._report("WARNING", "vsd: " + msg)
         settings = conn_settings()
         frame = scene.frame_current
-        fb = Feedback(self._stats, self._progress, m.scene["render"]["method"], frame, m.warnings)
+        fb = Feedback(self._stats, self._progress, m.scene["render"].get("method", "(default)"), frame,
+                      m.warnings)
         self._stats("vsd: connecting" + fb.tail())
-        files = [m.volume_path] + ([m.env_path] if m.env_path else [])
+        # each volume's current frame (one blob per distinct content) and the map
+        files = m.files()
 
         def upload_progress(i, n):
             self._stats("vsd: uploading %d/%d (frame %d)%s" % (i + 1, n, frame, fb.tail()))
@@ -274,11 +276,7 @@ class VSDRenderEngine(bpy.types.RenderEngine):
         def job(c):
             names = connection.upload(c, files, progress=upload_progress)
             self._names = names
-            sc = dict(m.scene)
-            sc["volume"] = dict(sc["volume"], file=names[m.volume_path])
-            if m.env_path:
-                sc["environment"] = dict(sc["environment"], file=names[m.env_path])
-            return c, sc
+            return c, m.with_blobs(names)
 
         c, sc = connection.with_retry(settings, job)
         if self.test_break():

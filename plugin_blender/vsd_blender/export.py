@@ -1,6 +1,7 @@
 # File > Export > vsd scene (.json): the Blender scene as a scene file v1 for `vsd render`
-# and render farms (docs/architecture.md §4). The volume is written as its #### sequence pattern and
-# the frame range as the file frames Blender shows for the scene's range.
+# and render farms (docs/architecture.md §4). Each volume is written as its #### sequence pattern
+# with the frame_offset that gives the file Blender shows at each scene frame; the frames are
+# the scene's.
 import json
 import os
 import shutil
@@ -34,11 +35,55 @@ def output_pattern(scene):
     return os.path.join(d, name)
 
 
+def _sequence_frames(volumes, start, end):
+    """{index: [file frame shown at each scene frame start..end (None: none)]} of the
+    volumes that are #### sequences."""
+    out = {}
+    for i, v in enumerate(volumes):
+        vol = v.object.data.original
+        if vol.is_sequence and vol.packed_file is None and "#" in v.pattern:
+            out[i] = [mapping.sequence_frame(vol, f) for f in range(start, end + 1)]
+    return out
+
+
+def export_frames(m, start, end, current):
+    """The scene frames to export and each sequence's frame_offset ({volume index: offset}):
+    file #### = scene frame + frame_offset, the scene file's rule (docs/scene-file.md), so
+    the EXRs are numbered by scene frame as Blender numbers its own. A range where some
+    volume shows no file (Clip mode) shrinks to the frames where all show one; a volume that
+    does not play frame by frame (repeat, ping-pong, extend) limits the export to the
+    current frame. Each is a warning."""
+    seqs = _sequence_frames(m.volumes, start, end)
+    shown = [f for f in range(start, end + 1) if all(files[f - start] is not None for files in seqs.values())]
+    if len(shown) < end - start + 1:
+        names = ", ".join("'%s'" % m.volumes[i].object.name for i, files in seqs.items() if None in files)
+        if shown:
+            m.warn("volume %s shows no file for part of the frame range %d-%d (Clip mode): exported frames "
+                   "%d-%d only" % (names, start, end, shown[0], shown[-1]))
+            seqs = {i: files[shown[0] - start:shown[-1] - start + 1] for i, files in seqs.items()}
+            start, end = shown[0], shown[-1]
+        else:
+            m.warn("the volumes %s show no file together anywhere in the frame range %d-%d (Clip mode): "
+                   "exported frame %d only" % (names, start, end, current))
+            start = end = current
+            seqs = _sequence_frames(m.volumes, current, current)
+    stepped = [i for i, files in seqs.items()
+               if not all(files[k + 1] == files[k] + 1 for k in range(len(files) - 1))]
+    if stepped:
+        for i in stepped:
+            m.warn("volume '%s': its sequence does not play frame by frame over %d-%d (repeat, ping-pong or "
+                   "extend): exported frame %d only" % (m.volumes[i].object.name, start, end, current))
+        start = end = current
+        seqs = _sequence_frames(m.volumes, current, current)
+    offsets = {i: files[0] - start for i, files in seqs.items()}
+    return start, end, offsets
+
+
 def export_scene(context, filepath, relative=True, frame_range=True):
     """Write the scene file; returns (path, warnings)."""
     scene = context.scene
     depsgraph = context.evaluated_depsgraph_get()
-    m = mapping.build_scene(depsgraph, active=context.active_object)
+    m = mapping.build_scene(depsgraph, export=True)
     sc = m.scene
     out_dir = os.path.dirname(os.path.abspath(filepath))
     os.makedirs(out_dir, exist_ok=True)
@@ -51,33 +96,19 @@ def export_scene(context, filepath, relative=True, frame_range=True):
         except ValueError:  # another drive
             return p
 
-    ob = m.volume_object
-    vol = ob.data.original
     start, end = scene.frame_start, scene.frame_end
     if not frame_range:
         start = end = scene.frame_current
-    if vol.is_sequence and "#" in m.volume_pattern:
-        files = [mapping.sequence_frame(vol, f) for f in range(start, end + 1)]
-        if None in files:
-            m.warn("the volume sequence shows no file for part of the frame range %d-%d (Clip "
-                   "mode); exported frames %d-%d only" % (start, end, start, end))
-            files = [f for f in files if f is not None]
-        contiguous = files and all(files[i + 1] == files[i] + 1 for i in range(len(files) - 1))
-        if contiguous:
-            fstart, fend = files[0], files[-1]
+    start, end, offsets = export_frames(m, start, end, scene.frame_current)
+    sc["frames"] = {"start": int(start), "end": int(end)}
+    for i, v in enumerate(m.volumes):
+        entry = sc["volumes"][i]
+        if i in offsets:
+            entry["file"] = rel(v.pattern)
+            if offsets[i]:
+                entry["frame_offset"] = int(offsets[i])
         else:
-            cur = mapping.sequence_frame(vol, scene.frame_current) or files[0]
-            fstart = fend = cur
-            m.warn("the volume sequence does not play frame by frame over %d-%d (repeat, "
-                   "ping-pong or extend): exported file frame %d only" % (start, end, cur))
-        if (fstart, fend) != (start, end) and contiguous:
-            m.warn("scene frames %d-%d show volume files %d-%d: the scene file numbers frames "
-                   "by file (%d-%d)" % (start, end, fstart, fend, fstart, fend))
-        sc["volume"]["file"] = rel(m.volume_pattern)
-        sc["frames"] = {"start": int(fstart), "end": int(fend)}
-    else:
-        sc["volume"]["file"] = rel(m.volume_path)
-        sc["frames"] = {"start": int(start), "end": int(end)}
+            entry["file"] = rel(v.path)
     if m.env_path:
         env = m.env_path
         if os.path.basename(env).startswith("vsd_env_"):  # a packed/generated image
@@ -87,9 +118,10 @@ def export_scene(context, filepath, relative=True, frame_range=True):
         sc["environment"]["file"] = rel(env)
     if _animated(scene.camera):
         m.warn("the camera is animated: the scene file holds its frame-%d position" % scene.frame_current)
-    if _animated(ob.original):
-        m.warn("volume object '%s' is animated: the scene file holds its frame-%d matrix"
-               % (ob.name, scene.frame_current))
+    for v in m.volumes:
+        if _animated(v.object.original):
+            m.warn("volume object '%s' is animated: the scene file holds its frame-%d matrix"
+                   % (v.object.name, scene.frame_current))
     sc["output"]["exr"] = rel(output_pattern(scene))
     with open(filepath, "w") as f:
         json.dump(sc, f, indent=1)

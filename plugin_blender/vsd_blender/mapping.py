@@ -1,10 +1,11 @@
 # Blender scene -> vsd scene file v1 (docs/architecture.md §3, §4; docs/blender-addon.md has the table).
 #
-# build_scene() reads the evaluated depsgraph: the one volume object (its current frame's
-# .vdb and matrix_world), its material's Principled Volume, the world's Environment Texture
-# or uniform Background colour, the camera and the film. It returns the scene as a dict
-# whose volume/environment "file" fields are LOCAL paths (the engine swaps them for blob
-# names, the exporter for paths relative to the scene file), plus the warnings for
+# build_scene() reads the evaluated depsgraph: every volume object the view layer renders
+# (each an entry of `volumes`: its current frame's .vdb, matrix_world, its material's
+# Principled Volume as its medium), the world's Environment Texture or uniform Background
+# colour, the camera and the film. It returns the scene as a dict whose volumes[].file and
+# environment.file are LOCAL paths (the engine swaps them for blob names, with_blobs(), the
+# exporter for paths relative to the scene file), plus the warnings for
 # everything it could not map: those go to Blender's report area, never silently away.
 import math
 import os
@@ -34,44 +35,176 @@ class MappingError(Exception):
     """The scene cannot be rendered by vsd at all (no camera, no volume object, ...)."""
 
 
+class NoFileAtFrame(MappingError):
+    """A volume sequence shows no file at this frame (Clip mode outside its range)."""
+
+
+# vsd's own limit (core/include/vsd/scene.h VSD_MAX_VOLUMES; the scene parser refuses more)
+MAX_VOLUMES = 16
+
+
+class VolumeMap(object):
+    """One volume object as sent: its volumes[] entry (with the LOCAL path of the current
+    frame's file), that path, and the sequence as a #### pattern (for the export)."""
+
+    def __init__(self, ob, entry, path, pattern):
+        self.object = ob          # the evaluated object
+        self.entry = entry        # the dict in scene["volumes"]
+        self.path = path          # the current frame's .vdb (absolute)
+        self.pattern = pattern    # the sequence as a #### pattern (absolute), or the path
+
+
 class Mapping(object):
     """What build_scene() found: the scene dict, the files it references, and notes."""
 
     def __init__(self):
         self.scene = {}
-        self.volume_object = None
-        self.volume_path = ""         # the current frame's .vdb (absolute)
-        self.volume_pattern = ""      # the sequence as a #### pattern (absolute), for export
+        self.volumes = []             # VolumeMap per entry of scene["volumes"], in order
         self.env_path = None          # environment map file (absolute) or None
+        self.method = ""              # the method the scene asks for ("" = the daemon's default)
+        self.fallback_from = ""       # the viewport's chosen method when it fell back, else ""
         self.warnings = []
 
     def warn(self, msg):
         if msg not in self.warnings:
             self.warnings.append(msg)
 
+    def files(self):
+        """The local files to upload: each volume's current frame, then the map."""
+        out = list(dict.fromkeys(v.path for v in self.volumes))
+        if self.env_path:
+            out.append(self.env_path)
+        return out
+
+    def with_blobs(self, names):
+        """The scene with its files replaced by the daemon's blob names ({path: blob})."""
+        return with_blobs(self.scene, names)
+
+
+def with_blobs(scene, names):
+    """A copy of scene dict `scene` whose volumes[].file and environment.file are replaced by
+    names[file] (upload's {path: "blob:<hash>"}); other fields are shared."""
+    sc = dict(scene)
+    sc["volumes"] = [dict(v, file=names.get(v.get("file"), v.get("file"))) for v in scene.get("volumes", [])]
+    env = scene.get("environment")
+    if isinstance(env, dict) and env.get("file") in names:
+        sc["environment"] = dict(env, file=names[env["file"]])
+    return sc
+
 
 # ---- volume ------------------------------------------------------------------------------
+#
+# Every Volume object that the view layer renders goes (docs/blender-addon.md, "Several
+# volumes"): F12 and the export leave out objects disabled for renders (hide_render, and
+# whatever Blender's depsgraph leaves out: excluded or render-disabled collections), the
+# viewport what its depsgraph does not show (hidden, disabled in viewports); holdouts
+# (object or collection) and objects whose material has no volume shader never go, each
+# with a note. An object with no material at all goes with Principled Volume defaults, as
+# Cycles renders it with its default volume shader.
 
-def volume_objects(depsgraph):
-    """Visible Volume objects of the depsgraph's view layer, evaluated, sorted by name."""
+def _key(ob):
+    lib = getattr(ob, "library", None)
+    return (ob.name, lib.filepath if lib is not None else "")
+
+
+def holdout_keys(view_layer):
+    """_key() of every object in a collection set to Holdout in the view layer."""
+    out = set()
+
+    def walk(lc):
+        if getattr(lc, "holdout", False):
+            out.update(_key(o) for o in lc.collection.all_objects)
+        for child in lc.children:
+            walk(child)
+    try:
+        walk(view_layer.layer_collection)
+    except Exception:
+        pass
+    return out
+
+
+def volume_material_state(ob):
+    """'volume' when the object's material feeds a Volume output, 'none' when it has no
+    material (Cycles then renders its default volume shader), 'surface' when its material
+    has no volume shader (Cycles renders nothing of it)."""
+    mat = ob.active_material
+    if mat is None:
+        return "none"
+    nt = node_tree(mat)
+    if nt is None:
+        return "surface"
+    out = _output_node(nt)
+    if out is None or "Volume" not in out.inputs or not out.inputs["Volume"].is_linked:
+        return "surface"
+    return "volume"
+
+
+def skip_reason(orig, holdouts):
+    """Why an original Volume object that the view layer shows is not sent, or None."""
+    if getattr(orig, "is_holdout", False) or _key(orig) in holdouts:
+        return "volume '%s' is a holdout: not rendered (vsd renders no holdouts)" % orig.name
+    if volume_material_state(orig) == "surface":
+        return ("volume '%s': its material '%s' has no volume shader (nothing feeds Material Output "
+                "> Volume): not rendered, as in Cycles" % (orig.name, orig.active_material.name))
+    return None
+
+
+def volume_objects(depsgraph, m=None, final=None):
+    """The Volume objects to send, evaluated, sorted by name: those of the depsgraph's view
+    layer, without holdouts and objects whose material has no volume shader, and for a
+    final render or an export (`final`, default: a RENDER depsgraph) without objects
+    disabled for renders (also when the depsgraph is the viewport's, as the export's is).
+    Why each other shown volume is left out goes to m.warn."""
+    if final is None:
+        final = depsgraph.mode == "RENDER"
+    holdouts = holdout_keys(depsgraph.view_layer)
     obs = []
     for ob in depsgraph.objects:
         if ob.type != "VOLUME":
             continue
         orig = ob.original
-        if depsgraph.mode == "RENDER" and orig.hide_render:
+        if final and orig.hide_render:
+            continue
+        why = skip_reason(orig, holdouts)
+        if why:
+            if m is not None:
+                m.warn(why)
             continue
         obs.append(ob)
-    return sorted(obs, key=lambda o: o.name)
+    return sorted(obs, key=lambda o: _key(o))
 
 
-def fluid_domains(depsgraph):
+def count_volumes(scene, view_layer, final=True):
+    """How many volumes a render of view_layer would send, from the original data (for the
+    panels and menus, which have no depsgraph to ask): volume_objects() by Blender's own
+    visibility flags."""
+    holdouts = holdout_keys(view_layer)
+    n = 0
+    for ob in view_layer.objects:
+        if ob.type != "VOLUME":
+            continue
+        try:
+            if final:
+                if ob.hide_render or any(c.hide_render for c in ob.users_collection):
+                    continue
+            elif not ob.visible_get(view_layer=view_layer):
+                continue
+        except Exception:
+            pass
+        if skip_reason(ob, holdouts) is None:
+            n += 1
+    return n
+
+
+def fluid_domains(depsgraph, final=None):
     """Visible objects with a Mantaflow Fluid modifier of type Domain: (name, the cache's
     VDB pattern or None when the cache is not OpenVDB), sorted by name."""
+    if final is None:
+        final = depsgraph.mode == "RENDER"
     out = []
     for ob in depsgraph.objects:
         orig = ob.original
-        if depsgraph.mode == "RENDER" and orig.hide_render:
+        if final and orig.hide_render:
             continue
         for mod in getattr(orig, "modifiers", []):
             if mod.type == "FLUID" and mod.fluid_type == "DOMAIN":
@@ -93,25 +226,24 @@ def _domain_note(name, pattern):
             "Import OpenVDB" % name)
 
 
-def pick_volume(depsgraph, m, context_active=None):
-    obs = volume_objects(depsgraph)
-    domains = fluid_domains(depsgraph)
+def pick_volumes(depsgraph, m, final):
+    """The volume objects to send (volume_objects), at most MAX_VOLUMES; an error when there
+    is none (naming a Mantaflow domain, or why the shown ones are left out) or too many."""
+    notes = len(m.warnings)
+    obs = volume_objects(depsgraph, m, final)
+    domains = fluid_domains(depsgraph, final)
     if not obs:
         if domains:
             raise MappingError("no visible Volume object to render: " + _domain_note(*domains[0]))
-        raise MappingError("no visible Volume object to render (Add > Volume > Import OpenVDB)")
+        why = m.warnings[notes:]
+        raise MappingError("no visible Volume object to render (Add > Volume > Import OpenVDB)"
+                           + (": " + "; ".join(why) if why else ""))
+    if len(obs) > MAX_VOLUMES:
+        raise MappingError("%d volume objects to render: vsd renders at most %d in one scene (hide some, "
+                           "or disable them for renders)" % (len(obs), MAX_VOLUMES))
     for name, pattern in domains:
         m.warn(_domain_note(name, pattern) + " (not rendered)")
-    chosen = obs[0]
-    if context_active is not None:
-        want = getattr(context_active, "original", context_active)
-        for ob in obs:
-            if ob.original == want:
-                chosen = ob
-    if len(obs) > 1:
-        others = ", ".join("'%s'" % o.name for o in obs if o != chosen)
-        m.warn("vsd renders one volume: using '%s' (not rendered: %s)" % (chosen.name, others))
-    return chosen
+    return obs
 
 
 _DIGITS = re.compile(r"(\d+)(?!.*\d)")
@@ -198,6 +330,8 @@ def _write_packed_volume(vol):
 
 
 def map_volume(ob, scene_frame, m):
+    """(the volumes[] entry {"file": the current frame's .vdb}, that path, the sequence's
+    #### pattern) of volume object `ob` at scene_frame."""
     vol_eval = ob.data
     vol = vol_eval.original if hasattr(vol_eval, "original") else vol_eval
     path = ""
@@ -214,15 +348,14 @@ def map_volume(ob, scene_frame, m):
         else:
             path = volume_file(vol, scene_frame)
     if not path:
-        raise MappingError("volume '%s' shows no file at frame %d (sequence mode %s)"
-                           % (vol.name, scene_frame, vol.sequence_mode))
+        raise NoFileAtFrame("volume '%s' shows no file at frame %d (sequence mode %s)"
+                            % (vol.name, scene_frame, vol.sequence_mode))
     if not os.path.isfile(path):
         raise MappingError("volume '%s': file not found: %s" % (vol.name, path))
     if len(ob.original.modifiers):
         m.warn("volume '%s': modifiers are ignored (vsd renders the .vdb file as stored)" % ob.name)
-    m.volume_path = path
-    m.volume_pattern = volume_pattern(vol) if vol.packed_file is None else path
-    return {"file": path}
+    pattern = volume_pattern(vol) if vol.packed_file is None else path
+    return {"file": path}, path, pattern
 
 
 def voxel_centres_offset(version=None):
@@ -344,6 +477,23 @@ def _emission_strength(sock, m):
     m.warn("Emission Strength: only an Attribute node (optionally times a constant) can be "
            "mapped; emission ignored")
     return 0.0, ""
+
+
+def object_space_density(ob):
+    """What Cycles multiplies a volume's density and emission by: with the Volume data's
+    render Space "Object" (Blender's default) "volume density automatically adjusts to
+    object scale", by 1 / |M . normalize(1, 1, 1)| with M matrix_world's 3x3 part (Cycles'
+    object_volume_density; scaling the object by 0.5 doubles the density per world length);
+    with "World", 1. vsd's medium.density is per world length, so the add-on sends the
+    product (docs/cycles-crosscheck.md, "Scaled volume objects")."""
+    render = getattr(getattr(ob, "data", None), "render", None)
+    if render is None or getattr(render, "space", "OBJECT") != "OBJECT":
+        return 1.0
+    mw = ob.matrix_world
+    u = 1.0 / math.sqrt(3.0)
+    d = [sum(mw[r][c] * u for c in range(3)) for r in range(3)]
+    length = math.sqrt(sum(x * x for x in d))
+    return 1.0 / length if length > 0.0 else 1.0
 
 
 def map_material(ob, grids, m):
@@ -710,10 +860,12 @@ def map_lights(depsgraph, method, refracts, m, viewport=False):
 
 # ---- the whole scene ---------------------------------------------------------------------
 
-def render_block(settings, viewport=False):
-    """The scene's render section from the add-on's settings (Scene.vsd)."""
+def render_block(settings, viewport=False, method=None):
+    """The scene's render section from the add-on's settings (Scene.vsd); `method` replaces
+    the menu's choice (the viewport's fallback for several volumes)."""
     import json
-    method = method_catalog.chosen_for(settings, viewport)
+    if method is None:
+        method = method_catalog.chosen_for(settings, viewport)
     # the options set away from vsd's defaults, by its own table (method_catalog.py)
     opts = method_catalog.values(settings.id_data, method)
     text = settings.options_json.strip()
@@ -735,39 +887,103 @@ def render_block(settings, viewport=False):
     return r
 
 
-def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
-    """Map the evaluated scene to a vsd scene dict (local file paths). `camera` overrides
-    the scene camera, `size` the film size, `active` the object preferred among several
-    volumes. Raises MappingError when there is nothing renderable."""
+SEVERAL = method_catalog.SEVERAL   # the capability of the methods that render several volumes
+
+
+def method_for_volumes(chosen, count, viewport, export, m):
+    """The method that renders `count` volumes, as the catalog says (no method is named
+    here): `chosen` when it can, or when there is one volume; else the viewport falls back
+    to the catalog's final default among those that can (with a note in its status), an
+    export keeps `chosen` with a warning (`vsd render` would refuse it), and F12 is an
+    error naming the method and those that can."""
+    if count <= 1 or not chosen or method_catalog.has(chosen, SEVERAL):
+        return chosen
+    can = method_catalog.with_capability(SEVERAL)
+    which = ("%s render several" % method_catalog.labels_with(SEVERAL)) if can else \
+        "no method of this vsd renders several"
+    if viewport:
+        fallback = method_catalog.default_with(SEVERAL, "final_default")
+        if not fallback:
+            raise MappingError("%s renders one volume and %s: hide all volumes but one"
+                               % (method_catalog.label(chosen), which))
+        m.fallback_from = chosen
+        # first, so the preview's overlay (its first few notes) always shows it
+        m.warnings.insert(0, "%s renders one volume; showing %s for %d volumes"
+                          % (method_catalog.label(chosen), method_catalog.label(fallback), count))
+        return fallback
+    if export:
+        m.warn("method %s renders one volume and the scene has %d: `vsd render` refuses it as it is (%s; "
+               "pick one with --method%s)" % (method_catalog.label(chosen), count, which,
+                                             (" " + can[0]) if can else ""))
+        return chosen
+    raise MappingError("method %s renders one volume and the scene has %d volumes (%s: pick one in "
+                       "Render Properties > vsd > Method, or hide all volumes but one)"
+                       % (method_catalog.label(chosen), count, which))
+
+
+def map_volumes(obs, frame, settings, m):
+    """The volumes[] entries (each with its medium) of objects `obs`, and whether the scene
+    asks for refraction. A sequence showing no file at this frame is left out (with a note)
+    when another volume is shown; alone it is the error it always was."""
+    out = []
+    skipped = []
+    for ob in obs:
+        try:
+            entry, path, pattern = map_volume(ob, frame, m)
+        except NoFileAtFrame as e:
+            if len(obs) == 1:
+                raise
+            skipped.append(str(e))
+            continue
+        try:
+            grids = [g.name for g in ob.data.grids]
+        except Exception:
+            grids = []
+        medium, grid, egrid = map_material(ob, grids, m)
+        k = object_space_density(ob)
+        medium["density"] *= k
+        medium["emission_strength"] *= k
+        entry["grid"] = grid
+        entry["matrix"] = voxel_centre_matrix(ob, grid, m)   # loads the grids
+        if egrid:
+            entry["emission_grid"] = egrid
+        entry["medium"] = medium
+        out.append(VolumeMap(ob, entry, path, pattern))
+    if not out:
+        raise NoFileAtFrame("; ".join(skipped))
+    for note in skipped:
+        m.warn(note + ": not rendered at this frame")
+    # vsd's own settings (Blender's volumes do not refract): the refractive index, for a
+    # scene of one volume (vsd refuses refraction with several so far)
+    refracts = False
+    if len(out) == 1:
+        ob = out[0].object
+        try:
+            grids = [g.name for g in ob.data.grids]
+        except Exception:
+            grids = []
+        refracts = map_ior(settings, grids, out[0].entry["medium"], out[0].entry, m)
+    elif settings.ior_source != "constant" or settings.ior != 1.0:
+        m.warn("the refractive index (vsd > Index Source) is ignored: vsd refracts a scene of one volume "
+               "only, this one has %d" % len(out))
+    return out, refracts
+
+
+def build_scene(depsgraph, camera=None, size=None, viewport=False, export=False):
+    """Map the evaluated scene to a vsd scene dict (local file paths): every volume object
+    the view layer renders as an entry of `volumes` (volume_objects). `camera` overrides
+    the scene camera, `size` the film size; `viewport`: the rendered viewport's mapping
+    (what it shows, no camera, its method), `export`: File > Export's (a method that renders
+    one volume is a warning there, an error for F12). Raises MappingError when there is
+    nothing renderable."""
     m = Mapping()
     scene = depsgraph.scene
     frame = scene.frame_current
-    if active is None:
-        # the view layer's active object, so F12, the viewport and the export pick the same
-        # volume when several are visible
-        try:
-            active = depsgraph.view_layer.objects.active
-        except Exception:
-            active = None
-    ob = pick_volume(depsgraph, m, active)
-    m.volume_object = ob
-    volume = map_volume(ob, frame, m)
-    try:
-        grids = [g.name for g in ob.data.grids]
-    except Exception:
-        grids = []
-    medium, grid, egrid = map_material(ob, grids, m)
-    volume["grid"] = grid
-    volume["matrix"] = voxel_centre_matrix(ob, grid, m)   # loads the grids
-    if egrid:
-        volume["emission_grid"] = egrid
-    # vsd's own settings (Blender's volumes do not refract): the refractive index
-    try:
-        grids = [g.name for g in ob.data.grids]
-    except Exception:
-        pass
-    refracts = map_ior(scene.vsd, grids, medium, volume, m)
-    method = method_catalog.chosen_for(scene.vsd)
+    obs = pick_volumes(depsgraph, m, final=not viewport)
+    m.volumes, refracts = map_volumes(obs, frame, scene.vsd, m)
+    method = method_for_volumes(method_catalog.chosen_for(scene.vsd, viewport), len(m.volumes),
+                                viewport, export, m)
+    m.method = method
     if refracts and not viewport and method and not method_catalog.has(method, "refraction"):
         m.warn("method %s ignores the refractive index: only %s refract"
                % (method_catalog.label(method), method_catalog.labels_with("refraction")))
@@ -785,14 +1001,12 @@ def build_scene(depsgraph, camera=None, size=None, active=None, viewport=False):
         cam_ob = cam_ob.evaluated_get(depsgraph)
     sc = {
         "version": 1,
-        "volume": volume,
-        "medium": medium,
+        "volumes": [v.entry for v in m.volumes],
         "environment": map_world(scene, m),
-        "lights": map_lights(depsgraph, method_catalog.chosen_for(scene.vsd, viewport), refracts, m,
-                             viewport),
+        "lights": map_lights(depsgraph, method, refracts, m, viewport),
         "camera": map_camera(cam_ob, w, h, m) if not viewport else {},
         "film": {"width": int(w), "height": int(h), "transparent": bool(r.film_transparent)},
-        "render": render_block(scene.vsd, viewport),
+        "render": render_block(scene.vsd, viewport, method),
         "frames": {"start": int(frame), "end": int(frame)},
         "output": {"passes": list(passes.VSD_PASS_NAMES), "layer": depsgraph.view_layer.name,
                    "pass_names": passes.pass_names(bpy.app.version)},

@@ -22,7 +22,8 @@ import zlib
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
-_state = {"catalog": None, "text": None, "classes": [], "pending": None, "source": "", "items": []}
+_state = {"catalog": None, "text": None, "classes": [], "pending": None, "source": "", "items": [],
+          "annotated": {}}
 
 INT_LIMIT = 2 ** 31 - 1
 
@@ -79,6 +80,15 @@ def default_for(role):
     return names()[0] if names() else ""
 
 
+def default_with(capability, role):
+    """The method with the capability that has the role, else the first with it, else ""."""
+    can = with_capability(capability)
+    for m in _state["catalog"] or []:
+        if m["name"] in can and role in m.get("roles", []):
+            return m["name"]
+    return can[0] if can else ""
+
+
 # ---- the method menus ----------------------------------------------------------------------
 # A menu's items come from the catalog, so its EnumProperty has an items function; the
 # choice is kept by name in a hidden string (Scene.vsd.method_name), so a saved file keeps
@@ -90,15 +100,64 @@ def _number(name):
     return zlib.crc32(name.encode("utf-8")) & 0x7FFFFFFF
 
 
+SEVERAL = "several_volumes"   # the capability of the methods that render several volumes
+
+
+def _volume_count(settings, context, final):
+    """How many volumes the scene of Scene.vsd `settings` sends (mapping.count_volumes), 0
+    when there is no context to tell."""
+    try:
+        vl = context.view_layer if context is not None else None
+        if vl is None or settings is None:
+            return 0
+        from . import mapping
+        return mapping.count_volumes(settings.id_data, vl, final)
+    except Exception:
+        return 0
+
+
+def _annotated(settings, context, final):
+    """The menu's items; with several volumes in the scene, a method that renders one is
+    marked so in its label and tooltip (Blender's enum items cannot be greyed out)."""
+    base = _state["items"]
+    n = _volume_count(settings, context, final)
+    if n <= 1 or _state["catalog"] is None:
+        return base
+    key = (final, n)
+    items = _state["annotated"].get(key)
+    if items is None:
+        fallback = default_with(SEVERAL, "final_default")
+        items = []
+        for name, lab, desc, num in base:
+            if name and not has(name, SEVERAL):
+                lab += " (one volume)"
+                if final:
+                    note = "Renders one volume: F12 refuses this scene's %d volumes" % n
+                else:
+                    note = ("Renders one volume: the viewport shows %s for this scene's %d volumes"
+                            % (label(fallback), n) if fallback else "Renders one volume")
+                desc = note + ". " + desc
+            items.append((name, lab, desc, num))
+        # Blender needs the strings kept alive while the menu is shown: kept in _state
+        _state["annotated"][key] = items
+    return items
+
+
 def menu_items(self, context):
-    # Blender needs the strings kept alive while the menu is shown: one list in _state
-    return _state["items"]
+    """Items of the F12 method menu (self: Scene.vsd, None outside Blender's UI)."""
+    return _annotated(self, context, True)
+
+
+def viewport_menu_items(self, context):
+    """Items of the viewport's method menu."""
+    return _annotated(self, context, False)
 
 
 def _rebuild_items():
     items = [(m["name"], m.get("label", m["name"]), m.get("summary", ""), _number(m["name"]))
              for m in _state["catalog"] or []]
     _state["items"] = items or [("", "(vsd not found)", "Set the vsd binary in the add-on preferences", 0)]
+    _state["annotated"] = {}
 
 
 def chosen(stored, role):
@@ -298,4 +357,4 @@ def register():
 
 def unregister():
     _unregister_classes()
-    _state.update(catalog=None, text=None, pending=None, source="", items=[])
+    _state.update(catalog=None, text=None, pending=None, source="", items=[], annotated={})

@@ -3,7 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from . import connection, method_catalog
+from . import connection, mapping, method_catalog
 
 # Where medium.ior / volume.ior_grid / medium.ior_from come from (mapping.map_ior).
 IOR_SOURCES = [
@@ -71,7 +71,7 @@ class VSDSceneSettings(bpy.types.PropertyGroup):
                                  "{\"lights\": 64}; overrides the option fields")
     viewport_method_name: StringProperty(name="Viewport Method Name", default="", options={"HIDDEN"},
                                          description="The viewport method's name (empty: vsd's default)")
-    viewport_method: EnumProperty(name="Viewport Method", items=method_catalog.menu_items,
+    viewport_method: EnumProperty(name="Viewport Method", items=method_catalog.viewport_menu_items,
                                   get=_get_viewport_method, set=_set_viewport_method,
                                   description="Method of the rendered viewport preview (vsd's default "
                                   "scatters more than once, so it is as bright as the final render)",
@@ -193,8 +193,41 @@ def draw_ior(col, context, s):
         else:
             col.prop(s, key, text="Grid")
         refracts = True
-    if refracts and not method_catalog.has(method_catalog.chosen_for(s), "refraction"):
+    if refracts and _volume_count(context, True) > 1:
+        col.label(text="Ignored: vsd refracts a scene of one volume only", icon="INFO")
+    elif refracts and not method_catalog.has(method_catalog.chosen_for(s), "refraction"):
         col.label(text="Only %s refract" % method_catalog.labels_with("refraction"), icon="INFO")
+
+
+def _volume_count(context, final):
+    try:
+        return mapping.count_volumes(context.scene, context.view_layer, final)
+    except Exception:
+        return 0
+
+
+def draw_volume_count(col, context, s, viewport):
+    """A line under a method menu when the scene's volumes are more than the method renders:
+    F12 refuses them, the viewport shows the catalog's method that renders several. Returns
+    the line drawn ("" if none)."""
+    if method_catalog.catalog() is None:
+        return ""
+    n = _volume_count(context, not viewport)
+    method = method_catalog.chosen_for(s, viewport)
+    if n <= 1 or not method or method_catalog.has(method, method_catalog.SEVERAL):
+        return ""
+    can = ("%s render several" % method_catalog.labels_with(method_catalog.SEVERAL)
+           if method_catalog.with_capability(method_catalog.SEVERAL) else "no method of this vsd renders several")
+    if viewport:
+        fallback = method_catalog.default_with(method_catalog.SEVERAL, "final_default")
+        if fallback:
+            text = ("%s renders one volume; showing %s for %d volumes"
+                    % (method_catalog.label(method), method_catalog.label(fallback), n))
+            col.label(text=text, icon="INFO")
+            return text
+    text = "%s renders one volume: F12 refuses these %d (%s)" % (method_catalog.label(method), n, can)
+    col.label(text=text, icon="ERROR")
+    return text
 
 
 class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
@@ -203,6 +236,7 @@ class RENDER_PT_vsd(VSDPanel, bpy.types.Panel):
     def draw(self, context):
         s, col = settings_column(self, context)
         col.prop(s, "method")
+        draw_volume_count(col, context, s, viewport=False)
         method = method_catalog.chosen_for(s)
         if method_catalog.catalog() is not None and not method_catalog.has(method, "multiple_scattering"):
             col.label(text="Scatters light once: darker than Cycles (%s scatter more)"
@@ -232,6 +266,7 @@ class RENDER_PT_vsd_viewport(VSDPanel, bpy.types.Panel):
     def draw(self, context):
         s, col = settings_column(self, context)
         col.prop(s, "viewport_method", text="Method")
+        shown = draw_volume_count(col, context, s, viewport=True)
         col.prop(s, "viewport_samples", text="Samples")
         col.prop(s, "viewport_resolution")
         col.prop(s, "viewport_start_scale")
@@ -243,7 +278,8 @@ class RENDER_PT_vsd_viewport(VSDPanel, bpy.types.Panel):
             col.label(text="Last update on screen %.2f s after the change" % lat)
         # the scene mapping's (and the daemon's) warnings for the preview, also drawn over it
         for w in connection.status.get("preview_warnings") or []:
-            col.label(text=w, icon="ERROR")
+            if w != "vsd: " + shown:   # the fallback's line, drawn under the menu already
+                col.label(text=w, icon="ERROR")
 
 
 class RENDER_PT_vsd_daemon(VSDPanel, bpy.types.Panel):

@@ -173,8 +173,7 @@ class Preview(object):
     # -- main thread ---------------------------------------------------------------------
     def scene_changed(self, context, depsgraph):
         try:
-            base = mapping.build_scene(depsgraph, viewport=True, size=(8, 8),
-                                       active=context.active_object)
+            base = mapping.build_scene(depsgraph, viewport=True, size=(8, 8))
             err = None
         except mapping.MappingError as e:
             base, err = None, str(e)
@@ -197,7 +196,8 @@ class Preview(object):
 
     def warnings(self):
         """What the artist should know about the preview: the scene mapping's warnings (a
-        volume not rendered, a setting vsd cannot map, ...) and the daemon's for the last
+        volume left out, the method shown instead of one that renders a single volume, a
+        setting vsd cannot map, ...) and the daemon's for the last
         result, each once."""
         out = ["vsd: " + w for w in (self.base.warnings if self.base is not None else [])]
         for w in self.daemon_warnings:
@@ -233,7 +233,7 @@ class Preview(object):
                 sc = json.loads(json.dumps(self.base.scene))
                 sc["camera"] = cam
                 sc["output"]["passes"] = ["Combined"]
-                files = [self.base.volume_path] + ([self.base.env_path] if self.base.env_path else [])
+                files = self.base.files()
                 pct = scene.vsd.viewport_resolution / 100.0
                 fw, fh = max(1, int(w * pct)), max(1, int(h * pct))
                 start = max(1, scene.vsd.viewport_start_scale)
@@ -337,9 +337,7 @@ class Preview(object):
     def _render(self, key, sc, files, sizes, settings, t_req):
         c = connection.client(settings)
         names = connection.upload(c, files)
-        sc["volume"]["file"] = names[files[0]]
-        if len(files) > 1:
-            sc["environment"]["file"] = names[files[1]]
+        sc = mapping.with_blobs(sc, names)
         for i, (w, h) in enumerate(sizes):
             if self._superseded():
                 return

@@ -302,14 +302,21 @@ class Client(object):
 
 
 def render_sequence(client, scene, volume_files, env_file=None, frames=None, progress=None):
-    """Stream a sequence: upload each frame's VDB (only when missing), render it, yield
-    (frame, Result). `volume_files` maps frame -> local .vdb path."""
+    """Stream a sequence: upload each frame's VDB files (only when missing), render the frame,
+    yield (frame, Result). `volume_files` maps frame -> the local .vdb of the scene's one
+    volume, or -> a list with one .vdb per entry of the scene's `volumes`."""
     scene = dict(scene)
     env_blob = client.upload_file(env_file) if env_file else None
     for frame in (frames or sorted(volume_files)):
-        vol = dict(scene.get("volume", {}))
-        vol["file"] = client.upload_file(volume_files[frame])
-        s = dict(scene, volume=vol)
+        files = volume_files[frame]
+        if isinstance(files, str):
+            files = [files]
+        if "volumes" in scene:
+            if len(files) != len(scene["volumes"]):
+                raise ValueError("frame %s: %d files for %d volumes" % (frame, len(files), len(scene["volumes"])))
+            s = dict(scene, volumes=[dict(v, file=client.upload_file(f)) for v, f in zip(scene["volumes"], files)])
+        else:
+            s = dict(scene, volume=dict(scene.get("volume", {}), file=client.upload_file(files[0])))
         if env_blob:
             s["environment"] = dict(scene.get("environment", {}), file=env_blob)
         yield frame, client.render(s, frame=frame, progress=progress)

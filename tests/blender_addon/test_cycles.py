@@ -8,7 +8,8 @@
 # Mapping Z rotation and Background Strength, the camera and the film.
 #
 # Scene: smoke64 frame 24 as a Volume sequence (scene frame 24 = file 24 through frame_offset),
-# moved by (0.1, 0, -0.05); density 30, Color (0.9, 0.8, 0.7) (a per-channel check), anisotropy
+# moved by (0.1, 0, -0.05) and scaled by 0.8 (Blender's default volume Space "Object": Cycles
+# divides the density by the scale, the add-on sends density 30 / 0.8); density 30, Color (0.9, 0.8, 0.7) (a per-channel check), anisotropy
 # 0.4 (a sign error shows); studio.exr rotated by 1.2 rad with strength 1.3; a 50 mm camera
 # 6 m away; 96x54, transparent film -- the scene of the foundation's cross-check
 # (docs/cycles-crosscheck.md), whose noise study gives the bounds used here.
@@ -43,6 +44,7 @@ import bpy  # noqa: E402
 
 WIDTH, HEIGHT = 96, 54
 FRAME = 24
+SCALE = 0.8   # the object's uniform scale (tests the object-space density)
 VSD_SPP, CYCLES_SPP = 2048, 512
 SEEDS = (1, 2)
 
@@ -66,7 +68,10 @@ def main():
                                     color=(0.9, 0.8, 0.7), anisotropy=0.4, cam_pos=(-1.521, -4.3949, 1.835),
                                     cam_target=(0.99, 0.99, 1.0), lens=50.0)
     check(scene.view_layers[0].name == "ViewLayer", "view layer ViewLayer (the names --compare reads)")
+    ob.scale = (SCALE, SCALE, SCALE)
     scene.frame_set(FRAME)
+    bpy.context.view_layer.update()
+    check(ob.data.render.space == "OBJECT", "the volume's Space is Blender's default, Object")
     s = scene.vsd
     s.method = "reference"
     s.samples = VSD_SPP
@@ -80,9 +85,12 @@ def main():
     sc = json.load(open(scene_json))
     print("exported:", json.dumps(sc))
     check(sc["frames"] == {"start": FRAME, "end": FRAME}, "exported frame %s" % sc["frames"])
-    check(abs(sc["medium"]["density"] - 30.0) < 1e-5 and abs(sc["medium"]["anisotropy"] - 0.4) < 1e-6 and
-          [round(x, 6) for x in sc["medium"]["albedo"]] == [0.9, 0.8, 0.7],
-          "Principled Volume -> medium %s" % sc["medium"])
+    check(len(sc["volumes"]) == 1, "one volume: volumes holds one entry (%d)" % len(sc["volumes"]))
+    medium = sc["volumes"][0]["medium"]
+    # Cycles' object_volume_density: 1 / |M (1,1,1)/sqrt(3)| = 1 / 0.8
+    check(abs(medium["density"] - 30.0 / SCALE) < 1e-4 and abs(medium["anisotropy"] - 0.4) < 1e-6 and
+          [round(x, 6) for x in medium["albedo"]] == [0.9, 0.8, 0.7],
+          "Principled Volume -> medium %s" % medium)
     check(abs(sc["environment"]["rotation_z"] - 1.2) < 1e-6 and abs(sc["environment"]["strength"] - 1.3) < 1e-6,
           "world -> environment %s" % {k: v for k, v in sc["environment"].items() if k != "file"})
     check(sc["output"]["pass_names"] == {n: common.blender_pass(n) for n in sc["output"]["passes"]},
@@ -91,12 +99,12 @@ def main():
     # moves the volume by +1/64 m on every axis (the grid is axis-aligned) on top of
     # matrix_world; 5.0's Cycles centres it at i, as vsd does: no shift
     # (docs/cycles-crosscheck.md, "Newer Cycles").
-    want = 1.0 / 64.0 if bpy.app.version < (5, 0, 0) else 0.0
-    m = sc["volume"]["matrix"]
+    want = SCALE / 64.0 if bpy.app.version < (5, 0, 0) else 0.0
+    m = sc["volumes"][0]["matrix"]
     mw = ob.matrix_world
     shift = [m[3] - mw[0][3], m[7] - mw[1][3], m[11] - mw[2][3]]
     check(all(abs(d - want) < 1e-6 for d in shift),
-          "volume.matrix = matrix_world moved by %g m per axis (%s)" % (want, shift))
+          "volumes[0].matrix = matrix_world moved by %g m per axis (%s)" % (want, shift))
 
     # --- vsd reference of the exported file ----------------------------------------------------
     vexr = []

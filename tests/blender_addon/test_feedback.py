@@ -216,7 +216,7 @@ def main():
             sc = json.loads(json.dumps(p.base.scene))   # as Preview.draw builds a request
             sc["camera"] = cam
             sc["output"]["passes"] = ["Combined"]
-            files = [p.base.volume_path] + ([p.base.env_path] if p.base.env_path else [])
+            files = p.base.files()
             t_req = time.monotonic()
             p.process((("k",), sc, files, [(32, 18)], p.settings, t_req))
             check(p.result is not None and p.error is None, "the preview rendered (%s)" % p.error)

@@ -40,11 +40,14 @@ def main():
             return m.scene, m.warnings
 
         def ior_fields(sc):
-            """The refractive-index fields of a scene dict (absent ones left out)."""
+            """The refractive-index fields of a one-volume scene dict (absent ones left out),
+            named as in the single-volume form (medium.ior, volume.ior_grid)."""
             out = {}
+            vol = sc["volumes"][0]
             for sect, key in (("medium", "ior"), ("medium", "ior_from"), ("volume", "ior_grid")):
-                if key in sc[sect]:
-                    out["%s.%s" % (sect, key)] = sc[sect][key]
+                where = vol["medium"] if sect == "medium" else vol
+                if key in where:
+                    out["%s.%s" % (sect, key)] = where[key]
             return out
 
         # --- the properties -----------------------------------------------------------------
@@ -61,8 +64,8 @@ def main():
 
         # --- Constant: what the add-on always sent ------------------------------------------
         sc, _ = sent()
-        check(ior_fields(sc) == {"medium.ior": 1.0} and set(sc["medium"]) == MEDIUM_KEYS | {"ior"}
-              and set(sc["volume"]) == {"file", "grid", "matrix"},
+        check(ior_fields(sc) == {"medium.ior": 1.0} and set(sc["volumes"][0]["medium"]) == MEDIUM_KEYS | {"ior"}
+              and set(sc["volumes"][0]) == {"file", "grid", "matrix", "medium"},
               "Constant, IOR 1: medium.ior 1 only (%s)" % ior_fields(sc))
         s.ior = 1.25
         sc, warnings = sent()
@@ -88,7 +91,7 @@ def main():
               "Grid without a name: n = 1 and a warning (%s, %s)" % (ior_fields(sc), warnings))
         s.ior_grid = "no_such_ior"
         sc, warnings = sent()
-        check(sc["volume"].get("ior_grid") == "no_such_ior" and
+        check(sc["volumes"][0].get("ior_grid") == "no_such_ior" and
               any("'no_such_ior' is not in the volume file" in w and "density" in w for w in warnings),
               "Grid naming a missing grid: sent, with a warning listing the file's grids (%s)" % warnings)
 
@@ -103,7 +106,7 @@ def main():
               "Heat Haze with grid 'heat' (%s)" % ior_fields(sc))
         s.ior_temperature_grid = ""
         sc, _ = sent()
-        check(sc["volume"].get("ior_grid") == "temperature", "Heat Haze with an empty grid name sends 'temperature'")
+        check(sc["volumes"][0].get("ior_grid") == "temperature", "Heat Haze with an empty grid name sends 'temperature'")
         s.ior_temperature_grid = "temperature"
 
         # --- the panel ----------------------------------------------------------------------

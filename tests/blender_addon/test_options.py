@@ -173,10 +173,10 @@ try:
     block = mapping.render_block(scene2.vsd)
     check(block["options"] == {"lights": 4, "pixel_samples": 2}, "raymarch options sent: %s" % block["options"])
     # the refractive index is sent as medium.ior (default 1: straight rays)
-    check(mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["medium"]["ior"] == 1.0,
+    check(mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["volumes"][0]["medium"]["ior"] == 1.0,
           "medium.ior defaults to 1")
     scene2.vsd.ior = 1.25
-    sent = mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["medium"]["ior"]
+    sent = mapping.build_scene(bpy.context.evaluated_depsgraph_get()).scene["volumes"][0]["medium"]["ior"]
     check(abs(sent - 1.25) < 1e-6, "Scene.vsd.ior is sent as medium.ior (%s)" % sent)
     # the world's Environment Texture interpolation: Blender's default Linear, then Closest
     env_tex = [n for n in scene2.world.node_tree.nodes if n.type == "TEX_ENVIRONMENT"][0]

@@ -2,12 +2,14 @@
 # * Combined and every registered pass come back, with the expected non-zero region
 #   (smoke64 + studio.exr with raymarch; fire96's flame grid with reference for VolumeInd/Emit);
 # * the render equals `vsd render` of the scene exported by File > Export > vsd scene;
-# * sequence offsets are honoured (scene frame 11 shows fluid_data_0021.vdb);
+# * sequence offsets are honoured (scene frame 11 shows fluid_data_0021.vdb; the export keeps
+#   the scene's frames 11-13 and says frame_offset 10);
 # * output.pass_names: `vsd render --set` writes the same pixels under renamed passes, and the
 #   engine with Blender 5.0's pass-name table (forced) registers, requests and loads
 #   "Volume Direct", "Volume Indirect", "Emission";
 # * two view layers render one after another, each with every pass;
-# * with two visible volumes the active one is rendered and a warning names both;
+# * with two visible volumes both are sent (no warning), and a method that renders one volume
+#   is an F12 error naming the methods that render several (test_volumes renders several);
 # * a Houdini VDB imported by Blender (external/gaffer_smoke.vdb, rotated 90 degrees about X
 #   by the importer) is sent with that rotation;
 # * a Mantaflow domain is a warning (beside a volume) or an error (alone) naming its cache.
@@ -102,16 +104,20 @@ def main():
         check(res == {"FINISHED"}, "export operator finished (%s)" % res)
         sc = json.load(open(scene_json))
         print("exported:", json.dumps(sc))
-        check(sc["volume"]["file"].endswith("fluid_data_####.vdb") and not os.path.isabs(sc["volume"]["file"]),
+        check(len(sc["volumes"]) == 1 and "volume" not in sc and "medium" not in sc,
+              "export: one entry of volumes, no single volume/medium")
+        ev = sc["volumes"][0]
+        check(ev["file"].endswith("fluid_data_####.vdb") and not os.path.isabs(ev["file"]),
               "export references the VDB sequence relative to the scene file")
-        check(sc["frames"] == {"start": 21, "end": 23}, "scene frames 11-13 -> file frames 21-23 (%s)" % sc["frames"])
+        check(sc["frames"] == {"start": 11, "end": 13} and ev.get("frame_offset") == 10,
+              "scene frames 11-13 show file frames 21-23: frame_offset 10 (%s, %s)" % (sc["frames"], ev.get("frame_offset")))
         check(sc["environment"]["file"].endswith("studio.exr"), "export references the environment map")
         check(sc["output"]["layer"] == layer, "output.layer is the view layer's name")
         cli_out = os.path.join(tmp, "cli_####.exr")
-        r = subprocess.run([vsd, "render", scene_json, "--frames", "21-21", "--output", cli_out, "--quiet"],
+        r = subprocess.run([vsd, "render", scene_json, "--frames", "11-11", "--output", cli_out, "--quiet"],
                            capture_output=True, text=True)
         check(r.returncode == 0, "vsd render of the exported scene (%s)" % r.stderr.strip())
-        ref, rw, rh = read_vsd_names(cli_out.replace("####", "0021"))
+        ref, rw, rh = read_vsd_names(cli_out.replace("####", "0011"))
         check((rw, rh) == (w, h), "CLI size matches")
         worst = 0.0
         for name, chans in PASS_CHANNELS.items():
@@ -127,10 +133,10 @@ def main():
         # --- `vsd render --set output.pass_names=...`: the same file under renamed passes -----
         renamed = {"VolumeDir": "Volume Direct", "VolumeInd": "Volume Indirect", "Emit": "Emission"}
         cli_ren = os.path.join(tmp, "cli_renamed_####.exr")
-        r = subprocess.run([vsd, "render", scene_json, "--frames", "21-21", "--output", cli_ren, "--quiet",
+        r = subprocess.run([vsd, "render", scene_json, "--frames", "11-11", "--output", cli_ren, "--quiet",
                             "--set", "output.pass_names=" + json.dumps(renamed)], capture_output=True, text=True)
         check(r.returncode == 0, "vsd render with output.pass_names (%s)" % r.stderr.strip())
-        ren, _, _ = common.read_exr(cli_ren.replace("####", "0021"))
+        ren, _, _ = common.read_exr(cli_ren.replace("####", "0011"))
 
         def rename(key):
             for o, n in renamed.items():
@@ -176,21 +182,37 @@ def main():
                           "view layer '%s': %s rendered, equal to the one-layer render" % (lname, key))
         scene.view_layers.remove(second)
 
-        # --- two visible volumes: the active one is rendered, and a warning names both --------
+        # --- two visible volumes: both are sent; a method that renders one: F12 says so ------
         vol2 = bpy.data.volumes.new("other")
         vol2.filepath = os.path.join(data, "fire96", "fluid_data_0024.vdb")
         ob2 = bpy.data.objects.new("another smoke", vol2)  # first by name
         scene.collection.objects.link(ob2)
         bpy.context.view_layer.objects.active = ob
         mapping = common.addon_module("mapping")
+        catalog = common.addon_module("method_catalog")
+        # which methods render several volumes is the catalog's to say (it grows)
+        single = [n for n in catalog.names() if not catalog.has(n, "several_volumes")]
+        if single:
+            scene.vsd.method = single[-1]
+            try:
+                mapping.build_scene(bpy.context.evaluated_depsgraph_get())
+                err = None
+            except mapping.MappingError as e:
+                err = str(e)
+            check(err is not None and "method %s renders one volume" % catalog.label(single[-1]) in err and
+                  "2 volumes" in err and catalog.labels_with("several_volumes") in err,
+                  "two volumes with %s: an error naming it and the methods that render several (%s)" % (single[-1], err))
+            err = common.run_blender_render(os.path.join(tmp, "blender_two_volumes.exr"))
+            check(err is not None and catalog.label(single[-1]) in err,
+                  "two volumes: F12 with %s refuses (%s)" % (single[-1], err))
+        else:
+            print("note: every method renders several volumes: no refusal to check")
+        scene.vsd.method = "reference"
         mm = mapping.build_scene(bpy.context.evaluated_depsgraph_get())
-        check(mm.volume_object.original == ob and
-              any("using 'smoke'" in w and "not rendered: 'another smoke'" in w for w in mm.warnings),
-              "two volumes: the active one is used and a warning says which (%s)" % mm.warnings)
-        out_v = os.path.join(tmp, "blender_two_volumes.exr")
-        err = common.run_blender_render(out_v)
-        img_v, _, _ = read_vsd_names(out_v)
-        check(err is None and img_v == img, "two volumes: F12 renders the active one only (%s)" % err)
+        check([v.object.name for v in mm.volumes] == ["another smoke", "smoke"] and len(mm.scene["volumes"]) == 2 and
+              not any("not rendered" in w for w in mm.warnings),
+              "two volumes with reference: both are sent, no volume left out (%s)" % mm.warnings)
+        scene.vsd.method = "raymarch"
         bpy.data.objects.remove(ob2, do_unlink=True)
 
         # --- a Houdini VDB through Blender's importer: its 90-degree X rotation is sent ---------
@@ -199,13 +221,15 @@ def main():
         mw = hob.matrix_world
         check(abs(mw[1][2] + 1.0) < 1e-6 and abs(mw[2][1] - 1.0) < 1e-6,
               "Blender's importer rotates gaffer_smoke.vdb by 90 degrees about X (%s)" % [list(r) for r in mw])
+        ob.hide_render = True   # the imported volume alone
         mh = mapping.build_scene(bpy.context.evaluated_depsgraph_get())
-        vm = mh.scene["volume"]["matrix"]
+        ob.hide_render = False
+        vm = mh.scene["volumes"][0]["matrix"]
         # the file's voxel size; the half-voxel shift is R (h/2, h/2, h/2) up to 4.5, none from
         # 5.0, whose Cycles centres voxels as vsd does (docs/cycles-crosscheck.md)
         h = 0.4761904776 if bpy.app.version < (5, 0, 0) else 0.0
         want_t = [mw[r][3] + sum(mw[r][c] * h / 2 for c in range(3)) for r in range(3)]
-        check(mh.volume_object.original == hob and
+        check([v.object.original for v in mh.volumes] == [hob] and
               all(abs(vm[4 * r + c] - mw[r][c]) < 1e-6 for r in range(3) for c in range(3)) and
               all(abs(vm[4 * r + 3] - want_t[r]) < 1e-5 for r in range(3)),
               "the imported object's matrix_world (rotation included) is sent, moved by half a voxel before 5.0 (%s)" % vm)

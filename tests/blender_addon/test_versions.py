@@ -209,9 +209,7 @@ def main():
         sc = dict(m.scene)
         sc["output"] = dict(sc["output"], passes=["Combined"])
         c = connection.client(connection.Settings.from_prefs(common.addon_prefs()))
-        up = connection.upload(c, [m.volume_path, m.env_path])
-        sc["volume"] = dict(sc["volume"], file=up[m.volume_path])
-        sc["environment"] = dict(sc["environment"], file=up[m.env_path])
+        sc = mapping.with_blobs(sc, connection.upload(c, m.files()))
         res = c.render(sc, frame=sc["frames"]["start"])
         p = viewport.Preview()
         try:

@@ -224,7 +224,10 @@ def build_volume(vol_desc, scene, base, frame, voxel_centres, index=0):
     vol.is_sequence = False
     vol.render.precision = "FULL"
     vol.render.clipping = 0.0
-    vol.render.space = "OBJECT"
+    # density per WORLD length, as vsd's medium.density: with Blender's default "Object",
+    # Cycles divides it by the object's scale along (1,1,1) (object_volume_density; the add-on
+    # sends that product, mapping.object_space_density)
+    vol.render.space = "WORLD"
     vol.render.step_size = 0.0  # automatic: one voxel, times the step rates below
     ob = bpy.data.objects.new("vsd_volume%d" % index, vol)
     scene.collection.objects.link(ob)
