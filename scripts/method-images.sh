@@ -2,7 +2,8 @@
 # method-images.sh OUTDIR [VSD] — renders every registered method on a few scenes of
 # different character (smoke, fire with emission, a cloud in an interior map) at a small
 # size, into OUTDIR/<scene>_<method>.exr. Run it before and after a change that must not
-# change images, then compare the two folders with scripts/method-images-compare.sh.
+# change images, then compare the two folders pass by pass: idiff -fail 0 A B for each file
+# (the EXR headers differ in their metadata; the pixels must not).
 set -euo pipefail
 out=${1:?usage: method-images.sh OUTDIR [VSD]}
 vsd=${2:-build/vsd}

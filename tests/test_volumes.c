@@ -18,6 +18,8 @@
 #define SMOKE VSD_SHARED_DATA "/smoke64/fluid_data_####.vdb"
 #define FIRE VSD_SHARED_DATA "/fire96/fluid_data_####.vdb"
 #define SUNSET VSD_SHARED_DATA "/env/sunset.exr"
+#define CLOUD VSD_SHARED_DATA "/cloud/cloud128.vdb"
+#define STUDIO VSD_SHARED_DATA "/env/studio.exr"
 #define FILM "\"film\": {\"width\": 64, \"height\": 36, \"transparent\": true}, "
 #define CAMERA "\"camera\": {\"position\": [1.0, -3.9745, 1.8771], \"look_at\": [1.0, 1.0, 1.0], \"up\": [0, 0, 1], " \
                "\"fov\": 0.7}, "
@@ -97,42 +99,108 @@ static void test_material_mixture(void)
     free(two);
 }
 
-/* raymarch is deterministic: where two volumes' grids coincide they must give the single
- * volume's image to float rounding (sums of the same samples in another order), for the
- * summed density and for the scatterer + absorber mixture with its emission. */
-static void test_raymarch_exact(void)
+/* raymarch and lbl are deterministic: where two volumes' grids coincide they must give the
+ * single volume's image to float rounding (sums of the same samples in another order). For
+ * raymarch also the scatterer + absorber mixture with its emission; for lbl, whose parts
+ * each light the group with their own material (docs/design-notes.md, "Several volumes"),
+ * two halves of one material, the flame's emission split between them. */
+static void test_deterministic_exact(void)
 {
-    static const char *const ov[] = {"render.method=raymarch", "render.options.lights=16"};
-    struct { const char *what, *one, *two; int frame; } cases[] = {
-        {"density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8}}",
+    static const char *const raymarch[] = {"render.method=raymarch", "render.options.lights=16"};
+    static const char *const lbl[] = {"render.method=lbl", "render.options.cells=32"};
+    struct { const char *method, *what, *one, *two; int frame; const char *const *ov; } cases[] = {
+        {"raymarch", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8}}",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3}}, {\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5}}",
-         11},
-        {"scatterer + absorber vs mixture",
+         11, raymarch},
+        {"raymarch", "scatterer + absorber vs mixture",
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.6, 0.4, 0.2], "
          "\"anisotropy\": 0.5, \"emission_strength\": 5}}",
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
          "\"anisotropy\": 0.5, \"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
          "\"medium\": {\"density\": 2, \"albedo\": [0, 0, 0], \"anisotropy\": -0.7, \"emission_strength\": 3}}",
-         48},
+         48, raymarch},
+        {"lbl", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8, \"anisotropy\": 0.4}}",
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5, \"anisotropy\": 0.4}}",
+         11, lbl},
+        {"lbl", "emission 2 + 3 vs 5",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.9, 0.6, 0.3], "
+         "\"emission_strength\": 5}}",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
+         "\"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
+         "\"medium\": {\"density\": 2, \"albedo\": [0.9, 0.6, 0.3], \"emission_strength\": 3}}",
+         48, lbl},
     };
-    static const vsd_pass passes[] = {VSD_PASS_COMBINED, VSD_PASS_VOLUME_DIR, VSD_PASS_EMIT, VSD_PASS_TRANSMITTANCE};
+    static const vsd_pass passes[] = {VSD_PASS_COMBINED, VSD_PASS_VOLUME_DIR, VSD_PASS_VOLUME_IND, VSD_PASS_EMIT,
+                                      VSD_PASS_TRANSMITTANCE};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         char *j1 = scene_json(cases[c].one, cases[c].frame), *j2 = scene_json(cases[c].two, cases[c].frame);
         vsd_scene s1, s2;
-        CHECK(test_parse_scene(j1, ov, 2, &s1) && test_parse_scene(j2, ov, 2, &s2));
+        int ms = strcmp(cases[c].method, "lbl") == 0, emits = strstr(cases[c].one, "flame") != NULL;
+        CHECK(test_parse_scene(j1, cases[c].ov, 2, &s1) && test_parse_scene(j2, cases[c].ov, 2, &s2));
         vsd_framebuffer *f1 = test_render_fresh(&s1, NULL, NULL, NULL, cases[c].frame, NULL);
         vsd_framebuffer *f2 = test_render_fresh(&s2, NULL, NULL, NULL, cases[c].frame, NULL);
         CHECK(f1 && f2);
         for (size_t p = 0; f1 && f2 && p < sizeof passes / sizeof passes[0]; p++) {
             double diff = test_max_rel_diff(f2, f1, passes[p]), sum = test_pass_sum(f1, passes[p]);
-            printf("raymarch %s, %s: max relative difference %.2e (pass sum %.4g)\n", cases[c].what,
+            int expect_zero = (passes[p] == VSD_PASS_EMIT && !emits) || (passes[p] == VSD_PASS_VOLUME_IND && !ms);
+            printf("%s %s, %s: max relative difference %.2e (pass sum %.4g)\n", cases[c].method, cases[c].what,
                    vsd_pass_name(passes[p]), diff, sum);
             CHECK(diff < 1e-4);
-            CHECK(passes[p] == VSD_PASS_EMIT && c == 0 ? sum == 0 : sum > 0);
+            CHECK(expect_zero ? sum == 0 : sum > 0);
         }
         vsd_framebuffer_destroy(f1), vsd_framebuffer_destroy(f2);
         free(j1), free(j2);
     }
+}
+
+/* lbl on the issue's three-volume scene (the Cycles cross-check's "volumes": a fire, a smoke
+ * overlapping it, a cloud above them; tests/cycles/test_cycles_crosscheck.c) against
+ * `reference`, 96x54 with 4x4 rays per pixel (the volumes are a few pixels wide: one ray
+ * per pixel centre puts Emit 17 % off at the edges). Measured (2-core VM, 2026-12-04) with
+ * `vsd compare` against 8192 spp: Combined (RGB) 0.163, VolumeDir 0.089, VolumeInd 0.281,
+ * Emit 0.022, Transmittance 0.0005; lbl alone on each volume (128x72): fire 0.067, smoke
+ * 0.132, cloud 0.179. The issue's target, 12 %, is not met: the limit is lbl's
+ * single-volume accuracy on these media and its lattice's beams toward the smoke beside
+ * the flame (docs/methods/lbl.md, "Several volumes"). This harness scores Combined with its
+ * alpha (RGBA, as every mvr check): 0.101 here, against the mean of 2 x 2048 spp (noise
+ * 0.009). The tolerances keep what was measured, with a margin for the noise. */
+#define LBL3_SPP 2048
+#define TOL_LBL3_COMBINED 0.13
+#define TOL_LBL3_EMIT 0.05
+#define TOL_LBL3_T 0.005
+static void test_lbl_three_volumes(void)
+{
+    const char *json =
+        "{\"version\": 1, \"volumes\": ["
+        "{\"file\": \"" FIRE "\", \"grid\": \"density\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6.0, "
+        "\"albedo\": [0.6, 0.6, 0.6], \"anisotropy\": 0.0, \"emission_color\": [1.0, 0.4, 0.08], \"emission_strength\": 8.0}}, "
+        "{\"file\": \"" SMOKE "\", \"grid\": \"density\", \"frame_offset\": -24, "
+        "\"matrix\": [1,0,0,0.7, 0,1,0,0, 0,0,1,0.5, 0,0,0,1], "
+        "\"medium\": {\"density\": 12.0, \"albedo\": [0.9, 0.85, 0.8], \"anisotropy\": 0.3}}, "
+        "{\"file\": \"" CLOUD "\", \"grid\": \"density\", \"matrix\": [1,0,0,1.2, 0,1,0,1.0, 0,0,1,3.4, 0,0,0,1], "
+        "\"medium\": {\"density\": 3.0, \"albedo\": [0.97, 0.97, 0.97], \"anisotropy\": 0.6}}], "
+        "\"environment\": {\"file\": \"" STUDIO "\"}, "
+        "\"camera\": {\"position\": [-2.9, -10.2, 2.3], \"look_at\": [1.2, 1.0, 1.9], \"up\": [0, 0, 1], \"fov\": 0.7}, "
+        "\"film\": {\"width\": 96, \"height\": 54, \"transparent\": true}, "
+        "\"render\": {\"method\": \"reference\", \"samples\": 16}, \"frames\": {\"start\": 48, \"end\": 48}}";
+    mvr_scene sc = {.json = json, .frame = 48};
+    mvr_refs refs;
+    const char *ov[] = {"render.method=lbl", "render.options.pixel_samples=4"};
+    vsd_render_stats stats;
+    if (!mvr_render_references(&sc, NULL, 0, LBL3_SPP, &refs)) return;
+    vsd_framebuffer *fb = mvr_render(&sc, ov, 2, NULL, &stats);
+    CHECK(fb != NULL);
+    if (fb) {
+        /* the cloud's media do not meet the smoke's: two groups (src/grids/volume_groups.h) */
+        printf("lbl three volumes: %s\n", stats.method_info);
+        CHECK_CONTAINS(stats.method_info, "volumes=3 groups=2");
+        mvr_check("three volumes lbl", fb, &refs, VSD_PASS_COMBINED, TOL_LBL3_COMBINED, 0.7);
+        mvr_check("three volumes lbl", fb, &refs, VSD_PASS_EMIT, TOL_LBL3_EMIT, 0.8);
+        mvr_check("three volumes lbl", fb, &refs, VSD_PASS_TRANSMITTANCE, TOL_LBL3_T, 0.8);
+    }
+    vsd_framebuffer_destroy(fb);
+    mvr_refs_free(&refs);
 }
 
 /* Green channel of the Transmittance pass, w x h. */
@@ -286,10 +354,10 @@ static void test_errors(void)
     char err[1024] = "";
     vsd_render_options o = {.threads = 2};
 
-    const char *lbl[] = {"render.method=lbl"};
-    CHECK(test_parse_scene(two, lbl, 1, &sc));
+    const char *crm[] = {"render.method=crm"};
+    CHECK(test_parse_scene(two, crm, 1, &sc));
     CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
-    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'lbl' renders one volume so far (reference, raymarch render several)");
+    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'crm' renders one volume so far (reference, raymarch, lbl render several)");
     vsd_renderer_destroy(r);
     r = NULL;
 
@@ -325,9 +393,10 @@ int main(void)
     test_errors();
     test_frame_hash_volumes();
     test_frames_and_caches();
-    test_raymarch_exact();
+    test_deterministic_exact();
     test_transmittance_product();
     test_summed_density();
     test_material_mixture();
+    test_lbl_three_volumes();
     return test_finish("test_volumes");
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Time and memory against the number of volumes (issue 30).
 
-Two series of `vsd render` runs (reference, CPU), each with 1, 2, 4 and 8 copies of the
+Two series of `vsd render` runs (reference by default, or --method lbl; CPU), each with 1, 2, 4 and 8 copies of the
 smoke64 plume (frame 24, ../shared/data/smoke64):
 
 * far:  copies 100 m apart along x; the camera sees copy 0 only. The box that holds all
@@ -14,7 +14,12 @@ smoke64 plume (frame 24, ../shared/data/smoke64):
 Peak memory is the process's maximum resident set (GNU time %M). The dense box a single
 grid spanning the copies would need is printed beside it for contrast.
 
-    bench/volumes/bench_volumes.py [--vsd build/vsd] [--counts 1,2,4,8] [--spp 16] [--threads 2]
+With lbl each copy is a part of its own (a 64^3 lighting grid over that copy: the copies'
+media do not overlap, src/grids/volume_groups.h), and its lights are marched through the
+other copies for their shadows.
+
+    bench/volumes/bench_volumes.py [--vsd build/vsd] [--method reference|lbl] [--counts 1,2,4,8] [--spp 16]
+                                   [--threads 2]
 """
 import argparse
 import json
@@ -32,13 +37,13 @@ VOXEL = 0.03125          # smoke64's voxel size (m)
 EXTENT = (2.0, 2.0, 2.0) # its domain (m)
 
 
-def scene(count, spacing, camera, width, height, spp, out):
+def scene(count, spacing, camera, width, height, spp, out, method):
     vols = [{"file": SMOKE, "grid": "density",
              "matrix": [1, 0, 0, i * spacing, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1],
              "medium": {"density": 8.0, "albedo": [0.8, 0.8, 0.8]}} for i in range(count)]
     return {"version": 1, "volumes": vols, "environment": {"file": ENV},
             "camera": camera, "film": {"width": width, "height": height, "transparent": True},
-            "render": {"method": "reference", "samples": spp, "seed": 1},
+            "render": {"method": method, "samples": spp, "seed": 1},
             "frames": {"start": 24, "end": 24}, "output": {"exr": out}}
 
 
@@ -58,12 +63,13 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--vsd", default=os.path.join(ROOT, "build", "vsd"))
     ap.add_argument("--counts", default="1,2,4,8")
+    ap.add_argument("--method", default="reference")
     ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--threads", type=int, default=2)
     a = ap.parse_args()
     counts = [int(c) for c in a.counts.split(",")]
     tmp = tempfile.mkdtemp(prefix="vsd-bench-volumes-")
-    print(f"vsd {a.vsd}, reference, {a.spp} spp, {a.threads} threads, smoke64 frame 24 copies")
+    print(f"vsd {a.vsd}, {a.method}, {a.spp} spp, {a.threads} threads, smoke64 frame 24 copies")
     print()
     print("| series | volumes | box spanned (m) | dense box grid (MiB) | wall (s) | s per copy | peak RSS (MiB) |")
     print("|---|---|---|---|---|---|---|")
@@ -81,7 +87,7 @@ def main():
                 w, h = 160 * n, 180
             path = os.path.join(tmp, f"{series}{n}.json")
             with open(path, "w") as f:
-                json.dump(scene(n, spacing, cam, w, h, a.spp, os.path.join(tmp, f"{series}{n}.exr")), f)
+                json.dump(scene(n, spacing, cam, w, h, a.spp, os.path.join(tmp, f"{series}{n}.exr"), a.method), f)
             wall, rss = run(a.vsd, path, a.threads)
             span = (n - 1) * spacing + EXTENT[0]
             dense = span / VOXEL * (EXTENT[1] / VOXEL) * (EXTENT[2] / VOXEL) * 4 / 2**20

@@ -17,6 +17,7 @@
 #define VSD_KERNEL_VOLUMES_H
 #include "kernel_types.h"
 #include "kernel_volume.h"
+#include "kernel_march.h"
 
 VSD_DEVICE int32_t vsd_kvolumes_count(const vsd_kernel_data *kd)
 {
@@ -75,6 +76,110 @@ VSD_DEVICE vsd_f3 vsd_kvolumes_emission_integral(const vsd_kernel_data *kd, vsd_
                                                                    vsd_rng_float(rng))));
     }
     return sum;
+}
+
+
+/* ---- a deterministic march over every volume (raymarch; the record-grid methods' view) ----
+ * Steps stay on the lattice t0 + k h from the first box the ray enters (density or
+ * emission); stretches inside no volume's box are jumped over, so the space between
+ * distant volumes costs nothing. */
+typedef struct vsd_volumes_walk {
+    float lo[VSD_KMAX_VOLUMES], hi[VSD_KMAX_VOLUMES];   /* each volume's extent (INF, -INF: missed) */
+    float start, end, h;
+    int32_t k, n;
+} vsd_volumes_walk;
+
+/* Returns 0 when the ray misses every volume. */
+VSD_DEVICE int vsd_volumes_walk_begin(vsd_volumes_walk *w, const vsd_kernel_data *kd, vsd_f3 o, vsd_f3 d)
+{
+    int32_t i;
+    w->n = kd->volume_count;
+    w->h = kd->march_step;
+    w->k = 0;
+    w->start = VSD_INF;
+    w->end = -VSD_INF;
+    for (i = 0; i < w->n; i++) {
+        const vsd_kobject *v = &kd->volumes[i];
+        if (!vsd_march_volume_extent(&v->density, &v->emission, v->medium.has_emission, o, d, &w->lo[i], &w->hi[i])) {
+            w->lo[i] = VSD_INF;
+            w->hi[i] = -VSD_INF;
+            continue;
+        }
+        w->start = vsd_minf(w->start, w->lo[i]);
+        w->end = vsd_maxf(w->end, w->hi[i]);
+    }
+    return w->start < w->end;
+}
+
+/* The next step inside some volume's box: midpoint *mid, length *len; 0 when done (past
+ * the last box, or the transmittance tr below kd->march_stop). */
+VSD_DEVICE int vsd_volumes_walk_next(vsd_volumes_walk *w, const vsd_kernel_data *kd, float tr, float *mid, float *len)
+{
+    while (w->start < w->end && tr >= kd->march_stop) {
+        float t = w->start + (float)w->k * w->h, next = VSD_INF;
+        int32_t i, inside = 0;
+        if (!(t < w->end)) return 0;
+        *len = vsd_minf(w->h, w->end - t);
+        *mid = t + 0.5f * *len;
+        for (i = 0; i < w->n; i++) {
+            if (*mid >= w->lo[i] && *mid < w->hi[i]) inside = 1;
+            else if (w->lo[i] > *mid) next = vsd_minf(next, w->lo[i]);
+        }
+        if (!inside) { /* jump to the first step whose midpoint reaches the next box */
+            int32_t kn;
+            if (next >= VSD_INF) return 0;
+            kn = (int32_t)ceilf((next - w->start) / w->h - 0.5f);
+            w->k = kn > w->k ? kn : w->k + 1;
+            continue;
+        }
+        w->k++;
+        return 1;
+    }
+    return 0;
+}
+
+/* The medium at a step of length len around p: each volume's sigma into sig[] (0 outside
+ * its box along this ray), their emission added to acc's Emit; returns sigma_t (the sum). */
+VSD_DEVICE float vsd_volumes_walk_medium(const vsd_volumes_walk *w, const vsd_kernel_data *kd, vsd_march_acc *acc,
+                                         vsd_f3 p, float mid, float len, float *sig)
+{
+    float sigma = 0.0f;
+    vsd_f3 emit = f3s(0.0f);
+    int32_t i;
+    for (i = 0; i < w->n; i++) {
+        const vsd_kobject *v = &kd->volumes[i];
+        sig[i] = 0.0f;
+        if (!(mid >= w->lo[i] && mid < w->hi[i])) continue;
+        sig[i] = vsd_kvolume_at(&v->density, p);
+        sigma += sig[i];
+        if (v->medium.has_emission) emit = f3_madd(emit, v->medium.emission, vsd_kvolume_at(&v->emission, p));
+    }
+    {
+        float absorbed = 1.0f - expf(-sigma * len);
+        float path = sigma > 1e-6f ? absorbed / sigma : len;
+        acc->res.emit = f3_add(acc->res.emit, f3_scale(emit, acc->tr * path));
+    }
+    return sigma;
+}
+
+/* Transmittance from p along d over [0, tmax) through the volumes NOT in `skip` (bit i =
+ * volume i), each marched over its own box with the step of its voxels: the shadow other
+ * groups of volumes cast on a lighting grid that does not hold them (src/grids/volume_groups.h). */
+VSD_DEVICE float vsd_kvolumes_transmittance_except(const vsd_kernel_data *kd, vsd_f3 p, vsd_f3 d, float tmax,
+                                                   uint32_t skip)
+{
+    float tau = 0.0f;
+    int32_t i;
+    for (i = 0; i < kd->volume_count; i++) {
+        const vsd_kvolume *v = &kd->volumes[i].density;
+        float t0 = 0.0f, t1 = tmax, t, h = v->step > 0.0f ? 2.0f * v->step : 0.01f, part = 0.0f;
+        if ((skip >> i) & 1u) continue;
+        if (!vsd_kvolume_clip(v, p, d, &t0, &t1)) continue;
+        t1 = vsd_minf(t1, tmax);
+        for (t = t0 + 0.5f * h; t < t1; t += h) part += vsd_kvolume_at(v, f3_madd(p, d, t));
+        tau += part * h;
+    }
+    return expf(-tau);
 }
 
 #endif

@@ -43,9 +43,8 @@ VSD_DEVICE vsd_f3 vsd_march_inscatter(const vsd_kernel_data *kd, vsd_f3 p, vsd_f
 /* ---- several volumes (kernel_volumes.h's rules) ----------------------------------------
  * The same fixed-step march over every volume: at a step sigma = sum of the volumes'
  * sigma_i, emission adds, and the in-scattered light is sum_i sigma_i albedo_i S_i / sigma
- * with S_i = sum over lights of phase_i * L * T(all volumes). Steps stay on the lattice
- * t0 + k h from the first box the ray enters; stretches inside no volume's box (density or
- * emission) are jumped over, so the space between distant volumes costs nothing. */
+ * with S_i = sum over lights of phase_i * L * T(all volumes), on the walk of
+ * kernel_volumes.h (the space between distant volumes costs nothing). */
 
 /* Optical depth of every volume from p along d, each over its own box. */
 VSD_DEVICE float vsd_march_volumes_transmittance(const vsd_kernel_data *kd, vsd_f3 p, vsd_f3 d)
@@ -65,68 +64,32 @@ VSD_DEVICE vsd_sample_result vsd_raymarch_pixel_volumes(const vsd_kernel_data *k
                                                        float jy)
 {
     vsd_march_acc acc;
+    vsd_volumes_walk walk;
     vsd_f3 o, d;
-    float lo[VSD_KMAX_VOLUMES], hi[VSD_KMAX_VOLUMES], start = VSD_INF, end = -VSD_INF, h = kd->march_step;
-    int32_t i, k, n = kd->volume_count;
+    float mid, len, sig[VSD_KMAX_VOLUMES];
+    int32_t i, n = kd->volume_count;
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
-    for (i = 0; i < n; i++) {
-        const vsd_kobject *v = &kd->volumes[i];
-        if (!vsd_march_volume_extent(&v->density, &v->emission, v->medium.has_emission, o, d, &lo[i], &hi[i])) {
-            lo[i] = VSD_INF;
-            hi[i] = -VSD_INF;
-            continue;
+    if (!vsd_volumes_walk_begin(&walk, kd, o, d)) return vsd_march_finish(kd, &acc, d);
+    while (vsd_volumes_walk_next(&walk, kd, acc.tr, &mid, &len)) {
+        vsd_f3 p = f3_madd(o, d, mid), scatter = f3s(0.0f);
+        float sigma = vsd_volumes_walk_medium(&walk, kd, &acc, p, mid, len, sig);
+        float absorbed = 1.0f - expf(-sigma * len);
+        int32_t l;
+        if (!(absorbed > 0.0f)) continue;
+        for (l = 0; l < kd->light_count; l++) {
+            const float *lt = kd->lights + 8 * l;
+            vsd_f3 wl = f3(lt[0], lt[1], lt[2]);
+            float tr = vsd_march_volumes_transmittance(kd, p, wl), c = f3_dot(d, wl);
+            vsd_f3 mix = f3s(0.0f);   /* sum_i sigma_i albedo_i phase_i */
+            for (i = 0; i < n; i++)
+                if (sig[i] > 0.0f)
+                    mix = f3_madd(mix, kd->volumes[i].medium.albedo, sig[i] * vsd_hg_eval(c, kd->volumes[i].medium.anisotropy));
+            scatter = f3_madd(scatter, f3_mul(mix, f3(lt[4], lt[5], lt[6])), tr / sigma);
         }
-        start = vsd_minf(start, lo[i]);
-        end = vsd_maxf(end, hi[i]);
-    }
-    for (k = 0; start < end && acc.tr >= kd->march_stop;) {
-        float t = start + (float)k * h, len, mid, sigma = 0.0f, sig[VSD_KMAX_VOLUMES], next = VSD_INF;
-        int inside = 0;
-        vsd_f3 p, emit = f3s(0.0f), scatter = f3s(0.0f);
-        if (!(t < end)) break;
-        len = vsd_minf(h, end - t);
-        mid = t + 0.5f * len;
-        for (i = 0; i < n; i++) {
-            if (mid >= lo[i] && mid < hi[i]) inside = 1;
-            else if (lo[i] > mid) next = vsd_minf(next, lo[i]);
-        }
-        if (!inside) { /* jump to the first step whose midpoint reaches the next box */
-            int32_t kn = (int32_t)ceilf((next - start) / h - 0.5f);
-            if (next >= VSD_INF) break;
-            k = kn > k ? kn : k + 1;
-            continue;
-        }
-        k++;
-        p = f3_madd(o, d, mid);
-        for (i = 0; i < n; i++) {
-            const vsd_kobject *v = &kd->volumes[i];
-            sig[i] = vsd_kvolume_at(&v->density, p);
-            sigma += sig[i];
-            if (v->medium.has_emission) emit = f3_madd(emit, v->medium.emission, vsd_kvolume_at(&v->emission, p));
-        }
-        {
-            float absorbed = 1.0f - expf(-sigma * len);
-            float path = sigma > 1e-6f ? absorbed / sigma : len;
-            acc.res.emit = f3_add(acc.res.emit, f3_scale(emit, acc.tr * path));
-            if (absorbed > 0.0f) {
-                int32_t l;
-                for (l = 0; l < kd->light_count; l++) {
-                    const float *lt = kd->lights + 8 * l;
-                    vsd_f3 wl = f3(lt[0], lt[1], lt[2]);
-                    float tr = vsd_march_volumes_transmittance(kd, p, wl), c = f3_dot(d, wl);
-                    vsd_f3 mix = f3s(0.0f);   /* sum_i sigma_i albedo_i phase_i */
-                    for (i = 0; i < n; i++)
-                        if (sig[i] > 0.0f)
-                            mix = f3_madd(mix, kd->volumes[i].medium.albedo,
-                                          sig[i] * vsd_hg_eval(c, kd->volumes[i].medium.anisotropy));
-                    scatter = f3_madd(scatter, f3_mul(mix, f3(lt[4], lt[5], lt[6])), tr / sigma);
-                }
-                acc.res.direct = f3_add(acc.res.direct, f3_scale(scatter, acc.tr * absorbed));
-                acc.depth_num += mid * acc.tr * absorbed;
-                acc.tr *= 1.0f - absorbed;
-            }
-        }
+        acc.res.direct = f3_add(acc.res.direct, f3_scale(scatter, acc.tr * absorbed));
+        acc.depth_num += mid * acc.tr * absorbed;
+        acc.tr *= 1.0f - absorbed;
     }
     return vsd_march_finish(kd, &acc, d);
 }

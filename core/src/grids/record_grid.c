@@ -4,6 +4,7 @@
 #include "device/cpu/cpu_tiles.h"
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_record_grid.h"
+#include "kernel/kernel_record_grids.h"
 #include "src/method/method.h"
 #include "src/device_data/record_grid_device.h"
 #include "src/render/kernel_setup.h"
@@ -45,15 +46,11 @@ void vsd_record_grid_free(vsd_record_grid *g)
     memset(g, 0, sizeof *g);
 }
 
-vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
-                                 size_t errlen)
+/* v's active box in its index space: the union of its non-empty brick cells; 0 when none. */
+static int active_index_box(const vsd_kvolume *v, double lo[3], double hi[3])
 {
-    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3], w2i[16], i2w[16];
     int a, x, y, z, any = 0;
-    size_t ncell;
-    vsd_record_grid_free(g);
-    if (v->dims[0] == 0) return VSD_OK;
-    /* the medium's box: the union of non-empty brick cells (index space) */
+    if (v->dims[0] == 0) return 0;
     for (z = 0; z < v->dims[2]; z++)
         for (y = 0; y < v->dims[1]; y++)
             for (x = 0; x < v->dims[0]; x++) {
@@ -66,6 +63,77 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
                 }
                 any = 1;
             }
+    return any;
+}
+
+/* index -> world of v (inverse of its world_to_index); 0 when singular */
+static int index_to_world(const vsd_kvolume *v, double i2w[16])
+{
+    double w2i[16];
+    int a;
+    for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
+    w2i[12] = w2i[13] = w2i[14] = 0;
+    w2i[15] = 1;
+    return vsd_mat4_invert(w2i, i2w);
+}
+
+static void affine_apply(const double m[16], const double p[3], double out[3])
+{
+    int a;
+    for (a = 0; a < 3; a++) out[a] = m[4 * a] * p[0] + m[4 * a + 1] * p[1] + m[4 * a + 2] * p[2] + m[4 * a + 3];
+}
+
+/* The box [lo, hi) in from's index space as an axis-aligned box in to's index space (the
+ * box of its eight corners' images). from_i2w: from's index -> world. */
+static void box_between(const double from_i2w[16], const vsd_kvolume *to, const double lo[3], const double hi[3],
+                        double out_lo[3], double out_hi[3])
+{
+    double w2i[16];
+    int a, c;
+    for (a = 0; a < 12; a++) w2i[a] = to->world_to_index.m[a];
+    w2i[12] = w2i[13] = w2i[14] = 0;
+    w2i[15] = 1;
+    for (c = 0; c < 8; c++) {
+        double p[3] = {(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]}, w[3], q[3];
+        affine_apply(from_i2w, p, w);
+        affine_apply(w2i, w, q);
+        for (a = 0; a < 3; a++) {
+            if (c == 0 || q[a] < out_lo[a]) out_lo[a] = q[a];
+            if (c == 0 || q[a] > out_hi[a]) out_hi[a] = q[a];
+        }
+    }
+}
+
+vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
+                                 size_t errlen)
+{
+    return vsd_record_grid_build_over(v, NULL, 0, cells, probes, g, err, errlen);
+}
+
+vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *const *others, int other_count,
+                                      int cells, int probes, vsd_record_grid *g, char *err, size_t errlen)
+{
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3], i2w[16];
+    int a, x, y, z, o, any;
+    size_t ncell;
+    vsd_record_grid_free(g);
+    if (v->dims[0] == 0) return VSD_OK;
+    if (!index_to_world(v, i2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
+    /* the medium's box: the union of non-empty brick cells (index space), and the other
+     * volumes' boxes seen from v's index space */
+    any = active_index_box(v, lo, hi);
+    for (o = 0; o < other_count; o++) {
+        double olo[3], ohi[3], oi2w[16], blo[3], bhi[3];
+        if (!active_index_box(others[o], olo, ohi)) continue;
+        if (!index_to_world(others[o], oi2w))
+            return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
+        box_between(oi2w, v, olo, ohi, blo, bhi);
+        for (a = 0; a < 3; a++) {
+            if (!any || blo[a] < lo[a]) lo[a] = blo[a];
+            if (!any || bhi[a] > hi[a]) hi[a] = bhi[a];
+        }
+        any = 1;
+    }
     if (!any) return VSD_OK;
     for (a = 0; a < 3; a++) {
         g->res[a] = cells;
@@ -77,10 +145,6 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
         for (c = 0; c < 4; c++) g->world_to_grid.m[4 * a + c] = (float)(v->world_to_index.m[4 * a + c] / cell[a]);
         g->world_to_grid.m[4 * a + 3] -= (float)(lo[a] / cell[a]);
     }
-    for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
-    w2i[12] = w2i[13] = w2i[14] = 0;
-    w2i[15] = 1;
-    if (!vsd_mat4_invert(w2i, i2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
     ncell = (size_t)g->res[0] * g->res[1] * g->res[2];
     g->cell_record = malloc(sizeof(int32_t) * ncell);
     if (!g->cell_record) {
@@ -91,13 +155,21 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
         for (y = 0; y < g->res[1]; y++)
             for (x = 0; x < g->res[0]; x++) {
                 double cl[3], ch[3];
-                int c[3] = {x, y, z};
+                int c[3] = {x, y, z}, full;
                 for (a = 0; a < 3; a++) {
                     cl[a] = lo[a] + cell[a] * c[a];
                     ch[a] = cl[a] + cell[a];
                 }
-                g->cell_record[((size_t)z * g->res[1] + y) * g->res[0] + x] =
-                    cell_nonempty(v, cl, ch, probes) ? g->count++ : -1;
+                full = cell_nonempty(v, cl, ch, probes);
+                /* another volume's medium in the cell: its probes over the cell's box in its
+                 * own index space (a little more than the cell where the axes differ) */
+                for (o = 0; o < other_count && !full; o++) {
+                    double ol[3], oh[3];
+                    if (others[o]->dims[0] == 0) continue;
+                    box_between(i2w, others[o], cl, ch, ol, oh);
+                    full = cell_nonempty(others[o], ol, oh, probes);
+                }
+                g->cell_record[((size_t)z * g->res[1] + y) * g->res[0] + x] = full ? g->count++ : -1;
             }
     g->record_pos = malloc(sizeof(float) * 4 * (size_t)(g->count ? g->count : 1));
     if (!g->record_pos) {
@@ -108,12 +180,11 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
         for (y = 0; y < g->res[1]; y++)
             for (x = 0; x < g->res[0]; x++) {
                 int r = g->cell_record[((size_t)z * g->res[1] + y) * g->res[0] + x], c[3] = {x, y, z};
-                double p[3];
+                double p[3], w[3];
                 if (r < 0) continue;
                 for (a = 0; a < 3; a++) p[a] = lo[a] + cell[a] * (c[a] + 0.5);
-                for (a = 0; a < 3; a++)
-                    g->record_pos[4 * r + a] =
-                        (float)(i2w[4 * a] * p[0] + i2w[4 * a + 1] * p[1] + i2w[4 * a + 2] * p[2] + i2w[4 * a + 3]);
+                affine_apply(i2w, p, w);
+                for (a = 0; a < 3; a++) g->record_pos[4 * r + a] = (float)w[a];
                 g->record_pos[4 * r + 3] = 1.0f;
             }
     return VSD_OK;
@@ -198,4 +269,37 @@ vsd_status vsd_record_grid_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const
     ctx->kd.march_stop = (float)stop;
     return vsd_method_render_view(ctx, fb, n, vs, &vsd_record_grid_view_pass, vsd_record_grid_view_struct, g, samples,
                                   err, errlen);
+}
+
+static vsd_sample_result volumes_sample(const void *m, int x, int y, int s, int n)
+{
+    return vsd_records_volumes_sample((const vsd_krecord_grids *)m, x, y, s, n);
+}
+
+/* several volumes have no device entry yet: the CPU threads run them */
+static const vsd_device_pass volumes_view_pass = {
+    "ray marching (several volumes)", 1, 256, sizeof(vsd_krecord_grids), offsetof(vsd_krecord_grids, kd),
+    volumes_sample, NULL, NULL, NULL,
+};
+
+vsd_status vsd_record_grids_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *grids, int count,
+                                   int n, double step, double stop, const vsd_view_sampling *vs, int *samples, char *err,
+                                   size_t errlen)
+{
+    vsd_krecord_grids gs;
+    struct vsd_cuda *cuda = ctx->cuda;
+    vsd_status st;
+    if (count != ctx->kd.volume_count)
+        return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: %d record grids for %d volumes", count,
+                        ctx->kd.volume_count);
+    memset(&gs, 0, sizeof gs);
+    gs.kd = &ctx->kd;
+    gs.grid = grids;
+    gs.count = count;
+    ctx->kd.march_step = step > 0 ? (float)step : 2.0f * vsd_method_march_step(ctx, 0.0);
+    ctx->kd.march_stop = (float)stop;
+    ctx->cuda = NULL;
+    st = vsd_method_render_view(ctx, fb, n, vs, &volumes_view_pass, NULL, &gs, samples, err, errlen);
+    ctx->cuda = cuda;
+    return st;
 }

@@ -22,6 +22,12 @@ typedef struct vsd_record_grid {
 
 vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
                                  size_t errlen);
+/* The same over v and other volumes (a group of overlapping or near volumes, each lighting
+ * grid of the group covering them all): the box in v's index space grows to hold the
+ * others' boxes, and a cell is empty when it is empty in every volume. With no others it
+ * is vsd_record_grid_build. */
+vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *const *others, int other_count,
+                                      int cells, int probes, vsd_record_grid *g, char *err, size_t errlen);
 void vsd_record_grid_free(vsd_record_grid *g);
 
 /* Isotropic phase: every record's in-scattered RGB (the SH term and the lights' term of
@@ -52,5 +58,11 @@ struct vsd_view_sampling;
 vsd_status vsd_record_grid_render(struct vsd_frame_ctx *ctx, struct vsd_framebuffer *fb, const struct vsd_krecord_grid *g,
                                   int n, double step, double stop, const struct vsd_view_sampling *vs, int *samples,
                                   char *err, size_t errlen);
+
+/* The same view over several volumes (kernel_record_grids.h): grids[i] lights ctx's
+ * volume i; count must be ctx->kd.volume_count. CPU only. */
+vsd_status vsd_record_grids_render(struct vsd_frame_ctx *ctx, struct vsd_framebuffer *fb, const struct vsd_krecord_grid *grids,
+                                   int count, int n, double step, double stop, const struct vsd_view_sampling *vs,
+                                   int *samples, char *err, size_t errlen);
 
 #endif
