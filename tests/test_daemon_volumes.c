@@ -368,14 +368,33 @@ int main(int argc, char **argv)
     cJSON_Delete(info);
 
     /* (e) a method that renders one volume: the daemon's error with the renderer's message */
-    scene2(scene, sizeof scene, b10, b15, eb, "lbl");
+    scene2(scene, sizeof scene, b10, b15, eb, "crm");
     CHECK(render_remote(c, scene, &res, &info, err, sizeof err) == VSDC_ERR_SERVER);
-    CHECK_MSG(strcmp(vsdc_error_code(c), "invalid_scene") == 0, "lbl with two volumes: %s: %s", vsdc_error_code(c),
+    CHECK_MSG(strcmp(vsdc_error_code(c), "invalid_scene") == 0, "crm with two volumes: %s: %s", vsdc_error_code(c),
               err);
-    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'lbl' renders one volume so far");
-    printf("lbl with two volumes: %s: %s\n", vsdc_error_code(c), err);
+    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'crm' renders one volume so far");
+    printf("crm with two volumes: %s: %s\n", vsdc_error_code(c), err);
     vsdc_result_free(&res);
     cJSON_Delete(info);
+
+    /* (f) lbl renders the two volumes (a part per volume): the daemon's image is in-process's */
+    {
+        vsd_framebuffer *fbl;
+        scene2(local, sizeof local, frame_file(10), frame_file(15), g_env, "lbl");
+        fbl = render_local(local);
+        scene2(scene, sizeof scene, b10, b15, eb, "lbl");
+        CHECK(fbl != NULL);
+        if (fbl && render_remote(c, scene, &res, &info, err, sizeof err) == 0) {
+            diff = test_exr_bytes_diff(res.exr, res.exr_len, fbl, g_dir, "volumes_lbl");
+            CHECK_MSG(diff == 0, "lbl with two volumes: %ld values differ from in-process", diff);
+            printf("lbl with two volumes through the daemon: %ld values differ from in-process\n", diff);
+        } else {
+            CHECK_MSG(0, "lbl with two volumes through the daemon: %s", err);
+        }
+        vsdc_result_free(&res);
+        cJSON_Delete(info);
+        vsd_framebuffer_destroy(fbl);
+    }
 
     /* a bad blob, a bad blob name: the error names the volume */
     {

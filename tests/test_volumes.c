@@ -167,7 +167,7 @@ static void test_deterministic_exact(void)
  * 0.009). The tolerances keep what was measured, with a margin for the noise. */
 #define LBL3_SPP 2048
 #define TOL_LBL3_COMBINED 0.13
-#define TOL_LBL3_EMIT 0.05
+#define TOL_LBL3_EMIT 0.08     /* error 0.027; the flame is a few pixels: 2 x 2048 spp leave noise 0.023 */
 #define TOL_LBL3_T 0.005
 static void test_lbl_three_volumes(void)
 {
