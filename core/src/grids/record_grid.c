@@ -1,6 +1,7 @@
 /* The record grid (record_grid.h), moved here from shgrid.c so constellation's cached
  * shadows use the same cells. */
 #include "record_grid.h"
+#include "volume_groups.h"
 #include "device/cpu/cpu_tiles.h"
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_record_grid.h"
@@ -46,37 +47,6 @@ void vsd_record_grid_free(vsd_record_grid *g)
     memset(g, 0, sizeof *g);
 }
 
-/* v's active box in its index space: the union of its non-empty brick cells; 0 when none. */
-static int active_index_box(const vsd_kvolume *v, double lo[3], double hi[3])
-{
-    int a, x, y, z, any = 0;
-    if (v->dims[0] == 0) return 0;
-    for (z = 0; z < v->dims[2]; z++)
-        for (y = 0; y < v->dims[1]; y++)
-            for (x = 0; x < v->dims[0]; x++) {
-                int b[3] = {x, y, z};
-                if (!(v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f)) continue;
-                for (a = 0; a < 3; a++) {
-                    double l = v->origin[a] + 8.0 * b[a], h = l + 8.0;
-                    if (!any || l < lo[a]) lo[a] = l;
-                    if (!any || h > hi[a]) hi[a] = h;
-                }
-                any = 1;
-            }
-    return any;
-}
-
-/* index -> world of v (inverse of its world_to_index); 0 when singular */
-static int index_to_world(const vsd_kvolume *v, double i2w[16])
-{
-    double w2i[16];
-    int a;
-    for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
-    w2i[12] = w2i[13] = w2i[14] = 0;
-    w2i[15] = 1;
-    return vsd_mat4_invert(w2i, i2w);
-}
-
 static void affine_apply(const double m[16], const double p[3], double out[3])
 {
     int a;
@@ -118,14 +88,14 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
     size_t ncell;
     vsd_record_grid_free(g);
     if (v->dims[0] == 0) return VSD_OK;
-    if (!index_to_world(v, i2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
+    if (!vsd_kvolume_index_to_world(v, i2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
     /* the medium's box: the union of non-empty brick cells (index space), and the other
      * volumes' boxes seen from v's index space */
-    any = active_index_box(v, lo, hi);
+    any = vsd_kvolume_active_index_box(v, lo, hi);
     for (o = 0; o < other_count; o++) {
         double olo[3], ohi[3], oi2w[16], blo[3], bhi[3];
-        if (!active_index_box(others[o], olo, ohi)) continue;
-        if (!index_to_world(others[o], oi2w))
+        if (!vsd_kvolume_active_index_box(others[o], olo, ohi)) continue;
+        if (!vsd_kvolume_index_to_world(others[o], oi2w))
             return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
         box_between(oi2w, v, olo, ohi, blo, bhi);
         for (a = 0; a < 3; a++) {

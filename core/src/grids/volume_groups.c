@@ -7,12 +7,10 @@
 #include <math.h>
 #include <stdlib.h>
 
-/* Grow [lo, hi) by v's non-empty bricks' world box; 0 when it has none. */
-static int add_kvolume_box(const vsd_kvolume *v, double lo[3], double hi[3], int any)
+int vsd_kvolume_active_index_box(const vsd_kvolume *v, double lo[3], double hi[3])
 {
-    double w2i[16], i2w[16], blo[3], bhi[3];
-    int a, x, y, z, c, found = 0;
-    if (v->dims[0] == 0 || !v->brick_max) return any;
+    int a, x, y, z, any = 0;
+    if (v->dims[0] == 0 || !v->brick_max) return 0;
     for (z = 0; z < v->dims[2]; z++)
         for (y = 0; y < v->dims[1]; y++)
             for (x = 0; x < v->dims[0]; x++) {
@@ -20,26 +18,47 @@ static int add_kvolume_box(const vsd_kvolume *v, double lo[3], double hi[3], int
                 if (!(v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f)) continue;
                 for (a = 0; a < 3; a++) {
                     double l = v->origin[a] + 8.0 * b[a], h = l + 8.0;
-                    if (!found || l < blo[a]) blo[a] = l;
-                    if (!found || h > bhi[a]) bhi[a] = h;
+                    if (!any || l < lo[a]) lo[a] = l;
+                    if (!any || h > hi[a]) hi[a] = h;
                 }
-                found = 1;
+                any = 1;
             }
-    if (!found) return any;
+    return any;
+}
+
+int vsd_kvolume_index_to_world(const vsd_kvolume *v, double i2w[16])
+{
+    double w2i[16];
+    int a;
     for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
     w2i[12] = w2i[13] = w2i[14] = 0;
     w2i[15] = 1;
-    if (!vsd_mat4_invert(w2i, i2w)) return any;
+    return vsd_mat4_invert(w2i, i2w);
+}
+
+/* The world box of the index box [blo, bhi) of v (i2w: its index -> world) grown into
+ * [lo, hi) (set when !any). */
+static void add_index_box(const double i2w[16], const double blo[3], const double bhi[3], double lo[3], double hi[3],
+                          int any)
+{
+    int a, c;
     for (c = 0; c < 8; c++) {
         double p[3] = {(c & 1) ? bhi[0] : blo[0], (c & 2) ? bhi[1] : blo[1], (c & 4) ? bhi[2] : blo[2]};
         for (a = 0; a < 3; a++) {
             double w = i2w[4 * a] * p[0] + i2w[4 * a + 1] * p[1] + i2w[4 * a + 2] * p[2] + i2w[4 * a + 3];
-            if (!any || w < lo[a]) lo[a] = w;
-            if (!any || w > hi[a]) hi[a] = w;
+            if ((!any && c == 0) || w < lo[a]) lo[a] = w;
+            if ((!any && c == 0) || w > hi[a]) hi[a] = w;
         }
-        any = 1;
     }
-    return any;
+}
+
+/* Grow [lo, hi) by v's non-empty bricks' world box; returns whether [lo, hi) holds anything. */
+static int add_kvolume_box(const vsd_kvolume *v, double lo[3], double hi[3], int any)
+{
+    double i2w[16], blo[3], bhi[3];
+    if (!vsd_kvolume_active_index_box(v, blo, bhi) || !vsd_kvolume_index_to_world(v, i2w)) return any;
+    add_index_box(i2w, blo, bhi, lo, hi, any);
+    return 1;
 }
 
 int vsd_kobject_world_box(const vsd_kobject *o, double lo[3], double hi[3])
@@ -64,28 +83,20 @@ static double *brick_boxes(const vsd_kobject *o, int *count)
     if (!total || !(out = malloc(6 * total * sizeof *out))) return NULL;
     for (k = 0; k < 2; k++) {
         const vsd_kvolume *v = vs[k];
-        double w2i[16], i2w[16];
-        int a, x, y, z, c;
-        if (!v || v->dims[0] == 0 || !v->brick_max) continue;
-        for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
-        w2i[12] = w2i[13] = w2i[14] = 0;
-        w2i[15] = 1;
-        if (!vsd_mat4_invert(w2i, i2w)) continue;
+        double i2w[16];
+        int x, y, z, a;
+        if (!v || v->dims[0] == 0 || !v->brick_max || !vsd_kvolume_index_to_world(v, i2w)) continue;
         for (z = 0; z < v->dims[2]; z++)
             for (y = 0; y < v->dims[1]; y++)
                 for (x = 0; x < v->dims[0]; x++) {
-                    double *b = out + 6 * n;
+                    double blo[3], bhi[3];
                     int bi[3] = {x, y, z};
                     if (!(v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f)) continue;
-                    for (c = 0; c < 8; c++) {
-                        double p[3];
-                        for (a = 0; a < 3; a++) p[a] = v->origin[a] + 8.0 * (bi[a] + ((c >> a) & 1));
-                        for (a = 0; a < 3; a++) {
-                            double w = i2w[4 * a] * p[0] + i2w[4 * a + 1] * p[1] + i2w[4 * a + 2] * p[2] + i2w[4 * a + 3];
-                            if (c == 0 || w < b[a]) b[a] = w;
-                            if (c == 0 || w > b[3 + a]) b[3 + a] = w;
-                        }
+                    for (a = 0; a < 3; a++) {
+                        blo[a] = v->origin[a] + 8.0 * bi[a];
+                        bhi[a] = blo[a] + 8.0;
                     }
+                    add_index_box(i2w, blo, bhi, out + 6 * n, out + 6 * n + 3, 0);
                     n++;
                 }
     }

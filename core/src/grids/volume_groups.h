@@ -26,6 +26,11 @@
  * volume: group[0] = 1). Empty volumes are groups of their own. */
 void vsd_volume_groups(const vsd_kernel_data *kd, uint32_t group[VSD_KMAX_VOLUMES]);
 
+/* A volume's non-empty bricks' box in its index space (0 when none), and its index -> world
+ * map (0 when singular). */
+int vsd_kvolume_active_index_box(const vsd_kvolume *v, double lo[3], double hi[3]);
+int vsd_kvolume_index_to_world(const vsd_kvolume *v, double i2w[16]);
+
 /* World box of a volume's non-empty bricks (density and emission): 0 when it has none. */
 int vsd_kobject_world_box(const vsd_kobject *o, double lo[3], double hi[3]);
 
