@@ -99,15 +99,17 @@ static void test_material_mixture(void)
     free(two);
 }
 
-/* raymarch and lbl are deterministic: where two volumes' grids coincide they must give the
- * single volume's image to float rounding (sums of the same samples in another order). For
- * raymarch also the scatterer + absorber mixture with its emission; for lbl, whose parts
- * each light the group with their own material (docs/design-notes.md, "Several volumes"),
- * two halves of one material, the flame's emission split between them. */
+/* raymarch, lbl and shgrid are deterministic: where two volumes' grids coincide they must
+ * give the single volume's image to float rounding (sums of the same samples in another
+ * order). For raymarch also the scatterer + absorber mixture with its emission; for lbl,
+ * whose parts each light the group with their own material (docs/design-notes.md, "Several
+ * volumes"), two halves of one material, the flame's emission split between them; shgrid's
+ * parts march their records through both halves (the product form: g = 0.4). */
 static void test_deterministic_exact(void)
 {
     static const char *const raymarch[] = {"render.method=raymarch", "render.options.lights=16"};
     static const char *const lbl[] = {"render.method=lbl", "render.options.cells=32"};
+    static const char *const shgrid[] = {"render.method=shgrid", "render.options.grid=32"};
     struct { const char *method, *what, *one, *two; int frame; const char *const *ov; } cases[] = {
         {"raymarch", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8}}",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3}}, {\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5}}",
@@ -130,6 +132,10 @@ static void test_deterministic_exact(void)
          "\"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
          "\"medium\": {\"density\": 2, \"albedo\": [0.9, 0.6, 0.3], \"emission_strength\": 3}}",
          48, lbl},
+        {"shgrid", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8, \"anisotropy\": 0.4}}",
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5, \"anisotropy\": 0.4}}",
+         11, shgrid},
     };
     static const vsd_pass passes[] = {VSD_PASS_COMBINED, VSD_PASS_VOLUME_DIR, VSD_PASS_VOLUME_IND, VSD_PASS_EMIT,
                                       VSD_PASS_TRANSMITTANCE};
@@ -357,7 +363,7 @@ static void test_errors(void)
     const char *crm[] = {"render.method=crm"};
     CHECK(test_parse_scene(two, crm, 1, &sc));
     CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
-    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'crm' renders one volume so far (reference, raymarch, lbl render several)");
+    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'crm' renders one volume so far (reference, raymarch, shgrid, lbl render several)");
     vsd_renderer_destroy(r);
     r = NULL;
 

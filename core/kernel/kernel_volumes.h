@@ -79,6 +79,27 @@ VSD_DEVICE vsd_f3 vsd_kvolumes_emission_integral(const vsd_kernel_data *kd, vsd_
 }
 
 
+/* Optical depth from p along d to infinity through every volume (kd's volume 0 alone when it
+ * has one), each volume's field integrated with quadrature step `step` at offset u
+ * (vsd_field_integral): the records of shgrid and constellation's shadow grid, whose rays
+ * cross whatever volume lies toward the light. */
+VSD_DEVICE float vsd_kvolumes_optical_depth(const vsd_kernel_data *kd, vsd_f3 p, vsd_f3 d, float step, float u)
+{
+    float tau = 0.0f;
+    int32_t i;
+    if (kd->volume_count <= 1) {
+        vsd_kvolume kv = kd->density;
+        kv.step = step;
+        return vsd_field_integral(&kv, p, d, 0.0f, VSD_INF, u);
+    }
+    for (i = 0; i < kd->volume_count; i++) {
+        vsd_kvolume kv = kd->volumes[i].density;
+        kv.step = step;
+        tau += vsd_field_integral(&kv, p, d, 0.0f, VSD_INF, u);
+    }
+    return tau;
+}
+
 /* ---- a deterministic march over every volume (raymarch; the record-grid methods' view) ----
  * Steps stay on the lattice t0 + k h from the first box the ray enters (density or
  * emission); stretches inside no volume's box are jumped over, so the space between

@@ -40,7 +40,7 @@
 #include "src/grids/refraction.h"
 #include "lbl_escape.h"
 #include "src/grids/volume_groups.h"
-#include <stdint.h>
+#include "src/method/method_parts.h"
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -202,13 +202,9 @@ typedef struct lbl_state {
     int history_rounds, history_steps; /* the overlap's rounds, and the lattice steps during them */
     int emission_steps;           /* lattice steps of the emission's solve (0: no emission) */
     vsd_refraction_field refraction; /* medium.ior != 1: the view rays bend (lbl_kernel.h) */
-    /* several volumes (docs/design-notes.md, "Several volumes"): the scene's state holds a
-     * part per volume, each lighting its volume on a grid over the volume's group
-     * (src/grids/volume_groups.h) with every member's extinction and emission */
-    struct lbl_state **parts;     /* [part_count], or NULL with one volume */
-    int part_count;
-    int is_part, volume;          /* a part's volume */
-    uint32_t group;               /* a part's: its group's volumes (bit i = volume i) */
+    /* several volumes: a part per volume, each lighting its volume on a grid over the
+     * volume's group with every member's extinction and emission (src/method/method_parts.h) */
+    vsd_method_parts parts;
 } lbl_state;
 
 static vsd_status lbl_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
@@ -218,7 +214,6 @@ static vsd_status lbl_create(void **state, const vsd_scene *scene, const void *o
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
     s->opt = *(const lbl_options *)options;
     s->readout.g = NAN;
-    s->group = 1u;
     *state = s;
     return VSD_OK;
 }
@@ -283,9 +278,6 @@ static vsd_f3 grid_point(const lbl_state *s, double x, double y, double z)
               (float)(g[8] * x + g[9] * y + g[10] * z + g[11]));
 }
 
-static vsd_status prepare_frame_parts(lbl_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen);
-static vsd_status prepare_lighting_parts(lbl_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen);
-static void free_parts(lbl_state *s);
 static vsd_status view_grid(lbl_state *s, vsd_frame_ctx *ctx, vsd_krecord_grid *g_out, char *err, size_t errlen);
 
 /* The material volume: sigma_t of each cell as the mean of 3^3 samples inside it. */
@@ -296,16 +288,16 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     vsd_status st;
     int32_t x, y, z;
     free_frame(s);
-    if (!s->is_part) {
-        if (ctx->kd.volume_count > 1) return prepare_frame_parts(s, ctx, err, errlen);
-        free_parts(s);
+    if (!ctx->part.active) {
+        if (ctx->kd.volume_count > 1) return vsd_parts_prepare_frame(&s->parts, &vsd_method_lbl, &s->opt, ctx, err, errlen);
+        vsd_parts_free(&s->parts, &vsd_method_lbl);
     }
-    if (s->is_part) {
+    if (ctx->part.active) {
         /* the grid covers the group: this volume's index space, grown over the others' */
         const vsd_kvolume *others[VSD_KMAX_VOLUMES];
         int i, k = 0;
         for (i = 0; i < ctx->kd.volume_count; i++)
-            if (((s->group >> i) & 1u) && i != s->volume) others[k++] = &ctx->kd.volumes[i].density;
+            if (((ctx->part.group >> i) & 1u) && i != ctx->part.volume) others[k++] = &ctx->kd.volumes[i].density;
         st = vsd_record_grid_build_over(&ctx->kd.density, others, k, s->opt.cells, 2, &s->rg, err, errlen);
     } else {
         st = vsd_record_grid_build(&ctx->kd.density, s->opt.cells, 2, &s->rg, err, errlen);
@@ -326,7 +318,7 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
                 for (a = 0; a < 3; a++)
                     for (b = 0; b < 3; b++)
                         for (d = 0; d < 3; d++)
-                            sum += vsd_group_sigma(&ctx->kd, s->group, grid_point(s, x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0,
+                            sum += vsd_group_sigma(&ctx->kd, vsd_ctx_group(ctx), grid_point(s, x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0,
                                                                                   z + (d + 0.5) / 3.0));
                 /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite
                  * here: inf - inf in the trilinear lookups would turn the light into NaN; a
@@ -377,9 +369,9 @@ static void emission_source(lbl_state *s, const vsd_frame_ctx *ctx)
         for (y = 0; y < s->rg.res[1]; y++)
             for (x = 0; x < s->rg.res[0]; x++, c++) {
                 vsd_f3 p = grid_point(s, x + 0.5, y + 0.5, z + 0.5);
-                if (s->is_part) {
+                if (ctx->part.active) {
                     /* the group's emission, each volume's colour times its grid */
-                    vsd_f3 e = vsd_group_emission(&ctx->kd, s->group, p);
+                    vsd_f3 e = vsd_group_emission(&ctx->kd, ctx->part.group, p);
                     s->source_e[c] = (float)(e.x * 4.0 * PI_D * vol);
                     s->source_e[n + c] = (float)(e.y * 4.0 * PI_D * vol);
                     s->source_e[2 * n + c] = (float)(e.z * 4.0 * PI_D * vol);
@@ -492,7 +484,7 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
         for (k = 0; k < s->local_count; k++)
             add_deposit(s, albedo, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k], NAN);
     }
-    if (vsd_group_emits(&ctx->kd, s->group)) {
+    if (vsd_group_emits(&ctx->kd, vsd_ctx_group(ctx))) {
         emission_source(s, ctx);
         add_emission(s);
     }
@@ -620,7 +612,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     size_t c;
     int suns;
     free_lighting(s);
-    if (s->parts) return prepare_lighting_parts(s, ctx, err, errlen);
+    if (s->parts.count) return vsd_parts_prepare_lighting(&s->parts, &vsd_method_lbl, ctx, err, errlen);
     if ((st = split_scene_lights(s, &ctx->kd, &suns))) return vsd_fail(st, err, errlen, "lbl: internal: too many lights");
     /* the record grid's per-ray weights hold VSD_RECORDS_MAX_LIGHTS directional lights,
      * the scene's suns among them */
@@ -665,13 +657,13 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     s->source = malloc(source_floats(s) * sizeof *s->source);
     s->fluence = malloc(3 * n * sizeof *s->fluence);
     s->ms = malloc(3 * recs * sizeof *s->ms);
-    if (vsd_group_emits(&ctx->kd, s->group)) {
+    if (vsd_group_emits(&ctx->kd, vsd_ctx_group(ctx))) {
         s->source_e = malloc(3 * n * sizeof *s->source_e);
         s->fluence_e = malloc(3 * n * sizeof *s->fluence_e);
         s->emission_once = malloc(3 * recs * sizeof *s->emission_once);
     }
     if (!s->light_trans || !s->local_trans || !s->source || !s->fluence || !s->ms ||
-        (vsd_group_emits(&ctx->kd, s->group) && (!s->source_e || !s->fluence_e || !s->emission_once)))
+        (vsd_group_emits(&ctx->kd, vsd_ctx_group(ctx)) && (!s->source_e || !s->fluence_e || !s->emission_once)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lighting of %zu cells", n);
     /* marching pass */
     memcpy(grid.res, s->rg.res, sizeof grid.res);
@@ -737,8 +729,8 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                 vsd_light_falloff(s->local_lights + (size_t)VSD_KLIGHT_FLOATS * q, f3(x[0], x[1], x[2]));
         }
     /* the other groups' shadows: light reaching the grid's box has crossed them */
-    if (s->is_part)
-        vsd_group_shadow_records(&ctx->kd, s->group, s->rg.record_pos, (int)recs, s->dir_lights, s->dir_count,
+    if (ctx->part.active)
+        vsd_group_shadow_records(&ctx->kd, ctx->part.group, s->rg.record_pos, (int)recs, s->dir_lights, s->dir_count,
                                  s->local_lights, s->local_count, s->light_trans, s->light_lost, s->local_trans,
                                  ctx->threads);
     s->march_seconds = vsd_clock_seconds() - t0;
@@ -781,115 +773,6 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         }
     }
     return readout_populations(s, ctx, &layout, err, errlen);
-}
-
-/* ---- several volumes: a part per volume -------------------------------------------------- */
-
-static void lbl_destroy(void *state);
-
-static void free_parts(lbl_state *s)
-{
-    int i;
-    for (i = 0; i < s->part_count; i++) lbl_destroy(s->parts[i]);
-    free(s->parts);
-    s->parts = NULL;
-    s->part_count = 0;
-}
-
-/* volume i's view of ctx: its grids and medium as volume 0's, every volume still in kd.volumes */
-static void part_ctx(const vsd_frame_ctx *ctx, int i, vsd_frame_ctx *out)
-{
-    *out = *ctx;
-    out->kd.density = ctx->kd.volumes[i].density;
-    out->kd.emission = ctx->kd.volumes[i].emission;
-    out->kd.medium = ctx->kd.volumes[i].medium;
-    out->ior = NULL;   /* (refraction renders one volume: refused before this) */
-    out->info = NULL;
-    out->info_len = 0;
-}
-
-/* a part's error, prefixed with its volume */
-static vsd_status part_failed(vsd_status st, int volume, char *err, size_t errlen)
-{
-    char why[512];
-    snprintf(why, sizeof why, "%s", err);
-    return vsd_fail(st, err, errlen, "volumes[%d]: %s", volume, why);
-}
-
-static vsd_status prepare_frame_parts(lbl_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen)
-{
-    uint32_t group[VSD_KMAX_VOLUMES];
-    int i, n = ctx->kd.volume_count;
-    vsd_status st;
-    if (s->part_count != n) {
-        free_parts(s);
-        if (!(s->parts = calloc((size_t)n, sizeof *s->parts)))
-            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d volumes", n);
-        for (s->part_count = 0; s->part_count < n; s->part_count++) {
-            lbl_state *p;
-            if ((st = lbl_create((void **)&p, ctx->scene, &s->opt, err, errlen))) return st;
-            p->is_part = 1;
-            p->volume = s->part_count;
-            s->parts[s->part_count] = p;
-        }
-    }
-    vsd_volume_groups(&ctx->kd, group);
-    for (i = 0; i < n; i++) {
-        vsd_frame_ctx pc;
-        part_ctx(ctx, i, &pc);
-        s->parts[i]->group = group[i];
-        if ((st = lbl_prepare_frame(s->parts[i], &pc, err, errlen)))
-            return part_failed(st, i, err, errlen);
-    }
-    return VSD_OK;
-}
-
-static vsd_status prepare_lighting_parts(lbl_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen)
-{
-    int i;
-    vsd_status st;
-    for (i = 0; i < s->part_count; i++) {
-        vsd_frame_ctx pc;
-        part_ctx(ctx, i, &pc);
-        if ((st = lbl_prepare_lighting(s->parts[i], &pc, err, errlen)))
-            return part_failed(st, i, err, errlen);
-    }
-    return VSD_OK;
-}
-
-/* Each part's records (baked toward this view with its volume's phase), then one march
- * over every volume reading them together (kernel_record_grids.h). */
-static vsd_status render_parts(lbl_state *s, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
-                               size_t errlen)
-{
-    vsd_frame_ctx *pc = calloc((size_t)s->part_count, sizeof *pc);
-    vsd_krecord_grid *grids = calloc((size_t)s->part_count, sizeof *grids);
-    vsd_status st = VSD_OK;
-    int i, cells = 0, records = 0;
-    double march = 0.0, diffusion = 0.0;
-    if (!pc || !grids) st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d volumes", s->part_count);
-    for (i = 0; i < s->part_count && st == VSD_OK; i++) {
-        const lbl_state *p = s->parts[i];
-        part_ctx(ctx, i, &pc[i]);
-        st = view_grid(s->parts[i], &pc[i], &grids[i], err, errlen);
-        cells += p->rg.res[0] * p->rg.res[1] * p->rg.res[2];
-        records += p->rg.count;
-        march += p->march_seconds;
-        diffusion += p->diffusion.seconds;
-    }
-    if (st == VSD_OK && ctx->info && ctx->info_len) {
-        int groups = 0;
-        for (i = 0; i < s->part_count; i++) groups += (s->parts[i]->group & ((1u << i) - 1u)) == 0;   /* its first member */
-        snprintf(ctx->info, ctx->info_len,
-                 "volumes=%d groups=%d cells=%d records=%d march_seconds=%.3f diffusion_seconds=%.3f", s->part_count,
-                 groups, cells, records, march, diffusion);
-    }
-    if (st == VSD_OK)
-        st = vsd_record_grids_render(ctx, fb, grids, s->part_count, s->opt.pixel_samples, s->opt.slice,
-                                     s->opt.early_termination, &s->opt.view, samples, err, errlen);
-    free(pc);
-    free(grids);
-    return st;
 }
 
 static vsd_sample_result bent_sample(const void *m, int x, int y, int s, int n)
@@ -970,8 +853,11 @@ static vsd_status view_grid(lbl_state *s, vsd_frame_ctx *ctx, vsd_krecord_grid *
     return VSD_OK;
 }
 
-static vsd_status render_parts(lbl_state *s, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
-                               size_t errlen);
+/* a part's record grid (src/method/method_parts.h) */
+static vsd_status view_part(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g, char *err, size_t errlen)
+{
+    return view_grid(state, ctx, g, err, errlen);
+}
 
 static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
                              size_t errlen)
@@ -979,7 +865,9 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     lbl_state *s = state;
     vsd_krecord_grid g;
     vsd_status st;
-    if (s->parts) return render_parts(s, ctx, fb, samples, err, errlen);
+    if (s->parts.count)
+        return vsd_parts_render(&s->parts, view_part, ctx, fb, s->opt.pixel_samples, s->opt.slice,
+                                s->opt.early_termination, &s->opt.view, samples, err, errlen);
     ctx->kd.lights = s->dir_lights;
     ctx->kd.light_count = s->dir_count;
     if ((st = view_grid(s, ctx, &g, err, errlen))) return st;
@@ -999,7 +887,7 @@ static void lbl_destroy(void *state)
 {
     lbl_state *s = state;
     if (!s) return;
-    free_parts(s);
+    vsd_parts_free(&s->parts, &vsd_method_lbl);
     free_frame(s);
     vsd_lbl_lattice_free(&s->lattice);
     vsd_lbl_lattice_free(&s->lattice_e);

@@ -32,6 +32,7 @@
 #include "vsd/lighting.h"
 #include "shgrid_kernel.h"
 #include "shgrid_device.h"
+#include "src/method/method_parts.h"
 #include <chealpix.h>
 #include <math.h>
 #include <stdlib.h>
@@ -91,6 +92,9 @@ typedef struct shgrid_state {
     float light_trans_rot;   /* rotation_z the light transmittances were marched for */
     vsd_sh_tensor *tensor;
     double frame_seconds, lighting_seconds;
+    /* several volumes: a part per volume, its records over its own box, their rays marched
+     * through every volume (src/method/method_parts.h, kernel_volumes.h) */
+    vsd_method_parts parts;
 } shgrid_state;
 
 /* The bright texels are split off only when there are lights to take them. */
@@ -238,11 +242,11 @@ static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kin
     return st;
 }
 
-static int want_product(const shgrid_state *s, const vsd_scene *sc)
+static int want_product(const shgrid_state *s, const vsd_frame_ctx *ctx)
 {
     if (s->opt.form == FORM_PRODUCT) return 1;
     if (s->opt.form == FORM_FACTORED) return 0;
-    return sc->volumes[0].medium.anisotropy != 0.0f;
+    return ctx->kd.medium.anisotropy != 0.0f;
 }
 
 /* grid = 0: about 4 voxels per cell along the volume's longest axis, 32 to 64 cells. A
@@ -263,6 +267,11 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
     int n2 = s->opt.order * s->opt.order;
     vsd_status st;
     free_frame(s);
+    if (!ctx->part.active) {
+        if (ctx->kd.volume_count > 1)
+            return vsd_parts_prepare_frame(&s->parts, &vsd_method_shgrid, &s->opt, ctx, err, errlen);
+        vsd_parts_free(&s->parts, &vsd_method_shgrid);
+    }
     if ((st = vsd_record_grid_build(v, s->opt.grid > 0 ? s->opt.grid : auto_grid(v), s->opt.probes, &s->rg, err, errlen)))
         return st;
     s->trans = malloc(sizeof(float) * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
@@ -272,7 +281,7 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d SH records", s->rg.count);
     }
     /* the volume-dependent factor, when the lighting will not be baked into the records */
-    if (!want_product(s, ctx->scene)) {
+    if (!want_product(s, ctx)) {
         if ((st = run_records(s, ctx, VSD_RECORDS_SH_SCALAR, err, errlen))) return st;
         s->have_trans = 1;
     }
@@ -358,6 +367,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     int n2 = s->opt.order * s->opt.order, i, c, env_changed = 0;
     const vsd_env *sh_env = ctx->env;
     vsd_status st;
+    if (s->parts.count) return vsd_parts_prepare_lighting(&s->parts, &vsd_method_shgrid, ctx, err, errlen);
     /* F_Ind: the environment's SH, projected once per map (texture frame) and rotated about
      * Z for Blender's Mapping rotation, so turning the map costs one SH rotation */
     {
@@ -406,7 +416,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
         s->have_light_trans = 1;
         s->light_trans_rot = sc->environment.rotation_z;
     }
-    if (want_product(s, sc)) {
+    if (want_product(s, ctx)) {
         /* §4.4 static-media form: T*L per HEALPix direction, projected per record */
         vsd_env_healpix_radiance(sh_env, &ctx->kd.env, s->nside, s->dir_radiance);
         s->kind = VSD_RECORDS_SH_RGB;
@@ -416,7 +426,7 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
         if ((st = run_records(s, ctx, VSD_RECORDS_SH_SCALAR, err, errlen))) return st;
         s->have_trans = 1;
     }
-    if (sc->volumes[0].medium.anisotropy == 0.0f) return bake_isotropic(s, &ctx->kd, err, errlen);
+    if (ctx->kd.medium.anisotropy == 0.0f) return bake_isotropic(s, &ctx->kd, err, errlen);
     /* factored form with an anisotropic phase: (T * L) per record by the triple product,
      * then the view pass convolves with HG */
     if (!s->tensor && (st = vsd_sh_tensor_create(s->opt.order, &s->tensor, err, errlen))) return st;
@@ -436,11 +446,24 @@ static vsd_status shgrid_prepare_lighting(void *state, vsd_frame_ctx *ctx, char 
     return VSD_OK;
 }
 
+/* a part's record grid (src/method/method_parts.h) */
+static vsd_status view_part(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g, char *err, size_t errlen)
+{
+    const shgrid_state *s = state;
+    (void)err;
+    (void)errlen;
+    kernel_grid(s, &ctx->kd, s->kind, g);
+    return VSD_OK;
+}
+
 static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                                 char *err, size_t errlen)
 {
     shgrid_state *s = state;
     vsd_krecord_grid g;
+    if (s->parts.count)
+        return vsd_parts_render(&s->parts, view_part, ctx, fb, s->opt.pixel_samples, s->opt.step,
+                                s->opt.early_termination, NULL, samples, err, errlen);
     kernel_grid(s, &ctx->kd, s->kind, &g);
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, NULL, samples,
                                   err, errlen);
@@ -450,6 +473,7 @@ static void shgrid_destroy(void *state)
 {
     shgrid_state *s = state;
     if (!s) return;
+    vsd_parts_free(&s->parts, &vsd_method_shgrid);
     free_frame(s);
     free(s->dirs);
     free(s->basis);
@@ -464,7 +488,7 @@ const vsd_method vsd_method_shgrid = {
     .name = "shgrid",
     .label = "SH Grid",
     .summary = "Delalandre 2013: spherical-harmonics record grid",
-    .caps = VSD_METHOD_CAP_CUDA_VIEW,
+    .caps = VSD_METHOD_CAP_CUDA_VIEW | VSD_METHOD_CAP_SEVERAL_VOLUMES,
     .roles = 0,
     .options = VSD_OPTION_TABLE(shgrid_option_rows, shgrid_options),
     .create = shgrid_create,

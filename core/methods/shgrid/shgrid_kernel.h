@@ -41,20 +41,19 @@
 #include "kernel/kernel_phase.h"
 #include "kernel/kernel_sh.h"
 #include "kernel/kernel_record_grid.h"
+#include "kernel/kernel_volumes.h"
 
 /* Reduced-intensity record of one cell (the record pass), written to out[stride]. */
 VSD_DEVICE void vsd_shgrid_record(const vsd_krecord_grid *g, int32_t rec, float *out)
 {
-    vsd_kvolume kv = g->kd->density;
     const float *pp = g->record_pos + 4 * (size_t)rec;
     vsd_f3 p = f3(pp[0], pp[1], pp[2]);
     int32_t j, i, c;
-    kv.step = g->record_step;
     for (i = 0; i < g->stride; i++) out[i] = 0.0f;
     for (j = 0; j < g->dir_count; j++) {
         const float *dj = g->dirs + 4 * (size_t)j;
         const float *yj = g->basis + (size_t)j * g->n2;
-        float tr = expf(-vsd_field_integral(&kv, p, f3(dj[0], dj[1], dj[2]), 0.0f, VSD_INF, 0.5f));
+        float tr = expf(-vsd_kvolumes_optical_depth(g->kd, p, f3(dj[0], dj[1], dj[2]), g->record_step, 0.5f));
         if (g->kind == VSD_RECORDS_SH_SCALAR) {
             for (i = 0; i < g->n2; i++) out[i] += tr * yj[i];
         } else {
@@ -71,14 +70,12 @@ VSD_DEVICE void vsd_shgrid_record(const vsd_krecord_grid *g, int32_t rec, float 
  * the same march as the record pass, K more directions. */
 VSD_DEVICE void vsd_shgrid_light_record(const vsd_krecord_grid *g, int32_t rec, float *out)
 {
-    vsd_kvolume kv = g->kd->density;
     const float *pp = g->record_pos + 4 * (size_t)rec;
     vsd_f3 p = f3(pp[0], pp[1], pp[2]);
     int32_t k;
-    kv.step = g->record_step;
     for (k = 0; k < g->light_count; k++) {
         const float *l = g->lights + 8 * (size_t)k;
-        out[k] = expf(-vsd_field_integral(&kv, p, f3(l[0], l[1], l[2]), 0.0f, VSD_INF, 0.5f));
+        out[k] = expf(-vsd_kvolumes_optical_depth(g->kd, p, f3(l[0], l[1], l[2]), g->record_step, 0.5f));
     }
 }
 

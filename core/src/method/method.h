@@ -44,6 +44,13 @@ typedef struct vsd_frame_ctx {
     const char *cache_dir;              /* vsd_render_options.cache_dir, NULL = none */
     char *info;                         /* vsd_render_stats.method_info: render() may fill it */
     size_t info_len;
+    /* Several volumes, a record-grid method's part (src/method/method_parts.h): active = 1
+     * when this context is volume `volume`'s, standing as volume 0, lighting the volumes of
+     * `group` (bit i = volume i). 0 in the renderer's own context. */
+    struct {
+        int active, volume;
+        uint32_t group;
+    } part;
 } vsd_frame_ctx;
 
 /* What a method can render, for the menus and warnings of its users (the add-on reads them

@@ -1,0 +1,103 @@
+/* A part per volume for the record-grid methods (method_parts.h). */
+#include "method_parts.h"
+#include "src/grids/record_grid.h"
+#include "src/grids/volume_groups.h"
+#include "kernel/kernel_record_grid.h"
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void vsd_part_ctx(const vsd_frame_ctx *ctx, const vsd_method_parts *p, int i, vsd_frame_ctx *out)
+{
+    *out = *ctx;
+    out->kd.density = ctx->kd.volumes[i].density;
+    out->kd.emission = ctx->kd.volumes[i].emission;
+    out->kd.medium = ctx->kd.volumes[i].medium;
+    out->ior = NULL;   /* (refraction renders one volume: refused before this) */
+    out->info = NULL;
+    out->info_len = 0;
+    out->part.active = 1;
+    out->part.volume = i;
+    out->part.group = p->group[i];
+}
+
+uint32_t vsd_ctx_group(const vsd_frame_ctx *ctx)
+{
+    return ctx->part.active ? ctx->part.group : 1u;
+}
+
+/* a part's error, prefixed with its volume */
+static vsd_status part_failed(vsd_status st, int volume, char *err, size_t errlen)
+{
+    char why[512];
+    snprintf(why, sizeof why, "%s", err);
+    return vsd_fail(st, err, errlen, "volumes[%d]: %s", volume, why);
+}
+
+void vsd_parts_free(vsd_method_parts *p, const vsd_method *m)
+{
+    int i;
+    for (i = 0; i < p->count; i++) m->destroy(p->state[i]);
+    free(p->state);
+    memset(p, 0, sizeof *p);
+}
+
+vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, const void *options, vsd_frame_ctx *ctx,
+                                   char *err, size_t errlen)
+{
+    int i, n = ctx->kd.volume_count;
+    vsd_status st;
+    if (p->count != n) {
+        vsd_parts_free(p, m);
+        if (!(p->state = calloc((size_t)n, sizeof *p->state)))
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "%s: no memory for %d volumes", m->name, n);
+        for (; p->count < n; p->count++)
+            if ((st = m->create(&p->state[p->count], ctx->scene, options, err, errlen))) return st;
+    }
+    vsd_volume_groups(&ctx->kd, p->group);
+    for (i = 0; i < n; i++) {
+        vsd_frame_ctx pc;
+        vsd_part_ctx(ctx, p, i, &pc);
+        if (m->prepare_frame && (st = m->prepare_frame(p->state[i], &pc, err, errlen)))
+            return part_failed(st, i, err, errlen);
+    }
+    return VSD_OK;
+}
+
+vsd_status vsd_parts_prepare_lighting(const vsd_method_parts *p, const vsd_method *m, vsd_frame_ctx *ctx, char *err,
+                                      size_t errlen)
+{
+    int i;
+    vsd_status st;
+    for (i = 0; i < p->count; i++) {
+        vsd_frame_ctx pc;
+        vsd_part_ctx(ctx, p, i, &pc);
+        if (m->prepare_lighting && (st = m->prepare_lighting(p->state[i], &pc, err, errlen)))
+            return part_failed(st, i, err, errlen);
+    }
+    return VSD_OK;
+}
+
+vsd_status vsd_parts_render(const vsd_method_parts *p, vsd_part_view_fn view, vsd_frame_ctx *ctx,
+                            vsd_framebuffer *fb, int n, double step, double stop, const vsd_view_sampling *vs,
+                            int *samples, char *err, size_t errlen)
+{
+    vsd_frame_ctx *pc = calloc((size_t)p->count, sizeof *pc);
+    vsd_krecord_grid *grids = calloc((size_t)p->count, sizeof *grids);
+    vsd_status st = VSD_OK;
+    int i, records = 0, groups = 0;
+    if (!pc || !grids) st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d volumes", p->count);
+    for (i = 0; i < p->count && st == VSD_OK; i++) {
+        vsd_part_ctx(ctx, p, i, &pc[i]);
+        if ((st = view(p->state[i], &pc[i], &grids[i], err, errlen))) st = part_failed(st, i, err, errlen);
+        records += grids[i].record_count;
+        groups += (p->group[i] & ((1u << i) - 1u)) == 0;   /* counted at its first member */
+    }
+    if (st == VSD_OK && ctx->info && ctx->info_len)
+        snprintf(ctx->info, ctx->info_len, "volumes=%d groups=%d records=%d", p->count, groups, records);
+    if (st == VSD_OK)
+        st = vsd_record_grids_render(ctx, fb, grids, p->count, n, step, stop, vs, samples, err, errlen);
+    free(pc);
+    free(grids);
+    return st;
+}

@@ -1,0 +1,52 @@
+/* method_parts.h — a record-grid method over several volumes: a *part* per volume.
+ *
+ * A part is the method's own state, prepared with a frame context in which the part's
+ * volume stands as volume 0 (kd.density, kd.emission, kd.medium; every volume stays in
+ * kd.volumes) and ctx->part says which volume and which group it lights
+ * (src/grids/volume_groups.h). The method builds its lighting for that volume as it does
+ * for one, reading its group's summed medium where it builds grids (vsd_group_sigma) and the
+ * other volumes' shadows where its lights reach the grid; the view reads every part's
+ * record grid along one march over all volumes (kernel/kernel_record_grids.h). With one
+ * volume nothing here runs: the method is its single-volume self.
+ *
+ * A method takes part in this by holding a vsd_method_parts in its state and, while
+ * ctx->part.active is 0 and the scene has several volumes, handing its three stages to the
+ * calls below (lbl, shgrid). */
+#ifndef VSD_METHOD_PARTS_H
+#define VSD_METHOD_PARTS_H
+#include "method.h"
+
+struct vsd_krecord_grid;
+
+typedef struct vsd_method_parts {
+    void **state;            /* [count] the parts' method states */
+    uint32_t group[VSD_KMAX_VOLUMES];
+    int count;
+} vsd_method_parts;
+
+/* The record grid part `state` shows this view (records baked toward ctx's camera where the
+ * method bakes them); ctx is the part's. */
+typedef vsd_status (*vsd_part_view_fn)(void *state, vsd_frame_ctx *ctx, struct vsd_krecord_grid *g, char *err,
+                                       size_t errlen);
+
+/* volume i's part of ctx (see the top) */
+void vsd_part_ctx(const vsd_frame_ctx *ctx, const vsd_method_parts *p, int i, vsd_frame_ctx *out);
+/* The group the context lights: a part's group, or volume 0 alone. */
+uint32_t vsd_ctx_group(const vsd_frame_ctx *ctx);
+
+/* m's prepare_frame for every volume's part (created with `options` on first use, again when
+ * the volume count changes); the groups are found anew each frame. */
+vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, const void *options, vsd_frame_ctx *ctx,
+                                   char *err, size_t errlen);
+vsd_status vsd_parts_prepare_lighting(const vsd_method_parts *p, const vsd_method *m, vsd_frame_ctx *ctx, char *err,
+                                      size_t errlen);
+/* The view: every part's record grid by `view`, then one march over all volumes with n x n
+ * rays per pixel, step and stop as vsd_record_grid_render. Fills ctx->info with the parts'
+ * count and groups. */
+vsd_status vsd_parts_render(const vsd_method_parts *p, vsd_part_view_fn view, vsd_frame_ctx *ctx,
+                            vsd_framebuffer *fb, int n, double step, double stop, const vsd_view_sampling *vs,
+                            int *samples, char *err, size_t errlen);
+/* Destroys the parts (m->destroy); p is then empty. */
+void vsd_parts_free(vsd_method_parts *p, const vsd_method *m);
+
+#endif
