@@ -99,17 +99,20 @@ static void test_material_mixture(void)
     free(two);
 }
 
-/* raymarch, lbl and shgrid are deterministic: where two volumes' grids coincide they must
+/* raymarch, lbl, shgrid and constellation are deterministic: where two volumes' grids coincide they must
  * give the single volume's image to float rounding (sums of the same samples in another
  * order). For raymarch also the scatterer + absorber mixture with its emission; for lbl,
  * whose parts each light the group with their own material (docs/design-notes.md, "Several
  * volumes"), two halves of one material, the flame's emission split between them; shgrid's
- * parts march their records through both halves (the product form: g = 0.4). */
+ * parts march their records through both halves (the product form: g = 0.4);
+ * constellation's cached shadows cross their own half by the paper's rays and the other
+ * by a plain march (the same voxel step), whose product is the whole's transmittance. */
 static void test_deterministic_exact(void)
 {
     static const char *const raymarch[] = {"render.method=raymarch", "render.options.lights=16"};
     static const char *const lbl[] = {"render.method=lbl", "render.options.cells=32"};
     static const char *const shgrid[] = {"render.method=shgrid", "render.options.grid=32"};
+    static const char *const constellation[] = {"render.method=constellation", "render.options.lights=16"};
     struct { const char *method, *what, *one, *two; int frame; const char *const *ov; } cases[] = {
         {"raymarch", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8}}",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3}}, {\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5}}",
@@ -136,6 +139,11 @@ static void test_deterministic_exact(void)
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5, \"anisotropy\": 0.4}}",
          11, shgrid},
+        {"constellation", "density 3 + 5 vs 8",
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8, \"anisotropy\": 0.4}}",
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5, \"anisotropy\": 0.4}}",
+         11, constellation},
     };
     static const vsd_pass passes[] = {VSD_PASS_COMBINED, VSD_PASS_VOLUME_DIR, VSD_PASS_VOLUME_IND, VSD_PASS_EMIT,
                                       VSD_PASS_TRANSMITTANCE};
@@ -363,7 +371,7 @@ static void test_errors(void)
     const char *crm[] = {"render.method=crm"};
     CHECK(test_parse_scene(two, crm, 1, &sc));
     CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
-    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'crm' renders one volume so far (reference, raymarch, shgrid, lbl render several)");
+    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'crm' renders one volume so far (reference, raymarch, shgrid, constellation, lbl render several)");
     vsd_renderer_destroy(r);
     r = NULL;
 

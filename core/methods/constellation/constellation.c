@@ -19,6 +19,8 @@
 #include "constellation_device.h"
 #include "src/grids/record_grid.h"
 #include "kernel/kernel_record_grid.h"
+#include "src/grids/volume_groups.h"
+#include "src/method/method_parts.h"
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -91,6 +93,10 @@ typedef struct cst_state {
     vsd_record_grid rg;
     float *light_trans;         /* [rg.count * light_count] */
     float *baked;               /* [rg.count * 3], NULL when g != 0 */
+    /* several volumes (shadows "grid"): a part per volume, its cached shadows marched
+     * through its own volume by the paper's rays and through the others plainly
+     * (src/method/method_parts.h) */
+    vsd_method_parts parts;
 } cst_state;
 
 static vsd_status cst_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
@@ -139,6 +145,15 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
 {
     cst_state *s = state;
     vsd_status st;
+    if (!ctx->part.active && ctx->kd.volume_count > 1) {
+        if (s->opt.shadows != SHADOWS_GRID)
+            return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                            "constellation: render.options.shadows \"rays\" renders one volume; with %d volumes use "
+                            "\"grid\" (the default)",
+                            ctx->kd.volume_count);
+        return vsd_parts_prepare_frame(&s->parts, &vsd_method_constellation, &s->opt, ctx, err, errlen);
+    }
+    if (!ctx->part.active) vsd_parts_free(&s->parts, &vsd_method_constellation);
     vsd_distance_map_free(&s->dm_density);
     vsd_distance_map_free(&s->dm_emission);
     vsd_dense_grid_free(&s->field);
@@ -164,7 +179,9 @@ static vsd_status cst_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
 {
     cst_state *s = state;
     const vsd_scene *sc = ctx->scene;
-    vsd_status st = vsd_constellation_cache_update(&s->cc, ctx->env, s->opt.lights,
+    vsd_status st;
+    if (s->parts.count) return vsd_parts_prepare_lighting(&s->parts, &vsd_method_constellation, ctx, err, errlen);
+    st = vsd_constellation_cache_update(&s->cc, ctx->env, s->opt.lights,
                                                    (vsd_lights_method)s->opt.lights_method, sc->environment.strength,
                                                    sc->environment.rotation_z, err, errlen);
     if (st) return st;
@@ -305,7 +322,11 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
     job.out = s->light_trans;
     vsd_method_item_job(&tj, ctx, s->rg.count, shadow_tile, &job, "cached shadows");
     if ((st = vsd_cpu_run_tiles(&tj))) return vsd_fail(st, err, errlen, "cached shadows cancelled");
-    if (ctx->scene->volumes[0].medium.anisotropy == 0.0f) {
+    /* a part: the other volumes' shadows on the same rays */
+    if (ctx->part.active)
+        vsd_group_shadow_records(&ctx->kd, 1u << ctx->part.volume, s->rg.record_pos, s->rg.count, s->cc.lights,
+                                 s->cc.count, NULL, 0, s->light_trans, NULL, NULL, ctx->threads);
+    if (ctx->kd.medium.anisotropy == 0.0f) {
         vsd_krecord_grid g;
         records_view(s, &ctx->kd, &g);   /* the LIGHTS kind, while s->baked is NULL */
         if ((st = vsd_record_grid_bake(&g, &s->baked, err, errlen))) return st;
@@ -328,6 +349,15 @@ static vsd_status render_cached(cst_state *s, vsd_frame_ctx *ctx, vsd_framebuffe
                                   err, errlen);
 }
 
+/* a part's record grid (src/method/method_parts.h) */
+static vsd_status view_part(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g, char *err, size_t errlen)
+{
+    (void)err;
+    (void)errlen;
+    records_view(state, &ctx->kd, g);
+    return VSD_OK;
+}
+
 static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
                              size_t errlen)
 {
@@ -338,6 +368,9 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     vsd_tile_job job;
     vsd_status st;
     int n2 = s->opt.pixel_samples * s->opt.pixel_samples;
+    if (s->parts.count)
+        return vsd_parts_render(&s->parts, view_part, ctx, fb, s->opt.pixel_samples, s->opt.slice,
+                                s->opt.early_termination, NULL, samples, err, errlen);
     if (s->opt.shadows == SHADOWS_GRID) return render_cached(s, ctx, fb, samples, err, errlen);
     kernel_setup(s, ctx, &kc);
     if (ctx->cuda) {
@@ -387,6 +420,7 @@ static void cst_destroy(void *state)
 {
     cst_state *s = state;
     if (!s) return;
+    vsd_parts_free(&s->parts, &vsd_method_constellation);
     vsd_distance_map_free(&s->dm_density);
     vsd_distance_map_free(&s->dm_emission);
     vsd_dense_grid_free(&s->field);
@@ -399,7 +433,7 @@ const vsd_method vsd_method_constellation = {
     .name = "constellation",
     .label = "Constellation",
     .summary = "Navarro 2009: light constellation, distance map",
-    .caps = VSD_METHOD_CAP_CUDA_VIEW,
+    .caps = VSD_METHOD_CAP_CUDA_VIEW | VSD_METHOD_CAP_SEVERAL_VOLUMES,
     .roles = 0,
     .options = VSD_OPTION_TABLE(cst_option_rows, cst_options),
     .create = cst_create,

@@ -27,6 +27,9 @@ typedef struct vsd_frame_ctx {
     /* volume 0's grids: */
     const vsd_volume *density;          /* never NULL (empty volume when the grid is empty) */
     const vsd_volume *emission;         /* NULL when no emission grid */
+    /* every volume's (volume_count of them; [0] = density, emission above) */
+    const vsd_volume *volume_density[VSD_KMAX_VOLUMES];
+    const vsd_volume *volume_emission[VSD_KMAX_VOLUMES];
     const vsd_volume *ior;              /* volume.ior_grid's grid (of n or of temperature), or NULL */
     const vsd_env *env;
     vsd_kernel_data kd;                 /* host pointers; method fills lights/march_step */

@@ -428,6 +428,10 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     ctx.scene = sc;
     ctx.density = r->volumes[0].density;
     ctx.emission = r->volumes[0].emission;
+    for (int i = 0; i < sc->volume_count; i++) {
+        ctx.volume_density[i] = r->volumes[i].density;
+        ctx.volume_emission[i] = r->volumes[i].emission;
+    }
     ctx.ior = r->volumes[0].ior;
     ctx.env = r->env;
     ctx.threads = vsd_cpu_thread_count(r->opt.threads > 0 ? r->opt.threads : sc->render.threads);
