@@ -16,7 +16,8 @@
 # * the method: with one that renders one volume, F12 is an error naming it and the
 #   catalog's methods that render several, the viewport shows the catalog's final default
 #   among those instead and says so (status text, overlay), the menus mark it, the panel
-#   says F12 refuses the scene, the export warns;
+#   says F12 refuses the scene, the export warns; with the viewport's default (lbl, which
+#   renders several) the preview renders the four volumes with it;
 # * File > Export: each volume as its #### pattern with its frame_offset, frames numbered
 #   by scene frame; `vsd render` renders the export;
 # * F12 with the method that renders several (reference): alpha in each of the three
@@ -376,30 +377,38 @@ def main():
             check(worst < 1e-5, "F12 equals `vsd render` of the export (alpha max rel diff %.3g)" % worst)
         # the viewport's preview of the four it shows, through the daemon (the worker's and the
         # timer's work by hand, as test_feedback does): with a method that renders one volume
-        # it renders the fallback's picture, never an empty box
+        # it renders the fallback's picture, never an empty box; with the viewport's default
+        # (which renders several since lbl learnt them) that method itself
         single = [n for n in catalog.names() if not catalog.has(n, SEVERAL)]
-        s.viewport_method = "lbl" if "lbl" in single else (single[0] if single else "reference")
+        viewport_default = catalog.default_for("viewport_default")
+        cases = [("lbl" if "lbl" in single else (single[0] if single else "reference"),
+                  catalog.default_with(SEVERAL, "final_default"))]
+        if viewport_default and catalog.has(viewport_default, SEVERAL):
+            cases.append((viewport_default, viewport_default))
         viewport = common.addon_module("viewport")
-        p = viewport.Preview()
-        try:
-            dg = bpy.context.evaluated_depsgraph_get()
-            p.scene_changed(bpy.context, dg)
-            sc = json.loads(json.dumps(p.base.scene))
-            sc["camera"] = mapping.build_scene(dg, camera=scene.camera, size=(32, 18)).scene["camera"]
-            sc["output"]["passes"] = ["Combined"]
-            p.process((("k",), sc, p.base.files(), [(32, 18)], p.settings, 0.0))
-            res = p.result
-            check(res is not None and p.error is None and len(sc["volumes"]) == 4 and
-                  sc["render"].get("method") == catalog.default_with(SEVERAL, "final_default"),
-                  "the preview of 4 volumes renders with %s (%s)" % (sc["render"].get("method"), p.error))
-            if res is not None:
-                pimg, pw, ph = common.read_exr_bytes(res[3])
-                pa = [v for k, v in pimg.items() if k.endswith("Combined.A")]
-                check(bool(pa) and sum(1 for x in pa[0] if x > 0.05) > 0.05 * pw * ph,
-                      "the preview shows the volumes (%d of %d pixels with alpha)"
-                      % (sum(1 for x in (pa[0] if pa else []) if x > 0.05), pw * ph))
-        finally:
-            p.stop()
+        for chosen, expected in cases:
+            s.viewport_method = chosen
+            p = viewport.Preview()
+            try:
+                dg = bpy.context.evaluated_depsgraph_get()
+                p.scene_changed(bpy.context, dg)
+                sc = json.loads(json.dumps(p.base.scene))
+                sc["camera"] = mapping.build_scene(dg, camera=scene.camera, size=(32, 18)).scene["camera"]
+                sc["output"]["passes"] = ["Combined"]
+                p.process((("k",), sc, p.base.files(), [(32, 18)], p.settings, 0.0))
+                res = p.result
+                check(res is not None and p.error is None and len(sc["volumes"]) == 4 and
+                      sc["render"].get("method") == expected,
+                      "the preview of 4 volumes with %s renders with %s (%s)"
+                      % (chosen, sc["render"].get("method"), p.error))
+                if res is not None:
+                    pimg, pw, ph = common.read_exr_bytes(res[3])
+                    pa = [v for k, v in pimg.items() if k.endswith("Combined.A")]
+                    check(bool(pa) and sum(1 for x in pa[0] if x > 0.05) > 0.05 * pw * ph,
+                          "the preview with %s shows the volumes (%d of %d pixels with alpha)"
+                          % (chosen, sum(1 for x in (pa[0] if pa else []) if x > 0.05), pw * ph))
+            finally:
+                p.stop()
         s.viewport_method = "reference"
     common.finish("test_volumes")
 
