@@ -103,7 +103,9 @@ static void test_material_mixture(void)
  * give the single volume's image to float rounding (sums of the same samples in another
  * order). For raymarch also the scatterer + absorber mixture with its emission; for lbl,
  * whose parts each light the group with their own material (docs/design-notes.md, "Several
- * volumes"), two halves of one material, the flame's emission split between them; shgrid's
+ * volumes"), two halves of one material, the flame's emission split between them, and the
+ * scatterer + absorber (each cell of a part's lattice scatters with the mixture's albedo,
+ * the absorber's lobe weighs nothing: albedo 0); shgrid's
  * parts march their records through both halves (the product form: g = 0.4);
  * constellation's cached shadows cross their own half by the paper's rays and the other
  * by a plain march (the same voxel step), whose product is the whole's transmittance. */
@@ -134,6 +136,13 @@ static void test_deterministic_exact(void)
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
          "\"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
          "\"medium\": {\"density\": 2, \"albedo\": [0.9, 0.6, 0.3], \"emission_strength\": 3}}",
+         48, lbl},
+        {"lbl", "scatterer + absorber vs mixture",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.6, 0.4, 0.2], "
+         "\"anisotropy\": 0.5, \"emission_strength\": 5}}",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
+         "\"anisotropy\": 0.5, \"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
+         "\"medium\": {\"density\": 2, \"albedo\": [0, 0, 0], \"anisotropy\": -0.7, \"emission_strength\": 3}}",
          48, lbl},
         {"shgrid", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8, \"anisotropy\": 0.4}}",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
@@ -172,15 +181,16 @@ static void test_deterministic_exact(void)
  * overlapping it, a cloud above them; tests/cycles/test_cycles_crosscheck.c) against
  * `reference`, 96x54 with 4x4 rays per pixel (the volumes are a few pixels wide: one ray
  * per pixel centre puts Emit 17 % off at the edges). Measured (2-core VM, 2026-12-04) with
- * `vsd compare` against 8192 spp: Combined (RGB) 0.163, VolumeDir 0.089, VolumeInd 0.281,
- * Emit 0.022, Transmittance 0.0005; lbl alone on each volume (128x72): fire 0.067, smoke
- * 0.132, cloud 0.179. The issue's target, 12 %, is not met: the limit is lbl's
- * single-volume accuracy on these media and its lattice's beams toward the smoke beside
- * the flame (docs/methods/lbl.md, "Several volumes"). This harness scores Combined with its
- * alpha (RGBA, as every mvr check): 0.101 here, against the mean of 2 x 2048 spp (noise
+ * `vsd compare` against 8192 spp: Combined (RGB) 0.127 (0.138 at 128x72), VolumeDir 0.089,
+ * VolumeInd 0.225, Emit 0.022, Transmittance 0.0005 (0.163 Combined before the lattice
+ * took each cell's mixed albedo); lbl alone on each volume (128x72): fire 0.067, smoke
+ * 0.132, cloud 0.179. The issue's target, 12 %, is just missed: the limit is lbl's
+ * single-volume accuracy on the cloud and its lattice's beams toward the smoke beside the
+ * flame (docs/methods/lbl.md, "Several volumes"). This harness scores Combined with its
+ * alpha (RGBA, as every mvr check): 0.080 here, against the mean of 2 x 2048 spp (noise
  * 0.009). The tolerances keep what was measured, with a margin for the noise. */
 #define LBL3_SPP 2048
-#define TOL_LBL3_COMBINED 0.13
+#define TOL_LBL3_COMBINED 0.10
 #define TOL_LBL3_EMIT 0.08     /* error 0.027; the flame is a few pixels: 2 x 2048 spp leave noise 0.023 */
 #define TOL_LBL3_T 0.005
 static void test_lbl_three_volumes(void)

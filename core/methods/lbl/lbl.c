@@ -166,6 +166,9 @@ typedef struct lbl_state {
     float *collide;               /* [cells] collision probability per lattice step */
     float *empty_d2;              /* [cells] squared distance to the medium (lbl_march.h) */
     float *keep;                  /* [cells] what the lattice keeps of each birth (lbl_escape.h), or NULL */
+    /* [3][cells] a part's: each cell's albedo, the scattering share of its group's summed
+     * extinction (several volumes of different albedo in its cells), or NULL */
+    float *albedo_cells;
     vsd_lbl_readout readout;      /* the phase's cone weights (readout "phase") */
     float *ms6;                   /* [records][6][3] the populations as cone radiances, or NULL */
     float *ms_view;               /* [records][3] their light toward this view's eye */
@@ -248,7 +251,8 @@ static void free_frame(lbl_state *s)
     free(s->collide);
     free(s->empty_d2);
     free(s->keep);
-    s->sigma = s->collide = s->empty_d2 = s->keep = NULL;
+    free(s->albedo_cells);
+    s->sigma = s->collide = s->empty_d2 = s->keep = s->albedo_cells = NULL;
     free_lighting(s);
 }
 
@@ -310,16 +314,29 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     s->sigma = malloc(n * sizeof *s->sigma);
     s->collide = malloc(n * sizeof *s->collide);
     if (!s->sigma || !s->collide) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %zu cells", n);
+    /* a part whose group holds other volumes: its lattice scatters their media with their
+     * albedos, not its own (each cell the mixture over its 27 samples) */
+    if (ctx->part.active && (ctx->part.group & ~(1u << ctx->part.volume)) &&
+        !(s->albedo_cells = malloc(3 * n * sizeof *s->albedo_cells)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the albedos of %zu cells", n);
     for (z = 0, c = 0; z < s->rg.res[2]; z++)
         for (y = 0; y < s->rg.res[1]; y++)
             for (x = 0; x < s->rg.res[0]; x++, c++) {
-                double sum = 0.0;
+                double sum = 0.0, scatter[3] = {0.0, 0.0, 0.0};
                 int a, b, d;
                 for (a = 0; a < 3; a++)
                     for (b = 0; b < 3; b++)
-                        for (d = 0; d < 3; d++)
-                            sum += vsd_group_sigma(&ctx->kd, vsd_ctx_group(ctx), grid_point(s, x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0,
-                                                                                  z + (d + 0.5) / 3.0));
+                        for (d = 0; d < 3; d++) {
+                            vsd_f3 p = grid_point(s, x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0, z + (d + 0.5) / 3.0);
+                            sum += s->albedo_cells ? vsd_group_scattering(&ctx->kd, ctx->part.group, p, scatter)
+                                                   : vsd_group_sigma(&ctx->kd, vsd_ctx_group(ctx), p);
+                        }
+                if (s->albedo_cells) {
+                    const vsd_f3 own = ctx->kd.medium.albedo;
+                    s->albedo_cells[c] = (float)(sum > 0.0 ? scatter[0] / sum : own.x);
+                    s->albedo_cells[n + c] = (float)(sum > 0.0 ? scatter[1] / sum : own.y);
+                    s->albedo_cells[2 * n + c] = (float)(sum > 0.0 ? scatter[2] / sum : own.z);
+                }
                 /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite
                  * here: inf - inf in the trilinear lookups would turn the light into NaN; a
                  * cell of 1e20 per unit length is opaque all the same */
@@ -453,7 +470,10 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
 {
     const size_t n = cell_count(s);
     const vsd_kmedium *m = &ctx->kd.medium;
-    const float albedo[3] = {m->albedo.x, m->albedo.y, m->albedo.z};
+    /* with each cell's own albedo (a part's group), E_k's share here and the cell's albedo
+     * per record below */
+    const float albedo[3] = {s->albedo_cells ? 1.0f : m->albedo.x, s->albedo_cells ? 1.0f : m->albedo.y,
+                             s->albedo_cells ? 1.0f : m->albedo.z};
     size_t c;
     const int nd = s->source_dirs ? 6 : 1, m3 = 3 * nd;
     /* the directional lights, the bulk: albedo E_k times each direction's share, once per
@@ -479,10 +499,15 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
         t = (s->light_lost ? s->light_lost : s->light_trans) + (size_t)rec * s->dir_count;
         for (k = 0; k < s->dir_count; k++)
             for (q = 0; q < m3; q++) acc[q] += t[k] * qe[(size_t)k * m3 + q];
+        if (s->albedo_cells)
+            for (q = 0; q < m3; q++) acc[q] *= s->albedo_cells[(size_t)(q % 3) * n + c];
         for (q = 0; q < m3; q++) s->source[(size_t)q * n + c] += (float)(acc[q] * deposit_scale(s, c, s->light_lost != NULL));
         /* point and spot lights: their falloff is in local_trans */
-        for (k = 0; k < s->local_count; k++)
-            add_deposit(s, albedo, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k], NAN);
+        for (k = 0; k < s->local_count; k++) {
+            float a3[3];
+            for (q = 0; q < 3; q++) a3[q] = s->albedo_cells ? s->albedo_cells[(size_t)q * n + c] : albedo[q];
+            add_deposit(s, a3, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k], NAN);
+        }
     }
     if (vsd_group_emits(&ctx->kd, vsd_ctx_group(ctx))) {
         emission_source(s, ctx);
@@ -679,6 +704,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
     vsd_lbl_lattice_set_cell_shape(&s->lattice, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
     vsd_lbl_lattice_set_keep(&s->lattice, s->keep);
+    vsd_lbl_lattice_set_albedo_cells(&s->lattice, s->albedo_cells);
     if (s->source_dirs) {
         float f, b, sd;
         vsd_lbl_readout_lattice_phase(ctx->kd.medium.anisotropy, &f, &b, &sd);

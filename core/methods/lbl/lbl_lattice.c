@@ -57,6 +57,11 @@ void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light) { l->cel
 
 void vsd_lbl_lattice_set_keep(vsd_lbl_lattice *l, const float *keep) { l->keep = keep; }
 
+void vsd_lbl_lattice_set_albedo_cells(vsd_lbl_lattice *l, const float *albedo_cells)
+{
+    l->albedo_cells = albedo_cells;
+}
+
 void vsd_lbl_lattice_set_cell_shape(vsd_lbl_lattice *l, const double shape[3])
 {
     int a;
@@ -82,6 +87,9 @@ typedef struct step_job {
     float *axes;             /* [AXIS_FIELDS][3][cells] (path in the cell): each node's cell_axes */
     const float *keep;       /* [cells] (path in the cell): the lattice's keep, or ones_keep */
     float *ones_keep;        /* [cells] of 1 when the lattice has none */
+    /* [CH][cells] (path in the cell, a lattice with albedo_cells): each cell's albedo times
+     * its keep, which then stands for albedo[ch] * keep */
+    float *akeep;
 } step_job;
 
 /* The light in a cell with its photons' path (cell_light "path"; the paper's step is the
@@ -180,9 +188,10 @@ static void first_collision(size_t n, float a0, const float *restrict keep, floa
 
 /* The next births along one axis: B = albedo P m + S, into its even and odd parts (over m's
  * arrays: mp := (B_+ + B_-) / 2, mm := (B_+ - B_-) / 2). sp/sm the source per direction, or
- * NULL: then s6 (a sixth of the isotropic source) both ways. */
-static void births_axis(size_t n, float a0, const float *restrict keep, float fw, float bw, float sd,
-                        const float *restrict msum,
+ * NULL: then s6 (a sixth of the isotropic source) both ways. The albedo is a0 akeep[c], the
+ * source kept is keep[c] S (akeep = keep with one albedo a0 for every cell). */
+static void births_axis(size_t n, float a0, const float *restrict akeep, const float *restrict keep, float fw,
+                        float bw, float sd, const float *restrict msum,
                         const float *restrict sp, const float *restrict sm, const float *restrict s6,
                         float *restrict mp, float *restrict mm)
 {
@@ -190,7 +199,7 @@ static void births_axis(size_t n, float a0, const float *restrict keep, float fw
     if (!sp) sp = sm = s6;   /* (the same array both ways, read only) */
     if (!sp) {
         for (c = 0; c < n; c++) {
-            const float a = a0 * keep[c], common = a * sd * msum[c];
+            const float a = a0 * akeep[c], common = a * sd * msum[c];
             const float bp = common + a * ((fw - sd) * mp[c] + (bw - sd) * mm[c]);
             const float bm = common + a * ((fw - sd) * mm[c] + (bw - sd) * mp[c]);
             mp[c] = 0.5f * (bp + bm);
@@ -199,7 +208,7 @@ static void births_axis(size_t n, float a0, const float *restrict keep, float fw
         return;
     }
     for (c = 0; c < n; c++) {
-        const float a = a0 * keep[c], common = a * sd * msum[c];
+        const float a = a0 * akeep[c], common = a * sd * msum[c];
         const float bp = common + a * ((fw - sd) * mp[c] + (bw - sd) * mm[c]) + keep[c] * sp[c];
         const float bm = common + a * ((fw - sd) * mm[c] + (bw - sd) * mp[c]) + keep[c] * sm[c];
         mp[c] = 0.5f * (bp + bm);
@@ -244,7 +253,9 @@ static void collide_path(step_job *j, int ch, size_t c0, size_t n)
 {
     const vsd_lbl_lattice *l = j->l;
     const size_t cells = l->cells;
-    const float a = j->albedo[ch];
+    /* one albedo times each cell's keep, or each cell's own albedo (akeep) */
+    const float a = j->akeep ? 1.0f : j->albedo[ch];
+    const float *ak = j->akeep ? j->akeep + (size_t)ch * cells + c0 : j->keep + c0;
     float fw, bw, sd;
     float *sum1 = j->gain + c0, *sum2 = j->gain + cells + c0;
     size_t c;
@@ -260,7 +271,7 @@ static void collide_path(step_job *j, int ch, size_t c0, size_t n)
     }
     /* the first collision; sum2 := what of it collides again */
     for (axis = 0; axis < 3; axis++)
-        first_collision(n, a, j->keep + c0, fw, bw, sd, POP(l->f, 2 * axis), POP(l->f, 2 * axis + 1), AX(AXIS_P, axis), sum1,
+        first_collision(n, a, ak, fw, bw, sd, POP(l->f, 2 * axis), POP(l->f, 2 * axis + 1), AX(AXIS_P, axis), sum1,
                         AX(AXIS_E, axis), AX(AXIS_EF, axis), AX(AXIS_EB, axis), POP(j->post, 2 * axis),
                         POP(j->post, 2 * axis + 1), j->recollide + (size_t)(2 * axis) * cells + c0,
                         j->recollide + (size_t)(2 * axis + 1) * cells + c0, sum2);
@@ -270,7 +281,7 @@ static void collide_path(step_job *j, int ch, size_t c0, size_t n)
         for (c = 0; c < n; c++) sum1[c] = src[c] * (1.0f / 6.0f);
     }
     for (axis = 0; axis < 3; axis++)
-        births_axis(n, a, j->keep + c0, fw, bw, sd, sum2, j->source && l->anisotropic ? POP(j->source, 2 * axis) : NULL,
+        births_axis(n, a, ak, j->keep + c0, fw, bw, sd, sum2, j->source && l->anisotropic ? POP(j->source, 2 * axis) : NULL,
                     j->source && l->anisotropic ? POP(j->source, 2 * axis + 1) : NULL,
                     j->source && !l->anisotropic ? sum1 : NULL, j->recollide + (size_t)(2 * axis) * cells + c0,
                     j->recollide + (size_t)(2 * axis + 1) * cells + c0);
@@ -279,9 +290,9 @@ static void collide_path(step_job *j, int ch, size_t c0, size_t n)
         const float a_even = a * (fw + bw - 2.0f * sd), a_odd = a * (fw - bw), k2 = 2.0f * a * sd;
         for (c = 0; c < n; c++) sum1[c] = sum2[c] = 0.0f;
         for (axis = 0; axis < 3; axis++)
-            even_sums(n, a_even, j->keep + c0, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0, sum1, sum2);
+            even_sums(n, a_even, ak, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0, sum1, sum2);
         for (axis = 0; axis < 3; axis++)
-            leave_axis(n, a_even, a_odd, k2, j->keep + c0, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0,
+            leave_axis(n, a_even, a_odd, k2, ak, AX(AXIS_E, axis), j->recollide + (size_t)(2 * axis) * cells + c0,
                        j->recollide + (size_t)(2 * axis + 1) * cells + c0, sum1, sum2, POP(j->post, 2 * axis),
                        POP(j->post, 2 * axis + 1));
     }
@@ -427,6 +438,11 @@ static int step_job_init(step_job *job, vsd_lbl_lattice *l, const float *collide
         for (n = 0; n < cells; n++) job->ones_keep[n] = 1.0f;
         job->keep = job->ones_keep;
     }
+    if (l->albedo_cells) {
+        if (!(job->akeep = malloc(CH * cells * sizeof *job->akeep))) return 0;
+        for (k = 0; k < CH; k++)
+            for (n = 0; n < cells; n++) job->akeep[(size_t)k * cells + n] = l->albedo_cells[(size_t)k * cells + n] * job->keep[n];
+    }
     for (n = 0; n < cells; n++) {
         cell_axes ca;
         cell_axes_of(l, collide[n], &ca);
@@ -443,6 +459,7 @@ static void step_job_free(step_job *job)
     free(job->recollide);
     free(job->axes);
     free(job->ones_keep);
+    free(job->akeep);
 }
 
 /* Ready lattice l (whichever layout) for steps with this material: the global lattice's
@@ -542,7 +559,8 @@ void vsd_lbl_lattice_node_means(const vsd_lbl_lattice *l, const float *collide, 
                                 const float *source, int ch, size_t c, float mean[DIRS])
 {
     const size_t cells = l->cells;
-    const double keep = l->keep ? l->keep[c] : 1.0, a = albedo[ch] * keep;
+    const double keep = l->keep ? l->keep[c] : 1.0,
+                 a = (l->albedo_cells ? l->albedo_cells[(size_t)ch * cells + c] : albedo[ch]) * keep;
     double f[DIRS], g[DIRS], m[DIRS], born[DIRS], gsum = 0.0, msum = 0.0, as = 0.0, bs = 0.0;
     float fw, bw, sd;
     cell_axes ca;

@@ -60,6 +60,7 @@ typedef struct vsd_lbl_lattice {
     int cell_light;          /* VSD_LBL_CELL_*, global D3Q6 only (vsd_lbl_lattice_set_cell_light) */
     double shape[3];         /* each axis's cell edge over the cube-equivalent edge (product 1; path only) */
     const float *keep;       /* [cells] or NULL (vsd_lbl_lattice_set_keep; the caller's array) */
+    const float *albedo_cells; /* [3][cells] or NULL (vsd_lbl_lattice_set_albedo_cells) */
 } vsd_lbl_lattice;
 
 /* The light in a cell (global D3Q6 only): the paper's step (FACES: photons counted at the
@@ -99,6 +100,13 @@ void vsd_lbl_lattice_set_keep(vsd_lbl_lattice *l, const float *keep);
  * collision probabilities the steps are given are the cube-equivalent cell's, 1 -
  * e^-(sigma V^(1/3)); a photon moving along axis a crosses sigma V^(1/3) shape[a]. */
 void vsd_lbl_lattice_set_cell_shape(vsd_lbl_lattice *l, const double shape[3]);
+
+/* Each cell's own albedo, [3][cells] (the caller's array; NULL = the albedo the steps are
+ * given, for every cell): where several volumes of different albedo share the lattice's
+ * cells, the scattering share of their summed extinction (src/grids/volume_groups.h). Read
+ * by the global D3Q6 lattice with cell_light "path" (the default); the paper's faces, the
+ * blocked and the D3Q18 lattices keep the one albedo. */
+void vsd_lbl_lattice_set_albedo_cells(vsd_lbl_lattice *l, const float *albedo_cells);
 
 /* `steps` collide-and-stream steps on the calling thread (for tests, and the steps while
  * the rays march; a blocked lattice does `steps` iterations): collide[c] = p per node,

@@ -200,6 +200,23 @@ vsd_f3 vsd_group_emission(const vsd_kernel_data *kd, uint32_t group, vsd_f3 p)
     return sum;
 }
 
+float vsd_group_scattering(const vsd_kernel_data *kd, uint32_t group, vsd_f3 p, double scatter[3])
+{
+    float sum = 0.0f;
+    int i;
+    for (i = 0; i < kd->volume_count; i++) {
+        const vsd_kobject *o = &kd->volumes[i];
+        float s;
+        if (!((group >> i) & 1u)) continue;
+        s = vsd_kvolume_at(&o->density, p);
+        sum += s;
+        scatter[0] += (double)s * o->medium.albedo.x;
+        scatter[1] += (double)s * o->medium.albedo.y;
+        scatter[2] += (double)s * o->medium.albedo.z;
+    }
+    return sum;
+}
+
 int vsd_group_emits(const vsd_kernel_data *kd, uint32_t group)
 {
     int i;

@@ -38,6 +38,9 @@ int vsd_kobject_world_box(const vsd_kobject *o, double lo[3], double hi[3]);
  * volume's colour times its grid). One volume (kd->volume_count <= 1): kd's volume 0. */
 float vsd_group_sigma(const vsd_kernel_data *kd, uint32_t group, vsd_f3 p);
 vsd_f3 vsd_group_emission(const vsd_kernel_data *kd, uint32_t group, vsd_f3 p);
+/* The group's summed sigma_t at p (returned) and its summed sigma_s per channel into
+ * scatter[3] (sigma_i albedo_i). */
+float vsd_group_scattering(const vsd_kernel_data *kd, uint32_t group, vsd_f3 p, double scatter[3]);
 int vsd_group_emits(const vsd_kernel_data *kd, uint32_t group);
 /* Whether some volume lies outside the group (then its grids need the shadows below). */
 int vsd_group_has_outside(const vsd_kernel_data *kd, uint32_t group);
