@@ -177,6 +177,19 @@ static void test_deterministic_exact(void)
     }
 }
 
+/* The issue-30 scene (tests/cycles/test_cycles_crosscheck.c "volumes") from its smoke on: the
+ * smoke overlapping the fire's top, the cloud above, the map, camera and a 96x54 film. */
+#define ISSUE30_SMOKE_CLOUD_REST \
+    "{\"file\": \"" SMOKE "\", \"grid\": \"density\", \"frame_offset\": -24, " \
+    "\"matrix\": [1,0,0,0.7, 0,1,0,0, 0,0,1,0.5, 0,0,0,1], " \
+    "\"medium\": {\"density\": 12.0, \"albedo\": [0.9, 0.85, 0.8], \"anisotropy\": 0.3}}, " \
+    "{\"file\": \"" CLOUD "\", \"grid\": \"density\", \"matrix\": [1,0,0,1.2, 0,1,0,1.0, 0,0,1,3.4, 0,0,0,1], " \
+    "\"medium\": {\"density\": 3.0, \"albedo\": [0.97, 0.97, 0.97], \"anisotropy\": 0.6}}], " \
+    "\"environment\": {\"file\": \"" STUDIO "\"}, " \
+    "\"camera\": {\"position\": [-2.9, -10.2, 2.3], \"look_at\": [1.2, 1.0, 1.9], \"up\": [0, 0, 1], \"fov\": 0.7}, " \
+    "\"film\": {\"width\": 96, \"height\": 54, \"transparent\": true}, " \
+    "\"render\": {\"method\": \"reference\", \"samples\": 16}, \"frames\": {\"start\": 48, \"end\": 48}}"
+
 /* lbl on the issue's three-volume scene (the Cycles cross-check's "volumes": a fire, a smoke
  * overlapping it, a cloud above them; tests/cycles/test_cycles_crosscheck.c) against
  * `reference`, 96x54 with 4x4 rays per pixel (the volumes are a few pixels wide: one ray
@@ -199,15 +212,7 @@ static void test_lbl_three_volumes(void)
         "{\"version\": 1, \"volumes\": ["
         "{\"file\": \"" FIRE "\", \"grid\": \"density\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6.0, "
         "\"albedo\": [0.6, 0.6, 0.6], \"anisotropy\": 0.0, \"emission_color\": [1.0, 0.4, 0.08], \"emission_strength\": 8.0}}, "
-        "{\"file\": \"" SMOKE "\", \"grid\": \"density\", \"frame_offset\": -24, "
-        "\"matrix\": [1,0,0,0.7, 0,1,0,0, 0,0,1,0.5, 0,0,0,1], "
-        "\"medium\": {\"density\": 12.0, \"albedo\": [0.9, 0.85, 0.8], \"anisotropy\": 0.3}}, "
-        "{\"file\": \"" CLOUD "\", \"grid\": \"density\", \"matrix\": [1,0,0,1.2, 0,1,0,1.0, 0,0,1,3.4, 0,0,0,1], "
-        "\"medium\": {\"density\": 3.0, \"albedo\": [0.97, 0.97, 0.97], \"anisotropy\": 0.6}}], "
-        "\"environment\": {\"file\": \"" STUDIO "\"}, "
-        "\"camera\": {\"position\": [-2.9, -10.2, 2.3], \"look_at\": [1.2, 1.0, 1.9], \"up\": [0, 0, 1], \"fov\": 0.7}, "
-        "\"film\": {\"width\": 96, \"height\": 54, \"transparent\": true}, "
-        "\"render\": {\"method\": \"reference\", \"samples\": 16}, \"frames\": {\"start\": 48, \"end\": 48}}";
+        ISSUE30_SMOKE_CLOUD_REST;
     mvr_scene sc = {.json = json, .frame = 48};
     mvr_refs refs;
     const char *ov[] = {"render.method=lbl", "render.options.pixel_samples=4"};
@@ -240,15 +245,7 @@ static void test_single_scattering_two_volumes(void)
 {
     const char *json =
         "{\"version\": 1, \"volumes\": ["
-        "{\"file\": \"" SMOKE "\", \"grid\": \"density\", \"frame_offset\": -24, "
-        "\"matrix\": [1,0,0,0.7, 0,1,0,0, 0,0,1,0.5, 0,0,0,1], "
-        "\"medium\": {\"density\": 12.0, \"albedo\": [0.9, 0.85, 0.8], \"anisotropy\": 0.3}}, "
-        "{\"file\": \"" CLOUD "\", \"grid\": \"density\", \"matrix\": [1,0,0,1.2, 0,1,0,1.0, 0,0,1,3.4, 0,0,0,1], "
-        "\"medium\": {\"density\": 3.0, \"albedo\": [0.97, 0.97, 0.97], \"anisotropy\": 0.6}}], "
-        "\"environment\": {\"file\": \"" STUDIO "\"}, "
-        "\"camera\": {\"position\": [-2.9, -10.2, 2.3], \"look_at\": [1.2, 1.0, 1.9], \"up\": [0, 0, 1], \"fov\": 0.7}, "
-        "\"film\": {\"width\": 96, \"height\": 54, \"transparent\": true}, "
-        "\"render\": {\"method\": \"reference\", \"samples\": 16}, \"frames\": {\"start\": 48, \"end\": 48}}";
+        ISSUE30_SMOKE_CLOUD_REST;
     mvr_scene sc = {.json = json, .frame = 48};
     mvr_refs refs;
     struct { const char *method; double tol; } cases[] = {{"shgrid", TOL_SS2_SHGRID},
