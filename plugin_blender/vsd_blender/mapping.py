@@ -893,7 +893,7 @@ SEVERAL = method_catalog.SEVERAL   # the capability of the methods that render s
 def method_for_volumes(chosen, count, viewport, export, m):
     """The method that renders `count` volumes, as the catalog says (no method is named
     here): `chosen` when it can, or when there is one volume; else the viewport falls back
-    to the catalog's final default among those that can (with a note in its status), an
+    to method_catalog.viewport_fallback() (with a note in its status), an
     export keeps `chosen` with a warning (`vsd render` would refuse it), and F12 is an
     error naming the method and those that can."""
     if count <= 1 or not chosen or method_catalog.has(chosen, SEVERAL):
@@ -902,7 +902,7 @@ def method_for_volumes(chosen, count, viewport, export, m):
     which = ("%s render several" % method_catalog.labels_with(SEVERAL)) if can else \
         "no method of this vsd renders several"
     if viewport:
-        fallback = method_catalog.default_with(SEVERAL, "final_default")
+        fallback = method_catalog.viewport_fallback()
         if not fallback:
             raise MappingError("%s renders one volume and %s: hide all volumes but one"
                                % (method_catalog.label(chosen), which))

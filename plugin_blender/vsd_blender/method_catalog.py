@@ -103,6 +103,13 @@ def _number(name):
 SEVERAL = "several_volumes"   # the capability of the methods that render several volumes
 
 
+def viewport_fallback():
+    """What the viewport shows instead of a chosen method that renders one volume: the
+    catalog's viewport default when it renders several (an interactive method), else the
+    first method that does; "" when none does."""
+    return default_with(SEVERAL, "viewport_default")
+
+
 def _volume_count(settings, context, final):
     """How many volumes the scene of Scene.vsd `settings` sends (mapping.count_volumes), 0
     when there is no context to tell."""
@@ -126,7 +133,7 @@ def _annotated(settings, context, final):
     key = (final, n)
     items = _state["annotated"].get(key)
     if items is None:
-        fallback = default_with(SEVERAL, "final_default")
+        fallback = viewport_fallback()
         items = []
         for name, lab, desc, num in base:
             if name and not has(name, SEVERAL):

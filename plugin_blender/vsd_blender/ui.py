@@ -219,7 +219,7 @@ def draw_volume_count(col, context, s, viewport):
     can = ("%s render several" % method_catalog.labels_with(method_catalog.SEVERAL)
            if method_catalog.with_capability(method_catalog.SEVERAL) else "no method of this vsd renders several")
     if viewport:
-        fallback = method_catalog.default_with(method_catalog.SEVERAL, "final_default")
+        fallback = method_catalog.viewport_fallback()
         if fallback:
             text = ("%s renders one volume; showing %s for %d volumes"
                     % (method_catalog.label(method), method_catalog.label(fallback), n))

@@ -14,8 +14,8 @@
 #   sequence showing no file at the frame (Clip) is left out with a note; 17 volumes are an
 #   error naming 17 and the limit 16;
 # * the method: with one that renders one volume, F12 is an error naming it and the
-#   catalog's methods that render several, the viewport shows the catalog's final default
-#   among those instead and says so (status text, overlay), the menus mark it, the panel
+#   catalog's methods that render several, the viewport shows its own default (LBL) when
+#   that renders several, else the first that does, instead and says so (status text, overlay), the menus mark it, the panel
 #   says F12 refuses the scene, the export warns; with the viewport's default (lbl, which
 #   renders several) the preview renders the four volumes with it;
 # * File > Export: each volume as its #### pattern with its frame_offset, frames numbered
@@ -310,10 +310,14 @@ def main():
     # --- a method that renders one volume ------------------------------------------------------
     single = [n for n in catalog.names() if not catalog.has(n, SEVERAL)]
     can = catalog.with_capability(SEVERAL)
-    fallback = catalog.default_with(SEVERAL, "final_default")
-    check(bool(can) and fallback == "reference",
-          "the catalog: methods with %s (%s), the viewport's fallback %s; without it: %s"
-          % (SEVERAL, can, fallback, single))
+    # the viewport's fallback: its own default when that renders several (interactive), else
+    # the first method that does
+    fallback = catalog.viewport_fallback()
+    vd = catalog.default_for("viewport_default")
+    expected = vd if catalog.has(vd, SEVERAL) else (can[0] if can else "")
+    check(bool(can) and fallback == expected,
+          "the catalog: methods with %s (%s), the viewport's fallback %s (expected %s); without it: %s"
+          % (SEVERAL, can, fallback, expected, single))
     if single:
         one_volume_method(scene, s, tmp, "lbl" if "lbl" in single else single[0], fallback, build)
     else:
@@ -381,8 +385,7 @@ def main():
         # (which renders several since lbl learnt them) that method itself
         single = [n for n in catalog.names() if not catalog.has(n, SEVERAL)]
         viewport_default = catalog.default_for("viewport_default")
-        cases = [("lbl" if "lbl" in single else (single[0] if single else "reference"),
-                  catalog.default_with(SEVERAL, "final_default"))]
+        cases = [("lbl" if "lbl" in single else (single[0] if single else "reference"), catalog.viewport_fallback())]
         if viewport_default and catalog.has(viewport_default, SEVERAL):
             cases.append((viewport_default, viewport_default))
         viewport = common.addon_module("viewport")
