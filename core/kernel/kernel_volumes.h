@@ -184,16 +184,19 @@ VSD_DEVICE float vsd_volumes_walk_medium(const vsd_volumes_walk *w, const vsd_ke
 }
 
 /* Transmittance from p along d over [0, tmax) through the volumes NOT in `skip` (bit i =
- * volume i), each marched over its own box with the step of its voxels: the shadow other
- * groups of volumes cast on a lighting grid that does not hold them (src/grids/volume_groups.h). */
-VSD_DEVICE float vsd_kvolumes_transmittance_except(const vsd_kernel_data *kd, vsd_f3 p, vsd_f3 d, float tmax,
-                                                   uint32_t skip)
+ * volume i), each marched over its own box by midpoints of step h (h <= 0: each volume's
+ * voxel, twice its quadrature step). raymarch's shadow rays (skip 0, its march step), and
+ * the shadow other groups of volumes cast on a lighting grid that does not hold them
+ * (src/grids/volume_groups.h). */
+VSD_DEVICE float vsd_kvolumes_march_transmittance(const vsd_kernel_data *kd, vsd_f3 p, vsd_f3 d, float tmax,
+                                                  uint32_t skip, float step)
 {
     float tau = 0.0f;
     int32_t i;
     for (i = 0; i < kd->volume_count; i++) {
         const vsd_kvolume *v = &kd->volumes[i].density;
-        float t0 = 0.0f, t1 = tmax, t, h = v->step > 0.0f ? 2.0f * v->step : 0.01f, part = 0.0f;
+        float t0 = 0.0f, t1 = tmax, t, part = 0.0f;
+        float h = step > 0.0f ? step : v->step > 0.0f ? 2.0f * v->step : 0.01f;
         if ((skip >> i) & 1u) continue;
         if (!vsd_kvolume_clip(v, p, d, &t0, &t1)) continue;
         t1 = vsd_minf(t1, tmax);

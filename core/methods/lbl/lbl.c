@@ -282,8 +282,6 @@ static vsd_f3 grid_point(const lbl_state *s, double x, double y, double z)
               (float)(g[8] * x + g[9] * y + g[10] * z + g[11]));
 }
 
-static vsd_status view_grid(lbl_state *s, vsd_frame_ctx *ctx, vsd_krecord_grid *g_out, char *err, size_t errlen);
-
 /* The material volume: sigma_t of each cell as the mean of 3^3 samples inside it. */
 static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
@@ -830,9 +828,10 @@ static vsd_status render_bent(lbl_state *s, vsd_frame_ctx *ctx, vsd_framebuffer 
 }
 
 /* The record grid the view reads, *g, with the lights' term baked for this view where the
- * CPU renders it. */
-static vsd_status view_grid(lbl_state *s, vsd_frame_ctx *ctx, vsd_krecord_grid *g_out, char *err, size_t errlen)
+ * CPU renders it; also a part's (vsd_part_view_fn, src/method/method_parts.h). */
+static vsd_status view_grid(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g_out, char *err, size_t errlen)
 {
+    lbl_state *s = state;
     vsd_krecord_grid g;
     memset(&g, 0, sizeof g);
     g.kd = &ctx->kd;
@@ -879,12 +878,6 @@ static vsd_status view_grid(lbl_state *s, vsd_frame_ctx *ctx, vsd_krecord_grid *
     return VSD_OK;
 }
 
-/* a part's record grid (src/method/method_parts.h) */
-static vsd_status view_part(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g, char *err, size_t errlen)
-{
-    return view_grid(state, ctx, g, err, errlen);
-}
-
 static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
                              size_t errlen)
 {
@@ -892,7 +885,7 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     vsd_krecord_grid g;
     vsd_status st;
     if (s->parts.count)
-        return vsd_parts_render(&s->parts, view_part, ctx, fb, s->opt.pixel_samples, s->opt.slice,
+        return vsd_parts_render(&s->parts, view_grid, ctx, fb, s->opt.pixel_samples, s->opt.slice,
                                 s->opt.early_termination, &s->opt.view, samples, err, errlen);
     ctx->kd.lights = s->dir_lights;
     ctx->kd.light_count = s->dir_count;

@@ -46,20 +46,6 @@ VSD_DEVICE vsd_f3 vsd_march_inscatter(const vsd_kernel_data *kd, vsd_f3 p, vsd_f
  * with S_i = sum over lights of phase_i * L * T(all volumes), on the walk of
  * kernel_volumes.h (the space between distant volumes costs nothing). */
 
-/* Optical depth of every volume from p along d, each over its own box. */
-VSD_DEVICE float vsd_march_volumes_transmittance(const vsd_kernel_data *kd, vsd_f3 p, vsd_f3 d)
-{
-    float tau = 0.0f, h = kd->march_step;
-    int32_t i;
-    for (i = 0; i < kd->volume_count; i++) {
-        const vsd_kvolume *v = &kd->volumes[i].density;
-        float t0, t1, t;
-        if (!vsd_kvolume_clip(v, p, d, &t0, &t1)) continue;
-        for (t = t0 + 0.5f * h; t < t1; t += h) tau += vsd_kvolume_at(v, f3_madd(p, d, t));
-    }
-    return expf(-tau * h);
-}
-
 VSD_DEVICE vsd_sample_result vsd_raymarch_pixel_volumes(const vsd_kernel_data *kd, int32_t px, int32_t py, float jx,
                                                        float jy)
 {
@@ -80,7 +66,7 @@ VSD_DEVICE vsd_sample_result vsd_raymarch_pixel_volumes(const vsd_kernel_data *k
         for (l = 0; l < kd->light_count; l++) {
             const float *lt = kd->lights + 8 * l;
             vsd_f3 wl = f3(lt[0], lt[1], lt[2]);
-            float tr = vsd_march_volumes_transmittance(kd, p, wl), c = f3_dot(d, wl);
+            float tr = vsd_kvolumes_march_transmittance(kd, p, wl, VSD_INF, 0u, kd->march_step), c = f3_dot(d, wl);
             vsd_f3 mix = f3s(0.0f);   /* sum_i sigma_i albedo_i phase_i */
             for (i = 0; i < n; i++)
                 if (sig[i] > 0.0f)

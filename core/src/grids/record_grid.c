@@ -1,7 +1,8 @@
 /* The record grid (record_grid.h), moved here from shgrid.c so constellation's cached
  * shadows use the same cells. */
 #include "record_grid.h"
-#include "volume_groups.h"
+#include "kvolume_boxes.h"
+#include "vsd/volume.h"
 #include "device/cpu/cpu_tiles.h"
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_record_grid.h"
@@ -29,14 +30,8 @@ static int cell_nonempty(const vsd_kvolume *v, const double lo[3], const double 
             for (x = b0[0]; x <= b1[0] && !any; x++)
                 if (v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f) any = 1;
     if (!any || k == 0) return any;
-    for (z = 0; z < k; z++)
-        for (y = 0; y < k; y++)
-            for (x = 0; x < k; x++) {
-                vsd_f3 p = f3((float)(lo[0] + (hi[0] - lo[0]) * (x + 0.5) / k),
-                              (float)(lo[1] + (hi[1] - lo[1]) * (y + 0.5) / k),
-                              (float)(lo[2] + (hi[2] - lo[2]) * (z + 0.5) / k));
-                if (vsd_kvolume_field(v, p) > 0.0f) return 1;
-            }
+    for (a = 0; a < k * k * k; a++)   /* a: the probe */
+        if (vsd_kvolume_field(v, vsd_box_probe(lo, hi, k, a)) > 0.0f) return 1;
     return 0;
 }
 
@@ -47,31 +42,12 @@ void vsd_record_grid_free(vsd_record_grid *g)
     memset(g, 0, sizeof *g);
 }
 
-static void affine_apply(const double m[16], const double p[3], double out[3])
-{
-    int a;
-    for (a = 0; a < 3; a++) out[a] = m[4 * a] * p[0] + m[4 * a + 1] * p[1] + m[4 * a + 2] * p[2] + m[4 * a + 3];
-}
-
-/* The box [lo, hi) in from's index space as an axis-aligned box in to's index space (the
- * box of its eight corners' images). from_i2w: from's index -> world. */
-static void box_between(const double from_i2w[16], const vsd_kvolume *to, const double lo[3], const double hi[3],
-                        double out_lo[3], double out_hi[3])
+/* from's index space -> to's (from_i2w: from's index -> world) */
+static void index_between(const double from_i2w[16], const vsd_kvolume *to, double m[16])
 {
     double w2i[16];
-    int a, c;
-    for (a = 0; a < 12; a++) w2i[a] = to->world_to_index.m[a];
-    w2i[12] = w2i[13] = w2i[14] = 0;
-    w2i[15] = 1;
-    for (c = 0; c < 8; c++) {
-        double p[3] = {(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]}, w[3], q[3];
-        affine_apply(from_i2w, p, w);
-        affine_apply(w2i, w, q);
-        for (a = 0; a < 3; a++) {
-            if (c == 0 || q[a] < out_lo[a]) out_lo[a] = q[a];
-            if (c == 0 || q[a] > out_hi[a]) out_hi[a] = q[a];
-        }
-    }
+    vsd_kvolume_world_to_index_d(to, w2i);
+    vsd_mat4_mul(w2i, from_i2w, m);
 }
 
 vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
@@ -83,11 +59,13 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
 vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *const *others, int other_count,
                                       int cells, int probes, vsd_record_grid *g, char *err, size_t errlen)
 {
-    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3], i2w[16];
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3], i2w[16], to_other[VSD_KMAX_VOLUMES][16];
     int a, x, y, z, o, any;
     size_t ncell;
     vsd_record_grid_free(g);
     if (v->dims[0] == 0) return VSD_OK;
+    if (other_count > VSD_KMAX_VOLUMES - 1)
+        return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: %d other volumes for one record grid", other_count);
     if (!vsd_kvolume_index_to_world(v, i2w)) return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
     /* the medium's box: the union of non-empty brick cells (index space), and the other
      * volumes' boxes seen from v's index space */
@@ -97,7 +75,11 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
         if (!vsd_kvolume_active_index_box(others[o], olo, ohi)) continue;
         if (!vsd_kvolume_index_to_world(others[o], oi2w))
             return vsd_fail(VSD_ERR_INVALID, err, errlen, "volume transform is singular");
-        box_between(oi2w, v, olo, ohi, blo, bhi);
+        {
+            double m[16];
+            index_between(oi2w, v, m);
+            vsd_affine_box(m, olo, ohi, blo, bhi);
+        }
         for (a = 0; a < 3; a++) {
             if (!any || blo[a] < lo[a]) lo[a] = blo[a];
             if (!any || bhi[a] > hi[a]) hi[a] = bhi[a];
@@ -115,6 +97,7 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
         for (c = 0; c < 4; c++) g->world_to_grid.m[4 * a + c] = (float)(v->world_to_index.m[4 * a + c] / cell[a]);
         g->world_to_grid.m[4 * a + 3] -= (float)(lo[a] / cell[a]);
     }
+    for (o = 0; o < other_count; o++) index_between(i2w, others[o], to_other[o]);
     ncell = (size_t)g->res[0] * g->res[1] * g->res[2];
     g->cell_record = malloc(sizeof(int32_t) * ncell);
     if (!g->cell_record) {
@@ -136,7 +119,7 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
                 for (o = 0; o < other_count && !full; o++) {
                     double ol[3], oh[3];
                     if (others[o]->dims[0] == 0) continue;
-                    box_between(i2w, others[o], cl, ch, ol, oh);
+                    vsd_affine_box(to_other[o], cl, ch, ol, oh);
                     full = cell_nonempty(others[o], ol, oh, probes);
                 }
                 g->cell_record[((size_t)z * g->res[1] + y) * g->res[0] + x] = full ? g->count++ : -1;
@@ -153,7 +136,7 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
                 double p[3], w[3];
                 if (r < 0) continue;
                 for (a = 0; a < 3; a++) p[a] = lo[a] + cell[a] * (c[a] + 0.5);
-                affine_apply(i2w, p, w);
+                vsd_affine_apply_d(i2w, p, w);
                 for (a = 0; a < 3; a++) g->record_pos[4 * r + a] = (float)w[a];
                 g->record_pos[4 * r + 3] = 1.0f;
             }

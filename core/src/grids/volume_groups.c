@@ -1,5 +1,6 @@
 /* Groups of volumes that share lighting grids (volume_groups.h). */
 #include "volume_groups.h"
+#include "kvolume_boxes.h"
 #include "vsd/volume.h"
 #include "kernel/kernel_volumes.h"
 #include "kernel/kernel_lights.h"
@@ -7,57 +8,23 @@
 #include <math.h>
 #include <stdlib.h>
 
-int vsd_kvolume_active_index_box(const vsd_kvolume *v, double lo[3], double hi[3])
+/* [lo, hi] grown by [blo, bhi] (set when !any) */
+static void grow_box(const double blo[3], const double bhi[3], double lo[3], double hi[3], int any)
 {
-    int a, x, y, z, any = 0;
-    if (v->dims[0] == 0 || !v->brick_max) return 0;
-    for (z = 0; z < v->dims[2]; z++)
-        for (y = 0; y < v->dims[1]; y++)
-            for (x = 0; x < v->dims[0]; x++) {
-                int b[3] = {x, y, z};
-                if (!(v->brick_max[((size_t)z * v->dims[1] + y) * v->dims[0] + x] > 0.0f)) continue;
-                for (a = 0; a < 3; a++) {
-                    double l = v->origin[a] + 8.0 * b[a], h = l + 8.0;
-                    if (!any || l < lo[a]) lo[a] = l;
-                    if (!any || h > hi[a]) hi[a] = h;
-                }
-                any = 1;
-            }
-    return any;
-}
-
-int vsd_kvolume_index_to_world(const vsd_kvolume *v, double i2w[16])
-{
-    double w2i[16];
     int a;
-    for (a = 0; a < 12; a++) w2i[a] = v->world_to_index.m[a];
-    w2i[12] = w2i[13] = w2i[14] = 0;
-    w2i[15] = 1;
-    return vsd_mat4_invert(w2i, i2w);
-}
-
-/* The world box of the index box [blo, bhi) of v (i2w: its index -> world) grown into
- * [lo, hi) (set when !any). */
-static void add_index_box(const double i2w[16], const double blo[3], const double bhi[3], double lo[3], double hi[3],
-                          int any)
-{
-    int a, c;
-    for (c = 0; c < 8; c++) {
-        double p[3] = {(c & 1) ? bhi[0] : blo[0], (c & 2) ? bhi[1] : blo[1], (c & 4) ? bhi[2] : blo[2]};
-        for (a = 0; a < 3; a++) {
-            double w = i2w[4 * a] * p[0] + i2w[4 * a + 1] * p[1] + i2w[4 * a + 2] * p[2] + i2w[4 * a + 3];
-            if ((!any && c == 0) || w < lo[a]) lo[a] = w;
-            if ((!any && c == 0) || w > hi[a]) hi[a] = w;
-        }
+    for (a = 0; a < 3; a++) {
+        if (!any || blo[a] < lo[a]) lo[a] = blo[a];
+        if (!any || bhi[a] > hi[a]) hi[a] = bhi[a];
     }
 }
 
 /* Grow [lo, hi) by v's non-empty bricks' world box; returns whether [lo, hi) holds anything. */
 static int add_kvolume_box(const vsd_kvolume *v, double lo[3], double hi[3], int any)
 {
-    double i2w[16], blo[3], bhi[3];
+    double i2w[16], blo[3], bhi[3], wlo[3], whi[3];
     if (!vsd_kvolume_active_index_box(v, blo, bhi) || !vsd_kvolume_index_to_world(v, i2w)) return any;
-    add_index_box(i2w, blo, bhi, lo, hi, any);
+    vsd_affine_box(i2w, blo, bhi, wlo, whi);
+    grow_box(wlo, whi, lo, hi, any);
     return 1;
 }
 
@@ -96,7 +63,7 @@ static double *brick_boxes(const vsd_kobject *o, int *count)
                         blo[a] = v->origin[a] + 8.0 * bi[a];
                         bhi[a] = blo[a] + 8.0;
                     }
-                    add_index_box(i2w, blo, bhi, out + 6 * n, out + 6 * n + 3, 0);
+                    vsd_affine_box(i2w, blo, bhi, out + 6 * n, out + 6 * n + 3);
                     n++;
                 }
     }
@@ -115,7 +82,7 @@ static int medium_at(const vsd_kobject *o, vsd_f3 p)
 static int media_overlap(const vsd_kobject *oa, const double *a, int na, const vsd_kobject *ob, const double *b, int nb)
 {
     enum { K = 4 };
-    int i, j, k, x, y, z;
+    int i, j, k;
     for (i = 0; i < na; i++)
         for (j = 0; j < nb; j++) {
             const double *p = a + 6 * (size_t)i, *q = b + 6 * (size_t)j;
@@ -127,14 +94,10 @@ static int media_overlap(const vsd_kobject *oa, const double *a, int na, const v
                 meet = lo[k] <= hi[k];
             }
             if (!meet) continue;
-            for (z = 0; z < K; z++)
-                for (y = 0; y < K; y++)
-                    for (x = 0; x < K; x++) {
-                        vsd_f3 at = f3((float)(lo[0] + (hi[0] - lo[0]) * (x + 0.5) / K),
-                                       (float)(lo[1] + (hi[1] - lo[1]) * (y + 0.5) / K),
-                                       (float)(lo[2] + (hi[2] - lo[2]) * (z + 0.5) / K));
-                        if (medium_at(oa, at) && medium_at(ob, at)) return 1;
-                    }
+            for (k = 0; k < K * K * K; k++) {
+                vsd_f3 at = vsd_box_probe(lo, hi, K, k);
+                if (medium_at(oa, at) && medium_at(ob, at)) return 1;
+            }
         }
     return 0;
 }
@@ -256,7 +219,7 @@ static void shadow_items(void *arg, int r0, int y0, int r1, int y1)
             const float *l = j->dir_lights + 8 * (size_t)k;
             float t;
             if (!(j->light_trans[at] > 0.0f) && !(j->light_lost && j->light_lost[at] > 0.0f)) continue;
-            t = vsd_kvolumes_transmittance_except(j->kd, p, f3(l[0], l[1], l[2]), VSD_INF, j->group);
+            t = vsd_kvolumes_march_transmittance(j->kd, p, f3(l[0], l[1], l[2]), VSD_INF, j->group, 0.0f);
             j->light_trans[at] *= t;
             if (j->light_lost) j->light_lost[at] *= t;
         }
@@ -266,7 +229,7 @@ static void shadow_items(void *arg, int r0, int y0, int r1, int y1)
             vsd_f3 to = f3_sub(f3(l[0], l[1], l[2]), p);
             float dist = sqrtf(f3_dot(to, to));
             if (!(j->local_trans[at] > 0.0f) || !(dist > 0.0f)) continue;
-            j->local_trans[at] *= vsd_kvolumes_transmittance_except(j->kd, p, f3_scale(to, 1.0f / dist), dist, j->group);
+            j->local_trans[at] *= vsd_kvolumes_march_transmittance(j->kd, p, f3_scale(to, 1.0f / dist), dist, j->group, 0.0f);
         }
     }
 }

@@ -26,11 +26,6 @@
  * volume: group[0] = 1). Empty volumes are groups of their own. */
 void vsd_volume_groups(const vsd_kernel_data *kd, uint32_t group[VSD_KMAX_VOLUMES]);
 
-/* A volume's non-empty bricks' box in its index space (0 when none), and its index -> world
- * map (0 when singular). */
-int vsd_kvolume_active_index_box(const vsd_kvolume *v, double lo[3], double hi[3]);
-int vsd_kvolume_index_to_world(const vsd_kvolume *v, double i2w[16]);
-
 /* World box of a volume's non-empty bricks (density and emission): 0 when it has none. */
 int vsd_kobject_world_box(const vsd_kobject *o, double lo[3], double hi[3]);
 
@@ -50,7 +45,7 @@ int vsd_group_has_outside(const vsd_kernel_data *kd, uint32_t group);
  * light_lost, when not NULL: [records][dir_count]; dir_lights 8 floats each, the direction
  * toward the light first) and toward each point or spot light (local_trans
  * [records][local_count], kernel_lights.h layout) times the transmittance through those
- * volumes along the same ray (kernel_volumes.h, vsd_kvolumes_transmittance_except). */
+ * volumes along the same ray (kernel_volumes.h, vsd_kvolumes_march_transmittance). */
 void vsd_group_shadow_records(const vsd_kernel_data *kd, uint32_t group, const float *record_pos, int records,
                               const float *dir_lights, int dir_count, const float *local_lights, int local_count,
                               float *light_trans, float *light_lost, float *local_trans, int threads);
