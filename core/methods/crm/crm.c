@@ -3,16 +3,22 @@
  * density, with the residual put back in the view march.
  *
  * Stages and caches (the paper's split, §4; issue 13 part 6):
- *   prepare_frame     §5.1-5.2, only when the density grid's *content* changed (a change of
- *                     medium density re-runs the renderer's frame stage but not this): the
- *                     RBF fit (crm_fit.c; from/to the disk cache in ctx->cache_dir; frame k+1
- *                     starts from frame k's RBFs), D~ rasterised on the voxels, the residual
- *                     R = D - D~ quantised into a perfect hash (crm_residual_hash.c).
- *   prepare_lighting  §5.3-5.4 for the environment, sigma_t, albedo and phase: the SH
- *                     projection of the map, single scattering at the RBF centres
- *                     (crm_single.c), the diffusion solve warm-started from the last one
- *                     (crm_diffusion.c), and J~ on the node grid (crm_source_grid.c).
- *   render            §5.5, the compensated march (crm_kernel.h) on CPU tiles or CUDA.
+ *   prepare_frame     only when the density grid's *content* changed (a change of medium
+ *                     density re-runs the renderer's frame stage but not this): the node
+ *                     grid's cell-mean density; and §5.1-5.2 only where something reads
+ *                     them (`needs_fit`: view_density "compensated" or "eq8", single "sh",
+ *                     multiple "rbf"): the RBF fit (crm_fit.c; from/to the disk cache in
+ *                     ctx->cache_dir; frame k+1 starts from frame k's RBFs), D~ rasterised on
+ *                     the voxels, the residual R = D - D~ quantised into a perfect hash
+ *                     (crm_residual_hash.c) and decoded into D~ + R for the view. The
+ *                     default path (voxels, grid, orders) fits nothing: its view marches the
+ *                     density grid, which D~ + R only reproduced (issue 31).
+ *   prepare_lighting  for the environment, sigma_t, albedo and phase: the SH projection of
+ *                     the map; single scattering on the nodes (crm_node_single.c) or the
+ *                     paper's at the RBF centres (crm_single.c); multiple scattering by
+ *                     successive orders on the nodes (crm_orders.c) or the paper's diffusion
+ *                     at the centres (crm_diffusion.c), J~ on the nodes (crm_source_grid.c).
+ *   render            §5.5, the march (crm_kernel.h) on CPU tiles or CUDA.
  * Options: the table below (`vsd methods`). */
 #include "src/method/method.h"
 #include "src/lighting/env_healpix.h"
@@ -21,14 +27,13 @@
 #include "crm_fit_cache.h"
 #include "crm_residual_hash.h"
 #include "crm_single.h"
-#include "crm_single_direct.h"
 #include "crm_diffusion.h"
 #include "crm_source_grid.h"
-#include "crm_grid_diffusion.h"
 #include "crm_orders.h"
 #include "crm_node_single.h"
 #include "crm_kernel.h"
 #include "crm_device.h"
+#include "crm_hash_kernel.h"
 #include "src/common/clock.h"
 #include "kernel/kernel_volume.h"
 #include <math.h>
@@ -45,41 +50,39 @@
 #define CRM_AUTO_RBFS_MAX 800
 
 typedef struct crm_options {
-    int rbf_count, fit_iterations, sh_order, cg_iterations, residual, pixel_samples, delete_per_frame, insert_max;
-    int coherent, multiple, grid_iterations, single, directions, orders, order_directions, order_cell, decode, sky, orders_phase;
+    int rbf_count, fit_iterations, sh_order, cg_iterations, view_density, pixel_samples, delete_per_frame, insert_max;
+    int coherent, multiple, single, directions, orders, order_directions, order_cell, sky;
     double node_spacing, step, early_termination, error_ratio;
     vsd_view_sampling view;
 } crm_options;
 
-static const char *const residual_names[] = {"full", "source", "none", NULL};
+/* Beside the defaults only the paper's own forms remain; the variants that were neither
+ * and lost to the defaults (single "direct", multiple "grid", residual "none", decode
+ * "view", orders_phase "isotropic") are measured in docs/methods/crm.md and in the history. */
+static const char *const view_density_names[] = {"voxels", "compensated", "eq8", NULL}; /* CRM_VIEW_* */
 static const char *const sky_names[] = {"pixels", "sh", NULL};
 enum { SKY_PIXELS, SKY_SH };
-enum { DECODE_FRAME, DECODE_VIEW };
-static const char *const decode_names[] = {"frame", "view", NULL};
-enum { MULTIPLE_ORDERS, MULTIPLE_GRID, MULTIPLE_RBF };
-enum { ORDERS_PHASE_ISOTROPIC, ORDERS_PHASE_HG };
-static const char *const orders_phase_names[] = {"isotropic", "hg", NULL};
-enum { SINGLE_GRID, SINGLE_DIRECT, SINGLE_SH };
-static const char *const single_names[] = {"grid", "direct", "sh", NULL};
+enum { MULTIPLE_ORDERS, MULTIPLE_RBF };
+enum { SINGLE_GRID, SINGLE_SH };
+static const char *const single_names[] = {"grid", "sh", NULL};
 
 static const char *healpix_count_problem(double v)
 {
     return vsd_sh_healpix_nside((long)v) ? NULL : "is not a HEALPix pixel count 12 nside^2 (12, 48, 108, 192, 300, ...)";
 }
-static const char *const multiple_names[] = {"orders", "grid", "rbf", NULL};
+static const char *const multiple_names[] = {"orders", "rbf", NULL};
 
 /* Options of one form of single or multiple scattering mean nothing under another. */
 static const vsd_option_when crm_on_single_grid[] = {{"single", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
-static const vsd_option_when crm_on_marched_single[] = {{"single", 1, 0, "sh"}, {NULL, 0, 0, NULL}};
 static const vsd_option_when crm_on_multiple_rbf[] = {{"multiple", 0, 0, "rbf"}, {NULL, 0, 0, NULL}};
 static const vsd_option_when crm_on_multiple_orders[] = {{"multiple", 0, 0, "orders"}, {NULL, 0, 0, NULL}};
-static const vsd_option_when crm_on_multiple_grid[] = {{"multiple", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
 /* Deleting and inserting RBFs is how a coherent fit follows the frames. */
 static const vsd_option_when crm_on_coherent[] = {{"coherent", 0, 1, NULL}, {NULL, 0, 0, NULL}};
 
 static const vsd_option_spec crm_option_rows[] = {
     {"rbf_count", VSD_OPT_INT, 1, VSD_CRM_DIFFUSION_MAX_RBFS, 0, NULL,
-     "RBFs fitted to the first frame (0 = one per 100 non-zero voxels, 16..800; the paper: 1000)",
+     "RBFs fitted to the first frame (0 = one per 100 non-zero voxels, 16..800; the paper: 1000); the fit runs only "
+     "for view_density compensated or eq8, single sh or multiple rbf",
      offsetof(crm_options, rbf_count), VSD_OPT_ZERO_AUTO, NULL, NULL},
     {"fit_iterations", VSD_OPT_INT, 10, 100000, 3000, NULL,
      "bound on the L-BFGS iterations of one frame's RBF fit", offsetof(crm_options, fit_iterations), 0, NULL, NULL},
@@ -98,18 +101,18 @@ static const vsd_option_spec crm_option_rows[] = {
      "multiple \"orders\")",
      offsetof(crm_options, sh_order), 0, NULL, NULL},
     {"single", VSD_OPT_CHOICE, 0, 0, SINGLE_GRID, single_names,
-     "single scattering: grid (at every medium node, marched), or at the RBF centres: direct (transmittance per "
-     "direction) or sh (the paper's ZH table + exp*)",
+     "single scattering: grid (at every medium node, marched toward HEALPix directions) or sh (the paper's: at the RBF "
+     "centres, ZH table + exp*)",
      offsetof(crm_options, single), 0, NULL, NULL},
     {"sky", VSD_OPT_CHOICE, 0, 0, SKY_SH, sky_names,
      "single grid: the light arriving from each direction, the map averaged per HEALPix pixel (a lamp or a small sun "
      "shadowed where it is) or the map's order-n SH (the paper's L_in)",
      offsetof(crm_options, sky), 0, NULL, .when = crm_on_single_grid},
-    {"directions", VSD_OPT_INT, 12, 3072, 108, NULL, "single grid, direct: HEALPix directions of the transmittance (12 nside^2)",
-     offsetof(crm_options, directions), 0, healpix_count_problem, .when = crm_on_marched_single},
+    {"directions", VSD_OPT_INT, 12, 3072, 108, NULL, "single grid: HEALPix directions of the transmittance (12 nside^2)",
+     offsetof(crm_options, directions), 0, healpix_count_problem, .when = crm_on_single_grid},
     {"multiple", VSD_OPT_CHOICE, 0, 0, MULTIPLE_ORDERS, multiple_names,
-     "multiple scattering: orders (successive orders on a coarse grid), grid (diffusion with a vacuum boundary) or "
-     "rbf (the paper's eq. 13 at the RBF centres)",
+     "multiple scattering: orders (successive orders on a coarse grid, each scattered with the medium's phase) or rbf "
+     "(the paper's diffusion, eq. 13, at the RBF centres)",
      offsetof(crm_options, multiple), 0, NULL, NULL},
     {"cg_iterations", VSD_OPT_INT, 0, 10000, VSD_CRM_DIFFUSION_MAX_ITER, NULL,
      "multiple rbf: CG iterations of eq. 13 (early stopping regularises it; the paper: 20-40)",
@@ -117,24 +120,14 @@ static const vsd_option_spec crm_option_rows[] = {
     {"orders", VSD_OPT_INT, 1, 64, 12, NULL,
      "multiple orders: most orders followed before the geometric tail closes the series",
      offsetof(crm_options, orders), 0, NULL, .when = crm_on_multiple_orders},
-    {"orders_phase", VSD_OPT_CHOICE, 0, 0, ORDERS_PHASE_HG, orders_phase_names,
-     "multiple orders: each order scatters with the medium's Henyey-Greenstein phase, its source kept as order-2 SH "
-     "(bands 0-1), or isotropically after the first (band 0 only; docs/methods/crm.md)",
-     offsetof(crm_options, orders_phase), 0, NULL, .when = crm_on_multiple_orders},
     {"order_directions", VSD_OPT_INT, 12, 768, 48, NULL, "multiple orders: HEALPix directions gathered per cell and order",
      offsetof(crm_options, order_directions), 0, healpix_count_problem, .when = crm_on_multiple_orders},
     {"order_cell", VSD_OPT_INT, 1, 8, 2, NULL, "multiple orders: source nodes per cell of the coarse grid",
      offsetof(crm_options, order_cell), 0, NULL, .when = crm_on_multiple_orders},
-    {"grid_iterations", VSD_OPT_INT, 1, 100000, 2000, NULL,
-     "multiple grid: bound on the CG iterations of the diffusion solve (tolerance 1e-5)",
-     offsetof(crm_options, grid_iterations), 0, NULL, .when = crm_on_multiple_grid},
-    {"residual", VSD_OPT_CHOICE, 0, 0, CRM_RESIDUAL_FULL, residual_names,
-     "density residual in the march: full (extinction and source), source (eq. 8: source only), none",
-     offsetof(crm_options, residual), 0, NULL, NULL},
-    {"decode", VSD_OPT_CHOICE, 0, 0, DECODE_FRAME, decode_names,
-     "where the residual hash is decoded: frame (once per frame into D~ + R, the paper's volume pass) or view (per "
-     "march step in the view kernel)",
-     offsetof(crm_options, decode), 0, NULL, NULL},
+    {"view_density", VSD_OPT_CHOICE, 0, 0, CRM_VIEW_VOXELS, view_density_names,
+     "density of the view march: voxels (the grid itself; nothing fitted), compensated (the paper's D~ + R: RBF fit "
+     "plus 8-bit residual hash) or eq8 (the paper's eq. 8: transmittance from D~ alone, source from D~ + R)",
+     offsetof(crm_options, view_density), 0, NULL, NULL},
     {"node_spacing", VSD_OPT_NUMBER, 0, 64, 0, NULL,
      "voxels between the source-radiance nodes (0 = automatic: largest dimension / 48, at least 1)",
      offsetof(crm_options, node_spacing), VSD_OPT_ZERO_AUTO, NULL, NULL},
@@ -157,13 +150,14 @@ typedef struct crm_state {
     vsd_crm_fit_stats fit;
     int fit_cached;
     long long fits_run;           /* fits actually computed (not from memory or disk) */
-    float *dtilde;
-    float *dfull;                 /* D~ + R decoded from the hash (decode "frame") */
+    uint64_t volume_gen;          /* of the grid the nodes were built from (no fit) */
+    float *dtilde;                /* D~ (view_density eq8 only) */
+    float *dfull;                 /* D~ + R decoded from the hash (compensated, eq8) */
     vsd_crm_hash *hash;
     double voxel_world;           /* world length of a voxel (mean of the three axes) */
     float spacing;                /* voxels between source nodes */
     int32_t node_res[3];
-    float *node_density;          /* [nodes] mean density of each node's cell (grid diffusion) */
+    float *node_density;          /* [nodes] mean density of each node's cell */
     vsd_crm_node_depths depths;   /* the nodes' transmittance toward the sky, kept across
                                      lighting and medium edits (crm_node_single.h) */
     /* lighting (§5.3-5.4) */
@@ -177,9 +171,6 @@ typedef struct crm_state {
     vsd_crm_source_grid nodes;
     float *view_nodes;            /* [nodes * CRM_VIEW_FLOATS] the CPU's per-view node pass */
     size_t view_count;
-    double *phi;                  /* [3 * nodes] grid diffusion fluence, the next solve's warm start */
-    size_t phi_nodes;
-    vsd_crm_grid_diffusion_stats grid;
     vsd_crm_orders_stats orders;
 } crm_state;
 
@@ -245,20 +236,12 @@ static vsd_status dense_copy(const vsd_volume *vol, int32_t dims[3], int32_t ori
     return VSD_OK;
 }
 
-/* Trilinear density at crm-space point (x, y, z), 0 outside (the view kernel's blend). */
-static float dense_at(const float *d, const int32_t dims[3], float x, float y, float z)
-{
-    int32_t ijk[3];
-    float w[8];
-    vsd_crm_cell(f3(x, y, z), ijk, w);
-    return vsd_crm_blend(d, dims, ijk, w);
-}
-
 /* The node grid's spacing (option, else largest dimension / 48, at least 1 voxel) and the
- * mean density of each node's cell: 3 x 3 x 3 trilinear samples over the cube of side
- * `spacing` around the node (a box filter that neither aliases at spacing 1, where nodes sit
- * between voxel centres, nor blurs much at larger spacings). */
-static vsd_status node_density(crm_state *s, const float *d, char *err, size_t errlen)
+ * mean density of each node's cell: 3 x 3 x 3 trilinear samples of the density grid over
+ * the cube of side `spacing` around the node (a box filter that neither aliases at spacing
+ * 1, where nodes sit between voxel centres, nor blurs much at larger spacings). Node
+ * (i,j,k) sits at crm-space spacing * (i,j,k), index origin - 0.5 + that. */
+static vsd_status node_density(crm_state *s, const vsd_kvolume *density, char *err, size_t errlen)
 {
     int32_t mx = s->dims[0] > s->dims[1] ? s->dims[0] : s->dims[1], a, i, j, k, u, v, w;
     size_t count, n;
@@ -275,16 +258,27 @@ static vsd_status node_density(crm_state *s, const float *d, char *err, size_t e
                 for (w = -1; w <= 1; w++)
                     for (v = -1; v <= 1; v++)
                         for (u = -1; u <= 1; u++)
-                            sum += dense_at(d, s->dims, (float)i * s->spacing + (float)u * third,
-                                            (float)j * s->spacing + (float)v * third, (float)k * s->spacing + (float)w * third);
+                            sum += vsd_kvolume_field(
+                                density, f3((float)s->origin[0] - 0.5f + (float)i * s->spacing + (float)u * third,
+                                            (float)s->origin[1] - 0.5f + (float)j * s->spacing + (float)v * third,
+                                            (float)s->origin[2] - 0.5f + (float)k * s->spacing + (float)w * third));
                 s->node_density[n] = sum > 0.0f ? sum / 27.0f : 0.0f;
             }
     return VSD_OK;
 }
 
-static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+/* Whether anything this configuration runs reads the RBF fit (and so the dense copy the
+ * fit is made from): the paper's lighting at the centres, or its D~ + R in the view. */
+static int needs_fit(const crm_options *o)
 {
-    crm_state *s = state;
+    return o->view_density != CRM_VIEW_VOXELS || o->single == SINGLE_SH || o->multiple == MULTIPLE_RBF;
+}
+
+/* The paper's §5.1-5.2 for the frame's grid: the fit (from the disk cache when it has it),
+ * D~ on the voxels, the residual hash, and D~ + R decoded for the view where it reads it.
+ * Returns with s->dims/origin set and, on the same grid as last time, without refitting. */
+static vsd_status fit_frame(crm_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
     vsd_crm_dense dense;
     vsd_crm_rbfs fitted = {NULL, 0};
     const vsd_crm_rbfs *previous;
@@ -293,8 +287,6 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     size_t n, i;
     vsd_status st;
     int32_t dims[3], origin[3];
-    const double *vs = ctx->density->voxel_size;
-    s->voxel_world = (vs[0] + vs[1] + vs[2]) / 3.0;
     if ((st = dense_copy(ctx->density, dims, origin, &d, err, errlen))) return st;
     dense.nx = dims[0];
     dense.ny = dims[1];
@@ -316,7 +308,7 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     /* the grid's content alone (no previous fit): a medium edit re-runs this stage with the
      * same grid, and must find it already fitted whatever the coherence chain says */
     if (n > 0 && (st = vsd_crm_fit_cache_key(&dense, &s->fit_opt, NULL, 0.0, key))) goto done;
-    if (n > 0 && s->fit_key[0] && strcmp(key, s->fit_key) == 0 && s->dtilde) {
+    if (n > 0 && s->fit_key[0] && strcmp(key, s->fit_key) == 0 && s->node_density) {
         /* the same grid as last time (a medium change): §5.1-5.2 stand */
         free(d);
         return VSD_OK;
@@ -341,28 +333,29 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     s->rbfs = fitted;
     memcpy(s->dims, dims, sizeof dims);
     memcpy(s->origin, origin, sizeof origin);
-    if (n == 0) goto done;
-    if (!(s->dtilde = malloc(n * sizeof(float))) || !(residual = malloc(n * sizeof(float)))) {
+    if (n == 0 || s->opt.view_density == CRM_VIEW_VOXELS) goto done;
+    /* the view's D~ + R: rasterise, hash the residual, decode it once per frame (the
+     * paper's volume pass reconstructs D the same way) */
+    if (!(s->dtilde = malloc(n * sizeof(float))) || !(residual = malloc(n * sizeof(float))) ||
+        !(s->dfull = malloc(n * sizeof(float)))) {
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the %zu-voxel residual", n);
         goto done;
     }
     vsd_crm_rasterise(&s->rbfs, dims[0], dims[1], dims[2], s->dtilde);
     for (i = 0; i < n; i++) residual[i] = d[i] - s->dtilde[i];
     if ((st = vsd_crm_hash_build(dims[0], dims[1], dims[2], residual, 0.0f, &s->hash, err, errlen))) goto done;
-    if (s->opt.decode == DECODE_FRAME) {
-        /* the paper's volume pass: D = D~ + R decoded from the hash once per frame, so the
-         * view reads one grid instead of decoding 8 voxels per step (30% of its time) */
+    {
         vsd_crm_hash_view hv = vsd_crm_hash_get_view(s->hash);
         int32_t x, y, z;
-        if (!(s->dfull = malloc(n * sizeof(float)))) {
-            st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the decoded %zu-voxel density", n);
-            goto done;
-        }
         for (i = 0, z = 0; z < dims[2]; z++)
             for (y = 0; y < dims[1]; y++)
                 for (x = 0; x < dims[0]; x++, i++) s->dfull[i] = s->dtilde[i] + vsd_crm_residual(&hv, x, y, z);
     }
-    st = node_density(s, d, err, errlen);
+    if (s->opt.view_density != CRM_VIEW_EQ8) {
+        /* only eq. 8 attenuates with D~ alone */
+        free(s->dtilde);
+        s->dtilde = NULL;
+    }
 done:
     if (st) {
         free_frame(s);
@@ -371,6 +364,39 @@ done:
     free(residual);
     free(d);
     return st;
+}
+
+static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    crm_state *s = state;
+    const double *vs = ctx->density->voxel_size;
+    vsd_status st;
+    int a;
+    s->voxel_world = (vs[0] + vs[1] + vs[2]) / 3.0;
+    if (needs_fit(&s->opt)) {
+        /* the same fitted grid keeps its nodes; a new one was freed with its fit */
+        if ((st = fit_frame(s, ctx, err, errlen))) return st;
+        if (s->node_density) return VSD_OK;
+    } else {
+        /* the same grid as last time (a medium change re-runs this stage): the nodes and
+         * their transmittance stand */
+        if (s->node_density && s->volume_gen == ctx->volume_gen) return VSD_OK;
+        free_frame(s);
+        for (a = 0; a < 3; a++) {
+            s->dims[a] = 8 * ctx->density->brick_dims[a];
+            s->origin[a] = ctx->density->origin[a];
+        }
+    }
+    if ((size_t)s->dims[0] * s->dims[1] * s->dims[2] == 0) return VSD_OK;
+    free(s->node_density);
+    s->node_density = NULL;
+    if ((st = node_density(s, &ctx->kd.density, err, errlen))) {
+        free_frame(s);
+        s->fit_key[0] = '\0';
+        return st;
+    }
+    s->volume_gen = ctx->volume_gen;
+    return VSD_OK;
 }
 
 /* The emitted radiance per unit length (world units, RGB) at every node: the emission
@@ -470,15 +496,16 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     int order = s->opt.sh_order, n2 = order * order, count = s->rbfs.count, c, q;
     double env_sh[3 * 16], albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
     double g = ctx->kd.medium.anisotropy;
-    /* lighting at the RBF centres: the paper's forms, and what its diffusion reads */
-    int centres = s->opt.single != SINGLE_GRID || s->opt.multiple == MULTIPLE_RBF;
+    /* lighting at the RBF centres: the paper's forms (its diffusion reads its single
+     * scattering there whatever lights the nodes) */
+    int centres = s->opt.single == SINGLE_SH || s->opt.multiple == MULTIPLE_RBF;
     const vsd_crm_rbfs no_rbfs = {NULL, 0};
     vsd_status st;
     free(s->j_ss);
     free(s->j_ms);
     s->j_ss = s->j_ms = NULL;
     vsd_crm_source_grid_free(&s->nodes);
-    if (count == 0) return VSD_OK;
+    if (!s->node_density || (centres && count == 0)) return VSD_OK; /* an empty grid */
     /* world directions into index space (the volume's transform), and into the node grid */
     for (c = 0; c < 3; c++)
         for (q = 0; q < 3; q++) {
@@ -497,12 +524,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         if (!s->j_ss || !s->j_ms)
             return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the source radiances of %d RBFs", count);
         t0 = vsd_clock_seconds();
-        if (s->opt.single == SINGLE_SH)
-            st = vsd_crm_single_scatter(&s->rbfs, sigma, albedo, g, order, env_sh, s->table, s->j_ss, NULL, err, errlen);
-        else
-            /* `direct`, or the input of the paper's diffusion at the centres */
-            st = vsd_crm_single_scatter_direct(&s->rbfs, ctx->kd.density.scale, w2i, albedo, g, order, env_sh,
-                                               s->opt.directions, ctx->threads, s->j_ss, err, errlen);
+        st = vsd_crm_single_scatter(&s->rbfs, sigma, albedo, g, order, env_sh, s->table, s->j_ss, NULL, err, errlen);
         s->single_seconds = vsd_clock_seconds() - t0;
         if (!st && s->opt.multiple == MULTIPLE_RBF) st = rbf_diffusion(s, sigma, albedo, g, err, errlen);
         if (st) return st;
@@ -511,7 +533,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if ((st = vsd_crm_source_grid_build(centres ? &s->rbfs : &no_rbfs, s->j_ss, n2, s->j_ms, s->dims, s->spacing,
                                         &s->nodes, err, errlen)))
         return st;
-    if (s->opt.multiple != MULTIPLE_RBF || s->opt.single == SINGLE_GRID) {
+    if (s->opt.multiple == MULTIPLE_ORDERS || s->opt.single == SINGLE_GRID) {
         size_t nodes = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
         float *sigma_t = malloc(nodes * sizeof *sigma_t);
         if (!sigma_t) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the extinction of %zu nodes", nodes);
@@ -539,24 +561,11 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             }
             s->single_seconds = vsd_clock_seconds() - t0;
         }
-        if (!st && s->opt.multiple == MULTIPLE_GRID) {
-            /* the fluence of the last solve warm-starts this one */
-            if (s->phi_nodes != nodes) {
-                free(s->phi);
-                s->phi = calloc(3 * nodes, sizeof *s->phi);
-                s->phi_nodes = s->phi ? nodes : 0;
-            }
-            st = s->phi ? vsd_crm_grid_diffusion(s->node_res, s->spacing * s->voxel_world, sigma_t, albedo, g,
-                                                 s->nodes.nodes, s->nodes.valid, s->phi, 1e-5, s->opt.grid_iterations,
-                                                 &s->grid, err, errlen)
-                        : vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the diffusion of %zu nodes", nodes);
-        } else if (!st && s->opt.multiple == MULTIPLE_ORDERS) {
+        if (!st && s->opt.multiple == MULTIPLE_ORDERS) {
             float *emission = NULL;
             if (ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
             if (!st)
-                st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, albedo,
-                                    s->opt.orders_phase == ORDERS_PHASE_HG ? g : 0.0,
-                                    s->nodes.nodes, s->nodes.valid,
+                st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, albedo, g, s->nodes.nodes, s->nodes.valid,
                                     s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
                                     &s->orders, err, errlen);
             free(emission);
@@ -575,10 +584,10 @@ static void crm_info(const crm_state *s, vsd_frame_ctx *ctx)
     snprintf(ctx->info, ctx->info_len,
              "rbfs=%d fit_rel_error=%.5g fit_seconds=%.3f fit_evaluations=%d fit_cached=%d fits_run=%lld "
              "hash_stored=%zu hash_bytes=%zu hash_seconds=%.3f single_seconds=%.3f transmittance_seconds=%.3f transmittance_marches=%lld cg_iterations=%d "
-             "diffusion_seconds=%.3f grid_iterations=%d grid_seconds=%.3f orders=%d orders_tail=%.3f orders_seconds=%.3f nodes=%dx%dx%d node_seconds=%.3f",
+             "diffusion_seconds=%.3f orders=%d orders_tail=%.3f orders_seconds=%.3f nodes=%dx%dx%d node_seconds=%.3f",
              s->rbfs.count, s->fit.rel_error, s->fit.seconds, s->fit.evaluations, s->fit_cached, s->fits_run,
              hs.stored, hs.bytes, hs.build_seconds, s->single_seconds, s->transmittance_seconds, s->transmittance_marches, s->diffusion.iterations, s->diffusion.seconds,
-             s->grid.iterations, s->grid.seconds, s->orders.orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds);
+             s->orders.orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds);
 }
 
 static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
@@ -592,17 +601,16 @@ static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     kc.dfull = s->dfull;
     kc.nodes = s->nodes.nodes;
     kc.node_valid = s->nodes.valid;
-    if (s->hash) kc.residual = vsd_crm_hash_get_view(s->hash);
     memcpy(kc.dims, s->dims, sizeof kc.dims);
     memcpy(kc.origin, s->origin, sizeof kc.origin);
     memcpy(kc.node_res, s->nodes.res, sizeof kc.node_res);
     kc.node_spacing = s->nodes.spacing > 0 ? s->nodes.spacing : 1.0f;
-    kc.residual_mode = s->opt.residual;
+    kc.view_density = s->opt.view_density;
     kc.order = s->opt.sh_order;
     ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_stop = (float)s->opt.early_termination;
     crm_info(s, ctx);
-    if (s->dtilde && s->nodes.nodes) {
+    if (s->nodes.nodes) {
         size_t count = (size_t)kc.node_res[0] * kc.node_res[1] * kc.node_res[2];
         vsd_status st = node_to_world(s, ctx, &kc.node_to_world, err, errlen);
         if (st) return st;
@@ -620,14 +628,14 @@ static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
                 return st == VSD_ERR_CANCELLED ? vsd_fail(st, err, errlen, "render cancelled") : st;
         }
     }
-    if (!s->dtilde || !s->nodes.nodes) {
-        /* nothing fitted (an empty grid): the march still draws emission and background */
+    if (!s->nodes.nodes) {
+        /* an empty grid: the march still draws emission and background */
         static const float zero = 0.0f;
         static const uint8_t none = 0;
         static float no_view[CRM_VIEW_FLOATS];
         int32_t one[3] = {1, 1, 1};
-        kc.dtilde = &zero;
-        kc.dfull = NULL;
+        kc.dtilde = kc.dfull = NULL;
+        kc.view_density = CRM_VIEW_VOXELS; /* the grid's own zeros */
         kc.nodes = &zero;
         kc.node_valid = &none;
         kc.view_nodes = no_view;
@@ -648,7 +656,6 @@ static void crm_destroy(void *state)
     free(s->j_ss);
     free(s->j_ms);
     free(s->l_m0);
-    free(s->phi);
     free(s->view_nodes);
     vsd_crm_source_grid_free(&s->nodes);
     free(s);

@@ -8,9 +8,6 @@ VSD_DEVICE_SLOT(crm_dtilde, "crm reduced density");
 VSD_DEVICE_SLOT(crm_dfull, "crm full density");
 VSD_DEVICE_SLOT(crm_nodes, "crm nodes");
 VSD_DEVICE_SLOT(crm_valid, "crm node validity");
-VSD_DEVICE_SLOT(crm_occ, "crm residual hash occupancy");
-VSD_DEVICE_SLOT(crm_offsets, "crm residual hash offsets");
-VSD_DEVICE_SLOT(crm_table, "crm residual hash table");
 VSD_DEVICE_SLOT(crm_view_nodes, "crm view nodes");
 
 static size_t voxels(const vsd_kcrm *c) { return (size_t)c->dims[0] * c->dims[1] * c->dims[2]; }
@@ -25,16 +22,11 @@ static void view_arrays(const void *m, vsd_pass_args a, vsd_pass_array_visit vis
 {
     const vsd_kcrm *c = m;
     (void)a;
-    visit(user, c->dtilde, voxels(c) * sizeof(float), "crm.dtilde");
+    /* the fitted grids exist only where view_density reads them (crm_kernel.h) */
+    if (c->dtilde) visit(user, c->dtilde, voxels(c) * sizeof(float), "crm.dtilde");
     if (c->dfull) visit(user, c->dfull, voxels(c) * sizeof(float), "crm.dfull");
     visit(user, c->nodes, nodes(c) * CRM_NODE_FLOATS * sizeof(float), "crm.nodes");
     visit(user, c->node_valid, nodes(c), "crm.node_valid");
-    if (!c->dfull) {
-        /* decoded in the view: the hash itself */
-        visit(user, c->residual.occupancy, c->residual.n_occupancy * sizeof(uint32_t), "crm.residual.occupancy");
-        visit(user, c->residual.offsets, c->residual.n_offsets * sizeof(uint32_t), "crm.residual.offsets");
-        visit(user, c->residual.table, c->residual.n_table, "crm.residual.table");
-    }
     visit(user, c->view_nodes, nodes(c) * CRM_VIEW_FLOATS * sizeof(float), "crm.view_nodes");
 }
 
@@ -88,18 +80,10 @@ vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void 
     *d = *h;
 #define PUT(field, slot, gen, bytes) \
     do { if ((st = vsd_device_array(ctx, slot, gen, h->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
-    PUT(dtilde, crm_dtilde, ctx->frame_gen, voxels(h) * sizeof(float));
+    if (h->dtilde) PUT(dtilde, crm_dtilde, ctx->frame_gen, voxels(h) * sizeof(float));
     if (h->dfull) PUT(dfull, crm_dfull, ctx->frame_gen, voxels(h) * sizeof(float));
     PUT(nodes, crm_nodes, ctx->lighting_gen, nodes(h) * CRM_NODE_FLOATS * sizeof(float));
     PUT(node_valid, crm_valid, ctx->lighting_gen, nodes(h));
-    if (!h->dfull) {
-        PUT(residual.occupancy, crm_occ, ctx->frame_gen, h->residual.n_occupancy * sizeof(uint32_t));
-        PUT(residual.offsets, crm_offsets, ctx->frame_gen, h->residual.n_offsets * sizeof(uint32_t));
-        PUT(residual.table, crm_table, ctx->frame_gen, h->residual.n_table);
-    } else {
-        d->residual.occupancy = d->residual.offsets = NULL;
-        d->residual.table = NULL;
-    }
 #undef PUT
     {
         /* the node pass for this view, on the device into a scratch slot the view then reads:

@@ -1,7 +1,7 @@
 /* crm_device.h — crm's view pass as a device pass (device/device_pass.h): the same
- * per-sample function on CPU tiles and CUDA (crm_cuda.cu), and the struct with D~, the
- * nodes and the residual hash resident on the device (frame arrays keyed by frame_gen,
- * nodes by lighting_gen, so a camera change uploads only the structs). */
+ * per-sample function on CPU tiles and CUDA (crm_cuda.cu), and the struct with the nodes
+ * (and the fitted D~ + R where view_density reads it) resident on the device (frame arrays
+ * keyed by frame_gen, nodes by lighting_gen, so a camera change uploads only the structs). */
 #ifndef VSD_CRM_DEVICE_H
 #define VSD_CRM_DEVICE_H
 #include "src/method/method.h"

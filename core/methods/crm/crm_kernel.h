@@ -2,19 +2,21 @@
  * tiles and CUDA (crm_cuda.cu). Common subset of C11 and CUDA C++.
  *
  * Per view ray, the shared march (kernel/kernel_march.h: step placement, empty bricks,
- * early termination, emission) with crm's own medium and source:
- *   density   D = D~ + R: the RBF model rasterised on the voxel grid (D~, trilinear) plus
- *             the 8-bit residual decoded from the perfect hash (R, trilinear). Where R < 0
- *             the medium is thinner than the RBFs say, so the residual both adds extinction
- *             and, where negative, lets more light through (the paper's "enlightenment").
- *             residual = CRM_RESIDUAL_SOURCE is the paper's eq. 8 literally: transmittance
- *             from D~ alone, the source from D~ + R; CRM_RESIDUAL_NONE marches D~ only.
- *   source    J~(x, w_o) = sum_l w_l B_l(x) J~(c_l, w_o) / D~(x) (eq. 7), precomputed per
- *             lighting change on a coarse node grid as SH coefficients (order-4 single,
- *             order-2 multiple scattering, albedo and phase already applied); per view, the
- *             node pass (the paper's volume pass, vsd_crm_view_node) evaluates each node's
- *             SH toward the eye once, and the march reads the 8 surrounding nodes' values
- *             trilinearly (corners cached per cell).
+ * early termination, emission) with crm's own source and the density `view_density` names:
+ *   voxels        the scene's density grid itself (default): nothing is fitted for the view.
+ *                 The paper's D~ + R is this grid again, to the residual's 8-bit
+ *                 quantisation, so the fit and the hash were work no pixel needed (issue 31).
+ *   compensated   D = D~ + R, the paper's §5.2: the RBF model rasterised on the voxel grid
+ *                 (D~) plus the 8-bit residual from the perfect hash (R), decoded once per
+ *                 frame into one grid (the paper's volume pass reconstructs D the same way).
+ *   eq8           the paper's eq. 8 literally: transmittance from D~ alone, the source from
+ *                 D~ + R, so where R < 0 more light gets through (its "enlightenment").
+ *   source        J~(x, w_o), precomputed per lighting change on a coarse node grid as SH
+ *                 coefficients (order-4 single, order-2 multiple scattering, albedo and phase
+ *                 already applied); per view, the node pass (the paper's volume pass,
+ *                 vsd_crm_view_node) evaluates each node's SH toward the eye once, and the
+ *                 march reads the 8 surrounding nodes' values trilinearly (corners cached
+ *                 per cell).
  * VolumeDir receives the single-scattering source, VolumeInd the multiple.
  *
  * Coordinates: "crm space" is the RBF fit's voxel index space, voxel (i,j,k) of the dense
@@ -29,9 +31,9 @@
 #include "kernel/kernel_sh.h"
 #include "kernel/kernel_record_grid.h" /* vsd_records_dot */
 #include "device/device_pass.h"
-#include "crm_hash_kernel.h"
+#include "crm_rbf.h"
 
-enum { CRM_RESIDUAL_FULL = 0, CRM_RESIDUAL_SOURCE = 1, CRM_RESIDUAL_NONE = 2 };
+enum { CRM_VIEW_VOXELS = 0, CRM_VIEW_COMPENSATED = 1, CRM_VIEW_EQ8 = 2 };
 /* SH coefficients per node: order-4 single scattering (16) and order-2 multiple (4), RGB */
 enum { CRM_SS_ORDER = 4, CRM_SS_N = 16, CRM_MS_N = 4, CRM_NODE_FLOATS = 3 * (CRM_SS_N + CRM_MS_N) };
 enum { CRM_NODE_SINGLE = 1, CRM_NODE_MULTIPLE = 2 };
@@ -42,21 +44,19 @@ enum { CRM_VIEW_FLOATS = 6 };
 
 typedef struct VSD_ALIGN16 vsd_kcrm {
     const vsd_kernel_data *kd;
-    const float *dtilde;           /* [nx*ny*nz] D~ per voxel (unscaled density) */
-    const float *dfull;            /* [nx*ny*nz] D~ + R decoded per frame (decode "frame"), or NULL:
-                                      the view decodes the hash itself (decode "view") */
+    const float *dtilde;           /* [nx*ny*nz] D~ per voxel (unscaled density); eq8 only, else NULL */
+    const float *dfull;            /* [nx*ny*nz] D~ + R decoded per frame; NULL with CRM_VIEW_VOXELS */
     const float *nodes;            /* [node count * CRM_NODE_FLOATS]: ss R,G,B (16 each), ms R,G,B (4 each) */
     const uint8_t *node_valid;     /* [node count] CRM_NODE_SINGLE | CRM_NODE_MULTIPLE bits */
     /* [node count * CRM_VIEW_FLOATS], per view: each node's source toward the eye (log of the
      * single-scattering RGB, then the multiple-scattering RGB), written by the node pass */
     float *view_nodes;
     vsd_affine node_to_world;      /* node coordinates -> world */
-    vsd_crm_hash_view residual;
     int32_t dims[3];               /* dense grid nx, ny, nz */
     int32_t origin[3];             /* index coordinate of dense voxel (0,0,0) */
     int32_t node_res[3];           /* nodes per axis */
     float node_spacing;            /* voxels between nodes (crm space) */
-    int32_t residual_mode;         /* CRM_RESIDUAL_* */
+    int32_t view_density;          /* CRM_VIEW_* */
     int32_t order;                 /* of the single-scattering SH actually used (<= 4) */
     float pad_[2];
 } vsd_kcrm;
@@ -88,26 +88,15 @@ VSD_DEVICE float vsd_crm_blend(const float *grid, const int32_t dims[3], const i
     return v;
 }
 
-/* The medium at crm-space point q, 0 outside the grid: returns D~ + R (D~ alone with
- * CRM_RESIDUAL_NONE) and sets *dt = D~ for eq. 8's mode (CRM_RESIDUAL_SOURCE; otherwise *dt
- * is the return value). D~ + R comes from the per-frame decoded grid, or, without one
- * (decode "view"), from D~ plus the 8 voxels decoded from the hash. */
+/* The fitted medium at crm-space point q, 0 outside the grid (CRM_VIEW_COMPENSATED, EQ8):
+ * returns D~ + R and sets *dt to what attenuates, D~ alone under eq. 8, else D~ + R too. */
 VSD_DEVICE float vsd_crm_density(const vsd_kcrm *c, vsd_f3 q, float *dt)
 {
-    int32_t ijk[3], a;
+    int32_t ijk[3];
     float w[8], full;
     vsd_crm_cell(q, ijk, w);
-    if (c->residual_mode == CRM_RESIDUAL_NONE) return *dt = vsd_crm_blend(c->dtilde, c->dims, ijk, w);
-    if (c->dfull) {
-        full = vsd_crm_blend(c->dfull, c->dims, ijk, w);
-        *dt = c->residual_mode == CRM_RESIDUAL_SOURCE ? vsd_crm_blend(c->dtilde, c->dims, ijk, w) : full;
-    } else {
-        float r[8];
-        vsd_crm_residual_cell(&c->residual, ijk[0], ijk[1], ijk[2], r);
-        *dt = vsd_crm_blend(c->dtilde, c->dims, ijk, w);
-        full = *dt;
-        for (a = 0; a < 8; a++) full += w[a] * r[a];
-    }
+    full = vsd_crm_blend(c->dfull, c->dims, ijk, w);
+    *dt = c->view_density == CRM_VIEW_EQ8 ? vsd_crm_blend(c->dtilde, c->dims, ijk, w) : full;
     return full;
 }
 
@@ -262,11 +251,13 @@ VSD_DEVICE vsd_sample_result vsd_crm_pixel(const vsd_kcrm *c, int32_t px, int32_
             vsd_f3 p = f3_madd(o, d, tm), ix = vsd_affine_point(&kd->density.world_to_index, p);
             vsd_f3 q = f3(ix.x - (float)c->origin[0] + 0.5f, ix.y - (float)c->origin[1] + 0.5f,
                           ix.z - (float)c->origin[2] + 0.5f);
-            float dt, full = vsd_crm_density(c, q, &dt), absorbed, shrink;
+            float dt, full, absorbed, shrink;
+            if (c->view_density == CRM_VIEW_VOXELS) full = dt = vsd_kvolume_field(&kd->density, ix);
+            else full = vsd_crm_density(c, q, &dt);
             full = full > 0.0f ? full : 0.0f;
             absorbed = vsd_march_medium_sigma(kd, &acc, p, hs, kd->density.scale * full);
-            shrink = c->residual_mode == CRM_RESIDUAL_SOURCE ? 1.0f - expf(-kd->density.scale * (dt > 0.0f ? dt : 0.0f) * hs)
-                                                              : absorbed;
+            shrink = c->view_density == CRM_VIEW_EQ8 ? 1.0f - expf(-kd->density.scale * (dt > 0.0f ? dt : 0.0f) * hs)
+                                                      : absorbed;
             if (absorbed > 0.0f || shrink > 0.0f) {
                 vsd_f3 ss, ms;
                 vsd_crm_source(c, q, &cc, &ss, &ms);

@@ -1,5 +1,5 @@
 #include "crm_node_single.h"
-#include "crm_single_direct.h"
+#include "crm_single_directions.h"
 #include "crm_kernel.h"
 #include "src/grids/padded_grid.h"
 #include <math.h>

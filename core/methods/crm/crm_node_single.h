@@ -1,5 +1,5 @@
 /* crm_node_single.h — single scattering on crm's node grid from the medium itself: the
- * option `single: "grid"` (default), beside the paper's RBF-centre forms ("sh", "direct").
+ * option `single: "grid"` (default), beside the paper's RBF-centre form ("sh").
  *
  * Why: the paper computes J_ss at the RBF centres and interpolates it with the RBF weights
  * (eq. 7). A view ray sees mostly the first optical depth of the smoke, where J_ss falls
@@ -9,7 +9,7 @@
  * J_ss: the transmittance toward M HEALPix directions is marched through the node grid's
  * cell-mean extinction (one node per step; marching the voxels instead moved VolumeDir on
  * smoke128 from 5.2% to 4.6% at 4x the time, so the node grid it is), and L_in tau is projected on order-n SH and
- * convolved with HG as in eq. 11 (crm_single_direct.h's engine). This is the "lighting cache"
+ * convolved with HG as in eq. 11 (crm_single_directions.h's engine). This is the "lighting cache"
  * variant issue 13 part 7 asks for, built on crm's own grid; the RBFs then serve the
  * view's density (D~ + R) and the multiple scattering. */
 #ifndef VSD_CRM_NODE_SINGLE_H

@@ -1,13 +1,13 @@
 /* crm_orders.h — multiple scattering by successive orders on a coarse grid: the option
- * `multiple: "orders"` (default), beside the diffusion variants (crm_grid_diffusion.h
- * "grid", the paper's eq. 13 at the RBF centres "rbf").
+ * `multiple: "orders"` (default), beside the paper's diffusion (eq. 13 at the RBF centres,
+ * "rbf").
  *
- * Why: both diffusion variants assume many scattering events; at our smoke's albedo (0.85)
+ * Why: diffusion (the paper's, and one on this grid with a vacuum boundary that was tried
+ * and dropped) assumes many scattering events; at our smoke's albedo (0.85)
  * and thickness they give a third of the reference's VolumeInd (docs/methods/crm.md). Here
  * the scattered light is followed order by order, as a path tracer would, on a grid a few
  * voxels apart (multiple scattering is smooth):
- *     J_1       the single-scattering source's bands 0-1 (band 0 alone when g = 0 or
- *               `orders_phase: "isotropic"`)
+ *     J_1       the single-scattering source's bands 0-1 (band 0 alone when g = 0)
  *     L_k(x,w)  = integral over s of tau(x, x + s w) sigma_t(x + s w) J_k(x + s w, -w) ds
  *     J_k+1(x, w_o) = albedo * (4 pi / M) sum over M HEALPix directions w of L_k(x, w)
  *                     p(w_o . -w), kept as order-2 SH: by Funk-Hecke, band l of HG is g^l,

@@ -1,4 +1,4 @@
-#include "crm_single_direct.h"
+#include "crm_single_directions.h"
 #include "vsd/sh.h"
 #include <math.h>
 #include "device/cpu/cpu_tiles.h"
@@ -32,37 +32,6 @@ typedef struct project_job {
     const double *albedo;
     double *j_ss;
 } project_job;
-
-/* Optical depth (unscaled) of RBF b along the ray from p toward unit w, to infinity. */
-static double line_depth(const vsd_crm_rbf *b, const double p[3], const double w[3])
-{
-    double v[3] = {b->c[0] - p[0], b->c[1] - p[1], b->c[2] - p[2]};
-    double tc = v[0] * w[0] + v[1] * w[1] + v[2] * w[2], r = b->r;
-    double d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2] - tc * tc, cut = 3.0 * r;
-    if (d2 > cut * cut || tc < -cut) return 0.0;
-    return b->w * exp(-d2 / (r * r)) * r * 0.8862269254527580 * (1.0 + erf(tc / r));
-}
-
-typedef struct rbf_depth {
-    const vsd_crm_rbfs *rbfs;
-    double sigma;         /* sigma_t per unit density, world units */
-    double w2i[9];        /* world direction -> index displacement per world unit */
-} rbf_depth;
-
-/* The RBFs are isotropic in index space: integrate there along the direction the volume's
- * transform gives w, and convert the index length to world length (1/|v| per index unit). */
-static double rbf_optical_depth(const void *user, const double p[3], const double w[3])
-{
-    const rbf_depth *r = user;
-    double v[3], len, od = 0.0;
-    int h, a;
-    for (a = 0; a < 3; a++) v[a] = r->w2i[3 * a] * w[0] + r->w2i[3 * a + 1] * w[1] + r->w2i[3 * a + 2] * w[2];
-    len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!(len > 0.0)) return 0.0;
-    for (a = 0; a < 3; a++) v[a] /= len;
-    for (h = 0; h < r->rbfs->count; h++) od += line_depth(r->rbfs->rbf + h, p, v);
-    return r->sigma * od / len;
-}
 
 /* Points [l0, l1): the CPU backend's thread pool hands out ranges as the x of a count x 1
  * "image" (vsd_cpu_run_tiles). */
@@ -188,51 +157,5 @@ vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, c
 done:
     free(dirs);
     free(sky.w);
-    return st;
-}
-
-vsd_status vsd_crm_single_scatter_direct(const vsd_crm_rbfs *rbfs, double sigma, const double w2i[9],
-                                         const double albedo[3], double g, int order, const double *env_sh,
-                                         int directions, int threads, double *j_ss, char *err, size_t errlen)
-{
-    rbf_depth depth;
-    double *points;
-    vsd_status st;
-    int l;
-    if (!(sigma >= 0.0))
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "crm direct single scattering: sigma %g is negative", sigma);
-    depth.rbfs = rbfs;
-    depth.sigma = sigma;
-    memcpy(depth.w2i, w2i, sizeof depth.w2i);
-    if (rbfs->count == 0) return VSD_OK;
-    if (!(points = malloc(sizeof(double) * 3 * (size_t)rbfs->count)))
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm direct single scattering: no memory for %d centres", rbfs->count);
-    for (l = 0; l < rbfs->count; l++) {
-        points[3 * l] = rbfs->rbf[l].c[0];
-        points[3 * l + 1] = rbfs->rbf[l].c[1];
-        points[3 * l + 2] = rbfs->rbf[l].c[2];
-    }
-    st = vsd_crm_single_scatter_points(rbfs->count, points, rbf_optical_depth, &depth, albedo, g, order, env_sh,
-                                       directions, threads, j_ss, err, errlen);
-    free(points);
-    return st;
-}
-
-vsd_status vsd_crm_single_scatter_points(int count, const double *points, vsd_crm_depth_fn optical_depth,
-                                         const void *user, const double albedo[3], double g, int order,
-                                         const double *env_sh, int directions, int threads, double *j_ss,
-                                         char *err, size_t errlen)
-{
-    float *od;
-    vsd_status st;
-    if ((st = check_sky(order, directions, g, err, errlen))) return st;
-    if (count == 0) return VSD_OK;
-    if (!(od = malloc(sizeof(float) * (size_t)count * directions)))
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm single scattering: no memory for %d x %d optical depths", count,
-                        directions);
-    if (!(st = vsd_crm_optical_depths(count, points, optical_depth, user, directions, threads, od, err, errlen)))
-        st = vsd_crm_single_from_depths(count, od, 1.0f, albedo, g, order, env_sh, NULL, directions, threads, j_ss, err,
-                                        errlen);
-    free(od);
     return st;
 }
