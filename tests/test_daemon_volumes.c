@@ -367,29 +367,40 @@ int main(int argc, char **argv)
     vsdc_result_free(&res);
     cJSON_Delete(info);
 
-    /* (e) a method that renders one volume: the daemon's error with the renderer's message */
-    scene2(scene, sizeof scene, b10, b15, eb, "crm");
+    /* (e) a form that renders one volume (crm's paper form: one volume's RBF fit): the
+     * daemon's error with the renderer's message */
+    {
+        char plain[sizeof scene];
+        const char *at;
+        scene2(plain, sizeof plain, b10, b15, eb, "crm");
+        at = strstr(plain, "\"method\":\"crm\"");
+        CHECK(at != NULL);
+        snprintf(scene, sizeof scene, "%.*s\"method\":\"crm\",\"options\":{\"view_density\":\"compensated\"}%s",
+                 at ? (int)(at - plain) : 0, plain, at ? at + strlen("\"method\":\"crm\"") : "");
+    }
     CHECK(render_remote(c, scene, &res, &info, err, sizeof err) == VSDC_ERR_SERVER);
-    CHECK_MSG(strcmp(vsdc_error_code(c), "invalid_scene") == 0, "crm with two volumes: %s: %s", vsdc_error_code(c),
-              err);
-    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'crm' renders one volume so far");
-    printf("crm with two volumes: %s: %s\n", vsdc_error_code(c), err);
+    CHECK_MSG(strcmp(vsdc_error_code(c), "invalid_scene") == 0, "crm compensated with two volumes: %s: %s",
+              vsdc_error_code(c), err);
+    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; crm's fitted forms");
+    printf("crm compensated with two volumes: %s: %s\n", vsdc_error_code(c), err);
     vsdc_result_free(&res);
     cJSON_Delete(info);
 
-    /* (f) lbl renders the two volumes (a part per volume): the daemon's image is in-process's */
-    {
+    /* (f) lbl and crm render the two volumes (a part per volume): the daemon's image is
+     * in-process's */
+    for (int m = 0; m < 2; m++) {
+        const char *method = m ? "crm" : "lbl";
         vsd_framebuffer *fbl;
-        scene2(local, sizeof local, frame_file(10), frame_file(15), g_env, "lbl");
+        scene2(local, sizeof local, frame_file(10), frame_file(15), g_env, method);
         fbl = render_local(local);
-        scene2(scene, sizeof scene, b10, b15, eb, "lbl");
+        scene2(scene, sizeof scene, b10, b15, eb, method);
         CHECK(fbl != NULL);
         if (fbl && render_remote(c, scene, &res, &info, err, sizeof err) == 0) {
-            diff = test_exr_bytes_diff(res.exr, res.exr_len, fbl, g_dir, "volumes_lbl");
-            CHECK_MSG(diff == 0, "lbl with two volumes: %ld values differ from in-process", diff);
-            printf("lbl with two volumes through the daemon: %ld values differ from in-process\n", diff);
+            diff = test_exr_bytes_diff(res.exr, res.exr_len, fbl, g_dir, m ? "volumes_crm" : "volumes_lbl");
+            CHECK_MSG(diff == 0, "%s with two volumes: %ld values differ from in-process", method, diff);
+            printf("%s with two volumes through the daemon: %ld values differ from in-process\n", method, diff);
         } else {
-            CHECK_MSG(0, "lbl with two volumes through the daemon: %s", err);
+            CHECK_MSG(0, "%s with two volumes through the daemon: %s", method, err);
         }
         vsdc_result_free(&res);
         cJSON_Delete(info);

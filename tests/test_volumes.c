@@ -99,7 +99,7 @@ static void test_material_mixture(void)
     free(two);
 }
 
-/* raymarch, lbl, shgrid and constellation are deterministic: where two volumes' grids coincide they must
+/* raymarch, lbl, shgrid, constellation and crm are deterministic: where two volumes' grids coincide they must
  * give the single volume's image to float rounding (sums of the same samples in another
  * order). For raymarch also the scatterer + absorber mixture with its emission; for lbl,
  * whose parts each light the group with their own material (docs/design-notes.md, "Several
@@ -108,58 +108,82 @@ static void test_material_mixture(void)
  * the absorber's lobe weighs nothing: albedo 0); shgrid's
  * parts march their records through both halves (the product form: g = 0.4);
  * constellation's cached shadows cross their own half by the paper's rays and the other
- * by a plain march (the same voxel step), whose product is the whole's transmittance. */
+ * by a plain march (the same voxel step), whose product is the whole's transmittance; crm's
+ * parts put every volume's medium on their nodes (crm_parts.h), so halves are exact, and
+ * the scatterer + absorber's multiple scattering too (the orders scatter each node's mixed
+ * albedo); its single scattering is exact at the nodes, but the view blends each part's in
+ * log space between them (crm_kernel.h), and a sum of geometric blends is not the blend of
+ * the sum: measured 9.1e-4 on VolumeDir (2.6e-4 Combined), the case's own bound 2e-3. */
 static void test_deterministic_exact(void)
 {
     static const char *const raymarch[] = {"render.method=raymarch", "render.options.lights=16"};
     static const char *const lbl[] = {"render.method=lbl", "render.options.cells=32"};
     static const char *const shgrid[] = {"render.method=shgrid", "render.options.grid=32"};
     static const char *const constellation[] = {"render.method=constellation", "render.options.lights=16"};
-    struct { const char *method, *what, *one, *two; int frame; const char *const *ov; } cases[] = {
+    static const char *const crm[] = {"render.method=crm", "render.options.node_spacing=2"};
+    struct { const char *method, *what, *one, *two; int frame; const char *const *ov; double tol; } cases[] = {
         {"raymarch", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8}}",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3}}, {\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5}}",
-         11, raymarch},
+         11, raymarch, 0},
         {"raymarch", "scatterer + absorber vs mixture",
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.6, 0.4, 0.2], "
          "\"anisotropy\": 0.5, \"emission_strength\": 5}}",
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
          "\"anisotropy\": 0.5, \"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
          "\"medium\": {\"density\": 2, \"albedo\": [0, 0, 0], \"anisotropy\": -0.7, \"emission_strength\": 3}}",
-         48, raymarch},
+         48, raymarch, 0},
         {"lbl", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8, \"anisotropy\": 0.4}}",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5, \"anisotropy\": 0.4}}",
-         11, lbl},
+         11, lbl, 0},
         {"lbl", "emission 2 + 3 vs 5",
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.9, 0.6, 0.3], "
          "\"emission_strength\": 5}}",
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
          "\"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
          "\"medium\": {\"density\": 2, \"albedo\": [0.9, 0.6, 0.3], \"emission_strength\": 3}}",
-         48, lbl},
+         48, lbl, 0},
         {"lbl", "scatterer + absorber vs mixture",
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.6, 0.4, 0.2], "
          "\"anisotropy\": 0.5, \"emission_strength\": 5}}",
          "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
          "\"anisotropy\": 0.5, \"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
          "\"medium\": {\"density\": 2, \"albedo\": [0, 0, 0], \"anisotropy\": -0.7, \"emission_strength\": 3}}",
-         48, lbl},
+         48, lbl, 0},
         {"shgrid", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8, \"anisotropy\": 0.4}}",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5, \"anisotropy\": 0.4}}",
-         11, shgrid},
+         11, shgrid, 0},
         {"constellation", "density 3 + 5 vs 8",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8, \"anisotropy\": 0.4}}",
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
          "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5, \"anisotropy\": 0.4}}",
-         11, constellation},
+         11, constellation, 0},
+        {"crm", "density 3 + 5 vs 8", "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 8, \"anisotropy\": 0.4}}",
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 3, \"anisotropy\": 0.4}}, "
+         "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 5, \"anisotropy\": 0.4}}",
+         11, crm, 0},
+        {"crm", "emission 2 + 3 vs 5",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.9, 0.6, 0.3], "
+         "\"emission_strength\": 5}}",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
+         "\"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
+         "\"medium\": {\"density\": 2, \"albedo\": [0.9, 0.6, 0.3], \"emission_strength\": 3}}",
+         48, crm, 0},
+        {"crm", "scatterer + absorber vs mixture",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 6, \"albedo\": [0.6, 0.4, 0.2], "
+         "\"emission_strength\": 5}}",
+         "{\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", \"medium\": {\"density\": 4, \"albedo\": [0.9, 0.6, 0.3], "
+         "\"emission_strength\": 2}}, {\"file\": \"" FIRE "\", \"emission_grid\": \"flame\", "
+         "\"medium\": {\"density\": 2, \"albedo\": [0, 0, 0], \"emission_strength\": 3}}",
+         48, crm, 2e-3},
     };
     static const vsd_pass passes[] = {VSD_PASS_COMBINED, VSD_PASS_VOLUME_DIR, VSD_PASS_VOLUME_IND, VSD_PASS_EMIT,
                                       VSD_PASS_TRANSMITTANCE};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         char *j1 = scene_json(cases[c].one, cases[c].frame), *j2 = scene_json(cases[c].two, cases[c].frame);
         vsd_scene s1, s2;
-        int ms = strcmp(cases[c].method, "lbl") == 0, emits = strstr(cases[c].one, "flame") != NULL;
+        int ms = !strcmp(cases[c].method, "lbl") || !strcmp(cases[c].method, "crm"), emits = strstr(cases[c].one, "flame") != NULL;
         CHECK(test_parse_scene(j1, cases[c].ov, 2, &s1) && test_parse_scene(j2, cases[c].ov, 2, &s2));
         vsd_framebuffer *f1 = test_render_fresh(&s1, NULL, NULL, NULL, cases[c].frame, NULL);
         vsd_framebuffer *f2 = test_render_fresh(&s2, NULL, NULL, NULL, cases[c].frame, NULL);
@@ -169,7 +193,7 @@ static void test_deterministic_exact(void)
             int expect_zero = (passes[p] == VSD_PASS_EMIT && !emits) || (passes[p] == VSD_PASS_VOLUME_IND && !ms);
             printf("%s %s, %s: max relative difference %.2e (pass sum %.4g)\n", cases[c].method, cases[c].what,
                    vsd_pass_name(passes[p]), diff, sum);
-            CHECK(diff < 1e-4);
+            CHECK(diff < (cases[c].tol > 0 ? cases[c].tol : 1e-4));
             CHECK(expect_zero ? sum == 0 : sum > 0);
         }
         vsd_framebuffer_destroy(f1), vsd_framebuffer_destroy(f2);
@@ -206,7 +230,13 @@ static void test_deterministic_exact(void)
 #define TOL_LBL3_COMBINED 0.10
 #define TOL_LBL3_EMIT 0.08     /* error 0.027; the flame is a few pixels: 2 x 2048 spp leave noise 0.023 */
 #define TOL_LBL3_T 0.005
-static void test_lbl_three_volumes(void)
+/* crm on the same scene and references (its parts, crm_parts.h): measured (RGBA, this
+ * harness) Combined 0.097, Emit and Transmittance as lbl's (the same march); `vsd compare`
+ * RGB against 8192 spp: Combined 0.155, VolumeDir 0.299, VolumeInd 0.248 — crm alone on
+ * each volume (128x72): fire 0.132, smoke 0.249, cloud 0.240 Combined (its single
+ * scattering of this map through order-4 SH: VolumeDir 0.18 / 0.36 / 0.69; issue 31). */
+#define TOL_CRM3_COMBINED 0.13
+static void test_three_volumes(void)
 {
     const char *json =
         "{\"version\": 1, \"volumes\": ["
@@ -215,20 +245,28 @@ static void test_lbl_three_volumes(void)
         ISSUE30_SMOKE_CLOUD_REST;
     mvr_scene sc = {.json = json, .frame = 48};
     mvr_refs refs;
-    const char *ov[] = {"render.method=lbl", "render.options.pixel_samples=4"};
-    vsd_render_stats stats;
+    /* the cloud's media do not meet the smoke's: lbl's two groups (src/grids/volume_groups.h);
+     * crm's parts are one per volume */
+    struct { const char *method, *info; double tol; } cases[] = {
+        {"lbl", "volumes=3 groups=2", TOL_LBL3_COMBINED}, {"crm", "volumes=3", TOL_CRM3_COMBINED}};
     if (!mvr_render_references(&sc, NULL, 0, LBL3_SPP, &refs)) return;
-    vsd_framebuffer *fb = mvr_render(&sc, ov, 2, NULL, &stats);
-    CHECK(fb != NULL);
-    if (fb) {
-        /* the cloud's media do not meet the smoke's: two groups (src/grids/volume_groups.h) */
-        printf("lbl three volumes: %s\n", stats.method_info);
-        CHECK_CONTAINS(stats.method_info, "volumes=3 groups=2");
-        mvr_check("three volumes lbl", fb, &refs, VSD_PASS_COMBINED, TOL_LBL3_COMBINED, 0.7);
-        mvr_check("three volumes lbl", fb, &refs, VSD_PASS_EMIT, TOL_LBL3_EMIT, 0.8);
-        mvr_check("three volumes lbl", fb, &refs, VSD_PASS_TRANSMITTANCE, TOL_LBL3_T, 0.8);
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        char method[64], what[64];
+        const char *ov[] = {method, "render.options.pixel_samples=4"};
+        vsd_render_stats stats;
+        snprintf(method, sizeof method, "render.method=%s", cases[c].method);
+        snprintf(what, sizeof what, "three volumes %s", cases[c].method);
+        vsd_framebuffer *fb = mvr_render(&sc, ov, 2, NULL, &stats);
+        CHECK(fb != NULL);
+        if (fb) {
+            printf("%s: %s\n", what, stats.method_info);
+            CHECK_CONTAINS(stats.method_info, cases[c].info);
+            mvr_check(what, fb, &refs, VSD_PASS_COMBINED, cases[c].tol, 0.7);
+            mvr_check(what, fb, &refs, VSD_PASS_EMIT, TOL_LBL3_EMIT, 0.8);
+            mvr_check(what, fb, &refs, VSD_PASS_TRANSMITTANCE, TOL_LBL3_T, 0.8);
+        }
+        vsd_framebuffer_destroy(fb);
     }
-    vsd_framebuffer_destroy(fb);
     mvr_refs_free(&refs);
 }
 
@@ -420,10 +458,12 @@ static void test_errors(void)
     char err[1024] = "";
     vsd_render_options o = {.threads = 2};
 
-    const char *crm[] = {"render.method=crm"};
-    CHECK(test_parse_scene(two, crm, 1, &sc));
+    /* crm's default renders several volumes; its fitted forms (one volume's RBFs) do not */
+    const char *crm[] = {"render.method=crm", "render.options.view_density=\"compensated\""};
+    CHECK(test_parse_scene(two, crm, 2, &sc));
     CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
-    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; method 'crm' renders one volume so far (reference, raymarch, shgrid, constellation, lbl render several)");
+    CHECK_CONTAINS(err, "volumes: the scene has 2 volumes; crm's fitted forms (view_density \"compensated\" or \"eq8\", "
+                        "single \"sh\", multiple \"rbf\") render one volume; its default path renders several");
     vsd_renderer_destroy(r);
     r = NULL;
 
@@ -463,7 +503,7 @@ int main(void)
     test_transmittance_product();
     test_summed_density();
     test_material_mixture();
-    test_lbl_three_volumes();
+    test_three_volumes();
     test_single_scattering_two_volumes();
     return test_finish("test_volumes");
 }

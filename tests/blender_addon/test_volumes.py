@@ -385,9 +385,12 @@ def main():
         # (which renders several since lbl learnt them) that method itself
         single = [n for n in catalog.names() if not catalog.has(n, SEVERAL)]
         viewport_default = catalog.default_for("viewport_default")
-        cases = [("lbl" if "lbl" in single else (single[0] if single else "reference"), catalog.viewport_fallback())]
+        cases = [("lbl" if "lbl" in single else single[0], catalog.viewport_fallback())] if single else []
         if viewport_default and catalog.has(viewport_default, SEVERAL):
             cases.append((viewport_default, viewport_default))
+        if "crm" in catalog.names() and catalog.has("crm", SEVERAL) and viewport_default != "crm":
+            # crm's default path renders several volumes (its parts): no fallback
+            cases.append(("crm", "crm"))
         viewport = common.addon_module("viewport")
         for chosen, expected in cases:
             s.viewport_method = chosen

@@ -19,6 +19,7 @@
  *                     successive orders on the nodes (crm_orders.c) or the paper's diffusion
  *                     at the centres (crm_diffusion.c), J~ on the nodes (crm_source_grid.c).
  *   render            §5.5, the march (crm_kernel.h) on CPU tiles or CUDA.
+ * Several volumes: a part per volume (crm_parts.h), the default path only.
  * Options: the table below (`vsd methods`). */
 #include "src/method/method.h"
 #include "src/lighting/env_healpix.h"
@@ -34,6 +35,9 @@
 #include "crm_kernel.h"
 #include "crm_device.h"
 #include "crm_hash_kernel.h"
+#include "crm_parts.h"
+#include "src/method/method_parts.h"
+#include "src/grids/volume_groups.h"
 #include "src/common/clock.h"
 #include "kernel/kernel_volume.h"
 #include <math.h>
@@ -157,7 +161,9 @@ typedef struct crm_state {
     double voxel_world;           /* world length of a voxel (mean of the three axes) */
     float spacing;                /* voxels between source nodes */
     int32_t node_res[3];
-    float *node_density;          /* [nodes] mean density of each node's cell */
+    float *node_density;          /* [nodes] mean density of each node's cell (a part: every
+                                     volume's extinction over its own scale, crm_parts.h) */
+    float *node_albedo;           /* [3 * nodes] a part's mixture albedo, else NULL */
     vsd_crm_node_depths depths;   /* the nodes' transmittance toward the sky, kept across
                                      lighting and medium edits (crm_node_single.h) */
     /* lighting (§5.3-5.4) */
@@ -172,13 +178,33 @@ typedef struct crm_state {
     float *view_nodes;            /* [nodes * CRM_VIEW_FLOATS] the CPU's per-view node pass */
     size_t view_count;
     vsd_crm_orders_stats orders;
+    vsd_method_parts parts;       /* several volumes: a crm state per volume */
 } crm_state;
+
+extern const vsd_method vsd_method_crm;
+
+/* Whether anything this configuration runs reads the RBF fit (and so the dense copy the
+ * fit is made from): the paper's lighting at the centres, or its D~ + R in the view. */
+static int needs_fit(const crm_options *o)
+{
+    return o->view_density != CRM_VIEW_VOXELS || o->single == SINGLE_SH || o->multiple == MULTIPLE_RBF;
+}
+
+/* The fit is one volume's: the paper's forms render one volume. */
+static const char *several_volumes_refusal(int volumes, char *buf, size_t len)
+{
+    snprintf(buf, len,
+             "volumes: the scene has %d volumes; crm's fitted forms (view_density \"compensated\" or \"eq8\", single "
+             "\"sh\", multiple \"rbf\") render one volume; its default path renders several",
+             volumes);
+    return buf;
+}
 
 static vsd_status crm_create(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen)
 {
     crm_state *s = calloc(1, sizeof *s);
     vsd_status st;
-    (void)scene;
+    char buf[512];
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
     s->opt = *(const crm_options *)options;
     vsd_crm_fit_defaults(&s->fit_opt);
@@ -187,6 +213,10 @@ static vsd_status crm_create(void **state, const vsd_scene *scene, const void *o
     s->fit_opt.delete_per_frame = s->opt.delete_per_frame;
     s->fit_opt.insert_max = s->opt.insert_max;
     s->fit_opt.error_ratio = (float)s->opt.error_ratio;
+    if (scene && scene->volume_count > 1 && needs_fit(&s->opt)) {
+        free(s);
+        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen, "%s", several_volumes_refusal(scene->volume_count, buf, sizeof buf));
+    }
     if ((st = vsd_crm_fit_options_check(&s->fit_opt, err, errlen)) ||
         (st = vsd_crm_od_table_create(s->opt.sh_order, 256, &s->table, err, errlen))) {
         free(s);
@@ -204,6 +234,8 @@ static void free_frame(crm_state *s)
     s->dfull = NULL;
     free(s->node_density);
     s->node_density = NULL;
+    free(s->node_albedo);
+    s->node_albedo = NULL;
     vsd_crm_node_depths_free(&s->depths);
     vsd_crm_hash_destroy(s->hash);
     s->hash = NULL;
@@ -265,13 +297,6 @@ static vsd_status node_density(crm_state *s, const vsd_kvolume *density, char *e
                 s->node_density[n] = sum > 0.0f ? sum / 27.0f : 0.0f;
             }
     return VSD_OK;
-}
-
-/* Whether anything this configuration runs reads the RBF fit (and so the dense copy the
- * fit is made from): the paper's lighting at the centres, or its D~ + R in the view. */
-static int needs_fit(const crm_options *o)
-{
-    return o->view_density != CRM_VIEW_VOXELS || o->single == SINGLE_SH || o->multiple == MULTIPLE_RBF;
 }
 
 /* The paper's §5.1-5.2 for the frame's grid: the fit (from the disk cache when it has it),
@@ -369,9 +394,20 @@ done:
 static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     crm_state *s = state;
-    const double *vs = ctx->density->voxel_size;
+    const double *vs;
     vsd_status st;
     int a;
+    if (!ctx->part.active) {
+        if (ctx->volume_count > 1) {
+            char buf[512];
+            if (needs_fit(&s->opt))
+                return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen, "%s",
+                                several_volumes_refusal(ctx->volume_count, buf, sizeof buf));
+            return vsd_parts_prepare_frame(&s->parts, &vsd_method_crm, &s->opt, ctx, err, errlen);
+        }
+        vsd_parts_free(&s->parts, &vsd_method_crm);
+    }
+    vs = ctx->density->voxel_size;
     s->voxel_world = (vs[0] + vs[1] + vs[2]) / 3.0;
     if (needs_fit(&s->opt)) {
         /* the same fitted grid keeps its nodes; a new one was freed with its fit */
@@ -379,8 +415,9 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
         if (s->node_density) return VSD_OK;
     } else {
         /* the same grid as last time (a medium change re-runs this stage): the nodes and
-         * their transmittance stand */
-        if (s->node_density && s->volume_gen == ctx->volume_gen) return VSD_OK;
+         * their transmittance stand; a part's nodes hold the other volumes too, which may
+         * have moved or changed: built again */
+        if (!ctx->part.active && s->node_density && s->volume_gen == ctx->volume_gen) return VSD_OK;
         free_frame(s);
         for (a = 0; a < 3; a++) {
             s->dims[a] = 8 * ctx->density->brick_dims[a];
@@ -489,6 +526,20 @@ static vsd_status rbf_diffusion(crm_state *s, double sigma, const double albedo[
     return st;
 }
 
+/* A part's single scattering was lit with albedo 1 (unit: its bands per node, saved before
+ * the orders added the emission scattered once, which has the mixture's albedo already):
+ * the view's takes the volume's own albedo. */
+static void own_albedo_single(crm_state *s, const float *unit, const double albedo[3])
+{
+    size_t nodes = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
+    int c, l;
+    for (i = 0; i < nodes; i++)
+        for (c = 0; c < 3; c++)
+            for (l = 0; l < CRM_SS_N; l++)
+                s->nodes.nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + l] +=
+                    (float)(albedo[c] - 1.0) * unit[(i * 3 + c) * CRM_SS_N + l];
+}
+
 static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     crm_state *s = state;
@@ -501,6 +552,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     int centres = s->opt.single == SINGLE_SH || s->opt.multiple == MULTIPLE_RBF;
     const vsd_crm_rbfs no_rbfs = {NULL, 0};
     vsd_status st;
+    if (s->parts.count) return vsd_parts_prepare_lighting(&s->parts, &vsd_method_crm, ctx, err, errlen);
     free(s->j_ss);
     free(s->j_ms);
     s->j_ss = s->j_ms = NULL;
@@ -535,14 +587,40 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         return st;
     if (s->opt.multiple == MULTIPLE_ORDERS || s->opt.single == SINGLE_GRID) {
         size_t nodes = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
-        float *sigma_t = malloc(nodes * sizeof *sigma_t);
-        if (!sigma_t) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the extinction of %zu nodes", nodes);
+        float *sigma_t, *part_emission = NULL, *unit_single = NULL;
+        /* a part lights its nodes with albedo 1 first: the orders scatter the mixture's
+         * albedo from there, and the view's single scattering takes the volume's own after */
+        const double unit[3] = {1.0, 1.0, 1.0};
+        vsd_affine n2w;
+        if (ctx->part.active && ctx->kd.density.scale > 0.0f) {
+            /* a part: every volume's medium on the nodes, and the transmittance marched
+             * for it again (crm_parts.h) */
+            int emits = vsd_group_emits(&ctx->kd, ~0u);
+            if (!s->node_albedo && !(s->node_albedo = malloc(3 * nodes * sizeof *s->node_albedo)))
+                return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the albedo of %zu nodes", nodes);
+            if (emits && !(part_emission = malloc(3 * nodes * sizeof *part_emission)))
+                return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the emission of %zu nodes", nodes);
+            if ((st = node_to_world(s, ctx, &n2w, err, errlen))) {
+                free(part_emission);
+                return st;
+            }
+            vsd_crm_part_medium(ctx, s->node_res, &n2w, ctx->kd.density.scale, s->node_density, s->node_albedo,
+                                part_emission);
+            vsd_crm_node_depths_free(&s->depths);
+        }
+        if (!(sigma_t = malloc(nodes * sizeof *sigma_t))) {
+            free(part_emission);
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the extinction of %zu nodes", nodes);
+        }
         for (i = 0; i < nodes; i++) sigma_t[i] = ctx->kd.density.scale * s->node_density[i];
         if (s->opt.single == SINGLE_GRID) {
             int marched;
             t0 = vsd_clock_seconds();
             st = vsd_crm_node_depths_update(&s->depths, s->node_res, to_node, s->node_density, ctx->kd.density.scale,
                                             s->opt.directions, ctx->threads, &marched, err, errlen);
+            if (!st && marched && s->node_albedo)
+                st = vsd_crm_part_shadows(ctx, &s->depths, &n2w, ctx->kd.density.scale, s->spacing * (float)s->voxel_world,
+                                          ctx->threads, err, errlen);
             s->transmittance_seconds = marched ? vsd_clock_seconds() - t0 : 0.0;
             s->transmittance_marches += marched;
             {
@@ -555,21 +633,34 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                                       s->opt.directions);
                 }
                 if (!st)
-                    st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, albedo, g, order, env_sh, sky,
-                                             ctx->threads, s->nodes.nodes, s->nodes.valid, err, errlen);
+                    st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, s->node_albedo ? unit : albedo, g,
+                                             order, env_sh, sky, ctx->threads, s->nodes.nodes, s->nodes.valid, err,
+                                             errlen);
                 free(sky);
+            }
+            if (!st && s->node_albedo) {
+                /* the unit-albedo single scattering, for own_albedo_single after the orders */
+                if (!(unit_single = malloc(nodes * 3 * CRM_SS_N * sizeof *unit_single)))
+                    st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the single scattering of %zu nodes",
+                                  nodes);
+                for (i = 0; !st && i < nodes; i++)
+                    memcpy(unit_single + i * 3 * CRM_SS_N, s->nodes.nodes + i * CRM_NODE_FLOATS,
+                           3 * CRM_SS_N * sizeof *unit_single);
             }
             s->single_seconds = vsd_clock_seconds() - t0;
         }
         if (!st && s->opt.multiple == MULTIPLE_ORDERS) {
-            float *emission = NULL;
-            if (ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
+            float *emission = part_emission;
+            if (!s->node_albedo && ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
             if (!st)
-                st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, albedo, g, s->nodes.nodes, s->nodes.valid,
-                                    s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
-                                    &s->orders, err, errlen);
-            free(emission);
+                st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, s->node_albedo ? unit : albedo,
+                                    s->node_albedo, g, s->nodes.nodes, s->nodes.valid, s->opt.order_cell,
+                                    s->opt.order_directions, s->opt.orders, 0.01, ctx->threads, &s->orders, err, errlen);
+            if (emission != part_emission) free(emission);
         }
+        if (!st && unit_single) own_albedo_single(s, unit_single, albedo);
+        free(part_emission);
+        free(unit_single);
         free(sigma_t);
     }
     return st;
@@ -590,44 +681,78 @@ static void crm_info(const crm_state *s, vsd_frame_ctx *ctx)
              s->orders.orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds);
 }
 
-static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
-                             size_t errlen)
+/* The view's kernel struct for this state, its per-view node pass done on the CPU threads
+ * (on the device it runs with the view, crm_device.c, unless `cpu_nodes`). */
+static vsd_status view_struct(crm_state *s, vsd_frame_ctx *ctx, vsd_kcrm *kc, int cpu_nodes, char *err, size_t errlen)
 {
-    crm_state *s = state;
-    vsd_kcrm kc;
-    memset(&kc, 0, sizeof kc);
-    kc.kd = &ctx->kd;
-    kc.dtilde = s->dtilde;
-    kc.dfull = s->dfull;
-    kc.nodes = s->nodes.nodes;
-    kc.node_valid = s->nodes.valid;
-    memcpy(kc.dims, s->dims, sizeof kc.dims);
-    memcpy(kc.origin, s->origin, sizeof kc.origin);
-    memcpy(kc.node_res, s->nodes.res, sizeof kc.node_res);
-    kc.node_spacing = s->nodes.spacing > 0 ? s->nodes.spacing : 1.0f;
-    kc.view_density = s->opt.view_density;
-    kc.order = s->opt.sh_order;
-    ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
-    ctx->kd.march_stop = (float)s->opt.early_termination;
-    crm_info(s, ctx);
+    memset(kc, 0, sizeof *kc);
+    kc->kd = &ctx->kd;
+    kc->dtilde = s->dtilde;
+    kc->dfull = s->dfull;
+    kc->nodes = s->nodes.nodes;
+    kc->node_valid = s->nodes.valid;
+    memcpy(kc->dims, s->dims, sizeof kc->dims);
+    memcpy(kc->origin, s->origin, sizeof kc->origin);
+    memcpy(kc->node_res, s->nodes.res, sizeof kc->node_res);
+    kc->node_spacing = s->nodes.spacing > 0 ? s->nodes.spacing : 1.0f;
+    kc->view_density = s->opt.view_density;
+    kc->order = s->opt.sh_order;
     if (s->nodes.nodes) {
-        size_t count = (size_t)kc.node_res[0] * kc.node_res[1] * kc.node_res[2];
-        vsd_status st = node_to_world(s, ctx, &kc.node_to_world, err, errlen);
+        size_t count = (size_t)kc->node_res[0] * kc->node_res[1] * kc->node_res[2];
+        vsd_status st = node_to_world(s, ctx, &kc->node_to_world, err, errlen);
         if (st) return st;
-        if (!ctx->cuda) {
-            /* the per-view node pass (the paper's volume pass) on the CPU threads; on the
-             * device it runs with the view (crm_device.c) */
+        if (cpu_nodes || !ctx->cuda) {
+            /* the per-view node pass (the paper's volume pass) */
             if (s->view_count != count) {
                 free(s->view_nodes);
                 s->view_nodes = malloc(count * CRM_VIEW_FLOATS * sizeof(float));
                 s->view_count = s->view_nodes ? count : 0;
                 if (!s->view_nodes) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %zu view nodes", count);
             }
-            kc.view_nodes = s->view_nodes;
-            if ((st = vsd_crm_view_nodes_cpu(ctx, &kc)))
+            kc->view_nodes = s->view_nodes;
+            if ((st = vsd_crm_view_nodes_cpu(ctx, kc)))
                 return st == VSD_ERR_CANCELLED ? vsd_fail(st, err, errlen, "render cancelled") : st;
         }
     }
+    return VSD_OK;
+}
+
+/* Several volumes: every part's nodes toward this view, then one march over all volumes. */
+static vsd_status parts_render(crm_state *s, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
+                               size_t errlen)
+{
+    int n = s->parts.count, i;
+    vsd_frame_ctx *pc = calloc((size_t)n, sizeof *pc);
+    vsd_kcrm *kc = calloc((size_t)n, sizeof *kc);
+    size_t nodes = 0;
+    vsd_status st = VSD_OK;
+    if (!pc || !kc) st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %d volumes", n);
+    for (i = 0; i < n && st == VSD_OK; i++) {
+        crm_state *part = s->parts.state[i];
+        vsd_part_ctx(ctx, &s->parts, i, &pc[i]);
+        if ((st = view_struct(part, &pc[i], &kc[i], 1, err, errlen))) break;
+        nodes += (size_t)kc[i].node_res[0] * kc[i].node_res[1] * kc[i].node_res[2];
+    }
+    if (st == VSD_OK && ctx->info && ctx->info_len) snprintf(ctx->info, ctx->info_len, "volumes=%d nodes=%zu", n, nodes);
+    ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
+    ctx->kd.march_stop = (float)s->opt.early_termination;
+    if (st == VSD_OK) st = vsd_crm_parts_view(ctx, fb, kc, n, s->opt.pixel_samples, &s->opt.view, samples, err, errlen);
+    free(pc);
+    free(kc);
+    return st;
+}
+
+static vsd_status crm_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples, char *err,
+                             size_t errlen)
+{
+    crm_state *s = state;
+    vsd_kcrm kc;
+    vsd_status st;
+    if (s->parts.count) return parts_render(s, ctx, fb, samples, err, errlen);
+    ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);
+    ctx->kd.march_stop = (float)s->opt.early_termination;
+    crm_info(s, ctx);
+    if ((st = view_struct(s, ctx, &kc, 0, err, errlen))) return st;
     if (!s->nodes.nodes) {
         /* an empty grid: the march still draws emission and background */
         static const float zero = 0.0f;
@@ -658,6 +783,7 @@ static void crm_destroy(void *state)
     free(s->l_m0);
     free(s->view_nodes);
     vsd_crm_source_grid_free(&s->nodes);
+    vsd_parts_free(&s->parts, &vsd_method_crm);
     free(s);
 }
 
@@ -665,7 +791,8 @@ const vsd_method vsd_method_crm = {
     .name = "crm",
     .label = "CRM",
     .summary = "Zhou 2008: compensated ray marching of RBF densities",
-    .caps = VSD_METHOD_CAP_MULTIPLE_SCATTERING | VSD_METHOD_CAP_EMISSION_SCATTERING | VSD_METHOD_CAP_CUDA_VIEW,
+    .caps = VSD_METHOD_CAP_MULTIPLE_SCATTERING | VSD_METHOD_CAP_EMISSION_SCATTERING | VSD_METHOD_CAP_CUDA_VIEW |
+            VSD_METHOD_CAP_SEVERAL_VOLUMES,
     .roles = 0,
     .options = VSD_OPTION_TABLE(crm_option_rows, crm_options),
     .create = crm_create,

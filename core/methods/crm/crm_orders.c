@@ -19,6 +19,7 @@ typedef struct coarse_grid {
     float *sigma;       /* [n] world units */
     float *j;           /* [n * 3 * nb] current order's source: SH of J(w_out), per channel */
     float *emit;        /* [n * 3] emission per unit length (world), or NULL */
+    float *albedo;      /* [n * 3] per cell (several volumes: their mixture), or NULL: the job's */
     float *next;        /* [n * 3 * nb] the next order */
     double to_cell[9];  /* world direction -> coarse-grid displacement per world unit */
     /* (sigma, sigma J toward one direction) per cell with a zero border (1 cell below, 2
@@ -158,7 +159,8 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
             }
         }
         for (c = 0; c < 3; c++)
-            for (l = 0; l < nb; l++) g->next[(3 * n + c) * nb + l] += (float)(job->albedo[c] * acc[c * nb + l]);
+            for (l = 0; l < nb; l++)
+                g->next[(3 * n + c) * nb + l] += (float)((g->albedo ? g->albedo[3 * n + c] : job->albedo[c]) * acc[c * nb + l]);
     }
 }
 
@@ -287,8 +289,8 @@ static void subtract_emission(const coarse_grid *g, float *ms, const float *je)
 }
 
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
-                          const float *emission, const double albedo[3], double anisotropy, float *nodes, uint8_t *valid,
-                          int coarse, int directions, int max_orders, double tolerance,
+                          const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
+                          float *nodes, uint8_t *valid, int coarse, int directions, int max_orders, double tolerance,
                           int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen)
 {
     double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
@@ -318,6 +320,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     g.j = calloc(g.n * 3 * nb, sizeof *g.j);
     g.next = calloc(g.n * 3 * nb, sizeof *g.next);
     g.emit = emission ? calloc(g.n * 3, sizeof *g.emit) : NULL;
+    g.albedo = node_albedo ? calloc(g.n * 3, sizeof *g.albedo) : NULL;
     g.sx = (size_t)g.res[0] + 3;
     g.sy = g.sx * ((size_t)g.res[1] + 3);
     g.pad = calloc(4 * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
@@ -326,7 +329,8 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     wsum = calloc(g.n, sizeof *wsum);
     dirs = malloc(sizeof *dirs * 3 * (size_t)directions);
     y_in = malloc(sizeof *y_in * (size_t)nb * (size_t)directions);
-    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs || !y_in || (emission && (!g.emit || !je))) {
+    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs || !y_in || (emission && (!g.emit || !je)) ||
+        (node_albedo && !g.albedo)) {
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", g.res[0], g.res[1], g.res[2]);
         goto done;
     }
@@ -338,7 +342,10 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         for (l = 0; l < nb; l++) y_in[(size_t)k * nb + l] = (float)y[l];
     }
     /* coarse cells: mean sigma of their fine nodes, J_1 weighted by sigma (J is per unit
-     * extinction, so empty nodes must not dilute it) */
+     * extinction, so empty nodes must not dilute it); with per-node albedos the cell's is
+     * sigma-weighted too (it scatters sigma_s = albedo sigma), and J_1, which the single
+     * scattering gave with `albedo`, is rescaled to the node's: the first scattering of
+     * the mixture there */
     for (i = 0; i < fine; i++) {
         int32_t x = (int32_t)(i % node_res[0]), y = (int32_t)((i / node_res[0]) % node_res[1]);
         int32_t z = (int32_t)(i / ((size_t)node_res[0] * node_res[1]));
@@ -350,12 +357,19 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         wsum[n] += 1.0;
         if (emission)
             for (c = 0; c < 3; c++) g.emit[3 * n + c] += emission[3 * i + c];
+        if (g.albedo)
+            for (c = 0; c < 3; c++) g.albedo[3 * n + c] += (float)(s * node_albedo[3 * i + c]);
         if (valid[i] & CRM_NODE_SINGLE)
-            for (c = 0; c < 3; c++)
-                for (l = 0; l < nb; l++) g.j[(3 * n + c) * nb + l] += (float)(s * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
+            for (c = 0; c < 3; c++) {
+                double to_node = !node_albedo ? 1.0 : albedo[c] > 0.0 ? node_albedo[3 * i + c] / albedo[c] : 0.0;
+                for (l = 0; l < nb; l++)
+                    g.j[(3 * n + c) * nb + l] += (float)(s * to_node * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
+            }
     }
     for (i = 0; i < g.n; i++) {
         for (c = 0; c < 3 * nb; c++) g.j[3 * nb * i + c] = g.sigma[i] > 0.0f ? g.j[3 * nb * i + c] / g.sigma[i] : 0.0f;
+        if (g.albedo)
+            for (c = 0; c < 3; c++) g.albedo[3 * i + c] = g.sigma[i] > 0.0f ? g.albedo[3 * i + c] / g.sigma[i] : 0.0f;
         g.sigma[i] = wsum[i] > 0.0 ? (float)(g.sigma[i] / wsum[i]) : 0.0f;
         if (g.emit)
             for (c = 0; c < 3; c++) g.emit[3 * i + c] = wsum[i] > 0.0 ? (float)(g.emit[3 * i + c] / wsum[i]) : 0.0f;
@@ -439,6 +453,7 @@ done:
     free(g.j);
     free(g.next);
     free(g.emit);
+    free(g.albedo);
     free(g.pad);
     free(ms);
     free(je);

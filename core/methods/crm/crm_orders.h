@@ -45,10 +45,13 @@ typedef struct vsd_crm_orders_stats {
  * 0-1 are J_1 and whose multiple-scattering part (and CRM_NODE_MULTIPLE bit) is
  * overwritten; anisotropy: HG's g for the orders (0 = isotropic, band 0 only).
  * emission: per fine node, 3 floats, the emitted radiance per unit length (world units), or
- * NULL; coarse: fine nodes per coarse cell (>= 1); directions: HEALPix count (12 nside^2). */
+ * NULL; albedo: the medium's, with which the single scattering (J_1) was computed;
+ * node_albedo: NULL, or per fine node 3 floats, the albedo the orders scatter with there
+ * (several overlapping volumes: sigma_s / sigma_t of their mixture); coarse: fine nodes per
+ * coarse cell (>= 1); directions: HEALPix count (12 nside^2). */
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
-                          const float *emission, const double albedo[3], double anisotropy, float *nodes, uint8_t *valid,
-                          int coarse, int directions, int max_orders, double tolerance,
+                          const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
+                          float *nodes, uint8_t *valid, int coarse, int directions, int max_orders, double tolerance,
                           int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen);
 
 #endif

@@ -1,0 +1,129 @@
+/* crm over several volumes (crm_parts.h). */
+#include "crm_parts.h"
+#include "crm_volumes_kernel.h"
+#include "src/grids/volume_groups.h"
+#include "device/cpu/cpu_tiles.h"
+#include "vsd/sh.h"
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+
+/* every volume of the scene (the part's box holds whichever of them reach into it) */
+static uint32_t all_volumes(const vsd_kernel_data *kd) { return kd->volume_count >= 32 ? ~0u : (1u << kd->volume_count) - 1u; }
+
+void vsd_crm_part_medium(const vsd_frame_ctx *ctx, const int32_t node_res[3], const vsd_affine *n2w, float scale,
+                         float *density, float *albedo, float *emission)
+{
+    const vsd_kernel_data *kd = &ctx->kd;
+    uint32_t all = all_volumes(kd);
+    size_t n = 0;
+    int32_t i, j, k, u, v, w;
+    for (k = 0; k < node_res[2]; k++)
+        for (j = 0; j < node_res[1]; j++)
+            for (i = 0; i < node_res[0]; i++, n++) {
+                double sigma = 0.0, scatter[3] = {0.0, 0.0, 0.0};
+                vsd_f3 e = f3s(0.0f);
+                for (w = -1; w <= 1; w++)
+                    for (v = -1; v <= 1; v++)
+                        for (u = -1; u <= 1; u++) {
+                            vsd_f3 p = vsd_affine_point(n2w, f3((float)i + (float)u / 3.0f, (float)j + (float)v / 3.0f,
+                                                                (float)k + (float)w / 3.0f));
+                            sigma += vsd_group_scattering(kd, all, p, scatter);
+                            if (emission) e = f3_add(e, vsd_group_emission(kd, all, p));
+                        }
+                density[n] = sigma > 0.0 ? (float)(sigma / 27.0 / scale) : 0.0f;
+                albedo[3 * n] = sigma > 0.0 ? (float)(scatter[0] / sigma) : kd->medium.albedo.x;
+                albedo[3 * n + 1] = sigma > 0.0 ? (float)(scatter[1] / sigma) : kd->medium.albedo.y;
+                albedo[3 * n + 2] = sigma > 0.0 ? (float)(scatter[2] / sigma) : kd->medium.albedo.z;
+                if (emission) {
+                    emission[3 * n] = e.x > 0.0f ? e.x / 27.0f : 0.0f;
+                    emission[3 * n + 1] = e.y > 0.0f ? e.y / 27.0f : 0.0f;
+                    emission[3 * n + 2] = e.z > 0.0f ? e.z / 27.0f : 0.0f;
+                }
+            }
+}
+
+typedef struct shadow_job {
+    const vsd_frame_ctx *ctx;
+    vsd_crm_node_depths *c;
+    const vsd_affine *n2w;
+    const double *dirs;
+    float scale, step;
+} shadow_job;
+
+/* nodes [a, b) of c->which */
+static void shadow_items(void *user, int a, int y0, int b, int y1)
+{
+    const shadow_job *job = user;
+    const vsd_kernel_data *kd = &job->ctx->kd;
+    const vsd_crm_node_depths *c = job->c;
+    uint32_t own = 1u << job->ctx->part.volume;
+    int m, d;
+    (void)y0;
+    (void)y1;
+    for (m = a; m < b; m++) {
+        int32_t node = c->which[m];
+        vsd_f3 p = vsd_affine_point(job->n2w, f3((float)(node % c->res[0]), (float)((node / c->res[0]) % c->res[1]),
+                                                 (float)(node / (c->res[0] * c->res[1]))));
+        for (d = 0; d < c->directions; d++) {
+            vsd_f3 dir = f3((float)job->dirs[3 * d], (float)job->dirs[3 * d + 1], (float)job->dirs[3 * d + 2]);
+            float t0 = 0.0f, t1 = VSD_INF, tr;
+            /* the box's own medium (every volume's inside it) is in the node grid already */
+            if (!vsd_kvolume_clip(&kd->density, p, dir, &t0, &t1)) t1 = 0.0f;
+            tr = vsd_kvolumes_march_transmittance(kd, f3_madd(p, dir, t1), dir, VSD_INF, own, job->step);
+            c->od[(size_t)m * c->directions + d] += (tr > 1e-30f ? -logf(tr) : 69.0f) / job->scale;
+        }
+    }
+}
+
+vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c, const vsd_affine *n2w, float scale,
+                                float step, int threads, char *err, size_t errlen)
+{
+    shadow_job job;
+    double *dirs;
+    vsd_status st;
+    if (!(scale > 0.0f) || c->count == 0) return VSD_OK;
+    if (!(dirs = malloc(sizeof *dirs * 3 * (size_t)c->directions)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %d directions", c->directions);
+    if (!(st = vsd_sh_healpix_dirs(vsd_sh_healpix_nside(c->directions), dirs, err, errlen))) {
+        job.ctx = ctx;
+        job.c = c;
+        job.n2w = n2w;
+        job.dirs = dirs;
+        job.scale = scale;
+        job.step = step;
+        st = vsd_cpu_run_items((int)c->count, threads, shadow_items, &job, "crm shadows of the other volumes");
+    }
+    free(dirs);
+    return st;
+}
+
+static vsd_sample_result volumes_sample(const void *m, int x, int y, int s, int n)
+{
+    return vsd_crm_volumes_sample((const vsd_kcrm_volumes *)m, x, y, s, n);
+}
+
+/* several volumes have no device entry yet: the CPU threads run them */
+static const vsd_device_pass volumes_view_pass = {
+    "ray marching (several volumes)", 1, 128, sizeof(vsd_kcrm_volumes), offsetof(vsd_kcrm_volumes, kd),
+    volumes_sample, NULL, NULL, NULL,
+};
+
+vsd_status vsd_crm_parts_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_kcrm *parts, int count, int n,
+                              const vsd_view_sampling *vs, int *samples, char *err, size_t errlen)
+{
+    vsd_kcrm_volumes cv;
+    struct vsd_cuda *cuda = ctx->cuda;
+    vsd_status st;
+    if (count != ctx->kd.volume_count)
+        return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: %d crm parts for %d volumes", count,
+                        ctx->kd.volume_count);
+    cv.kd = &ctx->kd;
+    cv.part = parts;
+    cv.count = count;
+    cv.pad[0] = cv.pad[1] = cv.pad[2] = 0;
+    ctx->cuda = NULL;
+    st = vsd_method_render_view(ctx, fb, n, vs, &volumes_view_pass, NULL, &cv, samples, err, errlen);
+    ctx->cuda = cuda;
+    return st;
+}

@@ -1,0 +1,41 @@
+/* crm_parts.h — crm over several volumes: a part per volume (src/method/method_parts.h),
+ * each crm's one-volume state with its node grid over its own volume's box, plus what a
+ * part needs beyond one volume:
+ *   - every volume's medium on its nodes (the mixture: summed extinction, sigma_s / sigma_t
+ *     as the albedo the successive orders scatter with, summed emission), so overlapping
+ *     volumes shadow and light each other inside the box as one medium does;
+ *   - the shadows of what lies outside the box: each node's optical depth toward each sky
+ *     direction gains the depth through every other volume beyond the box's exit;
+ *   - the view: one march over all volumes mixing the parts' sources
+ *     (crm_volumes_kernel.h).
+ * A part's own single scattering keeps its volume's albedo and phase (the view weights it
+ * by sigma_i / sigma); its multiple scattering is the mixture's at each node, which the
+ * same weights sum back to the mixture. */
+#ifndef VSD_CRM_PARTS_H
+#define VSD_CRM_PARTS_H
+#include "src/method/method.h"
+#include "crm_kernel.h"
+#include "crm_node_single.h"
+
+/* Per node of a part's grid (node_res; n2w: node coordinates to world), the mean over the
+ * node's cell (3 x 3 x 3 samples, as the one-volume node density) of every volume's summed
+ * sigma_t, divided by `scale` (the part's own sigma_t per unit density, > 0, so that
+ * scale * density is the mixture's extinction and the node-grid stages run unchanged);
+ * albedo[3 * node]: the mixture's sigma_s / sigma_t there (the medium's own where no
+ * volume has density); emission (NULL = not wanted): the summed emitted radiance per unit
+ * length, 3 floats per node. */
+void vsd_crm_part_medium(const vsd_frame_ctx *ctx, const int32_t node_res[3], const vsd_affine *n2w, float scale,
+                         float *density, float *albedo, float *emission);
+
+/* Adds to each of c's optical depths (unscaled: the part's density units) the depth through
+ * every other volume along the same ray from where it leaves the part's own box, over
+ * `scale`; step: the march step in world units. */
+vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c, const vsd_affine *n2w, float scale,
+                                float step, int threads, char *err, size_t errlen);
+
+/* The view over all parts (parts[i] goes with volume i, its node pass done; count =
+ * ctx->kd.volume_count), n x n rays per pixel, on the CPU threads. */
+vsd_status vsd_crm_parts_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_kcrm *parts, int count, int n,
+                              const vsd_view_sampling *vs, int *samples, char *err, size_t errlen);
+
+#endif
