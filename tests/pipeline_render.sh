@@ -121,4 +121,16 @@ check "remote render (rc $rc)" '[ $rc -eq 0 ] && [ -s rem/r_0003.exr ]'
 check "local --continue skips the daemon's frames" \
   'grep -q "^frame 2: skipped, complete" err.txt && grep -q "^frame 3: skipped, complete" err.txt && grep -q "^frame 1: " out.txt'
 
+# 6. --max-voxels: the scene's density grids together, checked before loading; a bad value
+#    is a usage error naming the flag.
+"$vsd" render "$scene" --frames 2 --width 16 --height 9 --samples 1 --output "$tmp/mv/m_####.exr" \
+  --max-voxels 1000 -q 2>err.txt; rc=$?
+check "--max-voxels 1000 refuses frame 2 (rc $rc: $(head -c 300 err.txt))" \
+  '[ $rc -ne 0 ] && grep -q "active voxels; the limit is 1000 (vsd render --max-voxels)" err.txt && [ ! -e mv/m_0002.exr ]'
+"$vsd" render "$scene" --frames 2 --width 16 --height 9 --samples 1 --output "$tmp/mv/m_####.exr" \
+  --max-voxels 1e9 -q 2>err.txt; rc=$?
+check "--max-voxels 1e9 renders (rc $rc)" '[ $rc -eq 0 ] && [ -s mv/m_0002.exr ]'
+"$vsd" render "$scene" --max-voxels many -q 2>err.txt; rc=$?
+check "--max-voxels many is a usage error (rc $rc)" '[ $rc -eq 2 ] && grep -q "^vsd render: --max-voxels: .many. is not a whole number" err.txt'
+
 exit $fail

@@ -8,6 +8,7 @@
  * equals one volume whose albedo is the scattering fraction. Transmittance along a ray
  * through two volumes is the product of each one's. */
 #include "test_common.h"
+#include "vsd/vdbio.h"
 #include "test_render_util.h"
 #include "method_vs_reference.h"
 #include "vsd/render.h"
@@ -466,6 +467,39 @@ static void test_errors(void)
                         "single \"sh\", multiple \"rbf\") render one volume; its default path renders several");
     vsd_renderer_destroy(r);
     r = NULL;
+
+    /* the voxel limit counts the volumes together, from the files, before loading: each of
+     * the two halves fits, the two do not */
+    {
+        char path[1024], err2[1024];
+        vsd_grid_info info;
+        vsd_grid_select sel = {"density", -1};
+        vsd_render_options lo = {.threads = 2};
+        snprintf(path, sizeof path, "%s", VSD_SHARED_DATA "/smoke64/fluid_data_0011.vdb");
+        CHECK(vsd_vdb_select_info(path, sel, &info, err2, sizeof err2) == VSD_OK);
+        lo.max_voxels = info.active_voxels + 1;
+        CHECK(test_parse_scene(two, NULL, 0, &sc));
+        CHECK(vsd_renderer_create(&sc, &lo, &r, err, sizeof err) == VSD_OK);
+        vsd_framebuffer *lfb = NULL;
+        if (r) CHECK(vsd_renderer_render(r, 11, &lfb, NULL, err, sizeof err) == VSD_ERR_NOMEM);
+        printf("two volumes over the voxel limit: %s\n", err);
+        CHECK_CONTAINS(err, "volumes: the scene's density grids hold");
+        CHECK_CONTAINS(err, "(volumes[1] ");
+        CHECK_CONTAINS(err, "the limit is");
+        vsd_framebuffer_destroy(lfb);
+        vsd_renderer_destroy(r);
+        r = NULL;
+        /* one of them alone renders under the same limit */
+        char *one = scene_json("{\"file\": \"" SMOKE "\"}", 11);
+        CHECK(test_parse_scene(one, NULL, 0, &sc));
+        CHECK(vsd_renderer_create(&sc, &lo, &r, err, sizeof err) == VSD_OK);
+        lfb = NULL;
+        if (r) CHECK(vsd_renderer_render(r, 11, &lfb, NULL, err, sizeof err) == VSD_OK);
+        vsd_framebuffer_destroy(lfb);
+        vsd_renderer_destroy(r);
+        r = NULL;
+        free(one);
+    }
 
     const char *cuda[] = {"render.device=cuda"};
     CHECK(test_parse_scene(two, cuda, 1, &sc));

@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cstdlib>
+#include <cstring>
 #include <mutex>
 #include <new>
 #include <string>
@@ -290,6 +291,26 @@ vsd_status vsd_vdb_list(const char *path, vsd_grid_info **grids, int *count, cha
 void vsd_vdb_list_free(vsd_grid_info *grids)
 {
     std::free(grids);
+}
+
+vsd_status vsd_vdb_select_info(const char *path, vsd_grid_select sel, vsd_grid_info *out, char *err, size_t errlen)
+{
+    if (!path || !out)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "vsd_vdb_select_info: NULL path or out");
+    const std::string p = path;
+    std::memset(out, 0, sizeof *out);
+    try {
+        init_openvdb();
+        const FileScan scan = scan_file(p);
+        const GridEntry &g = scan.grids[select_grid(p, scan, sel)];
+        openvdb::io::File file(p);
+        file.open(false);
+        describe_grid(p, scan, file, g, *out);
+        file.close();
+        return VSD_OK;
+    } catch (...) {
+        return map_exception(p, err, errlen);
+    }
 }
 
 } // extern "C"

@@ -136,6 +136,7 @@ static int render_frames(const vsd_scene *scene, const vsd_render_job *job, cons
     ro.user = &prog;
     ro.cancel = &g_cancel;
     ro.cache_dir = cache_dir(job, cache, sizeof cache);
+    ro.max_voxels = job->max_voxels;
     st = vsd_renderer_create(scene, &ro, &r, err, sizeof err);
     if (st) {
         fprintf(stderr, "vsd render: %s\n", err);

@@ -211,6 +211,7 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, 
     ro.user = &s->use;
     ro.cancel = &s->use.cancel;
     ro.cache_dir = k->cfg->method_cache[0] ? k->cfg->method_cache : NULL;
+    ro.max_voxels = k->cfg->max_voxels;   /* the daemon checked its volumes against it already */
     {
         uint64_t before = vsdd_heap_in_use();
         st = vsd_renderer_create(scene, &ro, &s->r, msg, msglen);

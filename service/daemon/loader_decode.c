@@ -12,28 +12,18 @@ int vsdd_decode_volume(const char *src, const char *path, const char *grid, int 
                        vsd_volume **out, vsdd_err *e)
 {
     char err[1024];
-    vsd_grid_info *grids = NULL;
+    vsd_grid_info info;
     vsd_grid_select sel;
-    int n = 0, i, pick = -1;
     vsd_status st;
     *out = NULL;
-    st = vsd_vdb_list(path, &grids, &n, err, sizeof err);
-    if (!st) {
-        for (i = 0; i < n && pick < 0; i++) {
-            if (grid_index >= 0) pick = grid_index < n ? grid_index : -2;
-            else if (grid[0] ? strcmp(grids[i].name, grid) == 0 : strcmp(grids[i].type, "float") == 0) pick = i;
-        }
-        if (pick >= 0 && grids[pick].active_voxels > max_voxels) {
-            vsdd_fail(e, VSD_E_LIMIT, "grid '%s' has %llu active voxels, more than the daemon's limit %llu (--max-voxels)",
-                      grids[pick].name, (unsigned long long)grids[pick].active_voxels, (unsigned long long)max_voxels);
-            vsd_vdb_list_free(grids);
-            return -1;
-        }
-        vsd_vdb_list_free(grids);
-        sel.name = grid;
-        sel.index = grid_index;
-        st = vsd_vdb_load(path, sel, out, err, sizeof err);
-    }
+    sel.name = grid;
+    sel.index = grid_index;
+    /* the voxel count the file states, for the grid the load would pick, before loading it */
+    st = vsd_vdb_select_info(path, sel, &info, err, sizeof err);
+    if (!st && info.active_voxels > max_voxels)
+        return vsdd_fail(e, VSD_E_LIMIT, "grid '%s' has %llu active voxels, more than the daemon's limit %llu (--max-voxels)",
+                         info.name, (unsigned long long)info.active_voxels, (unsigned long long)max_voxels);
+    if (!st) st = vsd_vdb_load(path, sel, out, err, sizeof err);
     if (!st) return 0;
     /* name the blob, not the daemon's private file */
     if (strncmp(src, "blob:", 5) == 0) {

@@ -7,6 +7,7 @@
 #include "vsd/render.h"
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -21,7 +22,7 @@ static const struct { const char *flag, *key; } k_field_flags[] = {
 };
 /* The other options that take a value. */
 static const char *const k_other_valued[] = {"--set", "--frames", "--output", "-o", "--preview", "--token-file",
-                                             "--cache-dir", NULL};
+                                             "--cache-dir", "--max-voxels", NULL};
 
 void vsd_render_job_usage(FILE *f)
 {
@@ -46,6 +47,8 @@ void vsd_render_job_usage(FILE *f)
                "  --cache-dir DIR      where methods keep per-frame work between runs (crm's RBF fits;\n"
                "                       default $VSD_CACHE_DIR, else $XDG_CACHE_HOME/vsd or ~/.cache/vsd;\n"
                "                       'none' = no cache)\n"
+               "  --max-voxels N       the most active voxels of the scene's density grids together,\n"
+               "                       checked before loading (default 1e9)\n"
                "  --quiet              print nothing but errors\n"
                "POV-Ray INI files (Key=Value, [Section]) and switches +W +H +KFI +KFF +SF +EF +C +O +I +A +R\n"
                "+UA +FE +D +V are read as POV-Ray reads them (docs/pipeline.md). Command line over INI file\n"
@@ -127,6 +130,16 @@ static int apply_valued(vsd_render_job *job, const char *cwd, const char *flag, 
         if (vsd_job_quote_path(cwd, v, quoted, sizeof quoted, err, errlen)) return -1;
         return vsd_job_add_override(job, err, errlen, "%s=%s",
                                     strcmp(flag, "--preview") == 0 ? "output.preview_png" : "output.exr", quoted);
+    }
+    if (strcmp(flag, "--max-voxels") == 0) {
+        char *end = NULL;
+        double n = strtod(v, &end);
+        if (!end || *end || !(n >= 1.0 && n <= 1e15) || n != floor(n)) {
+            snprintf(err, errlen, "--max-voxels: '%s' is not a whole number from 1 to 1e15", v);
+            return -1;
+        }
+        job->max_voxels = (unsigned long long)n;
+        return 0;
     }
     if (strcmp(flag, "--token-file") == 0) absolute(cwd, v, job->token_file, sizeof job->token_file);
     else if (strcmp(flag, "--cache-dir") == 0) {

@@ -22,6 +22,7 @@ typedef struct vsd_render_job {
     char remote_address[VSD_PATH_LEN]; /* "" = default socket */
     char token_file[VSD_PATH_LEN];
     char cache_dir[VSD_PATH_LEN];    /* --cache-dir; "" = the default */
+    unsigned long long max_voxels;   /* --max-voxels; 0 = the renderer's default */
     int help;                        /* --help was asked: usage printed, nothing else to do */
     /* Subset_Start_Frame / Subset_End_Frame (+SF/+EF): frame numbers, or fractions of the
        sequence when written with a '.' (POV-Ray's rule); applied by vsd_render_job_scene. */

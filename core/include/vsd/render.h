@@ -28,7 +28,12 @@ typedef struct vsd_render_options {
     volatile int *cancel;        /* set non-zero from anywhere to stop: VSD_ERR_CANCELLED */
     const char *cache_dir;       /* where methods keep per-frame work between runs (crm's RBF
                                     fits); NULL or "" = nowhere. Copied at create. */
+    unsigned long long max_voxels; /* the most active voxels of the scene's density grids
+                                    together, checked from the files before loading them
+                                    (0 = VSD_DEFAULT_MAX_VOXELS; the daemon's --max-voxels) */
 } vsd_render_options;
+
+#define VSD_DEFAULT_MAX_VOXELS 1000000000ull
 
 typedef struct vsd_render_stats {
     double load_seconds;         /* reading VDB and environment files */

@@ -33,6 +33,11 @@ vsd_status vsd_vdb_list(const char *path, vsd_grid_info **grids, int *count,
                         char *err, size_t errlen);
 void vsd_vdb_list_free(vsd_grid_info *grids);
 
+/* What vsd_vdb_list says of the one grid `sel` picks, picked as vsd_vdb_load picks it (its
+ * errors too), without reading the grid's voxels: for limits checked before loading (the
+ * active voxel count the file states). */
+vsd_status vsd_vdb_select_info(const char *path, vsd_grid_select sel, vsd_grid_info *out, char *err, size_t errlen);
+
 /* Load one float (or half/double, converted) grid. Errors name the file and the problem:
  * missing file, not a VDB, truncated, no such grid (listing the grids present), not float. */
 vsd_status vsd_vdb_load(const char *path, vsd_grid_select sel, vsd_volume **out,

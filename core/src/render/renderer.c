@@ -165,6 +165,12 @@ void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env)
     r->ext_env = env;
 }
 
+/* What identifies a volume's files: its frame's path and the grids it reads. */
+static void volume_key(const vsd_scene_volume *sv, const char *path, char key[KEY_LEN])
+{
+    snprintf(key, KEY_LEN, "%s|%s|%d|%s|%s", path, sv->grid, sv->grid_index, sv->emission_grid, vsd_scene_ior_grid(sv));
+}
+
 /* Volume `index` of the scene for scene frame `frame` (its own frame_offset applied):
  * reused when its key is unchanged; *changed tells whether it was (re)loaded. */
 static vsd_status load_volume(vsd_renderer *r, int index, int frame, int *changed, char *err, size_t errlen)
@@ -189,8 +195,7 @@ static vsd_status load_volume(vsd_renderer *r, int index, int frame, int *change
     }
     st = vsd_frame_path(sv->file, vsd_scene_volume_frame(sv, frame), path, sizeof path, err, errlen);
     if (st) return st;
-    snprintf(key, sizeof key, "%s|%s|%d|%s|%s", path, sv->grid, sv->grid_index, sv->emission_grid,
-             vsd_scene_ior_grid(sv));
+    volume_key(sv, path, key);
     if (v->owned_density && strcmp(key, v->key) == 0) return VSD_OK;
     free_owned_volume(v);
     *changed = 1;
@@ -220,12 +225,58 @@ static vsd_status load_volume(vsd_renderer *r, int index, int frame, int *change
     return VSD_OK;
 }
 
+/* The scene's density grids together stay within the voxel limit, counted from what the
+ * files state before any of them is loaded (a loaded or in-memory volume counts what it
+ * holds). A file that cannot be read is left to the load, whose error names it. */
+static vsd_status check_voxels(const vsd_renderer *r, int frame, char *err, size_t errlen)
+{
+    const vsd_scene *sc = &r->scene;
+    unsigned long long total = 0, limit = r->opt.max_voxels ? r->opt.max_voxels : VSD_DEFAULT_MAX_VOXELS;
+    for (int i = 0; i < sc->volume_count; i++) {
+        const vsd_scene_volume *sv = &sc->volumes[i];
+        const loaded_volume *v = &r->volumes[i];
+        char path[VSD_PATH_LEN], why[256], key[KEY_LEN];
+        vsd_grid_info info;
+        vsd_grid_select sel = {sv->grid, sv->grid_index};
+        if (v->ext_density) {
+            total += v->ext_density->active_voxels;
+            continue;
+        }
+        if (vsd_frame_path(sv->file, vsd_scene_volume_frame(sv, frame), path, sizeof path, why, sizeof why)) continue;
+        volume_key(sv, path, key);
+        if (v->owned_density && strcmp(key, v->key) == 0) {
+            /* loaded already (a camera or material edit): what it holds */
+            total += v->owned_density->active_voxels;
+            continue;
+        }
+        if (vsd_vdb_select_info(path, sel, &info, why, sizeof why)) continue;
+        total += info.active_voxels;
+        if (info.active_voxels > limit || total > limit)
+            return sc->volume_count > 1
+                       ? vsd_fail(VSD_ERR_NOMEM, err, errlen,
+                                  "volumes: the scene's density grids hold %llu active voxels or more at frame %d "
+                                  "(volumes[%d] %s: %llu); the limit is %llu (vsd render --max-voxels)",
+                                  total, frame, i, path, (unsigned long long)info.active_voxels, limit)
+                       : vsd_fail(VSD_ERR_NOMEM, err, errlen,
+                                  "%s: grid '%s' has %llu active voxels; the limit is %llu (vsd render --max-voxels)",
+                                  path, info.name, (unsigned long long)info.active_voxels, limit);
+    }
+    if (total > limit)
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen,
+                        "volumes: the scene's density grids hold %llu active voxels at frame %d; the limit is %llu "
+                        "(vsd render --max-voxels)",
+                        total, frame, limit);
+    return VSD_OK;
+}
+
 /* Every volume of the scene; an error names the volume (index and file) when there are
  * several. A new volume generation whenever any of them changed. */
 static vsd_status load_volumes(vsd_renderer *r, int frame, char *err, size_t errlen)
 {
     const vsd_scene *sc = &r->scene;
     int any = 0;
+    vsd_status limit = check_voxels(r, frame, err, errlen);
+    if (limit) return limit;
     for (int i = 0; i < sc->volume_count; i++) {
         int changed = 0;
         vsd_status st = load_volume(r, i, frame, &changed, err, errlen);
