@@ -133,7 +133,8 @@ static const vsd_option_spec crm_option_rows[] = {
      "plus 8-bit residual hash) or eq8 (the paper's eq. 8: transmittance from D~ alone, source from D~ + R)",
      offsetof(crm_options, view_density), 0, NULL, NULL},
     {"node_spacing", VSD_OPT_NUMBER, 0, 64, 0, NULL,
-     "voxels between the source-radiance nodes (0 = automatic: largest dimension / 48, at least 1)",
+     "voxels between the source-radiance nodes (0 = automatic: about 48^3 nodes over the volume's box, whatever "
+     "its shape: the cube root of its voxels / 48^3, at least 1)",
      offsetof(crm_options, node_spacing), VSD_OPT_ZERO_AUTO, NULL, NULL},
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = one voxel)",
      offsetof(crm_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
@@ -268,17 +269,20 @@ static vsd_status dense_copy(const vsd_volume *vol, int32_t dims[3], int32_t ori
     return VSD_OK;
 }
 
-/* The node grid's spacing (option, else largest dimension / 48, at least 1 voxel) and the
+/* The node grid's spacing (option, else the cube root of the box's voxels over 48^3, at
+ * least 1 voxel: about 48^3 nodes whatever the box's shape — largest dimension / 48 left
+ * the short axes of a tall smoke 25 nodes, docs/methods/crm.md) and the
  * mean density of each node's cell: 3 x 3 x 3 trilinear samples of the density grid over
  * the cube of side `spacing` around the node (a box filter that neither aliases at spacing
  * 1, where nodes sit between voxel centres, nor blurs much at larger spacings). Node
  * (i,j,k) sits at crm-space spacing * (i,j,k), index origin - 0.5 + that. */
 static vsd_status node_density(crm_state *s, const vsd_kvolume *density, char *err, size_t errlen)
 {
-    int32_t mx = s->dims[0] > s->dims[1] ? s->dims[0] : s->dims[1], a, i, j, k, u, v, w;
+    int32_t a, i, j, k, u, v, w;
     size_t count, n;
-    mx = mx > s->dims[2] ? mx : s->dims[2];
-    s->spacing = s->opt.node_spacing > 0 ? (float)s->opt.node_spacing : fmaxf(1.0f, (float)mx / 48.0f);
+    s->spacing = s->opt.node_spacing > 0 ? (float)s->opt.node_spacing
+                                          : fmaxf(1.0f, cbrtf((float)s->dims[0] * (float)s->dims[1] * (float)s->dims[2] /
+                                                              (48.0f * 48.0f * 48.0f)));
     for (a = 0; a < 3; a++) s->node_res[a] = (int32_t)ceilf((float)s->dims[a] / s->spacing) + 1;
     count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2];
     if (!(s->node_density = calloc(count, sizeof *s->node_density)))
