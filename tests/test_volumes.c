@@ -402,6 +402,55 @@ static void test_frames_and_caches(void)
     free(shifted), free(plain);
 }
 
+/* A material edit of one volume (albedo, anisotropy: the lighting stage only) in a live
+ * renderer shows what a fresh renderer shows, for every method that keeps lighting grids
+ * over several volumes: two overlapping volumes (one group, whose grids mix their
+ * materials) with different albedos. Bit for bit, but lbl: its lattice starts from the
+ * last solve (warm start, converged to its tolerance; tests/test_lbl.c part 2), measured
+ * 7.6e-5 here. lbl kept the group's mixed albedo from the frame stage before 2026-12-04:
+ * 0.227 (fixed: lbl_prepare_lighting mixes it). */
+static void test_material_edits(void)
+{
+    static const char *const methods[] = {"lbl", "crm", "shgrid", "constellation"};
+    char *two = scene_json("{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 6, \"albedo\": [0.9, 0.8, 0.7]}}, "
+                           "{\"file\": \"" SMOKE "\", \"matrix\": [1,0,0,0.3, 0,1,0,0, 0,0,1,0.2, 0,0,0,1], "
+                           "\"medium\": {\"density\": 4, \"albedo\": [0.3, 0.5, 0.9]}}",
+                           11);
+    for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++) {
+        char method[64], err[512];
+        const char *ov[] = {method};
+        vsd_scene a, b;
+        snprintf(method, sizeof method, "render.method=%s", methods[m]);
+        CHECK(test_parse_scene(two, ov, 1, &a));
+        b = a;
+        b.volumes[1].medium.albedo[0] = 0.95f;
+        b.volumes[1].medium.albedo[2] = 0.1f;
+        b.volumes[1].medium.anisotropy = 0.5f;
+        vsd_renderer *r = test_make_renderer(&a, NULL);
+        vsd_framebuffer *first = NULL, *second = NULL, *fresh = NULL;
+        CHECK(r && test_render(r, 11, &first, NULL));
+        CHECK(r && vsd_renderer_set_scene(r, &b, err, sizeof err) == VSD_OK);
+        CHECK(r && test_render(r, 11, &second, NULL));
+        fresh = test_render_fresh(&b, NULL, NULL, NULL, 11, NULL);
+        CHECK(first && second && fresh);
+        if (first && second && fresh) {
+            double d = test_max_rel_diff(second, fresh, VSD_PASS_COMBINED);
+            printf("%s: volumes[1]'s albedo and anisotropy edited in a live renderer against a fresh one: Combined max "
+                   "rel. diff %.3g (the edit moved it by %.3g)\n",
+                   methods[m], d, test_max_rel_diff(second, first, VSD_PASS_COMBINED));
+            if (strcmp(methods[m], "lbl") == 0)
+                CHECK_MSG(d < 1e-3, "lbl: the edited renderer differs from a fresh one by %g", d);
+            else
+                CHECK_MSG(test_identical(second, fresh), "%s: the edited renderer differs from a fresh one (%g)",
+                          methods[m], d);
+            CHECK(!test_identical(first, second));
+        }
+        vsd_framebuffer_destroy(first), vsd_framebuffer_destroy(second), vsd_framebuffer_destroy(fresh);
+        vsd_renderer_destroy(r);
+    }
+    free(two);
+}
+
 /* vsd_scene_frame_hash covers every volume (core/src/render/frame_output_check.c): the
  * fields and medium of volumes[1], its frame_offset and the file it reads change the hash
  * that `vsd render --continue` compares; warn_above (a warning only) does not; a scene of
@@ -533,6 +582,7 @@ int main(void)
     test_errors();
     test_frame_hash_volumes();
     test_frames_and_caches();
+    test_material_edits();
     test_deterministic_exact();
     test_transmittance_product();
     test_summed_density();

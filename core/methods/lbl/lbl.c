@@ -313,28 +313,22 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     s->collide = malloc(n * sizeof *s->collide);
     if (!s->sigma || !s->collide) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %zu cells", n);
     /* a part whose group holds other volumes: its lattice scatters their media with their
-     * albedos, not its own (each cell the mixture over its 27 samples) */
+     * albedos, not its own (each cell the mixture over its 27 samples; mixed in the lighting
+     * stage, where an albedo edit lands: mix_albedo_cells) */
     if (ctx->part.active && (ctx->part.group & ~(1u << ctx->part.volume)) &&
         !(s->albedo_cells = malloc(3 * n * sizeof *s->albedo_cells)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the albedos of %zu cells", n);
     for (z = 0, c = 0; z < s->rg.res[2]; z++)
         for (y = 0; y < s->rg.res[1]; y++)
             for (x = 0; x < s->rg.res[0]; x++, c++) {
-                double sum = 0.0, scatter[3] = {0.0, 0.0, 0.0};
+                double sum = 0.0;
                 int a, b, d;
                 for (a = 0; a < 3; a++)
                     for (b = 0; b < 3; b++)
                         for (d = 0; d < 3; d++) {
                             vsd_f3 p = grid_point(s, x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0, z + (d + 0.5) / 3.0);
-                            sum += s->albedo_cells ? vsd_group_scattering(&ctx->kd, ctx->part.group, p, scatter)
-                                                   : vsd_group_sigma(&ctx->kd, vsd_ctx_group(ctx), p);
+                            sum += vsd_group_sigma(&ctx->kd, vsd_ctx_group(ctx), p);
                         }
-                if (s->albedo_cells) {
-                    const vsd_f3 own = ctx->kd.medium.albedo;
-                    s->albedo_cells[c] = (float)(sum > 0.0 ? scatter[0] / sum : own.x);
-                    s->albedo_cells[n + c] = (float)(sum > 0.0 ? scatter[1] / sum : own.y);
-                    s->albedo_cells[2 * n + c] = (float)(sum > 0.0 ? scatter[2] / sum : own.z);
-                }
                 /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite
                  * here: inf - inf in the trilinear lookups would turn the light into NaN; a
                  * cell of 1e20 per unit length is opaque all the same */
@@ -621,6 +615,33 @@ static vsd_status readout_view(lbl_state *s, const vsd_kcamera *cam, char *err, 
     return VSD_OK;
 }
 
+/* A part's cells scatter with their group's mixed albedo, sigma_s / sigma_t over the same
+ * 27 samples as the cells' extinction (the medium's own where no volume has density). The
+ * albedos are lighting-stage inputs: an edit of one volume's albedo reaches this, not the
+ * frame stage. */
+static void mix_albedo_cells(lbl_state *s, const vsd_frame_ctx *ctx)
+{
+    const size_t n = cell_count(s);
+    const vsd_f3 own = ctx->kd.medium.albedo;
+    int32_t x, y, z;
+    size_t c;
+    for (z = 0, c = 0; z < s->rg.res[2]; z++)
+        for (y = 0; y < s->rg.res[1]; y++)
+            for (x = 0; x < s->rg.res[0]; x++, c++) {
+                double sum = 0.0, scatter[3] = {0.0, 0.0, 0.0};
+                int a, b, d;
+                for (a = 0; a < 3; a++)
+                    for (b = 0; b < 3; b++)
+                        for (d = 0; d < 3; d++)
+                            sum += vsd_group_scattering(
+                                &ctx->kd, ctx->part.group,
+                                grid_point(s, x + (a + 0.5) / 3.0, y + (b + 0.5) / 3.0, z + (d + 0.5) / 3.0), scatter);
+                s->albedo_cells[c] = (float)(sum > 0.0 ? scatter[0] / sum : own.x);
+                s->albedo_cells[n + c] = (float)(sum > 0.0 ? scatter[1] / sum : own.y);
+                s->albedo_cells[2 * n + c] = (float)(sum > 0.0 ? scatter[2] / sum : own.z);
+            }
+}
+
 static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     lbl_state *s = state;
@@ -636,6 +657,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     int suns;
     free_lighting(s);
     if (s->parts.count) return vsd_parts_prepare_lighting(&s->parts, &vsd_method_lbl, ctx, err, errlen);
+    if (s->albedo_cells) mix_albedo_cells(s, ctx);
     if ((st = split_scene_lights(s, &ctx->kd, &suns))) return vsd_fail(st, err, errlen, "lbl: internal: too many lights");
     /* the record grid's per-ray weights hold VSD_RECORDS_MAX_LIGHTS directional lights,
      * the scene's suns among them */
