@@ -27,15 +27,13 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel_volumes(const vsd_krecord_grids *
     const vsd_kernel_data *kd = gs->kd;
     vsd_march_acc acc;
     vsd_volumes_walk walk;
-    vsd_f3 o, d;
-    float mid, len, sig[VSD_KMAX_VOLUMES];
+    vsd_f3 o, d, p;
+    float mid, sigma, absorbed, sig[VSD_KMAX_VOLUMES];
     /* per volume: the lights' per-ray weights at its phase, its SH weights, its corners */
     float ph[VSD_KMAX_VOLUMES][VSD_RECORDS_PH_FLOATS], w[VSD_KMAX_VOLUMES][VSD_SH_MAX_COEFFS];
     vsd_records_corners corners[VSD_KMAX_VOLUMES];
     int32_t i, n = gs->count;
-    vsd_march_begin(&acc);
-    vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
-    if (!vsd_volumes_walk_begin(&walk, kd, o, d)) return vsd_march_finish(kd, &acc, d);
+    if (!vsd_volumes_view_begin(kd, px, py, jx, jy, &acc, &walk, &o, &d)) return vsd_march_finish(kd, &acc, d);
     for (i = 0; i < n; i++) {
         const vsd_krecord_grid *g = &gs->grid[i];
         float an = kd->volumes[i].medium.anisotropy;
@@ -54,11 +52,8 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel_volumes(const vsd_krecord_grids *
             }
         }
     }
-    while (vsd_volumes_walk_next(&walk, kd, acc.tr, &mid, &len)) {
-        vsd_f3 p = f3_madd(o, d, mid), single = f3s(0.0f), multiple = f3s(0.0f);
-        float sigma = vsd_volumes_walk_medium(&walk, kd, &acc, p, mid, len, sig);
-        float absorbed = 1.0f - expf(-sigma * len);
-        if (!(absorbed > 0.0f)) continue;
+    while (vsd_volumes_view_step(&walk, kd, &acc, o, d, &p, &mid, &sigma, &absorbed, sig)) {
+        vsd_f3 single = f3s(0.0f), multiple = f3s(0.0f);
         for (i = 0; i < n; i++) {
             vsd_f3 ms, ss, a;
             if (!(sig[i] > 0.0f)) continue;

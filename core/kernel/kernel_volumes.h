@@ -18,6 +18,7 @@
 #include "kernel_types.h"
 #include "kernel_volume.h"
 #include "kernel_march.h"
+#include "kernel_camera.h"
 
 VSD_DEVICE int32_t vsd_kvolumes_count(const vsd_kernel_data *kd)
 {
@@ -181,6 +182,33 @@ VSD_DEVICE float vsd_volumes_walk_medium(const vsd_volumes_walk *w, const vsd_ke
         acc->res.emit = f3_add(acc->res.emit, f3_scale(emit, acc->tr * path));
     }
     return sigma;
+}
+
+/* A view ray over every volume (raymarch's, the record grids', crm's): the accumulator, the
+ * camera ray through pixel (px, py) at (jx, jy) and the walk along it; 0 when the ray misses
+ * every volume (finish it at once). */
+VSD_DEVICE int vsd_volumes_view_begin(const vsd_kernel_data *kd, int32_t px, int32_t py, float jx, float jy,
+                                      vsd_march_acc *acc, vsd_volumes_walk *walk, vsd_f3 *o, vsd_f3 *d)
+{
+    vsd_march_begin(acc);
+    vsd_camera_ray(&kd->camera, px, py, jx, jy, o, d);
+    return vsd_volumes_walk_begin(walk, kd, *o, *d);
+}
+
+/* The view ray's next step that can scatter: its centre *p at distance *mid, sigma_t
+ * (returned in *sigma, each volume's in sig[], emission added to acc) and its collision
+ * probability *absorbed > 0; 0 when the walk ends. */
+VSD_DEVICE int vsd_volumes_view_step(vsd_volumes_walk *walk, const vsd_kernel_data *kd, vsd_march_acc *acc, vsd_f3 o,
+                                     vsd_f3 d, vsd_f3 *p, float *mid, float *sigma, float *absorbed, float *sig)
+{
+    float len;
+    while (vsd_volumes_walk_next(walk, kd, acc->tr, mid, &len)) {
+        *p = f3_madd(o, d, *mid);
+        *sigma = vsd_volumes_walk_medium(walk, kd, acc, *p, *mid, len, sig);
+        *absorbed = 1.0f - expf(-*sigma * len);
+        if (*absorbed > 0.0f) return 1;
+    }
+    return 0;
 }
 
 /* Transmittance from p along d over [0, tmax) through the volumes NOT in `skip` (bit i =

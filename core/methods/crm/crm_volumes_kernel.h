@@ -26,21 +26,16 @@ VSD_DEVICE vsd_sample_result vsd_crm_pixel_volumes(const vsd_kcrm_volumes *cv, i
     vsd_march_acc acc;
     vsd_volumes_walk walk;
     vsd_crm_corners corners[VSD_KMAX_VOLUMES];
-    vsd_f3 o, d;
-    float mid, len, sig[VSD_KMAX_VOLUMES];
+    vsd_f3 o, d, p;
+    float mid, sigma, absorbed, sig[VSD_KMAX_VOLUMES];
     int32_t i, n = cv->count;
-    vsd_march_begin(&acc);
-    vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
-    if (!vsd_volumes_walk_begin(&walk, kd, o, d)) return vsd_march_finish(kd, &acc, d);
+    if (!vsd_volumes_view_begin(kd, px, py, jx, jy, &acc, &walk, &o, &d)) return vsd_march_finish(kd, &acc, d);
     for (i = 0; i < n; i++) {
         corners[i].filled = corners[i].valid = 0;
         corners[i].key[0] = corners[i].key[1] = corners[i].key[2] = 0;
     }
-    while (vsd_volumes_walk_next(&walk, kd, acc.tr, &mid, &len)) {
-        vsd_f3 p = f3_madd(o, d, mid), single = f3s(0.0f), multiple = f3s(0.0f);
-        float sigma = vsd_volumes_walk_medium(&walk, kd, &acc, p, mid, len, sig);
-        float absorbed = 1.0f - expf(-sigma * len);
-        if (!(absorbed > 0.0f)) continue;
+    while (vsd_volumes_view_step(&walk, kd, &acc, o, d, &p, &mid, &sigma, &absorbed, sig)) {
+        vsd_f3 single = f3s(0.0f), multiple = f3s(0.0f);
         for (i = 0; i < n; i++) {
             const vsd_kcrm *c = &cv->part[i];
             vsd_f3 ix, q, ss, ms;

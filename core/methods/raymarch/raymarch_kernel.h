@@ -51,18 +51,13 @@ VSD_DEVICE vsd_sample_result vsd_raymarch_pixel_volumes(const vsd_kernel_data *k
 {
     vsd_march_acc acc;
     vsd_volumes_walk walk;
-    vsd_f3 o, d;
-    float mid, len, sig[VSD_KMAX_VOLUMES];
+    vsd_f3 o, d, p;
+    float mid, sigma, absorbed, sig[VSD_KMAX_VOLUMES];
     int32_t i, n = kd->volume_count;
-    vsd_march_begin(&acc);
-    vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
-    if (!vsd_volumes_walk_begin(&walk, kd, o, d)) return vsd_march_finish(kd, &acc, d);
-    while (vsd_volumes_walk_next(&walk, kd, acc.tr, &mid, &len)) {
-        vsd_f3 p = f3_madd(o, d, mid), scatter = f3s(0.0f);
-        float sigma = vsd_volumes_walk_medium(&walk, kd, &acc, p, mid, len, sig);
-        float absorbed = 1.0f - expf(-sigma * len);
+    if (!vsd_volumes_view_begin(kd, px, py, jx, jy, &acc, &walk, &o, &d)) return vsd_march_finish(kd, &acc, d);
+    while (vsd_volumes_view_step(&walk, kd, &acc, o, d, &p, &mid, &sigma, &absorbed, sig)) {
+        vsd_f3 scatter = f3s(0.0f);
         int32_t l;
-        if (!(absorbed > 0.0f)) continue;
         for (l = 0; l < kd->light_count; l++) {
             const float *lt = kd->lights + 8 * l;
             vsd_f3 wl = f3(lt[0], lt[1], lt[2]);
