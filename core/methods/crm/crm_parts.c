@@ -156,8 +156,6 @@ vsd_status vsd_crm_parts_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd
                               const vsd_view_sampling *vs, int *samples, char *err, size_t errlen)
 {
     vsd_kcrm_volumes cv;
-    struct vsd_cuda *cuda = ctx->cuda;
-    vsd_status st;
     if (count != ctx->kd.volume_count)
         return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: %d crm parts for %d volumes", count,
                         ctx->kd.volume_count);
@@ -165,8 +163,5 @@ vsd_status vsd_crm_parts_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd
     cv.part = parts;
     cv.count = count;
     cv.pad[0] = cv.pad[1] = cv.pad[2] = 0;
-    ctx->cuda = NULL;
-    st = vsd_method_render_view(ctx, fb, n, vs, &volumes_view_pass, NULL, &cv, samples, err, errlen);
-    ctx->cuda = cuda;
-    return st;
+    return vsd_method_render_view(ctx, fb, n, vs, &volumes_view_pass, NULL, &cv, samples, err, errlen);
 }

@@ -837,16 +837,12 @@ static vsd_status render_bent(lbl_state *s, vsd_frame_ctx *ctx, vsd_framebuffer 
                               int *samples, char *err, size_t errlen)
 {
     vsd_klbl_bent b;
-    struct vsd_cuda *cuda = ctx->cuda;
-    vsd_status st;
     b.g = *g;
     b.r = s->refraction.k;
     ctx->kd.march_stop = (float)s->opt.early_termination;
-    ctx->cuda = NULL;
-    st = vsd_method_render_view(ctx, fb, s->opt.pixel_samples, &s->opt.view, &bent_view_pass, NULL, &b, samples, err,
-                                errlen);
-    ctx->cuda = cuda;
-    return st;
+    /* no device entry: the CPU threads (vsd_method_render_view) */
+    return vsd_method_render_view(ctx, fb, s->opt.pixel_samples, &s->opt.view, &bent_view_pass, NULL, &b, samples, err,
+                                  errlen);
 }
 
 /* The record grid the view reads, *g, with the lights' term baked for this view where the

@@ -240,8 +240,6 @@ vsd_status vsd_record_grids_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, cons
                                    size_t errlen)
 {
     vsd_krecord_grids gs;
-    struct vsd_cuda *cuda = ctx->cuda;
-    vsd_status st;
     if (count != ctx->kd.volume_count)
         return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: %d record grids for %d volumes", count,
                         ctx->kd.volume_count);
@@ -251,8 +249,5 @@ vsd_status vsd_record_grids_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, cons
     gs.count = count;
     ctx->kd.march_step = step > 0 ? (float)step : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_stop = (float)stop;
-    ctx->cuda = NULL;
-    st = vsd_method_render_view(ctx, fb, n, vs, &volumes_view_pass, NULL, &gs, samples, err, errlen);
-    ctx->cuda = cuda;
-    return st;
+    return vsd_method_render_view(ctx, fb, n, vs, &volumes_view_pass, NULL, &gs, samples, err, errlen);
 }

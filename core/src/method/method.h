@@ -142,7 +142,9 @@ typedef struct vsd_view_sampling {
 extern const vsd_option_when vsd_option_on_sparse_view[];
 int vsd_view_auto_spacing(const vsd_frame_ctx *ctx);
 /* The same as vsd_method_render_stratified with adaptive sampling vs (NULL = every pixel);
- * ctx->info gets " view_traced=<fraction of blocks traced>" appended when it applies. */
+ * ctx->info gets " view_traced=<fraction of blocks traced>" appended when it applies. A pass
+ * with no device entry (several volumes, so far) runs on the CPU threads even when the frame
+ * has a device. */
 vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, const vsd_view_sampling *vs,
                                   const struct vsd_device_pass *pass, vsd_device_struct_fn to_device,
                                   const void *kernel, int *samples, char *err, size_t errlen);

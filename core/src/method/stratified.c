@@ -72,7 +72,7 @@ vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n
     vsd_status st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
     if (vs) eff.spacing = vs->spacing ? vs->spacing : vsd_view_auto_spacing(ctx);
     if (st) return st;
-    if (ctx->cuda) {
+    if (ctx->cuda && pass->cuda) {
         st = stratified_device(ctx, &acc, n, pass, to_device, kernel, err, errlen);
     } else if (eff.spacing > 1) {
         int permille = 0;
