@@ -794,7 +794,7 @@ static void crm_destroy(void *state)
 const vsd_method vsd_method_crm = {
     .name = "crm",
     .label = "CRM",
-    .summary = "Zhou 2008: compensated ray marching of RBF densities",
+    .summary = "Zhou 2008, compensated ray marching: node-grid lighting with multiple scattering (the paper's RBF form as options)",
     .caps = VSD_METHOD_CAP_MULTIPLE_SCATTERING | VSD_METHOD_CAP_EMISSION_SCATTERING | VSD_METHOD_CAP_CUDA_VIEW |
             VSD_METHOD_CAP_SEVERAL_VOLUMES,
     .roles = 0,
