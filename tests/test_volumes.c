@@ -449,6 +449,51 @@ static void test_material_edits(void)
         vsd_renderer_destroy(r);
     }
     free(two);
+
+    /* Volumes whose media do not meet (two groups): an albedo edit of volumes[1] re-lights
+     * its part only (src/method/method_parts.h, "relit" in the method's figures), and the
+     * image is still a fresh renderer's; a map rotation re-lights both. crm's parts mix
+     * every volume in their box, so it re-lights both for any material edit. */
+    char *apart = scene_json("{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 6}}, "
+                             "{\"file\": \"" SMOKE "\", \"matrix\": [1,0,0,1.6, 0,1,0,0, 0,0,1,0, 0,0,0,1], "
+                             "\"medium\": {\"density\": 4, \"albedo\": [0.3, 0.5, 0.9]}}",
+                             11);
+    static const struct { const char *method, *after_edit; } relight[] = {
+        {"lbl", "relit=1"}, {"shgrid", "relit=1"}};
+    for (size_t m = 0; m < sizeof relight / sizeof relight[0]; m++) {
+        char method[64], err[512];
+        const char *ov[] = {method};
+        vsd_scene a, b, c;
+        vsd_render_stats st;
+        snprintf(method, sizeof method, "render.method=%s", relight[m].method);
+        CHECK(test_parse_scene(apart, ov, 1, &a));
+        b = a;
+        b.volumes[1].medium.albedo[0] = 0.95f;
+        c = b;
+        c.environment.rotation_z = 1.0f;
+        vsd_renderer *r = test_make_renderer(&a, NULL);
+        vsd_framebuffer *fb = NULL, *fresh = NULL;
+        CHECK(r && test_render(r, 11, &fb, &st));
+        CHECK_CONTAINS(st.method_info, "groups=2");
+        CHECK_CONTAINS(st.method_info, "relit=2");
+        CHECK(r && vsd_renderer_set_scene(r, &b, err, sizeof err) == VSD_OK);
+        CHECK(r && test_render(r, 11, &fb, &st));
+        printf("%s, two groups, volumes[1]'s albedo edited: %s\n", relight[m].method, st.method_info);
+        CHECK_CONTAINS(st.method_info, relight[m].after_edit);
+        fresh = test_render_fresh(&b, NULL, NULL, NULL, 11, NULL);
+        CHECK(fb && fresh);
+        if (fb && fresh) {
+            double d = test_max_rel_diff(fb, fresh, VSD_PASS_COMBINED);
+            printf("    against a fresh renderer: Combined max rel. diff %.3g\n", d);
+            CHECK_MSG(d < (strcmp(relight[m].method, "lbl") == 0 ? 1e-3 : 1e-6), "%s: %g", relight[m].method, d);
+        }
+        CHECK(r && vsd_renderer_set_scene(r, &c, err, sizeof err) == VSD_OK);
+        CHECK(r && test_render(r, 11, &fb, &st));
+        CHECK_CONTAINS(st.method_info, "relit=2");
+        vsd_framebuffer_destroy(fb), vsd_framebuffer_destroy(fresh);
+        vsd_renderer_destroy(r);
+    }
+    free(apart);
 }
 
 /* vsd_scene_frame_hash covers every volume (core/src/render/frame_output_check.c): the

@@ -407,7 +407,10 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
             if (needs_fit(&s->opt))
                 return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen, "%s",
                                 several_volumes_refusal(ctx->volume_count, buf, sizeof buf));
-            return vsd_parts_prepare_frame(&s->parts, &vsd_method_crm, &s->opt, ctx, err, errlen);
+            st = vsd_parts_prepare_frame(&s->parts, &vsd_method_crm, &s->opt, ctx, err, errlen);
+            /* a part's nodes mix every volume in its box, so any material edit re-lights it */
+            s->parts.materials_of_all = 1;
+            return st;
         }
         vsd_parts_free(&s->parts, &vsd_method_crm);
     }

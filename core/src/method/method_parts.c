@@ -4,6 +4,7 @@
 #include "src/grids/volume_groups.h"
 #include "kernel/kernel_record_grid.h"
 #include <stdio.h>
+#include <xxhash.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -57,6 +58,7 @@ vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, con
             if ((st = m->create(&p->state[p->count], ctx->scene, options, err, errlen))) return st;
     }
     vsd_volume_groups(&ctx->kd, p->group);
+    p->frame_ran = 1;
     for (i = 0; i < n; i++) {
         vsd_frame_ctx pc;
         vsd_part_ctx(ctx, p, i, &pc);
@@ -66,17 +68,56 @@ vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, con
     return VSD_OK;
 }
 
-vsd_status vsd_parts_prepare_lighting(const vsd_method_parts *p, const vsd_method *m, vsd_frame_ctx *ctx, char *err,
+/* What part i's lighting reads beyond the frame stage (vsd_method_parts, light_key). */
+static uint64_t light_key(const vsd_method_parts *p, const vsd_frame_ctx *ctx, int i)
+{
+    const vsd_kernel_data *kd = &ctx->kd;
+    const vsd_scene *sc = ctx->scene;
+    XXH3_state_t *h = XXH3_createState();
+    uint64_t key;
+    int j;
+    if (!h) return 0;   /* 0 never matches a stored key: the part is lit */
+    XXH3_64bits_reset(h);
+    XXH3_64bits_update(h, &ctx->env_gen, sizeof ctx->env_gen);
+    XXH3_64bits_update(h, &sc->environment.strength, sizeof sc->environment.strength);
+    XXH3_64bits_update(h, &sc->environment.rotation_z, sizeof sc->environment.rotation_z);
+    XXH3_64bits_update(h, &sc->environment.interpolation, sizeof sc->environment.interpolation);
+    XXH3_64bits_update(h, &kd->scene_light_count, sizeof kd->scene_light_count);
+    if (kd->scene_light_count > 0)
+        XXH3_64bits_update(h, kd->scene_lights, sizeof(float) * VSD_KLIGHT_FLOATS * (size_t)kd->scene_light_count);
+    for (j = 0; j < kd->volume_count; j++) {
+        const vsd_kmedium *md = &kd->volumes[j].medium;
+        float f[8] = {md->albedo.x, md->albedo.y, md->albedo.z, md->anisotropy,
+                      md->emission.x, md->emission.y, md->emission.z, (float)md->has_emission};
+        if (!p->materials_of_all && !((p->group[i] >> j) & 1u)) continue;
+        XXH3_64bits_update(h, &j, sizeof j);
+        XXH3_64bits_update(h, f, sizeof f);
+    }
+    key = XXH3_64bits_digest(h);
+    XXH3_freeState(h);
+    return key ? key : 1;
+}
+
+vsd_status vsd_parts_prepare_lighting(vsd_method_parts *p, const vsd_method *m, vsd_frame_ctx *ctx, char *err,
                                       size_t errlen)
 {
     int i;
     vsd_status st;
+    p->relit = 0;
     for (i = 0; i < p->count; i++) {
         vsd_frame_ctx pc;
+        uint64_t key = light_key(p, ctx, i);
+        if (!p->frame_ran && key == p->light_key[i]) continue;   /* nothing it reads changed */
+        p->light_key[i] = 0;   /* until this part's lighting succeeds */
         vsd_part_ctx(ctx, p, i, &pc);
-        if (m->prepare_lighting && (st = m->prepare_lighting(p->state[i], &pc, err, errlen)))
+        if (m->prepare_lighting && (st = m->prepare_lighting(p->state[i], &pc, err, errlen))) {
+            p->frame_ran = 1;   /* a failed stage leaves the next one to light every part */
             return part_failed(st, i, err, errlen);
+        }
+        p->light_key[i] = key;
+        p->relit++;
     }
+    p->frame_ran = 0;
     return VSD_OK;
 }
 
@@ -96,7 +137,8 @@ vsd_status vsd_parts_render(const vsd_method_parts *p, vsd_part_view_fn view, vs
         groups += (p->group[i] & ((1u << i) - 1u)) == 0;   /* counted at its first member */
     }
     if (st == VSD_OK && ctx->info && ctx->info_len)
-        snprintf(ctx->info, ctx->info_len, "volumes=%d groups=%d records=%d", p->count, groups, records);
+        snprintf(ctx->info, ctx->info_len, "volumes=%d groups=%d records=%d relit=%d", p->count, groups, records,
+                 p->relit);
     if (st == VSD_OK)
         st = vsd_record_grids_render(ctx, fb, grids, p->count, n, step, stop, vs, samples, err, errlen);
     free(pc);

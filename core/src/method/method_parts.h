@@ -22,6 +22,16 @@ typedef struct vsd_method_parts {
     void **state;            /* [count] the parts' method states */
     uint32_t group[VSD_KMAX_VOLUMES];
     int count;
+    /* A lighting change that no frame stage preceded (a material, the map, its strength or
+     * rotation, the scene's lights) re-lights only the parts whose inputs it reaches: the
+     * map and lights, and the materials of the part's group (of every volume with
+     * `materials_of_all`, for a method whose part reads every volume's material, crm).
+     * Another group's material edit leaves a part as it is: a part sees the other groups
+     * through their extinction only, which is a frame-stage input. */
+    uint64_t light_key[VSD_KMAX_VOLUMES];
+    int frame_ran;           /* a frame stage ran since the last lighting stage */
+    int materials_of_all;
+    int relit;               /* parts the last lighting stage ran */
 } vsd_method_parts;
 
 /* The record grid part `state` shows this view (records baked toward ctx's camera where the
@@ -38,7 +48,7 @@ uint32_t vsd_ctx_group(const vsd_frame_ctx *ctx);
  * the volume count changes); the groups are found anew each frame. */
 vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, const void *options, vsd_frame_ctx *ctx,
                                    char *err, size_t errlen);
-vsd_status vsd_parts_prepare_lighting(const vsd_method_parts *p, const vsd_method *m, vsd_frame_ctx *ctx, char *err,
+vsd_status vsd_parts_prepare_lighting(vsd_method_parts *p, const vsd_method *m, vsd_frame_ctx *ctx, char *err,
                                       size_t errlen);
 /* The view: every part's record grid by `view`, then one march over all volumes with n x n
  * rays per pixel, step and stop as vsd_record_grid_render. Fills ctx->info with the parts'
