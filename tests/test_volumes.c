@@ -237,6 +237,20 @@ static void test_deterministic_exact(void)
  * each volume (128x72): fire 0.132, smoke 0.249, cloud 0.240 Combined (its single
  * scattering of this map through order-4 SH: VolumeDir 0.18 / 0.36 / 0.69; issue 31). */
 #define TOL_CRM3_COMBINED 0.13
+/* `method` on the scene with 4x4 rays per pixel (the volumes are a few pixels wide); what
+ * gets "<label> <method>" for the harness's lines. */
+static vsd_framebuffer *render_method(const mvr_scene *sc, const char *method, const char *label, char *what,
+                                      size_t what_len, vsd_render_stats *stats)
+{
+    char set[64];
+    const char *ov[] = {set, "render.options.pixel_samples=4"};
+    snprintf(set, sizeof set, "render.method=%s", method);
+    snprintf(what, what_len, "%s %s", label, method);
+    vsd_framebuffer *fb = mvr_render(sc, ov, 2, NULL, stats);
+    CHECK_MSG(fb != NULL, "%s did not render", what);
+    return fb;
+}
+
 static void test_three_volumes(void)
 {
     const char *json =
@@ -252,13 +266,9 @@ static void test_three_volumes(void)
         {"lbl", "volumes=3 groups=2", TOL_LBL3_COMBINED}, {"crm", "volumes=3", TOL_CRM3_COMBINED}};
     if (!mvr_render_references(&sc, NULL, 0, LBL3_SPP, &refs)) return;
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        char method[64], what[64];
-        const char *ov[] = {method, "render.options.pixel_samples=4"};
+        char what[96];
         vsd_render_stats stats;
-        snprintf(method, sizeof method, "render.method=%s", cases[c].method);
-        snprintf(what, sizeof what, "three volumes %s", cases[c].method);
-        vsd_framebuffer *fb = mvr_render(&sc, ov, 2, NULL, &stats);
-        CHECK(fb != NULL);
+        vsd_framebuffer *fb = render_method(&sc, cases[c].method, "three volumes", what, sizeof what, &stats);
         if (fb) {
             printf("%s: %s\n", what, stats.method_info);
             CHECK_CONTAINS(stats.method_info, cases[c].info);
@@ -291,13 +301,9 @@ static void test_single_scattering_two_volumes(void)
                                                           {"constellation", TOL_SS2_CONSTELLATION}};
     if (!mvr_render_references(&sc, NULL, 0, SS2_SPP, &refs)) return;
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        char method[64], what[96];
-        const char *ov[] = {method, "render.options.pixel_samples=4"};
+        char what[96];
         vsd_render_stats stats;
-        snprintf(method, sizeof method, "render.method=%s", cases[c].method);
-        snprintf(what, sizeof what, "smoke + cloud %s", cases[c].method);
-        vsd_framebuffer *fb = mvr_render(&sc, ov, 2, NULL, &stats);
-        CHECK(fb != NULL);
+        vsd_framebuffer *fb = render_method(&sc, cases[c].method, "smoke + cloud", what, sizeof what, &stats);
         if (fb) {
             CHECK_CONTAINS(stats.method_info, "volumes=2 groups=2");
             mvr_check(what, fb, &refs, VSD_PASS_VOLUME_DIR, cases[c].tol, 0.8);

@@ -276,7 +276,8 @@ static vsd_status dense_copy(const vsd_volume *vol, int32_t dims[3], int32_t ori
  * the cube of side `spacing` around the node (a box filter that neither aliases at spacing
  * 1, where nodes sit between voxel centres, nor blurs much at larger spacings). Node
  * (i,j,k) sits at crm-space spacing * (i,j,k), index origin - 0.5 + that. */
-static vsd_status node_density(crm_state *s, const vsd_kvolume *density, char *err, size_t errlen)
+static vsd_status node_density(crm_state *s, const vsd_kvolume *density /* NULL: allocate only */, char *err,
+                               size_t errlen)
 {
     int32_t a, i, j, k, u, v, w;
     size_t count, n;
@@ -287,6 +288,7 @@ static vsd_status node_density(crm_state *s, const vsd_kvolume *density, char *e
     count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2];
     if (!(s->node_density = calloc(count, sizeof *s->node_density)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %zu source nodes", count);
+    if (!density) return VSD_OK;   /* a part: its lighting stage puts every volume's medium there */
     for (n = 0, k = 0; k < s->node_res[2]; k++)
         for (j = 0; j < s->node_res[1]; j++)
             for (i = 0; i < s->node_res[0]; i++, n++) {
@@ -434,7 +436,7 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     if ((size_t)s->dims[0] * s->dims[1] * s->dims[2] == 0) return VSD_OK;
     free(s->node_density);
     s->node_density = NULL;
-    if ((st = node_density(s, &ctx->kd.density, err, errlen))) {
+    if ((st = node_density(s, ctx->part.active ? NULL : &ctx->kd.density, err, errlen))) {
         free_frame(s);
         s->fit_key[0] = '\0';
         return st;

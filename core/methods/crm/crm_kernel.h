@@ -31,7 +31,6 @@
 #include "kernel/kernel_sh.h"
 #include "kernel/kernel_record_grid.h" /* vsd_records_dot */
 #include "device/device_pass.h"
-#include "crm_rbf.h"
 
 enum { CRM_VIEW_VOXELS = 0, CRM_VIEW_COMPENSATED = 1, CRM_VIEW_EQ8 = 2 };
 /* SH coefficients per node: order-4 single scattering (16) and order-2 multiple (4), RGB */
