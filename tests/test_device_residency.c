@@ -9,6 +9,7 @@
  * change must copy at most 4 KiB, and the emulator must have reported nothing. The real
  * GPU is covered by test_cuda (skipped where none answers). */
 #include "test_common.h"
+#include "test_device_scenes.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include <stdlib.h>
@@ -23,6 +24,7 @@ typedef struct residency_case {
     int frame, next_frame; /* two frames of the sequence */
     int warm;              /* lighting warm-starts from the last solve: compare with a CPU
                               renderer that took the same edits */
+    int two_volumes;       /* scene is ignored: test_smoke_and_fire's smoke and fire */
 } residency_case;
 
 /* The CPU twin of a warm case's renderer (NULL: compare with fresh CPU renderers). */
@@ -100,7 +102,10 @@ static void run_case(const residency_case *c)
     vsd_status st;
     int f = c->frame;
     snprintf(m, sizeof m, "render.method=%s", c->method);
-    st = vsd_scene_load(test_data(c->scene), ov, 5, &sc, err, sizeof err);
+    if (c->two_volumes)
+        st = test_smoke_and_fire(ov, 5, &sc) ? VSD_OK : VSD_ERR_INVALID;
+    else
+        st = vsd_scene_load(test_data(c->scene), ov, 5, &sc, err, sizeof err);
     if (!st && c->options) snprintf(sc.render.options_json, sizeof sc.render.options_json, "%s", c->options);
     if (!st) st = vsd_renderer_create(&sc, NULL, &r, err, sizeof err);
     if (!st && c->warm) {
@@ -129,6 +134,12 @@ static void run_case(const residency_case *c)
     step(r, &sc, c->next_frame, "next frame", EDIT_FRAME, &fb, c);
     sc.volumes[0].medium.albedo[0] = 0.5f;
     step(r, &sc, c->next_frame, "albedo", EDIT_LIGHTING, &fb, c);
+    if (sc.volume_count > 1) {
+        /* the other volume's material: the device's volume table follows it */
+        sc.volumes[1].medium.density *= 1.5f;
+        sc.volumes[1].medium.anisotropy = 0.4f;
+        step(r, &sc, c->next_frame, "volumes[1] medium", EDIT_LIGHTING, &fb, c);
+    }
     step(r, &sc, f, "previous frame", EDIT_FRAME, &fb, c);
     vsd_renderer_destroy(r);
     vsd_renderer_destroy(cpu_twin);
@@ -174,12 +185,16 @@ int main(void)
     /* every method of the registry that renders on the device */
     for (name = vsd_method_names(); *name; name++) {
         const method_tuning *t = tuning_of(*name);
-        residency_case smoke = {"scenes/smoke64_sunset.json", *name, t->options, 24, 25, t->warm};
-        residency_case fire = {"scenes/fire96_studio.json", *name, t->options, 48, 36, t->warm};
-        if (!(vsd_method_capabilities(*name) & VSD_METHOD_CAP_CUDA_VIEW)) continue;
+        unsigned caps = vsd_method_capabilities(*name);
+        residency_case smoke = {"scenes/smoke64_sunset.json", *name, t->options, 24, 25, t->warm, 0};
+        residency_case fire = {"scenes/fire96_studio.json", *name, t->options, 48, 36, t->warm, 0};
+        /* frames 24 and 12 of the smoke: the fire's 48 and 36 */
+        residency_case both = {"smoke and fire", *name, t->options, TEST_SMOKE_AND_FIRE_FRAME, 12, t->warm, 1};
+        if (!(caps & VSD_METHOD_CAP_CUDA_VIEW)) continue;
         methods++;
         run_case(&smoke);
         if (!t->smoke_only) run_case(&fire);
+        if (caps & VSD_METHOD_CAP_SEVERAL_VOLUMES) run_case(&both);
     }
     CHECK(methods > 0);
     return test_finish("test_device_residency");

@@ -601,15 +601,7 @@ static void test_errors(void)
         free(one);
     }
 
-    const char *cuda[] = {"render.device=cuda"};
-    CHECK(test_parse_scene(two, cuda, 1, &sc));
-    CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_OK);
     vsd_framebuffer *fb = NULL;
-    if (r) CHECK(vsd_renderer_render(r, 11, &fb, NULL, err, sizeof err) == VSD_ERR_UNSUPPORTED);
-    CHECK_CONTAINS(err, "render.device: 'cuda' renders one volume so far; this scene has 2");
-    vsd_renderer_destroy(r);
-    r = NULL;
-
     const char *missing[] = {"volumes.1.file=" VSD_TEST_TMP "/no_such_####.vdb"};
     CHECK(test_parse_scene(two, missing, 1, &sc));
     CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_OK);

@@ -15,6 +15,7 @@ void vsd_cuda_close(vsd_cuda *c) { (void)c; }
 const char *vsd_cuda_device_name(const vsd_cuda *c) { (void)c; return "none"; }
 size_t vsd_cuda_resident_bytes(const vsd_cuda *c) { (void)c; return 0; }
 uint64_t vsd_cuda_uploaded_bytes(const vsd_cuda *c) { (void)c; return 0; }
+void vsd_cuda_seconds(const vsd_cuda *c, double *passes, double *downloads) { (void)c; *passes = *downloads = 0.0; }
 void vsd_cuda_set_method(vsd_cuda *c, const char *method) { (void)c; (void)method; }
 
 static vsd_status absent(char *err, size_t errlen)

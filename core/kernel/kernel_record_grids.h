@@ -7,8 +7,8 @@
  * give: sum_i sigma_i albedo_i S_i / sigma, S_i from volume i's grid with volume i's phase
  * (its HG lobe toward the eye; baked records already hold it). This is how Cycles combines
  * overlapping volumes; with one volume it is the single-volume march's step. Each volume's
- * grid keeps its own corner cache along the ray. CPU only for now (the device slots hold
- * one volume). */
+ * grid keeps its own corner cache along the ray. On the device each grid's arrays sit in
+ * slots of their own (record_grid_device.c). */
 #ifndef VSD_KERNEL_RECORD_GRIDS_H
 #define VSD_KERNEL_RECORD_GRIDS_H
 #include "kernel_record_grid.h"

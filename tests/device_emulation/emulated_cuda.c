@@ -51,6 +51,7 @@ void vsd_cuda_close(vsd_cuda *c)
 const char *vsd_cuda_device_name(const vsd_cuda *c) { (void)c; return "emulated CUDA (host)"; }
 size_t vsd_cuda_resident_bytes(const vsd_cuda *c) { return vsd_cuda_slots_bytes(&c->slots); }
 uint64_t vsd_cuda_uploaded_bytes(const vsd_cuda *c) { return c->uploaded; }
+void vsd_cuda_seconds(const vsd_cuda *c, double *passes, double *downloads) { (void)c; *passes = *downloads = 0.0; }
 void vsd_cuda_set_method(vsd_cuda *c, const char *method)
 {
     if (!vsd_cuda_slots_method_changed(&c->slots, method)) return;
@@ -157,6 +158,15 @@ static void chk_kd(vsd_cuda *c, const vsd_kernel_data *kd)
     chk(c, kd->env.cdf_rows, (size_t)(kd->env.height + 1) * 4, "env.cdf_rows");
     chk(c, kd->env.cdf_cols, (size_t)kd->env.height * (kd->env.width + 1) * 4, "env.cdf_cols");
     chk(c, kd->lights, (size_t)kd->light_count * 32, "kd.lights");
+    if (kd->volume_count > 1) {
+        /* the volume table and each volume's bricks are device memory too */
+        chk(c, kd->volumes, (size_t)kd->volume_count * sizeof *kd->volumes, "kd.volumes");
+        for (int i = 0; kd->volumes && i < kd->volume_count; i++) {
+            char n[64];
+            snprintf(n, sizeof n, "volumes[%d].density", i); chk_vol(c, &kd->volumes[i].density, n);
+            snprintf(n, sizeof n, "volumes[%d].emission", i); chk_vol(c, &kd->volumes[i].emission, n);
+        }
+    }
 }
 static const vsd_kernel_data *put_kd(vsd_cuda *c, const vsd_kernel_data *kd)
 {

@@ -81,6 +81,10 @@ const char *vsd_cuda_device_name(const vsd_cuda *c);
  * that a camera change copies only the kernel structs). */
 size_t vsd_cuda_resident_bytes(const vsd_cuda *c);
 uint64_t vsd_cuda_uploaded_bytes(const vsd_cuda *c);
+/* Host wall seconds since open inside device passes (launches to the end of their last
+ * band: the kernels) and inside downloads (device to host copies), for the figures of a
+ * render (vsd_render_stats.device_pass_seconds, device_download_seconds). */
+void vsd_cuda_seconds(const vsd_cuda *c, double *passes, double *downloads);
 
 /* The method whose slots c holds (NULL or "" = none named yet): naming a different one
  * frees every VSD_CUDA_METHOD_SLOT slot's buffer (a renderer changed method). */

@@ -2,6 +2,7 @@
 // upload only when their key changes (a table by slot descriptor, cuda_slots.h), and CUDA
 // errors as vsd_status (cuda_backend.h).
 #include "cuda_internal.cuh"
+#include "vsd/clock.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -162,9 +163,18 @@ extern "C" vsd_status vsd_cuda_download(vsd_cuda *c, void *host, const void *dev
 {
     vsd_cuda_use(c);
     if (bytes == 0) return VSD_OK;
+    double t0 = vsd_clock_seconds();
     cudaError_t e = cudaMemcpyAsync(host, dev, bytes, cudaMemcpyDeviceToHost, c->stream);
     if (e != cudaSuccess) return vsd_cuda_fail(e, "copying from the device", err, errlen);
-    return vsd_cuda_finish(c, "copying from the device", err, errlen);
+    vsd_status st = vsd_cuda_finish(c, "copying from the device", err, errlen);
+    c->download_seconds += vsd_clock_seconds() - t0;
+    return st;
+}
+
+extern "C" void vsd_cuda_seconds(const vsd_cuda *c, double *passes, double *downloads)
+{
+    *passes = c->pass_seconds;
+    *downloads = c->download_seconds;
 }
 
 vsd_status vsd_cuda_put_kd(vsd_cuda *c, const vsd_kernel_data *kd, const vsd_kernel_data **dkd, char *err,
@@ -230,7 +240,10 @@ extern "C" vsd_status vsd_cuda_run_pass(vsd_cuda *c, const vsd_device_pass *pass
         if ((st = vsd_cuda_put_method(c, host, pass->struct_bytes, &dm, err, errlen))) return st;
     }
     int width = kd->camera.width;
-    return vsd_cuda_bands(c, pass->pixels ? kd->camera.height : items, pass->band, p, pass->stage, [&](int b0, int b1) {
+    double t0 = vsd_clock_seconds();
+    st = vsd_cuda_bands(c, pass->pixels ? kd->camera.height : items, pass->band, p, pass->stage, [&](int b0, int b1) {
         pass->cuda((void *)c->stream, dm, dkd, width, b0, b1, a, out);
     }, err, errlen);
+    c->pass_seconds += vsd_clock_seconds() - t0;
+    return st;
 }

@@ -19,6 +19,7 @@ struct vsd_cuda {
     void *d_method;
     size_t method_bytes;
     uint64_t uploaded;
+    double pass_seconds, download_seconds;   // host wall time in passes and downloads (vsd_cuda_seconds)
     size_t budget;     // most bytes the slots may hold ($VSD_CUDA_MAX_MB), 0 = the device's memory
 };
 

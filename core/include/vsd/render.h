@@ -47,6 +47,8 @@ typedef struct vsd_render_stats {
     char device_name[128];       /* the GPU's name on "cuda" */
     char device_note[512];       /* why render.device "auto" uses the CPU, when it tried CUDA */
     unsigned long long device_uploaded_bytes; /* host-to-device copies during this render */
+    double device_pass_seconds;     /* of the render's seconds: inside device passes (kernels) */
+    double device_download_seconds; /* of them: copying results back from the device */
     char method_info[512];       /* the method's own figures, "key=value ..." (crm: RBFs, fit) */
     char warnings[512];          /* what in the input looks wrong but renders ("" = nothing) */
 } vsd_render_stats;

@@ -736,11 +736,18 @@ static vsd_status parts_render(crm_state *s, vsd_frame_ctx *ctx, vsd_framebuffer
     size_t nodes = 0;
     vsd_status st = VSD_OK;
     if (!pc || !kc) st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %d volumes", n);
+    /* on the device every part's node pass runs there, and the view reads device structs */
+    int device = ctx->cuda && vsd_crm_volumes_view_pass.cuda;
     for (i = 0; i < n && st == VSD_OK; i++) {
         crm_state *part = s->parts.state[i];
         vsd_part_ctx(ctx, &s->parts, i, &pc[i]);
-        if ((st = view_struct(part, &pc[i], &kc[i], 1, err, errlen))) break;
+        if ((st = view_struct(part, &pc[i], &kc[i], !device, err, errlen))) break;
         nodes += (size_t)kc[i].node_res[0] * kc[i].node_res[1] * kc[i].node_res[2];
+        if (device) {
+            vsd_kcrm on_device;
+            if ((st = vsd_crm_part_device(&pc[i], &kc[i], i, &on_device, err, errlen))) break;
+            kc[i] = on_device;
+        }
     }
     if (st == VSD_OK && ctx->info && ctx->info_len) snprintf(ctx->info, ctx->info_len, "volumes=%d nodes=%zu", n, nodes);
     ctx->kd.march_step = s->opt.step > 0 ? (float)s->opt.step : 2.0f * vsd_method_march_step(ctx, 0.0);

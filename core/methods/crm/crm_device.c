@@ -1,4 +1,5 @@
 #include "crm_device.h"
+#include "crm_volumes_kernel.h"
 #include "src/device_data/device_frame.h"
 #include "device/cpu/cpu_tiles.h"
 #include <stddef.h>
@@ -96,5 +97,83 @@ vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void 
         if ((st = vsd_device_run(ctx, &crm_node_pass, d, h->kd, a, (int)nodes(h), view, bytes, 0.0f, 0.0f, err, errlen)))
             return st;
     }
+    return VSD_OK;
+}
+
+/* Several volumes (crm_parts.h): part i's nodes in slot set i, its node pass run on the
+ * device with the part's own context (its volume standing as volume 0). */
+#define PART_SLOTS(p)                                                                                      \
+    {{p " nodes", VSD_CUDA_METHOD_SLOT}, {p " node validity", VSD_CUDA_METHOD_SLOT},                         \
+     {p " view nodes", VSD_CUDA_METHOD_SLOT}}
+static const vsd_cuda_slot_desc part_slots[VSD_KMAX_VOLUMES][3] = {
+    PART_SLOTS("crm part 0"),  PART_SLOTS("crm part 1"),  PART_SLOTS("crm part 2"),  PART_SLOTS("crm part 3"),
+    PART_SLOTS("crm part 4"),  PART_SLOTS("crm part 5"),  PART_SLOTS("crm part 6"),  PART_SLOTS("crm part 7"),
+    PART_SLOTS("crm part 8"),  PART_SLOTS("crm part 9"),  PART_SLOTS("crm part 10"), PART_SLOTS("crm part 11"),
+    PART_SLOTS("crm part 12"), PART_SLOTS("crm part 13"), PART_SLOTS("crm part 14"), PART_SLOTS("crm part 15")};
+#undef PART_SLOTS
+VSD_DEVICE_SLOT(crm_part_table, "crm parts (several volumes)");
+
+vsd_status vsd_crm_part_device(const vsd_frame_ctx *part_ctx, const vsd_kcrm *h, int i, vsd_kcrm *d, char *err,
+                               size_t errlen)
+{
+    const vsd_cuda_slot_desc *sl = part_slots[i];
+    const void *p;
+    vsd_status st;
+    *d = *h;
+    d->dtilde = d->dfull = NULL;   /* the fitted forms render one volume */
+    d->view_nodes = NULL;
+    if (i < 0 || i >= VSD_KMAX_VOLUMES) return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: crm part %d", i);
+    if (!h->nodes) return VSD_OK;   /* an empty part: the march skips it */
+    if ((st = vsd_device_array(part_ctx, &sl[0], part_ctx->lighting_gen, h->nodes,
+                               nodes(h) * CRM_NODE_FLOATS * sizeof(float), &p, err, errlen)))
+        return st;
+    d->nodes = p;
+    if ((st = vsd_device_array(part_ctx, &sl[1], part_ctx->lighting_gen, h->node_valid, nodes(h), &p, err, errlen)))
+        return st;
+    d->node_valid = p;
+    {
+        size_t bytes = nodes(h) * CRM_VIEW_FLOATS * sizeof(float);
+        vsd_pass_args a = {0, 0, 0};
+        void *view;
+        if ((st = vsd_device_scratch(part_ctx, &sl[2], bytes, 0, &view, err, errlen))) return st;
+        d->view_nodes = view;
+        if ((st = vsd_device_run(part_ctx, &crm_node_pass, d, h->kd, a, (int)nodes(h), view, bytes, 0.0f, 0.0f, err,
+                                 errlen)))
+            return st;
+    }
+    d->kd = NULL;   /* the view reads the scene's kd through the parts' struct */
+    return VSD_OK;
+}
+
+static vsd_sample_result volumes_sample(const void *m, int x, int y, int s, int n)
+{
+    return vsd_crm_volumes_sample((const vsd_kcrm_volumes *)m, x, y, s, n);
+}
+
+/* The parts' table; each part's arrays are reached through it on the device. */
+static void volumes_arrays(const void *m, vsd_pass_args a, vsd_pass_array_visit visit, void *user)
+{
+    const vsd_kcrm_volumes *cv = m;
+    (void)a;
+    visit(user, cv->part, (size_t)cv->count * sizeof *cv->part, "crm.part (several volumes)");
+}
+
+VSD_CUDA_ENTRY_DECL(vsd_cuda_crm_volumes_view);
+const vsd_device_pass vsd_crm_volumes_view_pass = {
+    "ray marching (several volumes)", 1, 128, sizeof(vsd_kcrm_volumes), offsetof(vsd_kcrm_volumes, kd),
+    volumes_sample, NULL, volumes_arrays, VSD_CUDA_ENTRY(vsd_cuda_crm_volumes_view),
+};
+
+vsd_status vsd_crm_volumes_view_struct(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err,
+                                       size_t errlen)
+{
+    const vsd_kcrm_volumes *h = host;
+    vsd_kcrm_volumes *d = dev;
+    const void *p;
+    vsd_status st;
+    *d = *h;
+    if ((st = vsd_device_content(ctx, crm_part_table, h->part, (size_t)h->count * sizeof *h->part, &p, err, errlen)))
+        return st;
+    d->part = p;
     return VSD_OK;
 }

@@ -1,6 +1,7 @@
 /* crm over several volumes (crm_parts.h). */
 #include "crm_parts.h"
 #include "crm_volumes_kernel.h"
+#include "crm_device.h"
 #include "src/grids/volume_groups.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/sh.h"
@@ -141,17 +142,6 @@ vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c
     return st;
 }
 
-static vsd_sample_result volumes_sample(const void *m, int x, int y, int s, int n)
-{
-    return vsd_crm_volumes_sample((const vsd_kcrm_volumes *)m, x, y, s, n);
-}
-
-/* several volumes have no device entry yet: the CPU threads run them */
-static const vsd_device_pass volumes_view_pass = {
-    "ray marching (several volumes)", 1, 128, sizeof(vsd_kcrm_volumes), offsetof(vsd_kcrm_volumes, kd),
-    volumes_sample, NULL, NULL, NULL,
-};
-
 vsd_status vsd_crm_parts_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_kcrm *parts, int count, int n,
                               const vsd_view_sampling *vs, int *samples, char *err, size_t errlen)
 {
@@ -163,5 +153,6 @@ vsd_status vsd_crm_parts_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd
     cv.part = parts;
     cv.count = count;
     cv.pad[0] = cv.pad[1] = cv.pad[2] = 0;
-    return vsd_method_render_view(ctx, fb, n, vs, &volumes_view_pass, NULL, &cv, samples, err, errlen);
+    return vsd_method_render_view(ctx, fb, n, vs, &vsd_crm_volumes_view_pass, vsd_crm_volumes_view_struct, &cv,
+                                  samples, err, errlen);
 }

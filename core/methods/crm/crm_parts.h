@@ -34,7 +34,8 @@ vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c
                                 float step, int threads, char *err, size_t errlen);
 
 /* The view over all parts (parts[i] goes with volume i, its node pass done; count =
- * ctx->kd.volume_count), n x n rays per pixel, on the CPU threads. */
+ * ctx->kd.volume_count), n x n rays per pixel: on the CPU threads with host parts, or on
+ * ctx->cuda with parts made device structs by vsd_crm_part_device. */
 vsd_status vsd_crm_parts_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_kcrm *parts, int count, int n,
                               const vsd_view_sampling *vs, int *samples, char *err, size_t errlen);
 

@@ -6,7 +6,7 @@
  * i's nodes, which already hold its albedo and phase (crm_kernel.h), interpolated as the
  * one-volume march does (vsd_crm_source, a corner cache per volume). With the volumes'
  * media apart this is each volume's own march; where they overlap, Cycles' mixture.
- * CPU only for now: the device slots hold one volume. */
+ * On the device each part's nodes sit in slots of their own (crm_device.c). */
 #ifndef VSD_CRM_VOLUMES_KERNEL_H
 #define VSD_CRM_VOLUMES_KERNEL_H
 #include "crm_kernel.h"

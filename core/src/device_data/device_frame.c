@@ -1,6 +1,7 @@
 #include "device_frame.h"
 #include "kernel/kernel_lights.h"
 #include <string.h>
+#include <xxhash.h>
 
 uint64_t vsd_device_key(uint64_t gen, const void *host)
 {
@@ -8,12 +9,23 @@ uint64_t vsd_device_key(uint64_t gen, const void *host)
 }
 
 /* The scene's slots: every method reads them, so they stay when the renderer changes method. */
-VSD_DEVICE_SCENE_SLOT(slot_density_bricks, "density brick table");
-VSD_DEVICE_SCENE_SLOT(slot_density_voxels, "density bricks");
-VSD_DEVICE_SCENE_SLOT(slot_density_max, "density brick maxima");
-VSD_DEVICE_SCENE_SLOT(slot_emission_bricks, "emission brick table");
-VSD_DEVICE_SCENE_SLOT(slot_emission_voxels, "emission bricks");
-VSD_DEVICE_SCENE_SLOT(slot_emission_max, "emission brick maxima");
+/* Each volume's bricks have slots of their own (a part of a record-grid method reads its
+ * volume as volume 0 without copying it again): [volume][density table, density bricks,
+ * density maxima, emission table, emission bricks, emission maxima]. */
+#define VOLUME_SLOTS(i)                                                                          \
+    {{"volumes[" #i "] density brick table", VSD_CUDA_SCENE_SLOT},                               \
+     {"volumes[" #i "] density bricks", VSD_CUDA_SCENE_SLOT},                                    \
+     {"volumes[" #i "] density brick maxima", VSD_CUDA_SCENE_SLOT},                              \
+     {"volumes[" #i "] emission brick table", VSD_CUDA_SCENE_SLOT},                              \
+     {"volumes[" #i "] emission bricks", VSD_CUDA_SCENE_SLOT},                                   \
+     {"volumes[" #i "] emission brick maxima", VSD_CUDA_SCENE_SLOT}}
+static const vsd_cuda_slot_desc volume_slots[VSD_KMAX_VOLUMES][6] = {
+    VOLUME_SLOTS(0),  VOLUME_SLOTS(1),  VOLUME_SLOTS(2),  VOLUME_SLOTS(3),  VOLUME_SLOTS(4),  VOLUME_SLOTS(5),
+    VOLUME_SLOTS(6),  VOLUME_SLOTS(7),  VOLUME_SLOTS(8),  VOLUME_SLOTS(9),  VOLUME_SLOTS(10), VOLUME_SLOTS(11),
+    VOLUME_SLOTS(12), VOLUME_SLOTS(13), VOLUME_SLOTS(14), VOLUME_SLOTS(15)};
+#undef VOLUME_SLOTS
+/* kd.volumes with device pointers, when the scene has several */
+VSD_DEVICE_SCENE_SLOT(slot_volume_table, "volume table (kd.volumes)");
 VSD_DEVICE_SCENE_SLOT(slot_env_rgb, "environment map");
 VSD_DEVICE_SCENE_SLOT(slot_env_rows, "environment row CDF");
 VSD_DEVICE_SCENE_SLOT(slot_env_cols, "environment column CDFs");
@@ -59,6 +71,13 @@ vsd_status vsd_device_copy(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, const v
     return upload(ctx, slot, 0, host, bytes, dev, err, errlen);
 }
 
+vsd_status vsd_device_content(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, const void *host, size_t bytes,
+                              const void **dev, char *err, size_t errlen)
+{
+    /* never key 0, which always copies */
+    return upload(ctx, slot, host && bytes ? XXH3_64bits(host, bytes) | 1u : 0, host, bytes, dev, err, errlen);
+}
+
 vsd_status vsd_device_scratch(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, size_t bytes, int zero, void **dev,
                               char *err, size_t errlen)
 {
@@ -66,12 +85,20 @@ vsd_status vsd_device_scratch(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, size
     return vsd_cuda_scratch(ctx->cuda, slot, 0, bytes, zero, dev, err, errlen);
 }
 
+/* Which of the scene's volumes vol is (its slots), 0 when it is none of them. */
+static int volume_index(const vsd_frame_ctx *ctx, const vsd_volume *vol, int emission)
+{
+    int i, n = ctx->volume_count < VSD_KMAX_VOLUMES ? ctx->volume_count : VSD_KMAX_VOLUMES;
+    for (i = 0; i < n; i++)
+        if ((emission ? ctx->volume_emission[i] : ctx->volume_density[i]) == vol) return i;
+    return 0;
+}
+
 vsd_status vsd_device_volume(const vsd_frame_ctx *ctx, const vsd_volume *vol, vsd_kvolume *kv, int emission,
                              char *err, size_t errlen)
 {
-    vsd_cuda_slot bricks = emission ? slot_emission_bricks : slot_density_bricks;
-    vsd_cuda_slot voxels = emission ? slot_emission_voxels : slot_density_voxels;
-    vsd_cuda_slot maxima = emission ? slot_emission_max : slot_density_max;
+    const vsd_cuda_slot_desc *slots = volume_slots[volume_index(ctx, vol, emission)] + (emission ? 3 : 0);
+    vsd_cuda_slot bricks = &slots[0], voxels = &slots[1], maxima = &slots[2];
     size_t cells = (size_t)kv->dims[0] * kv->dims[1] * kv->dims[2];
     const void *d;
     vsd_status st;
@@ -96,6 +123,35 @@ vsd_status vsd_device_volume(const vsd_frame_ctx *ctx, const vsd_volume *vol, vs
     return VSD_OK;
 }
 
+/* dev->volumes: every volume's bricks resident in its own slots, and the table of them
+ * copied when its bytes change (a medium edit; a camera change copies nothing). */
+static vsd_status device_volume_table(const vsd_frame_ctx *ctx, const vsd_kernel_data *kd, vsd_kernel_data *dev,
+                                      char *err, size_t errlen)
+{
+    vsd_kobject table[VSD_KMAX_VOLUMES];
+    const void *d;
+    vsd_status st;
+    int i, n = kd->volume_count;
+    if (n <= 1 || !kd->volumes) {
+        dev->volumes = NULL;
+        return VSD_OK;
+    }
+    if (n > VSD_KMAX_VOLUMES || n != ctx->volume_count)
+        return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "device volumes: %d volumes in the kernel data, %d in the frame", n,
+                        ctx->volume_count);
+    memset(table, 0, sizeof table);   /* the key hashes the bytes, padding included */
+    for (i = 0; i < n; i++) {
+        memcpy(&table[i], &kd->volumes[i], sizeof table[i]);
+        if ((st = vsd_device_volume(ctx, ctx->volume_density[i], &table[i].density, 0, err, errlen)) ||
+            (st = vsd_device_volume(ctx, ctx->volume_emission[i], &table[i].emission, 1, err, errlen)))
+            return st;
+    }
+    if ((st = vsd_device_content(ctx, slot_volume_table, table, (size_t)n * sizeof table[0], &d, err, errlen)))
+        return st;
+    dev->volumes = d;
+    return VSD_OK;
+}
+
 vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_data *kd, vsd_kernel_data *dev,
                                   char *err, size_t errlen)
 {
@@ -104,7 +160,8 @@ vsd_status vsd_device_kernel_data(const vsd_frame_ctx *ctx, const vsd_kernel_dat
     vsd_status st;
     *dev = *kd;
     if ((st = vsd_device_volume(ctx, ctx->density, &dev->density, 0, err, errlen)) ||
-        (st = vsd_device_volume(ctx, ctx->emission, &dev->emission, 1, err, errlen)))
+        (st = vsd_device_volume(ctx, ctx->emission, &dev->emission, 1, err, errlen)) ||
+        (st = device_volume_table(ctx, kd, dev, err, errlen)))
         return st;
     /* the map and its tables change only with the map (strength and rotation are in kd) */
     if ((st = vsd_device_array(ctx, slot_env_rgb, ctx->env_gen, e->rgb,

@@ -26,6 +26,10 @@ vsd_status vsd_device_array(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, uint64
 /* Device copy of host[bytes] in slot, copied every time (key 0). */
 vsd_status vsd_device_copy(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, const void *host, size_t bytes,
                            const void **dev, char *err, size_t errlen);
+/* Device copy of host[bytes] in slot, copied only when the bytes differ from the last
+ * copy's (keyed by their hash): small tables of device pointers built per view. */
+vsd_status vsd_device_content(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, const void *host, size_t bytes,
+                              const void **dev, char *err, size_t errlen);
 /* A device buffer of `bytes` in slot for a pass to write (zeroed when zero != 0), key 0:
  * the next vsd_device_array of the slot copies its host array again. */
 vsd_status vsd_device_scratch(const vsd_frame_ctx *ctx, vsd_cuda_slot slot, size_t bytes, int zero, void **dev,

@@ -31,4 +31,10 @@ extern const vsd_device_pass vsd_record_grid_view_pass;
 vsd_status vsd_record_grid_view_struct(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err,
                                        size_t errlen);
 
+/* The view over several volumes (kernel_record_grids.h): every grid in its own slots, and
+ * their table; the vsd_device_struct_fn of vsd_record_grids_view_pass. */
+extern const vsd_device_pass vsd_record_grids_view_pass;
+vsd_status vsd_record_grids_view_struct(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err,
+                                        size_t errlen);
+
 #endif

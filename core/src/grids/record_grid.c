@@ -224,17 +224,6 @@ vsd_status vsd_record_grid_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const
                                   err, errlen);
 }
 
-static vsd_sample_result volumes_sample(const void *m, int x, int y, int s, int n)
-{
-    return vsd_records_volumes_sample((const vsd_krecord_grids *)m, x, y, s, n);
-}
-
-/* several volumes have no device entry yet: the CPU threads run them */
-static const vsd_device_pass volumes_view_pass = {
-    "ray marching (several volumes)", 1, 256, sizeof(vsd_krecord_grids), offsetof(vsd_krecord_grids, kd),
-    volumes_sample, NULL, NULL, NULL,
-};
-
 vsd_status vsd_record_grids_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *grids, int count,
                                    int n, double step, double stop, const vsd_view_sampling *vs, int *samples, char *err,
                                    size_t errlen)
@@ -249,5 +238,6 @@ vsd_status vsd_record_grids_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, cons
     gs.count = count;
     ctx->kd.march_step = step > 0 ? (float)step : 2.0f * vsd_method_march_step(ctx, 0.0);
     ctx->kd.march_stop = (float)stop;
-    return vsd_method_render_view(ctx, fb, n, vs, &volumes_view_pass, NULL, &gs, samples, err, errlen);
+    return vsd_method_render_view(ctx, fb, n, vs, &vsd_record_grids_view_pass, vsd_record_grids_view_struct, &gs,
+                                  samples, err, errlen);
 }

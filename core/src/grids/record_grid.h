@@ -60,7 +60,7 @@ vsd_status vsd_record_grid_render(struct vsd_frame_ctx *ctx, struct vsd_framebuf
                                   char *err, size_t errlen);
 
 /* The same view over several volumes (kernel_record_grids.h): grids[i] lights ctx's
- * volume i; count must be ctx->kd.volume_count. CPU only. */
+ * volume i; count must be ctx->kd.volume_count. */
 vsd_status vsd_record_grids_render(struct vsd_frame_ctx *ctx, struct vsd_framebuffer *fb, const struct vsd_krecord_grid *grids,
                                    int count, int n, double step, double stop, const struct vsd_view_sampling *vs,
                                    int *samples, char *err, size_t errlen);

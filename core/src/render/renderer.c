@@ -377,14 +377,6 @@ static vsd_status pick_device(vsd_renderer *r, vsd_cuda **cuda, char *err, size_
     vsd_status st;
     *cuda = NULL;
     if (strcmp(want, "cpu") == 0) return VSD_OK;
-    if (r->scene.volume_count > 1) {
-        /* the device copies of the volumes hold one volume so far (device_frame.c) */
-        if (strcmp(want, "cuda") == 0)
-            return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
-                            "render.device: 'cuda' renders one volume so far; this scene has %d (use \"cpu\" or "
-                            "\"auto\")", r->scene.volume_count);
-        return VSD_OK;
-    }
     if (!r->cuda && !r->cuda_error[0]) {
         st = vsd_cuda_open(&r->cuda, r->cuda_error, sizeof r->cuda_error);
         if (st && !r->cuda_error[0]) snprintf(r->cuda_error, sizeof r->cuda_error, "CUDA unavailable");
@@ -443,14 +435,15 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     char frame_key[KEY_LEN], lighting_key[KEY_LEN];
     double t0 = vsd_clock_seconds(), t1, t2;
     uint64_t uploaded0 = cuda ? vsd_cuda_uploaded_bytes(cuda) : 0;
+    double passes0 = 0.0, downloads0 = 0.0;
+    if (cuda) vsd_cuda_seconds(cuda, &passes0, &downloads0);
     vsd_status st;
     memset(stats, 0, sizeof *stats);
     snprintf(stats->method, sizeof stats->method, "%s", r->method->name);
     snprintf(stats->device, sizeof stats->device, "%s", cuda ? "cuda" : "cpu");
     if (cuda) snprintf(stats->device_name, sizeof stats->device_name, "%s", vsd_cuda_device_name(cuda));
     else if (strcmp(sc->render.device, "auto") == 0)
-        snprintf(stats->device_note, sizeof stats->device_note, "%s",
-                 sc->volume_count > 1 ? "several volumes render on the CPU so far" : r->cuda_error);
+        snprintf(stats->device_note, sizeof stats->device_note, "%s", r->cuda_error);
     /* set_scene may have brought more volumes than the method renders */
     if ((st = vsd_method_check_volumes(r->method, sc, err, errlen))) return st;
 
@@ -554,7 +547,13 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     vsd_framebuffer_clear(*fbp);
     st = r->method->render(r->method_state, &ctx, *fbp, &stats->samples, err, errlen);
     stats->render_seconds = vsd_clock_seconds() - t2;
-    if (cuda) stats->device_uploaded_bytes = vsd_cuda_uploaded_bytes(cuda) - uploaded0;
+    if (cuda) {
+        double passes, downloads;
+        stats->device_uploaded_bytes = vsd_cuda_uploaded_bytes(cuda) - uploaded0;
+        vsd_cuda_seconds(cuda, &passes, &downloads);
+        stats->device_pass_seconds = passes - passes0;
+        stats->device_download_seconds = downloads - downloads0;
+    }
     return st;
 }
 
