@@ -306,6 +306,25 @@ static void test_cached_view_equals_fresh(void)
                   VSD_OK);
             CHECK_MSG(e <= 1e-6, "%s: the cached view differs from a fresh render (rel. RMSE %g)", methods[m], e);
         }
+        /* a larger film then the first again: the renderer's sums (accum.h's store) grow,
+         * then serve a smaller view, zeroed each time */
+        sc.film.width = 96;
+        sc.film.height = 54;
+        CHECK(kept && vsd_renderer_set_scene(kept, &sc, err, sizeof err) == VSD_OK &&
+              vsd_renderer_render(kept, 24, &a, NULL, err, sizeof err) == VSD_OK);
+        sc.film.width = 64;
+        sc.film.height = 36;
+        CHECK(kept && vsd_renderer_set_scene(kept, &sc, err, sizeof err) == VSD_OK &&
+              vsd_renderer_render(kept, 24, &a, NULL, err, sizeof err) == VSD_OK);
+        if (a && b && a->width == 64) {
+            e = 1.0;
+            CHECK(vsd_block_rel_rmse(a->pass[VSD_PASS_COMBINED], b->pass[VSD_PASS_COMBINED], 64, 36, 4, 4, 1, &e, NULL, 0) ==
+                  VSD_OK);
+            CHECK_MSG(e <= 1e-6, "%s: after a larger film, the view differs from a fresh render (rel. RMSE %g)",
+                      methods[m], e);
+        } else {
+            CHECK_MSG(0, "%s: no 64x36 view after the film changed back", methods[m]);
+        }
         vsd_renderer_destroy(kept);
         vsd_renderer_destroy(fresh);
         vsd_framebuffer_destroy(a);

@@ -374,9 +374,11 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     if (s->opt.shadows == SHADOWS_GRID) return render_cached(s, ctx, fb, samples, err, errlen);
     kernel_setup(s, ctx, &kc);
     if (ctx->cuda) {
-        if ((st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen))) return st;
+        st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen);
+        if (st) return st;
         st = vsd_cst_device_render(ctx, &kc, s->opt.validity_mask, &acc, err, errlen);
-        if (!st || st == VSD_ERR_CANCELLED) vsd_accum_resolve(&acc, n2, ctx->scene->film.transparent, fb);
+        if (!st || st == VSD_ERR_CANCELLED)
+            vsd_accum_resolve(&acc, n2, ctx->scene->film.transparent, ctx->threads, fb);
         vsd_accum_free(&acc);
         *samples = n2;
         return st;
@@ -396,7 +398,7 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
         }
         kc.first = pass.first;
     }
-    st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
+    st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen);
     if (st) {
         free(pass.first);
         return st;
@@ -409,7 +411,7 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     }
     st = vsd_cpu_run_tiles(&job);
     if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
-    vsd_accum_resolve(&acc, n2, ctx->scene->film.transparent, fb);
+    vsd_accum_resolve(&acc, n2, ctx->scene->film.transparent, ctx->threads, fb);
     vsd_accum_free(&acc);
     free(pass.first);
     *samples = n2;

@@ -116,14 +116,14 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
     vsd_status st;
     int total = sc->render.samples, done = 0, batch = 1;
     ctx->kd.max_bounces = rs->opt.max_bounces;
-    st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
+    st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen);
     if (st) return st;
     /* bent rays have no device pass yet: a refracting medium renders on the CPU threads */
     if (ctx->cuda && !rs->refraction.k.ng) {
         st = reference_device(ctx, &acc, total, &done, err, errlen);
         if (!st || st == VSD_ERR_CANCELLED) {
             if (st) vsd_fail(st, err, errlen, "render cancelled after %d samples", done);
-            vsd_accum_resolve(&acc, done, sc->film.transparent, fb);
+            vsd_accum_resolve(&acc, done, sc->film.transparent, ctx->threads, fb);
         }
         vsd_accum_free(&acc);
         *samples = done;
@@ -145,7 +145,7 @@ static vsd_status reference_render(void *state, vsd_frame_ctx *ctx, vsd_framebuf
         if (done >= 2) batch *= 2;
     }
     if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled after %d samples", done);
-    vsd_accum_resolve(&acc, done, sc->film.transparent, fb);
+    vsd_accum_resolve(&acc, done, sc->film.transparent, ctx->threads, fb);
     vsd_accum_free(&acc);
     *samples = done;
     return st;

@@ -45,6 +45,7 @@ typedef struct vsd_frame_ctx {
     struct vsd_cuda *cuda;
     uint64_t frame_gen, lighting_gen, volume_gen, env_gen;
     const char *cache_dir;              /* vsd_render_options.cache_dir, NULL = none */
+    struct vsd_accum_store *accum_store; /* the renderer's memory for a view's sums (accum.h) */
     char *info;                         /* vsd_render_stats.method_info: render() may fill it */
     size_t info_len;
     /* Several volumes, a record-grid method's part (src/method/method_parts.h): active = 1

@@ -69,7 +69,7 @@ vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n
     vsd_tile_job job;
     /* vs with an automatic spacing resolved (1 = trace every pixel) */
     vsd_view_sampling eff = {1, vs ? vs->threshold : 0.0};
-    vsd_status st = vsd_accum_init(&acc, fb->width, fb->height, err, errlen);
+    vsd_status st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen);
     if (vs) eff.spacing = vs->spacing ? vs->spacing : vsd_view_auto_spacing(ctx);
     if (st) return st;
     if (ctx->cuda && pass->cuda) {
@@ -93,7 +93,8 @@ vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n
         if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
     }
     /* a cancelled render still resolves the tiles or bands it finished */
-    if (!st || st == VSD_ERR_CANCELLED) vsd_accum_resolve(&acc, n * n, ctx->scene->film.transparent, fb);
+    if (!st || st == VSD_ERR_CANCELLED)
+        vsd_accum_resolve(&acc, n * n, ctx->scene->film.transparent, ctx->threads, fb);
     vsd_accum_free(&acc);
     *samples = n * n;
     return st;

@@ -6,6 +6,7 @@
 #include "vsd/vdbio.h"
 #include "src/method/method.h"
 #include "kernel_setup.h"
+#include "accum.h"
 #include "kernel/kernel_lights.h"
 #include "device/cpu/cpu_tiles.h"
 #include "device/cuda/cuda_backend.h"
@@ -31,6 +32,7 @@ typedef struct loaded_volume {
 struct vsd_renderer {
     vsd_scene scene;
     vsd_render_options opt;
+    vsd_accum_store accum_store;   /* a view's sums, kept for the next view (accum.h) */
     char cache_dir[4096];
     const vsd_method *method;
     void *method_state;
@@ -484,6 +486,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     ctx.cancel = r->opt.cancel;
     ctx.cuda = cuda;
     ctx.cache_dir = r->cache_dir[0] ? r->cache_dir : NULL;
+    ctx.accum_store = &r->accum_store;
     ctx.info = stats->method_info;
     ctx.info_len = sizeof stats->method_info;
     stats->threads = ctx.threads;
@@ -560,6 +563,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
 void vsd_renderer_destroy(vsd_renderer *r)
 {
     if (!r) return;
+    vsd_accum_store_free(&r->accum_store);
     release_method(r);
     free_owned_volumes(r);
     free_owned_env(r);
