@@ -452,6 +452,26 @@ int main(int argc, char **argv)
         long d = test_exr_bytes_diff(res.exr, res.exr_len, ref, g_dir, "remote");
         CHECK_MSG(d == 0, "remote and in-process renders differ in %ld values", d);
     } else CHECK_MSG(0, "render: %s", err);
+    {
+        /* output.compression "none" (the add-on's requests): the same values, every float
+         * stored as is, so the bytes are more than the ZIP result's */
+        size_t zip_len = res.exr_len;
+        const char *ov[] = {"output.compression=none"};
+        vsdc_render_request rq;
+        vsdc_result_free(&res);
+        memset(&rq, 0, sizeof rq);
+        rq.scene_json = scene;
+        rq.overrides = ov;
+        rq.override_count = 1;
+        rq.frame = 1;
+        rq.has_frame = 1;
+        if (vsdc_render(c, &rq, &res, err, sizeof err) == 0) {
+            long d = test_exr_bytes_diff(res.exr, res.exr_len, ref, g_dir, "uncompressed");
+            CHECK_MSG(d == 0, "an uncompressed result differs from the in-process render in %ld values", d);
+            CHECK_MSG(res.exr_len > zip_len && res.exr_len >= (size_t)32 * 18 * 17 * sizeof(float),
+                      "uncompressed result of %zu bytes (ZIP %zu)", res.exr_len, zip_len);
+        } else CHECK_MSG(0, "render: %s", err);
+    }
     vsdc_result_free(&res);
     /* ... and through the CLI: `vsd render --remote` writes what `vsd render` writes */
     {

@@ -199,6 +199,34 @@ static void test_roundtrip(int half)
     vsd_framebuffer_destroy(fb);
 }
 
+/* output.compression "none": the same pixels, bit for bit, and every float stored as is
+ * (the file at least as large as the raw channels; the ZIP file of the same frame smaller). */
+static void test_uncompressed(void)
+{
+    const int w = 37, h = 21;
+    vsd_framebuffer *fb = make_fb(w, h, pattern);
+    if (!fb)
+        return;
+    vsd_exr_write_options opt = {0};
+    const char *zip = tmp_path("compressed_zip.exr");
+    CHECK_MSG(vsd_exr_write(zip, fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+    long zip_size = file_size(zip);
+    opt.uncompressed = 1;
+    const char *path = tmp_path("uncompressed.exr");
+    CHECK_MSG(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+    long raw = (long)w * h * 17 * (long)sizeof(float), size = file_size(path);
+    CHECK_MSG(size >= raw && zip_size > 0 && zip_size < size, "uncompressed %ld bytes, zip %ld, raw channels %ld",
+              size, zip_size, raw);
+    vsd_exr_image *img = NULL;
+    CHECK_MSG(vsd_exr_read(path, &img, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+    if (img) {
+        CHECK(img->width == w && img->height == h && img->channel_count == 17);
+        check_passes(img, fb, "ViewLayer", 0);
+    }
+    vsd_exr_image_destroy(img);
+    vsd_framebuffer_destroy(fb);
+}
+
 /* A subset of passes under a user layer name with a dot (Blender's "ViewLayer.001"), and
  * an empty Depth (the 1e10 marker must survive). Names longer than EXR's classic 31
  * characters need the long-names flag. */
@@ -571,6 +599,7 @@ int main(int argc, char **argv)
     test_framebuffer();
     test_roundtrip(0);
     test_roundtrip(1);
+    test_uncompressed();
     test_mask_and_layer();
     test_renamed_passes();
     test_attributes();

@@ -109,6 +109,7 @@ static void test_defaults(void)
         CHECK_MSG(!strcmp(d.output.pass_names[i], vsd_pass_name((vsd_pass)i)), "pass %d: %s", i,
                   d.output.pass_names[i]);
     CHECK(d.output.half == 0);
+    CHECK(!strcmp(d.output.compression, "zip"));
     CHECK(!strcmp(d.output.preview_png, ""));
     CHECK(!strcmp(d.output.view, ""));
 
@@ -386,6 +387,8 @@ static void test_errors(void)
     EXPECT_ERR(with("\"output\": {\"exr\": \"\"}"), VSD_ERR_INVALID, "output.exr: must not be empty");
     EXPECT_ERR(with("\"output\": {\"exr\": \"f_##_##.exr\"}"), VSD_ERR_INVALID, "output.exr: \"/base/f_##_##.exr\": more than one run");
     EXPECT_ERR(with("\"output\": {\"half\": \"yes\"}"), VSD_ERR_TYPE, "output.half: expected boolean");
+    EXPECT_ERR(with("\"output\": {\"compression\": \"lz4\"}"), VSD_ERR_INVALID,
+               "output.compression: \"lz4\" is not one of \"zip\", \"none\"");
     EXPECT_ERR(with("\"output\": {\"layer\": \"aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa\"}"),
                VSD_ERR_INVALID, "output.layer: too long (140 characters, max 127)");
     EXPECT_ERR(with("\"volume\": {}"), VSD_ERR_INVALID, "volume: duplicate key");

@@ -113,6 +113,8 @@ def main():
               "scene frames 11-13 show file frames 21-23: frame_offset 10 (%s, %s)" % (sc["frames"], ev.get("frame_offset")))
         check(sc["environment"]["file"].endswith("studio.exr"), "export references the environment map")
         check(sc["output"]["layer"] == layer, "output.layer is the view layer's name")
+        check("compression" not in sc["output"],
+              "export keeps the EXR compression's default (zip): its frames are files kept, not transient results")
         cli_out = os.path.join(tmp, "cli_####.exr")
         r = subprocess.run([vsd, "render", scene_json, "--frames", "11-11", "--output", cli_out, "--quiet"],
                            capture_output=True, text=True)
@@ -212,6 +214,8 @@ def main():
         check([v.object.name for v in mm.volumes] == ["another smoke", "smoke"] and len(mm.scene["volumes"]) == 2 and
               not any("not rendered" in w for w in mm.warnings),
               "two volumes with reference: both are sent, no volume left out (%s)" % mm.warnings)
+        check(mm.scene["output"].get("compression") == "none",
+              "a render request asks for an uncompressed EXR (read at once; no ZIP encode): %s" % mm.scene["output"])
         scene.vsd.method = "raymarch"
         bpy.data.objects.remove(ob2, do_unlink=True)
 

@@ -67,13 +67,14 @@ typedef struct vsd_exr_write_options {
     const char *const *pass_names;
     unsigned pass_mask;       /* 0 = all passes */
     int half;                 /* 0 = float32 channels, 1 = half */
+    int uncompressed;         /* 1 = no compression (scene output.compression "none"), 0 = ZIP */
     const vsd_exr_attr *attrs;/* extra header attributes */
     int attr_count;
 } vsd_exr_write_options;
 
 /* Write a multilayer EXR with channels "<layer>.<Pass>.<R|G|B|A|Z>" (Blender's names, or
  * opt->pass_names: each at most 63 bytes, no '.', all distinct, else VSD_ERR_INVALID), ZIP
- * compressed, to `path` via a temporary file in the same folder that is renamed on success
+ * compressed unless opt->uncompressed, to `path` via a temporary file in the same folder that is renamed on success
  * (a crash never leaves a half-written frame). Creates no folders. */
 vsd_status vsd_exr_write(const char *path, const vsd_framebuffer *fb,
                          const vsd_exr_write_options *opt, char *err, size_t errlen);

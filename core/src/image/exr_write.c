@@ -1,4 +1,4 @@
-/* Multilayer EXR writer on OpenEXR's C API (openexr.h): one scanline part, ZIP compressed,
+/* Multilayer EXR writer on OpenEXR's C API (openexr.h): one scanline part, ZIP compressed (or none),
  * channels "<layer>.<Pass>.<chan>" as Blender writes them, through a temporary file that is
  * renamed into place only once the whole file is on disk (docs/architecture.md §6). */
 #define _POSIX_C_SOURCE 200809L
@@ -134,7 +134,8 @@ static exr_result_t define_header(exr_context_t ctxt, const vsd_framebuffer *fb,
         rv = exr_set_longname_support(ctxt, 1);
     if (!rv)
         rv = exr_initialize_required_attr_simple(ctxt, part, fb->width, fb->height,
-                                                 EXR_COMPRESSION_ZIP);
+                                                 opt && opt->uncompressed ? EXR_COMPRESSION_NONE
+                                                                          : EXR_COMPRESSION_ZIP);
     for (int i = 0; !rv && i < n; i++)
         rv = exr_add_channel(ctxt, part, chans[i].name,
                              chans[i].half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
@@ -194,7 +195,7 @@ static exr_result_t bind_channels(exr_encode_pipeline_t *enc, const vsd_framebuf
     return EXR_ERR_SUCCESS;
 }
 
-/* Encode and write every scanline chunk (16 rows for ZIP) in increasing y. */
+/* Encode and write every scanline chunk (16 rows for ZIP, 1 uncompressed) in increasing y. */
 static exr_result_t write_chunks(exr_context_t ctxt, const vsd_framebuffer *fb,
                                  const exr_chan *chans, int n)
 {

@@ -69,6 +69,7 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
     wo.pass_names = pass_names;
     wo.pass_mask = scene->output.pass_mask;
     wo.half = scene->output.half;
+    wo.uncompressed = strcmp(scene->output.compression, "none") == 0;
     wo.attrs = attrs;
     wo.attr_count = n;
     if ((st = vsd_exr_write(path, fb, &wo, err, errlen))) return st;
