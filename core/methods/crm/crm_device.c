@@ -7,9 +7,17 @@
 /* crm's resident slots (cuda_backend.h) */
 VSD_DEVICE_SLOT(crm_dtilde, "crm reduced density");
 VSD_DEVICE_SLOT(crm_dfull, "crm full density");
-VSD_DEVICE_SLOT(crm_nodes, "crm nodes");
-VSD_DEVICE_SLOT(crm_valid, "crm node validity");
-VSD_DEVICE_SLOT(crm_view_nodes, "crm view nodes");
+/* The nodes, their validity and this view's node values: set 0 for one volume, set i for
+ * part i of several (crm_parts.h), each part's in slots of its own. */
+#define NODE_SLOTS(p)                                                                                      \
+    {{p " nodes", VSD_CUDA_METHOD_SLOT}, {p " node validity", VSD_CUDA_METHOD_SLOT},                         \
+     {p " view nodes", VSD_CUDA_METHOD_SLOT}}
+static const vsd_cuda_slot_desc node_slots[VSD_KMAX_VOLUMES][3] = {
+    NODE_SLOTS("crm"),         NODE_SLOTS("crm part 1"),  NODE_SLOTS("crm part 2"),  NODE_SLOTS("crm part 3"),
+    NODE_SLOTS("crm part 4"),  NODE_SLOTS("crm part 5"),  NODE_SLOTS("crm part 6"),  NODE_SLOTS("crm part 7"),
+    NODE_SLOTS("crm part 8"),  NODE_SLOTS("crm part 9"),  NODE_SLOTS("crm part 10"), NODE_SLOTS("crm part 11"),
+    NODE_SLOTS("crm part 12"), NODE_SLOTS("crm part 13"), NODE_SLOTS("crm part 14"), NODE_SLOTS("crm part 15")};
+#undef NODE_SLOTS
 
 static size_t voxels(const vsd_kcrm *c) { return (size_t)c->dims[0] * c->dims[1] * c->dims[2]; }
 static size_t nodes(const vsd_kcrm *c) { return (size_t)c->node_res[0] * c->node_res[1] * c->node_res[2]; }
@@ -72,6 +80,29 @@ const vsd_device_pass vsd_crm_view_pass = {
     VSD_CUDA_ENTRY(vsd_cuda_crm_view),
 };
 
+/* d's nodes and validity resident in slot set `set`, and the per-view node pass run there
+ * into its view nodes (ctx: the context whose volume the nodes light; h->kd its kd), so a
+ * new camera copies nothing but the structs. */
+static vsd_status nodes_to_device(const vsd_frame_ctx *ctx, const vsd_kcrm *h, int set, vsd_kcrm *d, char *err,
+                                  size_t errlen)
+{
+    const vsd_cuda_slot_desc *sl = node_slots[set];
+    size_t bytes = nodes(h) * CRM_VIEW_FLOATS * sizeof(float);
+    vsd_pass_args a = {0, 0, 0};
+    const void *p;
+    void *view;
+    vsd_status st;
+    if ((st = vsd_device_array(ctx, &sl[0], ctx->lighting_gen, h->nodes, nodes(h) * CRM_NODE_FLOATS * sizeof(float),
+                               &p, err, errlen)))
+        return st;
+    d->nodes = p;
+    if ((st = vsd_device_array(ctx, &sl[1], ctx->lighting_gen, h->node_valid, nodes(h), &p, err, errlen))) return st;
+    d->node_valid = p;
+    if ((st = vsd_device_scratch(ctx, &sl[2], bytes, 0, &view, err, errlen))) return st;
+    d->view_nodes = view;
+    return vsd_device_run(ctx, &crm_node_pass, d, h->kd, a, (int)nodes(h), view, bytes, 0.0f, 0.0f, err, errlen);
+}
+
 vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void *dev, char *err, size_t errlen)
 {
     const vsd_kcrm *h = host;
@@ -83,65 +114,24 @@ vsd_status vsd_crm_view_struct(const vsd_frame_ctx *ctx, const void *host, void 
     do { if ((st = vsd_device_array(ctx, slot, gen, h->field, bytes, &p, err, errlen))) return st; d->field = p; } while (0)
     if (h->dtilde) PUT(dtilde, crm_dtilde, ctx->frame_gen, voxels(h) * sizeof(float));
     if (h->dfull) PUT(dfull, crm_dfull, ctx->frame_gen, voxels(h) * sizeof(float));
-    PUT(nodes, crm_nodes, ctx->lighting_gen, nodes(h) * CRM_NODE_FLOATS * sizeof(float));
-    PUT(node_valid, crm_valid, ctx->lighting_gen, nodes(h));
 #undef PUT
-    {
-        /* the node pass for this view, on the device into a scratch slot the view then reads:
-         * a new camera copies nothing but the structs */
-        size_t bytes = nodes(h) * CRM_VIEW_FLOATS * sizeof(float);
-        vsd_pass_args a = {0, 0, 0};
-        void *view;
-        if ((st = vsd_device_scratch(ctx, crm_view_nodes, bytes, 0, &view, err, errlen))) return st;
-        d->view_nodes = view;
-        if ((st = vsd_device_run(ctx, &crm_node_pass, d, h->kd, a, (int)nodes(h), view, bytes, 0.0f, 0.0f, err, errlen)))
-            return st;
-    }
-    return VSD_OK;
+    return nodes_to_device(ctx, h, 0, d, err, errlen);
 }
 
-/* Several volumes (crm_parts.h): part i's nodes in slot set i, its node pass run on the
- * device with the part's own context (its volume standing as volume 0). */
-#define PART_SLOTS(p)                                                                                      \
-    {{p " nodes", VSD_CUDA_METHOD_SLOT}, {p " node validity", VSD_CUDA_METHOD_SLOT},                         \
-     {p " view nodes", VSD_CUDA_METHOD_SLOT}}
-static const vsd_cuda_slot_desc part_slots[VSD_KMAX_VOLUMES][3] = {
-    PART_SLOTS("crm part 0"),  PART_SLOTS("crm part 1"),  PART_SLOTS("crm part 2"),  PART_SLOTS("crm part 3"),
-    PART_SLOTS("crm part 4"),  PART_SLOTS("crm part 5"),  PART_SLOTS("crm part 6"),  PART_SLOTS("crm part 7"),
-    PART_SLOTS("crm part 8"),  PART_SLOTS("crm part 9"),  PART_SLOTS("crm part 10"), PART_SLOTS("crm part 11"),
-    PART_SLOTS("crm part 12"), PART_SLOTS("crm part 13"), PART_SLOTS("crm part 14"), PART_SLOTS("crm part 15")};
-#undef PART_SLOTS
+/* Several volumes: the table of the parts' device structs (each part's nodes in node set i). */
 VSD_DEVICE_SLOT(crm_part_table, "crm parts (several volumes)");
 
 vsd_status vsd_crm_part_device(const vsd_frame_ctx *part_ctx, const vsd_kcrm *h, int i, vsd_kcrm *d, char *err,
                                size_t errlen)
 {
-    const vsd_cuda_slot_desc *sl = part_slots[i];
-    const void *p;
     vsd_status st;
+    if (i < 0 || i >= VSD_KMAX_VOLUMES) return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: crm part %d", i);
     *d = *h;
     d->dtilde = d->dfull = NULL;   /* the fitted forms render one volume */
     d->view_nodes = NULL;
-    if (i < 0 || i >= VSD_KMAX_VOLUMES) return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: crm part %d", i);
-    if (!h->nodes) return VSD_OK;   /* an empty part: the march skips it */
-    if ((st = vsd_device_array(part_ctx, &sl[0], part_ctx->lighting_gen, h->nodes,
-                               nodes(h) * CRM_NODE_FLOATS * sizeof(float), &p, err, errlen)))
-        return st;
-    d->nodes = p;
-    if ((st = vsd_device_array(part_ctx, &sl[1], part_ctx->lighting_gen, h->node_valid, nodes(h), &p, err, errlen)))
-        return st;
-    d->node_valid = p;
-    {
-        size_t bytes = nodes(h) * CRM_VIEW_FLOATS * sizeof(float);
-        vsd_pass_args a = {0, 0, 0};
-        void *view;
-        if ((st = vsd_device_scratch(part_ctx, &sl[2], bytes, 0, &view, err, errlen))) return st;
-        d->view_nodes = view;
-        if ((st = vsd_device_run(part_ctx, &crm_node_pass, d, h->kd, a, (int)nodes(h), view, bytes, 0.0f, 0.0f, err,
-                                 errlen)))
-            return st;
-    }
-    d->kd = NULL;   /* the view reads the scene's kd through the parts' struct */
+    if (!h->nodes) return VSD_OK;  /* an empty part: the march skips it */
+    if ((st = nodes_to_device(part_ctx, h, i, d, err, errlen))) return st;
+    d->kd = NULL;                  /* the view reads the scene's kd through the parts' struct */
     return VSD_OK;
 }
 

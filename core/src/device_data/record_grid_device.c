@@ -3,6 +3,7 @@
 #include "device_frame.h"
 #include "kernel/kernel_record_grids.h"
 #include <stddef.h>
+#include <string.h>
 
 /* A grid's resident slots; a view over several volumes keeps grid i in set i. */
 enum { RG_CELLS, RG_RECORDS, RG_POS, RG_DIRS, RG_BASIS, RG_RADIANCE, RG_LIGHT, RG_LIGHTS, RG_LIGHT_TRANS, RG_RECORDS_MS,
@@ -179,6 +180,7 @@ vsd_status vsd_record_grids_view_struct(const vsd_frame_ctx *ctx, const void *ho
     int i;
     if (h->count < 1 || h->count > VSD_KMAX_VOLUMES)
         return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: %d record grids on the device", (int)h->count);
+    memset(table, 0, sizeof table);   /* the table's key hashes its bytes, padding included */
     for (i = 0; i < h->count; i++) {
         if ((st = grid_device(ctx, &h->grid[i], 1, i, &table[i], err, errlen))) return st;
         table[i].kd = NULL;   /* the view reads the scene's kd through the grids' struct */
