@@ -345,8 +345,11 @@ static void keep_copy(const vsd_framebuffer *fb, vsd_framebuffer **keep)
 
 /* Give the renderer the edited scene and render frame 24: nothing is fitted (fits_run stays
  * where it was) and the image changes (so the edit was seen). */
+static double light_marches_seen;
+
 static void edit_and_render(vsd_renderer *r, const vsd_scene *sc, const char *what, vsd_framebuffer **fb,
-                            vsd_framebuffer **before, double *fits, double *marches, int expect_march)
+                            vsd_framebuffer **before, double *fits, double *marches, int expect_march,
+                            int expect_light_march)
 {
     vsd_render_stats st;
     char err[1024] = "";
@@ -363,6 +366,12 @@ static void edit_and_render(vsd_renderer *r, const vsd_scene *sc, const char *wh
     CHECK_MSG(now == *marches + expect_march, "%s: transmittance marched %g times, expected %g: %s", what,
               now - *marches, (double)expect_march, st.method_info);
     *marches = now;
+    /* the transmittance toward the extracted lights (crm_lights.h) follows the same rule,
+     * and is marched again when the lights turn with the map */
+    now = test_info(&st, "light_marches");
+    CHECK_MSG(now == light_marches_seen + expect_light_march, "%s: lights' transmittance marched %g times, expected %d: %s",
+              what, now - light_marches_seen, expect_light_march, st.method_info);
+    light_marches_seen = now;
     CHECK_MSG(test_max_rel_diff(*fb, *before, VSD_PASS_COMBINED) > 1e-2, "%s did not change the image", what);
     keep_copy(*fb, before);
 }
@@ -382,6 +391,10 @@ static void test_edits(void)
     if (!test_render(r, 24, &fb, &st)) goto done;
     CHECK_NEAR(test_info(&st, "fits_run"), 0, 0);
     CHECK_NEAR(test_info(&st, "transmittance_marches"), 1, 0);
+    /* the sunset's sun and bright sky are lights of their own */
+    CHECK_MSG(test_info(&st, "lights") >= 8, "the sunset map gave crm no lights: %s", st.method_info);
+    CHECK_NEAR(test_info(&st, "light_marches"), 1, 0);
+    light_marches_seen = 1;
     keep_copy(fb, &prev);
     /* the same scene again: the same image, bit for bit */
     if (test_render(r, 24, &fb, &st)) {
@@ -389,15 +402,15 @@ static void test_edits(void)
         CHECK_NEAR(test_info(&st, "transmittance_marches"), 1, 0);
     }
     sc.camera.matrix[3] += 0.2;   /* camera moved along x */
-    edit_and_render(r, &sc, "camera change", &fb, &prev, &fits, &marches, 0);
+    edit_and_render(r, &sc, "camera change", &fb, &prev, &fits, &marches, 0, 0);
     sc.environment.rotation_z = 1.3f;   /* the sunset's sun moves */
-    edit_and_render(r, &sc, "environment rotation", &fb, &prev, &fits, &marches, 0);
+    edit_and_render(r, &sc, "environment rotation", &fb, &prev, &fits, &marches, 0, 1);
     /* the renderer's frame stage runs again on a density change; the grid is the same. A
      * smaller scale than the marches stopped for marches again; a larger one reuses them */
     sc.volumes[0].medium.density = 5.0f;   /* the scene's is 8 */
-    edit_and_render(r, &sc, "medium.density decrease", &fb, &prev, &fits, &marches, 1);
+    edit_and_render(r, &sc, "medium.density decrease", &fb, &prev, &fits, &marches, 1, 1);
     sc.volumes[0].medium.density = 12.0f;
-    edit_and_render(r, &sc, "medium.density increase", &fb, &prev, &fits, &marches, 0);
+    edit_and_render(r, &sc, "medium.density increase", &fb, &prev, &fits, &marches, 0, 0);
     fresh = test_render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
     if (fresh) {
         /* the kept marches (run for density 5) went on past where a fresh one stops
@@ -411,11 +424,11 @@ static void test_edits(void)
     }
     /* back to the scale the marches ran for: reused, and exact again (checked below) */
     sc.volumes[0].medium.density = 5.0f;
-    edit_and_render(r, &sc, "medium.density back", &fb, &prev, &fits, &marches, 0);
+    edit_and_render(r, &sc, "medium.density back", &fb, &prev, &fits, &marches, 0, 0);
     sc.volumes[0].medium.albedo[0] = 0.9f;
     sc.volumes[0].medium.albedo[1] = 0.7f;
     sc.volumes[0].medium.albedo[2] = 0.5f;
-    edit_and_render(r, &sc, "medium.albedo change", &fb, &prev, &fits, &marches, 0);
+    edit_and_render(r, &sc, "medium.albedo change", &fb, &prev, &fits, &marches, 0, 0);
     CHECK_MSG(fits == 0, "%g fits on the default path", fits);
     /* what the edited renderer shows is what a fresh renderer shows for the edited scene */
     fresh = test_render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
@@ -624,6 +637,10 @@ static void test_emission_split(void) { test_check_emission_split("[7]", "crm", 
  * "isotropic"), noise of the mean 0.0115 (3x 0.035); the tolerance 1.7x the error.
  * (Map turned by 0 / 1.57 / 4.71 rad: 0.060 / 0.081 / 0.150 against 0.268 / 0.240 / 0.631.) */
 #define TOL_ORDERS_PHASE 0.10
+/* [9] measured on the same scene (2026-12-04): VolumeDir 0.069 with the lights (default:
+ * 32 lights, 29% of the map's luminance), 0.113 with the whole map through the SH
+ * (lights=0), reference noise 0.016; the tolerance 1.3x the error, below the control */
+#define TOL_LIGHTS_DIR 0.09
 static void test_orders_phase(void)
 {
     static const char uniform[] = "\"environment\":{\"color\":[1,1,1]}";
@@ -654,6 +671,25 @@ static void test_orders_phase(void)
         printf("[8] ball in the sunset map, g 0.7, the phase on the orders (means %.4g / reference %.4g)\n",
                test_pass_sum(hg, VSD_PASS_VOLUME_IND), test_pass_sum(refs.mean, VSD_PASS_VOLUME_IND));
         mvr_check("backlit ball crm", hg, &refs, VSD_PASS_VOLUME_IND, TOL_ORDERS_PHASE, 0.8);
+    }
+    /* [9] the same references: the sun and the bright sky as exact lights (crm_lights.h)
+     * against the whole map through order-4 SH (lights=0), whose forward lobe the
+     * truncation cuts */
+    {
+        const char *sh_ov[] = {"environment.rotation_z=3.14", "medium.anisotropy=0.7", "medium.albedo=[0.95,0.95,0.95]",
+                               "render.method=crm", CRM_AREA, "render.options.lights=0"};
+        vsd_framebuffer *sh = mvr_render(&ball, sh_ov, 6, NULL, NULL);
+        CHECK(sh != NULL);
+        if (hg && sh) {
+            double el = mvr_error(hg, &refs, VSD_PASS_VOLUME_DIR), es = mvr_error(sh, &refs, VSD_PASS_VOLUME_DIR);
+            printf("[9] backlit ball VolumeDir: lights %.4f, SH only %.4f (means %.4g, %.4g / reference %.4g)\n", el, es,
+                   test_pass_sum(hg, VSD_PASS_VOLUME_DIR), test_pass_sum(sh, VSD_PASS_VOLUME_DIR),
+                   test_pass_sum(refs.mean, VSD_PASS_VOLUME_DIR));
+            mvr_check("backlit ball crm (lights)", hg, &refs, VSD_PASS_VOLUME_DIR, TOL_LIGHTS_DIR, 0.8);
+            CHECK_MSG(es > TOL_LIGHTS_DIR, "the SH-only control (%.4f) passes the lights' tolerance %.3f", es,
+                      TOL_LIGHTS_DIR);
+        }
+        vsd_framebuffer_destroy(sh);
     }
 done:
     mvr_refs_free(&refs);

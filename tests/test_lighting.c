@@ -3,12 +3,15 @@
  * without recomputation agreeing with the environment lookup's own rotation, and the
  * sub-lights of a grouped constellation (the same lights, each split again), and the map
  * averaged per HEALPix pixel (src/lighting/env_healpix.h: a constant map stays constant and
- * the integral is kept). */
+ * the integral is kept), and the split of a map into its bright texels as lights and the
+ * remainder (src/lighting/env_bright.h: the two sum to the map, only texels above the
+ * threshold leave it). */
 #include "test_common.h"
 #include "vsd/lighting.h"
 #include "vsd/env.h"
 #include "kernel/kernel_env.h"
 #include "src/lighting/env_healpix.h"
+#include "src/lighting/env_bright.h"
 #include "src/render/kernel_setup.h"
 #include <stdlib.h>
 #include <string.h>
@@ -324,8 +327,58 @@ static void test_healpix_average(void)
     vsd_env_destroy(sky);
 }
 
+/* The smooth map's lobe is far above 3x the mean, its gradient below: the lights take the
+ * lobe's texels (lights' power + the remainder's integral = the map's integral, per
+ * channel), the remainder keeps every texel at or under the threshold unchanged and is
+ * black where it took one, and a uniform map gives no light and an unchanged copy. */
+static void test_bright_split(void)
+{
+    const float grey[3] = {0.5f, 0.5f, 0.5f};
+    vsd_env *e = smooth_env(128, 64), *u = make_env(32, 16, grey);
+    vsd_env rest;
+    vsd_light_constellation lc;
+    double fraction, whole[3], left[3], lights[3] = {0, 0, 0}, mean_lum = 0.0;
+    size_t i, n, taken = 0, kept_wrong = 0;
+    int k, c;
+    if (!e || !u) goto done;
+    CHECK(vsd_env_split_bright(e, 3.0, 16, &rest, &lc, &fraction, NULL, 0) == VSD_OK);
+    if (!rest.rgb) goto done;
+    vsd_env_integral(e, whole);
+    vsd_env_integral(&rest, left);
+    for (k = 0; k < lc.count; k++)
+        for (c = 0; c < 3; c++) lights[c] += lc.lights[k].power[c];
+    for (c = 0; c < 3; c++) CHECK_NEAR(lights[c] + left[c], whole[c], 1e-4 * whole[c]);
+    CHECK_MSG(lc.count >= 1 && lc.count <= 16, "%d lights", lc.count);
+    CHECK_MSG(fraction > 0.05 && fraction < 0.95, "the lobe is %.3f of the map", fraction);
+    mean_lum = (0.2126 * whole[0] + 0.7152 * whole[1] + 0.0722 * whole[2]) / (4.0 * M_PI);
+    n = (size_t)e->width * e->height;
+    for (i = 0; i < n; i++) {
+        const float *p = e->rgb + 3 * i, *q = rest.rgb + 3 * i;
+        double lum = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+        if (lum > 3.0 * mean_lum * (1 + 1e-6)) {
+            taken++;
+            kept_wrong += q[0] != 0.0f || q[1] != 0.0f || q[2] != 0.0f;
+        } else if (lum < 3.0 * mean_lum * (1 - 1e-6)) {
+            kept_wrong += q[0] != p[0] || q[1] != p[1] || q[2] != p[2];
+        }
+    }
+    CHECK_MSG(taken > 0 && kept_wrong == 0, "%zu texels above the threshold, %zu wrong in the remainder", taken,
+              kept_wrong);
+    free(rest.rgb);
+    vsd_constellation_free(&lc);
+    CHECK(vsd_env_split_bright(u, 3.0, 16, &rest, &lc, &fraction, NULL, 0) == VSD_OK);
+    CHECK_MSG(lc.count == 0 && fraction == 0.0, "a uniform map gave %d lights (%.3f)", lc.count, fraction);
+    if (rest.rgb) CHECK(memcmp(rest.rgb, u->rgb, sizeof(float) * 3 * 32 * 16) == 0);
+    free(rest.rgb);
+    vsd_constellation_free(&lc);
+done:
+    vsd_env_destroy(e);
+    vsd_env_destroy(u);
+}
+
 int main(void)
 {
+    test_bright_split();
     test_healpix_average();
     test_sub_lights();
     test_power_conservation();

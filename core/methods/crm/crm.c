@@ -36,6 +36,7 @@
 #include "crm_device.h"
 #include "crm_hash_kernel.h"
 #include "crm_parts.h"
+#include "crm_lights.h"
 #include "src/method/method_parts.h"
 #include "src/grids/volume_groups.h"
 #include "src/common/clock.h"
@@ -46,6 +47,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* extracted lights (crm_lights.h): shgrid's defaults, as many as the view's node pass
+ * affords */
+#define CRM_DEFAULT_LIGHTS 32
+#define CRM_MAX_LIGHTS 64
+#define CRM_DEFAULT_LIGHT_THRESHOLD 3.0
+
 /* rbf_count 0: one RBF per this many non-zero voxels, within [MIN, MAX] (800 at 128^3 smoke;
  * a 22^3 puff gets 35 instead of 800 RBFs crowding its 3456 voxels, which cost a minute of
  * fitting and left nothing for the residual to do) */
@@ -55,8 +62,8 @@
 
 typedef struct crm_options {
     int rbf_count, fit_iterations, sh_order, cg_iterations, view_density, pixel_samples, delete_per_frame, insert_max;
-    int coherent, multiple, single, directions, orders, order_directions, order_cell, sky;
-    double node_spacing, step, early_termination, error_ratio;
+    int coherent, multiple, single, directions, orders, order_directions, order_cell, sky, lights;
+    double node_spacing, step, early_termination, error_ratio, light_threshold;
     vsd_view_sampling view;
 } crm_options;
 
@@ -78,6 +85,7 @@ static const char *const multiple_names[] = {"orders", "rbf", NULL};
 
 /* Options of one form of single or multiple scattering mean nothing under another. */
 static const vsd_option_when crm_on_single_grid[] = {{"single", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
+static const vsd_option_when crm_on_lights[] = {{"single", 0, 0, "grid"}, {"lights", 1, 0, NULL}, {NULL, 0, 0, NULL}};
 static const vsd_option_when crm_on_multiple_rbf[] = {{"multiple", 0, 0, "rbf"}, {NULL, 0, 0, NULL}};
 static const vsd_option_when crm_on_multiple_orders[] = {{"multiple", 0, 0, "orders"}, {NULL, 0, 0, NULL}};
 /* Deleting and inserting RBFs is how a coherent fit follows the frames. */
@@ -112,6 +120,13 @@ static const vsd_option_spec crm_option_rows[] = {
      "single grid: the light arriving from each direction, the map averaged per HEALPix pixel (a lamp or a small sun "
      "shadowed where it is) or the map's order-n SH (the paper's L_in)",
      offsetof(crm_options, sky), 0, NULL, .when = crm_on_single_grid},
+    {"lights", VSD_OPT_INT, 0, CRM_MAX_LIGHTS, CRM_DEFAULT_LIGHTS, NULL,
+     "single grid: the map's bright texels taken out of the SH sky as this many exact directional lights, each "
+     "with its own transmittance per node (0 = none: the whole map through the SH)",
+     offsetof(crm_options, lights), 0, NULL, .when = crm_on_single_grid},
+    {"light_threshold", VSD_OPT_NUMBER, 1, 1e30, CRM_DEFAULT_LIGHT_THRESHOLD, NULL,
+     "single grid: texels brighter than this multiple of the map's mean luminance become lights",
+     offsetof(crm_options, light_threshold), 0, NULL, .when = crm_on_lights},
     {"directions", VSD_OPT_INT, 12, 3072, 108, NULL, "single grid: HEALPix directions of the transmittance (12 nside^2)",
      offsetof(crm_options, directions), 0, healpix_count_problem, .when = crm_on_single_grid},
     {"multiple", VSD_OPT_CHOICE, 0, 0, MULTIPLE_ORDERS, multiple_names,
@@ -167,6 +182,10 @@ typedef struct crm_state {
     float *node_albedo;           /* [3 * nodes] a part's mixture albedo, else NULL */
     vsd_crm_node_depths depths;   /* the nodes' transmittance toward the sky, kept across
                                      lighting and medium edits (crm_node_single.h) */
+    vsd_crm_lights lights;        /* the bright texels as lights, their transmittance per node */
+    float *view_lights;           /* [8 * lights.count] for the view (crm_kernel.h) */
+    double *sky_dirs;             /* [3 * opt.directions] the sky's HEALPix directions */
+    float light_g;
     /* lighting (§5.3-5.4) */
     vsd_crm_od_table *table;
     double *j_ss, *j_ms, *l_m0;   /* per centre; l_m0 warm-starts the next solve */
@@ -223,6 +242,12 @@ static vsd_status crm_create(void **state, const vsd_scene *scene, const void *o
         free(s);
         return st;
     }
+    if (!(s->sky_dirs = vsd_crm_healpix_directions(s->opt.directions))) {
+        int directions = s->opt.directions;
+        vsd_crm_od_table_destroy(s->table);
+        free(s);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %d sky directions", directions);
+    }
     *state = s;
     return VSD_OK;
 }
@@ -238,6 +263,7 @@ static void free_frame(crm_state *s)
     free(s->node_albedo);
     s->node_albedo = NULL;
     vsd_crm_node_depths_free(&s->depths);
+    vsd_crm_node_depths_free(&s->lights.depths);
     vsd_crm_hash_destroy(s->hash);
     s->hash = NULL;
 }
@@ -554,12 +580,13 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     crm_state *s = state;
     const vsd_scene *sc = ctx->scene;
     int order = s->opt.sh_order, n2 = order * order, count = s->rbfs.count, c, q;
-    double env_sh[3 * 16], albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
+    double env_sh[3 * 16], grid_sh[3 * 16], albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
     double g = ctx->kd.medium.anisotropy;
     /* lighting at the RBF centres: the paper's forms (its diffusion reads its single
      * scattering there whatever lights the nodes) */
     int centres = s->opt.single == SINGLE_SH || s->opt.multiple == MULTIPLE_RBF;
     const vsd_crm_rbfs no_rbfs = {NULL, 0};
+    const vsd_env *grid_env = ctx->env;
     vsd_status st;
     if (s->parts.count) return vsd_parts_prepare_lighting(&s->parts, &vsd_method_crm, ctx, err, errlen);
     free(s->j_ss);
@@ -576,9 +603,24 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     albedo[0] = ctx->kd.medium.albedo.x;
     albedo[1] = ctx->kd.medium.albedo.y;
     albedo[2] = ctx->kd.medium.albedo.z;
-    if ((st = vsd_sh_project_env(order, ctx->env, sc->environment.strength, sc->environment.rotation_z, env_sh, err,
-                                 errlen)))
-        return st;
+    /* the sky the node grid's SH carries: the map less its bright texels, which become
+     * exact lights (crm_lights.h); the paper's forms at the centres see the whole map */
+    {
+        const vsd_env *sky_env = ctx->env;
+        if (s->opt.single == SINGLE_GRID &&
+            (st = vsd_crm_lights_update(&s->lights, ctx->env, s->opt.lights, s->opt.light_threshold,
+                                        sc->environment.strength, sc->environment.rotation_z, &sky_env, err, errlen)))
+            return st;
+        if ((st = vsd_sh_project_env(order, sky_env, sc->environment.strength, sc->environment.rotation_z, grid_sh, err,
+                                     errlen)))
+            return st;
+        if (sky_env != ctx->env &&
+            (st = vsd_sh_project_env(order, ctx->env, sc->environment.strength, sc->environment.rotation_z, env_sh, err,
+                                     errlen)))
+            return st;
+        if (sky_env == ctx->env) memcpy(env_sh, grid_sh, sizeof env_sh);
+        grid_env = sky_env;
+    }
     if (centres) {
         s->j_ss = malloc(sizeof(double) * (size_t)count * 3 * n2);
         s->j_ms = calloc((size_t)count * 12, sizeof(double));
@@ -616,6 +658,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             vsd_crm_part_medium(ctx, s->node_res, &n2w, ctx->kd.density.scale, s->node_density, s->node_albedo,
                                 part_emission);
             vsd_crm_node_depths_free(&s->depths);
+            vsd_crm_node_depths_free(&s->lights.depths);
         }
         if (!(sigma_t = malloc(nodes * sizeof *sigma_t))) {
             free(part_emission);
@@ -626,24 +669,35 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             int marched;
             t0 = vsd_clock_seconds();
             st = vsd_crm_node_depths_update(&s->depths, s->node_res, to_node, s->node_density, ctx->kd.density.scale,
-                                            s->opt.directions, ctx->threads, &marched, err, errlen);
+                                            s->sky_dirs, s->opt.directions, ctx->threads, &marched, err, errlen);
             if (!st && marched && s->node_albedo)
                 st = vsd_crm_part_shadows(ctx, &s->depths, &n2w, ctx->kd.density.scale, s->spacing * (float)s->voxel_world,
                                           ctx->threads, err, errlen);
-            s->transmittance_seconds = marched ? vsd_clock_seconds() - t0 : 0.0;
             s->transmittance_marches += marched;
+            if (!st) {
+                /* toward the extracted lights: marched again when they turn with the map */
+                int lights_marched;
+                st = vsd_crm_lights_march(&s->lights, s->node_res, to_node, s->node_density, ctx->kd.density.scale,
+                                          ctx->threads, &lights_marched, err, errlen);
+                if (!st && lights_marched && s->node_albedo)
+                    st = vsd_crm_part_shadows(ctx, &s->lights.depths, &n2w, ctx->kd.density.scale,
+                                              s->spacing * (float)s->voxel_world, ctx->threads, err, errlen);
+                if (!st) st = vsd_crm_lights_transmittance(&s->lights, ctx->kd.density.scale, err, errlen);
+                marched |= lights_marched;
+            }
+            s->transmittance_seconds = marched ? vsd_clock_seconds() - t0 : 0.0;
             {
                 float *sky = NULL;
                 if (!st && s->opt.sky == SKY_PIXELS) {
                     /* the map per HEALPix pixel of the transmittance's directions */
                     sky = malloc(4 * (size_t)s->opt.directions * sizeof *sky);
-                    if (!sky || !vsd_env_healpix_radiance(ctx->env, &ctx->kd.env, vsd_sh_healpix_nside(s->opt.directions), sky))
+                    if (!sky || !vsd_env_healpix_radiance(grid_env, &ctx->kd.env, vsd_sh_healpix_nside(s->opt.directions), sky))
                         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the sky of %d directions",
                                       s->opt.directions);
                 }
                 if (!st)
                     st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, s->node_albedo ? unit : albedo, g,
-                                             order, env_sh, sky, ctx->threads, s->nodes.nodes, s->nodes.valid, err,
+                                             order, grid_sh, sky, ctx->threads, s->nodes.nodes, s->nodes.valid, err,
                                              errlen);
                 free(sky);
             }
@@ -661,13 +715,27 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         if (!st && s->opt.multiple == MULTIPLE_ORDERS) {
             float *emission = part_emission;
             if (!s->node_albedo && ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
+            /* the lights' single scattering is J_1 too: in its bands for the orders only */
+            if (!st) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, 1.0f, s->nodes.nodes);
             if (!st)
                 st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, s->node_albedo ? unit : albedo,
                                     s->node_albedo, g, s->nodes.nodes, s->nodes.valid, s->opt.order_cell,
                                     s->opt.order_directions, s->opt.orders, 0.01, ctx->threads, &s->orders, err, errlen);
+            vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, -1.0f, s->nodes.nodes);
             if (emission != part_emission) free(emission);
         }
         if (!st && unit_single) own_albedo_single(s, unit_single, albedo);
+        /* the view's lights carry the volume's own albedo and phase, as its single
+         * scattering does */
+        free(s->view_lights);
+        s->view_lights = NULL;
+        s->light_g = (float)g;
+        if (!st && s->lights.count > 0) {
+            if (!(s->view_lights = malloc(sizeof *s->view_lights * 8 * (size_t)s->lights.count)))
+                st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for %d lights", s->lights.count);
+            else
+                vsd_crm_lights_view(&s->lights, albedo, s->view_lights);
+        }
         free(part_emission);
         free(unit_single);
         free(sigma_t);
@@ -684,10 +752,12 @@ static void crm_info(const crm_state *s, vsd_frame_ctx *ctx)
     snprintf(ctx->info, ctx->info_len,
              "rbfs=%d fit_rel_error=%.5g fit_seconds=%.3f fit_evaluations=%d fit_cached=%d fits_run=%lld "
              "hash_stored=%zu hash_bytes=%zu hash_seconds=%.3f single_seconds=%.3f transmittance_seconds=%.3f transmittance_marches=%lld cg_iterations=%d "
-             "diffusion_seconds=%.3f orders=%d orders_tail=%.3f orders_seconds=%.3f nodes=%dx%dx%d node_seconds=%.3f",
+             "diffusion_seconds=%.3f orders=%d orders_tail=%.3f orders_seconds=%.3f nodes=%dx%dx%d node_seconds=%.3f "
+             "lights=%d light_fraction=%.3f light_marches=%lld",
              s->rbfs.count, s->fit.rel_error, s->fit.seconds, s->fit.evaluations, s->fit_cached, s->fits_run,
              hs.stored, hs.bytes, hs.build_seconds, s->single_seconds, s->transmittance_seconds, s->transmittance_marches, s->diffusion.iterations, s->diffusion.seconds,
-             s->orders.orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds);
+             s->orders.orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds,
+             s->lights.count, s->lights.fraction, s->lights.marches);
 }
 
 /* The view's kernel struct for this state, its per-view node pass done on the CPU threads
@@ -706,6 +776,12 @@ static vsd_status view_struct(crm_state *s, vsd_frame_ctx *ctx, vsd_kcrm *kc, in
     kc->node_spacing = s->nodes.spacing > 0 ? s->nodes.spacing : 1.0f;
     kc->view_density = s->opt.view_density;
     kc->order = s->opt.sh_order;
+    if (s->view_lights && s->lights.tr) {
+        kc->light_count = s->lights.count;
+        kc->light_tr = s->lights.tr;
+        kc->lights = s->view_lights;
+        kc->light_g = s->light_g;
+    }
     if (s->nodes.nodes) {
         size_t count = (size_t)kc->node_res[0] * kc->node_res[1] * kc->node_res[2];
         vsd_status st = node_to_world(s, ctx, &kc->node_to_world, err, errlen);
@@ -798,6 +874,9 @@ static void crm_destroy(void *state)
     free(s->j_ms);
     free(s->l_m0);
     free(s->view_nodes);
+    free(s->view_lights);
+    free(s->sky_dirs);
+    vsd_crm_lights_free(&s->lights);
     vsd_crm_source_grid_free(&s->nodes);
     vsd_parts_free(&s->parts, &vsd_method_crm);
     free(s);

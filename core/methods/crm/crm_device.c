@@ -7,12 +7,14 @@
 /* crm's resident slots (cuda_backend.h) */
 VSD_DEVICE_SLOT(crm_dtilde, "crm reduced density");
 VSD_DEVICE_SLOT(crm_dfull, "crm full density");
-/* The nodes, their validity and this view's node values: set 0 for one volume, set i for
+/* The nodes, their validity, this view's node values and the extracted lights (their
+ * transmittance per node, their directions and powers): set 0 for one volume, set i for
  * part i of several (crm_parts.h), each part's in slots of its own. */
 #define NODE_SLOTS(p)                                                                                      \
     {{p " nodes", VSD_CUDA_METHOD_SLOT}, {p " node validity", VSD_CUDA_METHOD_SLOT},                         \
-     {p " view nodes", VSD_CUDA_METHOD_SLOT}}
-static const vsd_cuda_slot_desc node_slots[VSD_KMAX_VOLUMES][3] = {
+     {p " view nodes", VSD_CUDA_METHOD_SLOT}, {p " light transmittance", VSD_CUDA_METHOD_SLOT},              \
+     {p " lights", VSD_CUDA_METHOD_SLOT}}
+static const vsd_cuda_slot_desc node_slots[VSD_KMAX_VOLUMES][5] = {
     NODE_SLOTS("crm"),         NODE_SLOTS("crm part 1"),  NODE_SLOTS("crm part 2"),  NODE_SLOTS("crm part 3"),
     NODE_SLOTS("crm part 4"),  NODE_SLOTS("crm part 5"),  NODE_SLOTS("crm part 6"),  NODE_SLOTS("crm part 7"),
     NODE_SLOTS("crm part 8"),  NODE_SLOTS("crm part 9"),  NODE_SLOTS("crm part 10"), NODE_SLOTS("crm part 11"),
@@ -21,6 +23,8 @@ static const vsd_cuda_slot_desc node_slots[VSD_KMAX_VOLUMES][3] = {
 
 static size_t voxels(const vsd_kcrm *c) { return (size_t)c->dims[0] * c->dims[1] * c->dims[2]; }
 static size_t nodes(const vsd_kcrm *c) { return (size_t)c->node_res[0] * c->node_res[1] * c->node_res[2]; }
+static size_t light_tr_bytes(const vsd_kcrm *c) { return nodes(c) * (size_t)c->light_count * sizeof(float); }
+static size_t lights_bytes(const vsd_kcrm *c) { return (size_t)c->light_count * 8 * sizeof(float); }
 
 static vsd_sample_result view_sample(const void *m, int x, int y, int s, int n)
 {
@@ -50,6 +54,10 @@ static void node_arrays(const void *m, vsd_pass_args a, vsd_pass_array_visit vis
     (void)a;
     visit(user, c->nodes, nodes(c) * CRM_NODE_FLOATS * sizeof(float), "crm.nodes");
     visit(user, c->node_valid, nodes(c), "crm.node_valid");
+    if (c->light_count > 0) {
+        visit(user, c->light_tr, light_tr_bytes(c), "crm.light_tr");
+        visit(user, c->lights, lights_bytes(c), "crm.lights");
+    }
 }
 
 VSD_CUDA_ENTRY_DECL(vsd_cuda_crm_view_nodes);
@@ -98,6 +106,14 @@ static vsd_status nodes_to_device(const vsd_frame_ctx *ctx, const vsd_kcrm *h, i
     d->nodes = p;
     if ((st = vsd_device_array(ctx, &sl[1], ctx->lighting_gen, h->node_valid, nodes(h), &p, err, errlen))) return st;
     d->node_valid = p;
+    if (h->light_count > 0) {
+        if ((st = vsd_device_array(ctx, &sl[3], ctx->lighting_gen, h->light_tr, light_tr_bytes(h), &p, err, errlen)))
+            return st;
+        d->light_tr = p;
+        if ((st = vsd_device_array(ctx, &sl[4], ctx->lighting_gen, h->lights, lights_bytes(h), &p, err, errlen)))
+            return st;
+        d->lights = p;
+    }
     if ((st = vsd_device_scratch(ctx, &sl[2], bytes, 0, &view, err, errlen))) return st;
     d->view_nodes = view;
     return vsd_device_run(ctx, &crm_node_pass, d, h->kd, a, (int)nodes(h), view, bytes, 0.0f, 0.0f, err, errlen);

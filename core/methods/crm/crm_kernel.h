@@ -17,6 +17,9 @@
  *                 vsd_crm_view_node) evaluates each node's SH toward the eye once, and the
  *                 march reads the 8 surrounding nodes' values trilinearly (corners cached
  *                 per cell).
+ *   lights        with `lights` (crm_lights.h), the map's bright texels as K directional
+ *                 lights outside the SH: each node's transmittance toward each, and the
+ *                 node pass adds albedo E_k T_k HG(-w_k . w_o) with the exact phase.
  * VolumeDir receives the single-scattering source, VolumeInd the multiple.
  *
  * Coordinates: "crm space" is the RBF fit's voxel index space, voxel (i,j,k) of the dense
@@ -29,6 +32,7 @@
 #include "kernel/kernel_camera.h"
 #include "kernel/kernel_march.h"
 #include "kernel/kernel_sh.h"
+#include "kernel/kernel_phase.h"
 #include "kernel/kernel_record_grid.h" /* vsd_records_dot */
 #include "device/device_pass.h"
 
@@ -57,7 +61,11 @@ typedef struct VSD_ALIGN16 vsd_kcrm {
     float node_spacing;            /* voxels between nodes (crm space) */
     int32_t view_density;          /* CRM_VIEW_* */
     int32_t order;                 /* of the single-scattering SH actually used (<= 4) */
-    float pad_[2];
+    /* the extracted lights (crm_lights.h), light_count 0 = none */
+    const float *light_tr;         /* [node count * light_count] T from each node toward each light */
+    const float *lights;           /* [light_count * 8] world direction xyz, 0, albedo * E rgb, 0 */
+    int32_t light_count;
+    float light_g;                 /* HG's g of the single scattering */
 } vsd_kcrm;
 
 /* Trilinear weights of the 8 voxels around crm-space point q (voxel centres at +0.5) and
@@ -147,6 +155,18 @@ VSD_DEVICE void vsd_crm_view_node(const vsd_kcrm *c, int i, int n, void *out)
      * scattering's order (y has room for 16) */
     vsd_sh_eval_f(c->order > 2 ? c->order : 2, w, y);
     vsd_crm_node_source(c, i, y, &ss, &ms);
+    if (c->light_count > 0 && (c->node_valid[i] & CRM_NODE_SINGLE)) {
+        /* the bright texels, outside the SH: light travels along -w_k and leaves toward w */
+        const float *t = c->light_tr + (size_t)i * c->light_count;
+        int32_t k;
+        for (k = 0; k < c->light_count; k++) {
+            const float *l = c->lights + 8 * (size_t)k;
+            float f;
+            if (!(t[k] > 0.0f)) continue;
+            f = t[k] * vsd_hg_eval(-(w.x * l[0] + w.y * l[1] + w.z * l[2]), c->light_g);
+            ss = f3(ss.x + f * l[4], ss.y + f * l[5], ss.z + f * l[6]);
+        }
+    }
     /* single scattering falls exponentially into the medium: the view blends its log (the
      * weighted geometric mean), as shgrid's records do */
     o[0] = logf(ss.x > CRM_LOG_FLOOR ? ss.x : CRM_LOG_FLOOR);

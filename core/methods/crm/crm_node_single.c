@@ -2,6 +2,7 @@
 #include "crm_single_directions.h"
 #include "crm_kernel.h"
 #include "src/grids/padded_grid.h"
+#include "vsd/sh.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -40,16 +41,29 @@ static double march(const void *user, const double p[3], const double w[3])
     return od / len;
 }
 
+double *vsd_crm_healpix_directions(int directions)
+{
+    long nside = vsd_sh_healpix_nside(directions);
+    double *dirs = nside ? malloc(sizeof *dirs * 3 * (size_t)directions) : NULL;
+    char err[64];
+    if (dirs && vsd_sh_healpix_dirs(nside, dirs, err, sizeof err)) {
+        free(dirs);
+        dirs = NULL;
+    }
+    return dirs;
+}
+
 void vsd_crm_node_depths_free(vsd_crm_node_depths *c)
 {
+    free(c->dirs);
     free(c->which);
     free(c->od);
     memset(c, 0, sizeof *c);
 }
 
 vsd_status vsd_crm_node_depths_update(vsd_crm_node_depths *c, const int32_t res[3], const double to_node[9],
-                                      const float *density, float scale, int directions, int threads, int *marched,
-                                      char *err, size_t errlen)
+                                      const float *density, float scale, const double *dirs, int directions, int threads,
+                                      int *marched, char *err, size_t errlen)
 {
     node_depth depth;
     size_t n = (size_t)res[0] * res[1] * res[2], i, m = 0;
@@ -59,7 +73,8 @@ vsd_status vsd_crm_node_depths_update(vsd_crm_node_depths *c, const int32_t res[
     /* a march stopped at optical depth 7 / c->scale has, at any scale >= c->scale, reached
      * transmittance e^-7 < 1e-3 where it stopped: the cut still means "no light" */
     if (c->od && c->directions == directions && memcmp(c->res, res, sizeof c->res) == 0 &&
-        memcmp(c->to_node, to_node, sizeof c->to_node) == 0 && scale >= c->scale)
+        memcmp(c->to_node, to_node, sizeof c->to_node) == 0 &&
+        memcmp(c->dirs, dirs, sizeof *dirs * 3 * (size_t)directions) == 0 && scale >= c->scale)
         return VSD_OK;
     vsd_crm_node_depths_free(c);
     memcpy(depth.res, res, sizeof depth.res);
@@ -69,9 +84,10 @@ vsd_status vsd_crm_node_depths_update(vsd_crm_node_depths *c, const int32_t res[
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the padded node grid");
     for (i = 0; i < n; i++) m += density[i] > 0.0f;
     c->which = malloc((m ? m : 1) * sizeof *c->which);
-    c->od = malloc((m ? m : 1) * (size_t)directions * sizeof *c->od);
+    c->od = malloc((m ? m : 1) * (size_t)(directions ? directions : 1) * sizeof *c->od);
+    c->dirs = malloc((directions ? directions : 1) * 3 * sizeof *c->dirs);
     points = malloc((m ? m : 1) * 3 * sizeof *points);
-    if (!c->which || !c->od || !points) {
+    if (!c->which || !c->od || !c->dirs || !points) {
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the transmittance of %zu nodes x %d directions", m,
                       directions);
         goto done;
@@ -84,7 +100,9 @@ vsd_status vsd_crm_node_depths_update(vsd_crm_node_depths *c, const int32_t res[
         points[3 * m + 2] = (double)(i / ((size_t)res[0] * res[1]));
         m++;
     }
-    if ((st = vsd_crm_optical_depths((int)m, points, march, &depth, directions, threads, c->od, err, errlen))) goto done;
+    memcpy(c->dirs, dirs, sizeof *dirs * 3 * (size_t)directions);
+    if ((st = vsd_crm_optical_depths((int)m, points, march, &depth, dirs, directions, threads, c->od, err, errlen)))
+        goto done;
     memcpy(c->res, res, sizeof c->res);
     memcpy(c->to_node, to_node, sizeof c->to_node);
     c->directions = directions;

@@ -86,29 +86,25 @@ vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c
                                 float step, int threads, char *err, size_t errlen)
 {
     shadow_job job;
-    double *dirs;
     size_t points, m;
     vsd_status st;
     int a, d;
     if (!(scale > 0.0f) || c->count == 0) return VSD_OK;
     for (a = 0; a < 3; a++) job.cres[a] = c->res[a] / 2 + 1;
     points = (size_t)job.cres[0] * job.cres[1] * job.cres[2];
-    dirs = malloc(sizeof *dirs * 3 * (size_t)c->directions);
+    if (c->directions == 0) return VSD_OK;
     job.od = malloc(sizeof *job.od * points * (size_t)c->directions);
-    if (!dirs || !job.od || points > 0x7fffffff) {
-        free(dirs);
+    if (!job.od || points > 0x7fffffff) {
         free(job.od);
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the shadows of %zu points x %d directions",
                         points, c->directions);
     }
-    if (!(st = vsd_sh_healpix_dirs(vsd_sh_healpix_nside(c->directions), dirs, err, errlen))) {
-        job.ctx = ctx;
-        job.n2w = n2w;
-        job.dirs = dirs;
-        job.directions = c->directions;
-        job.step = step;
-        st = vsd_cpu_run_items((int)points, threads, shadow_items, &job, "crm shadows of the other volumes");
-    }
+    job.ctx = ctx;
+    job.n2w = n2w;
+    job.dirs = c->dirs;
+    job.directions = c->directions;
+    job.step = step;
+    st = vsd_cpu_run_items((int)points, threads, shadow_items, &job, "crm shadows of the other volumes");
     for (m = 0; !st && m < c->count; m++) {
         /* trilinear between the 8 coarse points around the node */
         int32_t node = c->which[m], q[3] = {node % c->res[0], (node / c->res[0]) % c->res[1],
@@ -137,7 +133,6 @@ vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c
             c->od[m * c->directions + d] += sum / scale;
         }
     }
-    free(dirs);
     free(job.od);
     return st;
 }

@@ -89,28 +89,19 @@ static vsd_status check_sky(int order, int directions, double g, char *err, size
 }
 
 vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth_fn optical_depth, const void *user,
-                                  int directions, int threads, float *od, char *err, size_t errlen)
+                                  const double *dirs, int directions, int threads, float *od, char *err, size_t errlen)
 {
-    long nside = vsd_sh_healpix_nside(directions);
     depth_job job;
-    double *dirs;
-    vsd_status st;
-    if (!nside)
-        return vsd_fail(VSD_ERR_INVALID, err, errlen, "crm optical depths: %d directions is not 12 nside^2", directions);
-    if (count == 0) return VSD_OK;
-    if (!(dirs = malloc(sizeof(double) * 3 * (size_t)directions)))
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm optical depths: no memory for %d directions", directions);
-    if (!(st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) {
-        job.points = points;
-        job.depth = optical_depth;
-        job.user = user;
-        job.dirs = dirs;
-        job.m = directions;
-        job.od = od;
-        st = vsd_cpu_run_items(count, threads, run_depths, &job, "crm transmittance");
-    }
-    free(dirs);
-    return st;
+    (void)err;
+    (void)errlen;
+    if (count == 0 || directions == 0) return VSD_OK;
+    job.points = points;
+    job.depth = optical_depth;
+    job.user = user;
+    job.dirs = dirs;
+    job.m = directions;
+    job.od = od;
+    return vsd_cpu_run_items(count, threads, run_depths, &job, "crm transmittance");
 }
 
 vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3], double g,

@@ -23,10 +23,11 @@
 typedef double (*vsd_crm_depth_fn)(const void *user, const double p[3], const double w[3]);
 /* The two halves of it, for callers that keep the transmittance between lighting changes
  * (crm_node_single.h): od[p * directions + d], the optical depth from point p toward
- * HEALPix direction d (RING order) as optical_depth gives it; then the projection of
- * L_in exp(-scale od) with HG and the albedo, for any scale of the extinction. */
+ * direction d of dirs (unit, 3 doubles each: the HEALPix directions in RING order for the
+ * sky, crm_lights.h's for the extracted lights) as optical_depth gives it; then the
+ * projection of L_in exp(-scale od) with HG and the albedo, for any scale of the extinction. */
 vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth_fn optical_depth, const void *user,
-                                  int directions, int threads, float *od, char *err, size_t errlen);
+                                  const double *dirs, int directions, int threads, float *od, char *err, size_t errlen);
 /* sky: NULL = L_in from env_sh (the map's order-`order` SH, the paper's); else the map
  * averaged over each of the `directions` HEALPix pixels (src/lighting/env_healpix.h, 4
  * floats each), so a lamp or a small sun is shadowed where it is, not as its SH blur. */

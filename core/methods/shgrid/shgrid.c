@@ -23,6 +23,7 @@
  * (default 3: texels brighter than this multiple of the map's mean luminance are
  * extracted). The paper's pure form is lights=0, interpolation="nearest". */
 #include "src/method/method.h"
+#include "src/lighting/env_bright.h"
 #include "src/render/accum.h"
 #include "src/render/kernel_setup.h"
 #include "src/grids/record_grid.h"
@@ -288,61 +289,16 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
     return VSD_OK;
 }
 
-/* Extension (shgrid_kernel.h): split the map into its bright texels — luminance above
- * light_threshold times the map's mean luminance over the sphere — and the remainder.
- * The bright part becomes at most light_max median-cut lights (texture frame, equal
- * energy: a compact sun gets all of them); the remainder, kept in s->rest, is what the SH
- * projections see. */
+/* Extension (shgrid_kernel.h): the map's texels above light_threshold times its mean
+ * luminance as at most `lights` median-cut lights, the remainder (s->rest) what the SH
+ * projections see (src/lighting/env_bright.h). */
 static vsd_status split_env(shgrid_state *s, const vsd_env *env, char *err, size_t errlen)
 {
-    size_t n = (size_t)env->width * env->height, k;
-    float *bright;
-    double total = 0.0, taken = 0.0, thr;
-    int row, col;
-    vsd_status st = VSD_OK;
     vsd_constellation_free(&s->bright);
-    memset(&s->bright, 0, sizeof s->bright);
     free(s->rest.rgb);
-    s->rest = *env;
-    s->rest.rgb = malloc(sizeof(float) * 3 * n);
-    bright = calloc(3 * n, sizeof(float));
-    if (!s->rest.rgb || !bright) {
-        free(bright);
-        free(s->rest.rgb);
-        s->rest.rgb = NULL;
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "%s: no memory to split the map", env->file);
-    }
-    memcpy(s->rest.rgb, env->rgb, sizeof(float) * 3 * n);
-    for (row = 0; row < env->height; row++) {
-        double dom = vsd_env_texel_solid_angle(env->width, env->height, row);
-        for (col = 0; col < env->width; col++) {
-            const float *p = env->rgb + 3 * ((size_t)row * env->width + col);
-            total += dom * vsd_luminance(f3(p[0], p[1], p[2]));
-        }
-    }
-    thr = s->opt.light_threshold * total / (4.0 * VSD_PI);
-    for (row = 0; row < env->height; row++) {
-        double dom = vsd_env_texel_solid_angle(env->width, env->height, row);
-        for (col = 0; col < env->width; col++) {
-            k = 3 * ((size_t)row * env->width + col);
-            {
-                float *p = s->rest.rgb + k;
-                double lum = vsd_luminance(f3(p[0], p[1], p[2]));
-                if (!(lum > thr)) continue;
-                memcpy(bright + k, p, 3 * sizeof(float));
-                p[0] = p[1] = p[2] = 0.0f;
-                taken += dom * lum;
-            }
-        }
-    }
-    s->bright_fraction = total > 0.0 ? taken / total : 0.0;
-    if (taken > 0.0) {
-        vsd_env benv = *env;
-        benv.rgb = bright;
-        st = vsd_constellation_build(&benv, s->opt.lights, VSD_LIGHTS_MEDIAN_CUT, &s->bright, err, errlen);
-    }
-    free(bright);
-    return st;
+    s->rest.rgb = NULL;
+    return vsd_env_split_bright(env, s->opt.light_threshold, s->opt.lights, &s->rest, &s->bright, &s->bright_fraction,
+                                err, errlen);
 }
 
 /* Isotropic phase: each record's in-scattered radiance (SH term plus the extracted
