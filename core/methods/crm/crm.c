@@ -136,7 +136,7 @@ static const vsd_option_spec crm_option_rows[] = {
     {"cg_iterations", VSD_OPT_INT, 0, 10000, VSD_CRM_DIFFUSION_MAX_ITER, NULL,
      "multiple rbf: CG iterations of eq. 13 (early stopping regularises it; the paper: 20-40)",
      offsetof(crm_options, cg_iterations), 0, NULL, .when = crm_on_multiple_rbf},
-    {"orders", VSD_OPT_INT, 1, 64, 12, NULL,
+    {"orders", VSD_OPT_INT, 1, 64, 24, NULL,
      "multiple orders: most orders followed before the geometric tail closes the series",
      offsetof(crm_options, orders), 0, NULL, .when = crm_on_multiple_orders},
     {"order_directions", VSD_OPT_INT, 12, 768, 48, NULL, "multiple orders: HEALPix directions gathered per cell and order",
