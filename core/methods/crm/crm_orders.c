@@ -345,26 +345,40 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
      * extinction, so empty nodes must not dilute it); with per-node albedos the cell's is
      * sigma-weighted too (it scatters sigma_s = albedo sigma), and J_1, which the single
      * scattering gave with `albedo`, is rescaled to the node's: the first scattering of
-     * the mixture there */
+     * the mixture there. The means are tent-weighted around the cell, whose centre is fine
+     * node `coarse` * its index (weight 1 - |offset| / coarse per axis): the transpose of
+     * the trilinear interpolation that brings J_ms back, so neither moves the light. (A box
+     * of the nodes nearest each cell, as before, centred the cell's inputs half a fine node
+     * below where the marches and the interpolation put it: VolumeInd shifted by about one
+     * node spacing, docs/methods/crm.md.) */
     for (i = 0; i < fine; i++) {
-        int32_t x = (int32_t)(i % node_res[0]), y = (int32_t)((i / node_res[0]) % node_res[1]);
-        int32_t z = (int32_t)(i / ((size_t)node_res[0] * node_res[1]));
-        size_t n = ((size_t)((z + coarse / 2) / coarse) * g.res[1] + (y + coarse / 2) / coarse) * g.res[0] +
-                   (x + coarse / 2) / coarse;
+        int32_t q[3] = {(int32_t)(i % node_res[0]), (int32_t)((i / node_res[0]) % node_res[1]),
+                        (int32_t)(i / ((size_t)node_res[0] * node_res[1]))}, lo[3], cx, cy, cz;
         double s = sigma_t[i];
-        if (n >= g.n) continue;
-        g.sigma[n] += (float)s;
-        wsum[n] += 1.0;
-        if (emission)
-            for (c = 0; c < 3; c++) g.emit[3 * n + c] += emission[3 * i + c];
-        if (g.albedo)
-            for (c = 0; c < 3; c++) g.albedo[3 * n + c] += (float)(s * node_albedo[3 * i + c]);
-        if (valid[i] & CRM_NODE_SINGLE)
-            for (c = 0; c < 3; c++) {
-                double to_node = !node_albedo ? 1.0 : albedo[c] > 0.0 ? node_albedo[3 * i + c] / albedo[c] : 0.0;
-                for (l = 0; l < nb; l++)
-                    g.j[(3 * n + c) * nb + l] += (float)(s * to_node * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
-            }
+        for (a = 0; a < 3; a++) lo[a] = q[a] / coarse;
+        for (cz = lo[2]; cz <= lo[2] + 1; cz++)
+            for (cy = lo[1]; cy <= lo[1] + 1; cy++)
+                for (cx = lo[0]; cx <= lo[0] + 1; cx++) {
+                    double w = (1.0 - fabs((double)(q[0] - cx * coarse)) / coarse) *
+                               (1.0 - fabs((double)(q[1] - cy * coarse)) / coarse) *
+                               (1.0 - fabs((double)(q[2] - cz * coarse)) / coarse);
+                    size_t n;
+                    if (!(w > 0.0) || cx >= g.res[0] || cy >= g.res[1] || cz >= g.res[2]) continue;
+                    n = ((size_t)cz * g.res[1] + (size_t)cy) * g.res[0] + (size_t)cx;
+                    g.sigma[n] += (float)(w * s);
+                    wsum[n] += w;
+                    if (emission)
+                        for (c = 0; c < 3; c++) g.emit[3 * n + c] += (float)(w * emission[3 * i + c]);
+                    if (g.albedo)
+                        for (c = 0; c < 3; c++) g.albedo[3 * n + c] += (float)(w * s * node_albedo[3 * i + c]);
+                    if (valid[i] & CRM_NODE_SINGLE)
+                        for (c = 0; c < 3; c++) {
+                            double to_node = !node_albedo ? 1.0 : albedo[c] > 0.0 ? node_albedo[3 * i + c] / albedo[c] : 0.0;
+                            for (l = 0; l < nb; l++)
+                                g.j[(3 * n + c) * nb + l] +=
+                                    (float)(w * s * to_node * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
+                        }
+                }
     }
     for (i = 0; i < g.n; i++) {
         for (c = 0; c < 3 * nb; c++) g.j[3 * nb * i + c] = g.sigma[i] > 0.0f ? g.j[3 * nb * i + c] / g.sigma[i] : 0.0f;
