@@ -65,7 +65,7 @@
  *     0.050 / 0.060);
  *   crm: Combined 0.0177, VolumeDir 0.0375, VolumeInd 0.0482, Transmittance 0.0011 (the
  *     orders' coarse cells centred, the map's bright texels as lights, 2026-12-04; before the
- *     centring 0.0289 / 0.0375 / 0.11; before the lights, the default path with nodes
+ *     centring Combined 0.0289, VolumeDir 0.0375; before the lights, the default path with nodes
  *     following the box's shape 0.0274 / 0.0425 / 0.0962; with 37x37x49 nodes 0.0305 /
  *     0.0542 / 0.1100, and with the fitted D~ + R view before that 0.0305 / 0.0536 / 0.1103);
  *   controls on Combined: multiple scattering removed 0.655, halved 0.339, albedo 0 1.31;
