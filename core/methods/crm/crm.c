@@ -50,7 +50,6 @@
 /* extracted lights (crm_lights.h): shgrid's defaults, as many as the view's node pass
  * affords */
 #define CRM_DEFAULT_LIGHTS 32
-#define CRM_MAX_LIGHTS 64
 #define CRM_DEFAULT_LIGHT_THRESHOLD 3.0
 
 /* rbf_count 0: one RBF per this many non-zero voxels, within [MIN, MAX] (800 at 128^3 smoke;
@@ -120,7 +119,7 @@ static const vsd_option_spec crm_option_rows[] = {
      "single grid: the light arriving from each direction, the map averaged per HEALPix pixel (a lamp or a small sun "
      "shadowed where it is) or the map's order-n SH (the paper's L_in)",
      offsetof(crm_options, sky), 0, NULL, .when = crm_on_single_grid},
-    {"lights", VSD_OPT_INT, 0, CRM_MAX_LIGHTS, CRM_DEFAULT_LIGHTS, NULL,
+    {"lights", VSD_OPT_INT, 0, VSD_CRM_MAX_LIGHTS, CRM_DEFAULT_LIGHTS, NULL,
      "single grid: the map's bright texels taken out of the SH sky as this many exact directional lights, each "
      "with its own transmittance per node (0 = none: the whole map through the SH)",
      offsetof(crm_options, lights), 0, NULL, .when = crm_on_single_grid},
@@ -580,7 +579,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     crm_state *s = state;
     const vsd_scene *sc = ctx->scene;
     int order = s->opt.sh_order, n2 = order * order, count = s->rbfs.count, c, q;
-    double env_sh[3 * 16], grid_sh[3 * 16], albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
+    double grid_sh[3 * 16], albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
     double g = ctx->kd.medium.anisotropy;
     /* lighting at the RBF centres: the paper's forms (its diffusion reads its single
      * scattering there whatever lights the nodes) */
@@ -605,23 +604,23 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     albedo[2] = ctx->kd.medium.albedo.z;
     /* the sky the node grid's SH carries: the map less its bright texels, which become
      * exact lights (crm_lights.h); the paper's forms at the centres see the whole map */
-    {
-        const vsd_env *sky_env = ctx->env;
-        if (s->opt.single == SINGLE_GRID &&
-            (st = vsd_crm_lights_update(&s->lights, ctx->env, s->opt.lights, s->opt.light_threshold,
-                                        sc->environment.strength, sc->environment.rotation_z, &sky_env, err, errlen)))
-            return st;
-        if ((st = vsd_sh_project_env(order, sky_env, sc->environment.strength, sc->environment.rotation_z, grid_sh, err,
-                                     errlen)))
-            return st;
-        if (sky_env != ctx->env &&
-            (st = vsd_sh_project_env(order, ctx->env, sc->environment.strength, sc->environment.rotation_z, env_sh, err,
-                                     errlen)))
-            return st;
-        if (sky_env == ctx->env) memcpy(env_sh, grid_sh, sizeof env_sh);
-        grid_env = sky_env;
-    }
+    if (s->opt.single == SINGLE_GRID &&
+        (st = vsd_crm_lights_update(&s->lights, ctx->env, s->opt.lights, s->opt.light_threshold,
+                                    sc->environment.strength, sc->environment.rotation_z, &grid_env, err, errlen)))
+        return st;
+    if ((st = vsd_sh_project_env(order, grid_env, sc->environment.strength, sc->environment.rotation_z, grid_sh, err,
+                                 errlen)))
+        return st;
     if (centres) {
+        /* the whole map, where the lights took texels from the grid's sky */
+        const double *env_sh = grid_sh;
+        double whole_sh[3 * 16];
+        if (grid_env != ctx->env) {
+            if ((st = vsd_sh_project_env(order, ctx->env, sc->environment.strength, sc->environment.rotation_z, whole_sh,
+                                         err, errlen)))
+                return st;
+            env_sh = whole_sh;
+        }
         s->j_ss = malloc(sizeof(double) * (size_t)count * 3 * n2);
         s->j_ms = calloc((size_t)count * 12, sizeof(double));
         if (!s->j_ss || !s->j_ms)

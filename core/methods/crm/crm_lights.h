@@ -23,6 +23,9 @@
 #include "vsd/status.h"
 #include "crm_node_single.h"
 
+/* the most lights the option allows */
+#define VSD_CRM_MAX_LIGHTS 64
+
 typedef struct vsd_crm_lights {
     /* the split, kept while the map's content, the count and the threshold stand */
     uint64_t key;
