@@ -232,13 +232,13 @@ static void test_deterministic_exact(void)
 #define TOL_LBL3_EMIT 0.08     /* error 0.027; the flame is a few pixels: 2 x 2048 spp leave noise 0.023 */
 #define TOL_LBL3_T 0.005
 /* crm on the same scene and references (its parts, crm_parts.h): measured (RGBA, this
- * harness) Combined 0.096, Emit and Transmittance as lbl's (the same march); `vsd compare`
- * RGB against 8192 spp: Combined 0.154, VolumeDir 0.049, VolumeInd 0.280 (with the map's
- * bright texels as exact lights, crm_lights.h, and the orders' coarse cells centred; before
- * both 0.096 here and 0.154 / 0.298 / 0.250: the studio lamps through order-4 SH). crm
- * alone on each volume (128x72): fire 0.075, smoke 0.182, cloud 0.187 Combined, VolumeDir
- * 0.064 / 0.33 / 0.063, VolumeInd 0.18 / 0.13 / 0.24: what limits the scene now is VolumeInd
- * (9% dark over all; the smoke beside the flame darkest). */
+ * harness) Combined 0.092, Emit and Transmittance as lbl's (the same march); `vsd compare`
+ * RGB against 8192 spp: Combined 0.147, VolumeDir 0.054, VolumeInd 0.269, with each part's
+ * node grid over its group (the fire and the smoke: VolumeInd over their rows 0.943 -> 0.975
+ * of the reference's mean) and delta-M on the orders; before both 0.096 here and 0.154 /
+ * 0.049 / 0.280. crm alone on each volume (96x54, 4096 spp): fire 0.029, smoke 0.047,
+ * cloud 0.158 Combined (the cloud's VolumeInd 0.206, 6% dark; 0.020 / 0.034 at g 0 instead
+ * of its 0.6): what limits the scene is crm's cloud at g 0.6 (docs/methods/crm.md). */
 #define TOL_CRM3_COMBINED 0.12
 /* `method` on the scene with 4x4 rays per pixel (the volumes are a few pixels wide); what
  * gets "<label> <method>" for the harness's lines. */

@@ -61,7 +61,7 @@
 
 typedef struct crm_options {
     int rbf_count, fit_iterations, sh_order, cg_iterations, view_density, pixel_samples, delete_per_frame, insert_max;
-    int coherent, multiple, single, directions, orders, order_directions, order_cell, sky, lights;
+    int coherent, multiple, single, directions, orders, order_directions, order_cell, sky, lights, delta_m;
     double node_spacing, step, early_termination, error_ratio, light_threshold;
     vsd_view_sampling view;
 } crm_options;
@@ -142,6 +142,10 @@ static const vsd_option_spec crm_option_rows[] = {
      offsetof(crm_options, order_directions), 0, healpix_count_problem, .when = crm_on_multiple_orders},
     {"order_cell", VSD_OPT_INT, 1, 8, 2, NULL, "multiple orders: source nodes per cell of the coarse grid",
      offsetof(crm_options, order_cell), 0, NULL, .when = crm_on_multiple_orders},
+    {"delta_m", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "multiple orders with single grid: delta-M scaling of the phase (g > 0): the orders, which carry HG's bands 0-1, "
+     "take its forward peak as unscattered light (sigma_t (1 - a g^2), albedo a (1 - g^2) / (1 - a g^2), g / (1 + g))",
+     offsetof(crm_options, delta_m), 0, NULL, .when = crm_on_multiple_orders},
     {"view_density", VSD_OPT_CHOICE, 0, 0, CRM_VIEW_VOXELS, view_density_names,
      "density of the view march: voxels (the grid itself; nothing fitted), compensated (the paper's D~ + R: RBF fit "
      "plus 8-bit residual hash) or eq8 (the paper's eq. 8: transmittance from D~ alone, source from D~ + R)",
@@ -294,21 +298,25 @@ static vsd_status dense_copy(const vsd_volume *vol, int32_t dims[3], int32_t ori
     return VSD_OK;
 }
 
-/* The node grid's spacing (option, else the cube root of the box's voxels over 48^3, at
- * least 1 voxel: about 48^3 nodes whatever the box's shape — largest dimension / 48 left
- * the short axes of a tall smoke 25 nodes, docs/methods/crm.md) and the
- * mean density of each node's cell: 3 x 3 x 3 trilinear samples of the density grid over
- * the cube of side `spacing` around the node (a box filter that neither aliases at spacing
- * 1, where nodes sit between voxel centres, nor blurs much at larger spacings). Node
- * (i,j,k) sits at crm-space spacing * (i,j,k), index origin - 0.5 + that. */
+/* The node grid's spacing for a box of `dims` voxels (option, else the cube root of the
+ * box's voxels over 48^3, at least 1 voxel: about 48^3 nodes whatever the box's shape —
+ * largest dimension / 48 left the short axes of a tall smoke 25 nodes, docs/methods/crm.md). */
+static float auto_spacing(const crm_state *s, const int32_t dims[3])
+{
+    if (s->opt.node_spacing > 0) return (float)s->opt.node_spacing;
+    return fmaxf(1.0f, cbrtf((float)dims[0] * (float)dims[1] * (float)dims[2] / (48.0f * 48.0f * 48.0f)));
+}
+
+/* The nodes over s->dims at s->spacing and the mean density of each node's cell: 3 x 3 x 3
+ * trilinear samples of the density grid over the cube of side `spacing` around the node (a
+ * box filter that neither aliases at spacing 1, where nodes sit between voxel centres, nor
+ * blurs much at larger spacings). Node (i,j,k) sits at crm-space spacing * (i,j,k), index
+ * origin - 0.5 + that. */
 static vsd_status node_density(crm_state *s, const vsd_kvolume *density /* NULL: allocate only */, char *err,
                                size_t errlen)
 {
     int32_t a, i, j, k, u, v, w;
     size_t count, n;
-    s->spacing = s->opt.node_spacing > 0 ? (float)s->opt.node_spacing
-                                          : fmaxf(1.0f, cbrtf((float)s->dims[0] * (float)s->dims[1] * (float)s->dims[2] /
-                                                              (48.0f * 48.0f * 48.0f)));
     for (a = 0; a < 3; a++) s->node_res[a] = (int32_t)ceilf((float)s->dims[a] / s->spacing) + 1;
     count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2];
     if (!(s->node_density = calloc(count, sizeof *s->node_density)))
@@ -459,6 +467,15 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
         }
     }
     if ((size_t)s->dims[0] * s->dims[1] * s->dims[2] == 0) return VSD_OK;
+    s->spacing = auto_spacing(s, s->dims);
+    if (ctx->part.active) {
+        /* the group's box at the volume's own spacing, up to 4x its nodes (a small fire
+         * in a large smoke: the smoke's size sets the spacing) */
+        vsd_crm_part_box(ctx, s->origin, s->dims);
+        s->spacing = fmaxf(s->spacing, cbrtf((float)s->dims[0] * (float)s->dims[1] * (float)s->dims[2] /
+                                             (4.0f * 48.0f * 48.0f * 48.0f)));
+        if (s->opt.node_spacing > 0) s->spacing = (float)s->opt.node_spacing;
+    }
     free(s->node_density);
     s->node_density = NULL;
     if ((st = node_density(s, ctx->part.active ? NULL : &ctx->kd.density, err, errlen))) {
@@ -531,6 +548,65 @@ static vsd_status node_emission(const crm_state *s, const vsd_frame_ctx *ctx, fl
             }
     *out = e;
     return VSD_OK;
+}
+
+/* The mean of the medium's albedo channels: delta-M's extinction scale 1 - a f is one
+ * number per medium (the depths are scalars), for a part its own volume's (the orders scale
+ * each cell by its mixture's: equal where the volumes coincide). */
+static double mean_albedo(const vsd_frame_ctx *ctx)
+{
+    return ((double)ctx->kd.medium.albedo.x + ctx->kd.medium.albedo.y + ctx->kd.medium.albedo.z) / 3.0;
+}
+
+/* J_1 of the delta-M scaled problem for the orders (crm_orders.h): the nodes' single
+ * scattering, sky and lights, with sigma_t (1 - a f), albedo (1 - f) / (1 - a f) times
+ * `albedo` (the one the single scattering was lit with: the medium's, or a part's unit
+ * albedo, which the orders turn into each node's) and HG g / (1 + g), f = g^2, a =
+ * mean_albedo, into *out (a copy of the nodes). */
+static vsd_status delta_m_single(crm_state *s, vsd_frame_ctx *ctx, const double albedo[3], double g, int order,
+                                 const double *grid_sh, const float *sky, float **out, char *err, size_t errlen)
+{
+    size_t count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2] * CRM_NODE_FLOATS;
+    double f = g * g, shrink = 1.0 - mean_albedo(ctx) * f, scaled[3];
+    float scale = ctx->kd.density.scale;
+    vsd_status st;
+    int c;
+    for (c = 0; c < 3; c++) scaled[c] = albedo[c] * (1.0 - f) / shrink;
+    if (!(*out = malloc(count * sizeof **out)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the delta-M source of %zu nodes",
+                        count / CRM_NODE_FLOATS);
+    memcpy(*out, s->nodes.nodes, count * sizeof **out);
+    st = vsd_crm_node_single(&s->depths, scale * (float)shrink, scaled, g / (1.0 + g), order, grid_sh, sky, ctx->threads,
+                             *out, s->nodes.valid, err, errlen);
+    if (!st && s->lights.count > 0) {
+        /* the lights' transmittance through the scaled medium for this, then back */
+        st = vsd_crm_lights_transmittance(&s->lights, scale * (float)shrink, err, errlen);
+        if (!st) vsd_crm_lights_bands(&s->lights, scaled, g / (1.0 + g), 1.0f, *out);
+        if (!st) st = vsd_crm_lights_transmittance(&s->lights, scale, err, errlen);
+    }
+    return st;
+}
+
+/* What delta-M's orders leave out of J_ms (crm_orders.h): the scaled problem counts the
+ * light its forward peak passes on as unscattered (J_1 of j1, through sigma_t'), where the
+ * view's single scattering (J_1, through sigma_t) does not, so that light's next scattering
+ * is J_ms's: the true phase on j1's light less J_1, bands 0-1 per node into diff (3 x 4
+ * floats per node; a part's, lit with unit albedo, times its node's). nodes: J_1 with the
+ * lights' bands. */
+static void delta_m_forward(const crm_state *s, const vsd_frame_ctx *ctx, const float *j1, double g, float *diff)
+{
+    size_t count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
+    double f = g * g, back = (1.0 - mean_albedo(ctx) * f) / (1.0 - f);
+    int c, l;
+    for (i = 0; i < count; i++)
+        for (c = 0; c < 3; c++)
+            for (l = 0; l < 4; l++) {
+                const float *now = s->nodes.nodes + i * CRM_NODE_FLOATS + c * CRM_SS_N,
+                            *scaled = j1 + i * CRM_NODE_FLOATS + c * CRM_SS_N;
+                double a = s->node_albedo ? s->node_albedo[3 * i + c] : 1.0,
+                       d = scaled[l] * back * (l ? 1.0 + g : 1.0) - now[l];
+                diff[12 * i + 4 * c + l] = (s->nodes.valid[i] & CRM_NODE_SINGLE) ? (float)(a * d) : 0.0f;
+            }
 }
 
 /* The paper's diffusion at the RBF centres (multiple "rbf"), driven by the order-2 part of
@@ -637,7 +713,10 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         return st;
     if (s->opt.multiple == MULTIPLE_ORDERS || s->opt.single == SINGLE_GRID) {
         size_t nodes = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
-        float *sigma_t, *part_emission = NULL, *unit_single = NULL;
+        float *sigma_t, *part_emission = NULL, *unit_single = NULL, *j1 = NULL, *forward = NULL;
+        /* delta-M for the orders (crm_orders.h) needs the scaled problem's single
+         * scattering, which only the node grid's marches give */
+        int delta = s->opt.delta_m && g > 0.0 && s->opt.multiple == MULTIPLE_ORDERS && s->opt.single == SINGLE_GRID;
         /* a part lights its nodes with albedo 1 first: the orders scatter the mixture's
          * albedo from there, and the view's single scattering takes the volume's own after */
         const double unit[3] = {1.0, 1.0, 1.0};
@@ -670,8 +749,8 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             st = vsd_crm_node_depths_update(&s->depths, s->node_res, to_node, s->node_density, ctx->kd.density.scale,
                                             s->sky_dirs, s->opt.directions, ctx->threads, &marched, err, errlen);
             if (!st && marched && s->node_albedo)
-                st = vsd_crm_part_shadows(ctx, &s->depths, &n2w, ctx->kd.density.scale, s->spacing * (float)s->voxel_world,
-                                          ctx->threads, err, errlen);
+                st = vsd_crm_part_shadows(ctx, &s->depths, &n2w, s->origin, s->dims, ctx->kd.density.scale,
+                                          s->spacing * (float)s->voxel_world, ctx->threads, err, errlen);
             s->transmittance_marches += marched;
             if (!st) {
                 /* toward the extracted lights: marched again when they turn with the map */
@@ -679,8 +758,9 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                 st = vsd_crm_lights_march(&s->lights, s->node_res, to_node, s->node_density, ctx->kd.density.scale,
                                           ctx->threads, &lights_marched, err, errlen);
                 if (!st && lights_marched && s->node_albedo)
-                    st = vsd_crm_part_shadows(ctx, &s->lights.depths, &n2w, ctx->kd.density.scale,
-                                              s->spacing * (float)s->voxel_world, ctx->threads, err, errlen);
+                    st = vsd_crm_part_shadows(ctx, &s->lights.depths, &n2w, s->origin, s->dims,
+                                              ctx->kd.density.scale, s->spacing * (float)s->voxel_world,
+                                              ctx->threads, err, errlen);
                 if (!st) st = vsd_crm_lights_transmittance(&s->lights, ctx->kd.density.scale, err, errlen);
                 marched |= lights_marched;
             }
@@ -698,6 +778,9 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                     st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, s->node_albedo ? unit : albedo, g,
                                              order, grid_sh, sky, ctx->threads, s->nodes.nodes, s->nodes.valid, err,
                                              errlen);
+                if (!st && delta)
+                    st = delta_m_single(s, ctx, s->node_albedo ? unit : albedo, g, order, grid_sh, sky, &j1, err,
+                                        errlen);
                 free(sky);
             }
             if (!st && s->node_albedo) {
@@ -715,12 +798,33 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             float *emission = part_emission;
             if (!s->node_albedo && ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
             /* the lights' single scattering is J_1 too: in its bands for the orders only */
-            if (!st) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, 1.0f, s->nodes.nodes);
+            /* the lights' single scattering is J_1 too: in its bands for the orders only (in
+             * j1's already, scaled, with delta-M) */
+            if (!st && !j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, 1.0f, s->nodes.nodes);
+            if (!st && j1) {
+                if (!(forward = malloc(12 * nodes * sizeof *forward))) {
+                    st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the delta-M source of %zu nodes",
+                                  nodes);
+                } else {
+                    vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, 1.0f, s->nodes.nodes);
+                    delta_m_forward(s, ctx, j1, g, forward);
+                    vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, -1.0f, s->nodes.nodes);
+                }
+            }
             if (!st)
                 st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, s->node_albedo ? unit : albedo,
-                                    s->node_albedo, g, s->nodes.nodes, s->nodes.valid, s->opt.order_cell,
-                                    s->opt.order_directions, s->opt.orders, 0.01, ctx->threads, &s->orders, err, errlen);
-            vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, -1.0f, s->nodes.nodes);
+                                    s->node_albedo, g, j1, j1 != NULL, s->nodes.nodes, s->nodes.valid,
+                                    s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
+                                    &s->orders, err, errlen);
+            if (!j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, -1.0f, s->nodes.nodes);
+            for (i = 0; !st && forward && i < nodes; i++) {
+                float *ms = s->nodes.nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;
+                int c, l;
+                if (!(s->nodes.valid[i] & CRM_NODE_MULTIPLE)) continue;
+                for (c = 0; c < 3; c++)
+                    for (l = 0; l < 4; l++) ms[c * CRM_MS_N + l] += forward[12 * i + 4 * c + l];
+            }
+            free(forward);
             if (emission != part_emission) free(emission);
         }
         if (!st && unit_single) own_albedo_single(s, unit_single, albedo);
@@ -738,6 +842,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         free(part_emission);
         free(unit_single);
         free(sigma_t);
+        free(j1);
     }
     return st;
 }

@@ -288,15 +288,65 @@ static void subtract_emission(const coarse_grid *g, float *ms, const float *je)
     }
 }
 
+/* Delta-M (Wiscombe 1977) for the orders' truncated phase: HG with bands 0-1 kept is
+ * scaled as f delta(forward) + (1 - f) HG(g'), f = g^2 (the first band dropped), g' = g /
+ * (1 + g). The forward part is light that goes on unscattered, so the orders march
+ * sigma_t' = sigma_t (1 - a f) and scatter a' = a (1 - f) / (1 - a f) with g'; J_1 is made
+ * J_1 is the scaled problem's already (its single scattering with sigma_t', a' and g':
+ * crm.c). Returns g'; job_albedo gets a' (the uniform albedo's), g->albedo and g->sigma the
+ * cells'. */
+static double delta_m(coarse_grid *g, const double albedo[3], double anisotropy, double job_albedo[3])
+{
+    double f = anisotropy * anisotropy, gs = anisotropy / (1.0 + anisotropy);
+    size_t n;
+    int c;
+    for (c = 0; c < 3; c++) {
+        double mean = (albedo[0] + albedo[1] + albedo[2]) / 3.0;
+        job_albedo[c] = albedo[c] * (1.0 - f) / (1.0 - mean * f);
+    }
+    for (n = 0; n < g->n; n++) {
+        const float *a = g->albedo ? g->albedo + 3 * n : NULL;
+        double mean = a ? ((double)a[0] + a[1] + a[2]) / 3.0 : (albedo[0] + albedo[1] + albedo[2]) / 3.0,
+               s = 1.0 - mean * f;
+        g->sigma[n] = (float)(g->sigma[n] * s);
+        if (a)
+            for (c = 0; c < 3; c++) g->albedo[3 * n + c] = (float)(a[c] * (1.0 - f) / s);
+    }
+    return gs;
+}
+
+/* The scaled problem's sources (laid out as g->j) back to the true phase's, for the view:
+ * the same radiance scattered with a g^l in place of a' g'^l. */
+static void delta_m_back(const coarse_grid *g, float *b, const double albedo[3], double anisotropy, double gs)
+{
+    double f = anisotropy * anisotropy;
+    size_t n;
+    int c, l;
+    for (n = 0; n < g->n; n++) {
+        double mean;
+        if (g->albedo) {
+            /* the cell's a' mean back to a: a = a' / (1 - f + a' f) */
+            double ms = ((double)g->albedo[3 * n] + g->albedo[3 * n + 1] + g->albedo[3 * n + 2]) / 3.0;
+            mean = ms / (1.0 - f + ms * f);
+        } else {
+            mean = (albedo[0] + albedo[1] + albedo[2]) / 3.0;
+        }
+        for (c = 0; c < 3; c++)
+            for (l = 0; l < g->nb; l++)
+                b[(3 * n + c) * g->nb + l] *= (float)((1.0 - mean * f) / (1.0 - f) * (l ? anisotropy / gs : 1.0));
+    }
+}
+
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
                           const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
-                          float *nodes, uint8_t *valid, int coarse, int directions, int max_orders, double tolerance,
-                          int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen)
+                          const float *j1, int delta, float *nodes, uint8_t *valid, int coarse, int directions,
+                          int max_orders, double tolerance, int threads, vsd_crm_orders_stats *stats, char *err,
+                          size_t errlen)
 {
     double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
     float *y_in = NULL;
     int nb, l;
-    double prev_sum = 0.0, last_sum = 0.0, tail_sum = 0.0;
+    double prev_sum = 0.0, last_sum = 0.0, tail_sum = 0.0, gs;
     long nside = vsd_sh_healpix_nside(directions);
     float *ms = NULL, *je = NULL; /* je: the emission scattered once, per coarse cell */
     coarse_grid g;
@@ -307,6 +357,8 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     int a, k, c;
     memset(stats, 0, sizeof *stats);
     memset(&g, 0, sizeof g);
+    if (!j1) j1 = nodes;
+    if (!(anisotropy > 0.0)) delta = 0;
     if (coarse < 1 || !nside || max_orders < 1 || !(tolerance >= 0.0))
         return vsd_fail(VSD_ERR_INVALID, err, errlen,
                         "crm orders: coarse %d, %d directions (12 nside^2), %d orders or tolerance %g out of range", coarse,
@@ -376,7 +428,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
                             double to_node = !node_albedo ? 1.0 : albedo[c] > 0.0 ? node_albedo[3 * i + c] / albedo[c] : 0.0;
                             for (l = 0; l < nb; l++)
                                 g.j[(3 * n + c) * nb + l] +=
-                                    (float)(w * s * to_node * nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
+                                    (float)(w * s * to_node * j1[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
                         }
                 }
     }
@@ -392,12 +444,14 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         st = vsd_fail(VSD_ERR_INVALID, err, errlen, "crm orders: %zu cells", g.n);
         goto done;
     }
+    gs = delta && nb > 1 ? delta_m(&g, albedo, anisotropy, job.albedo) : anisotropy;
     job.g = &g;
     job.dirs = dirs;
     job.y_in = y_in;
-    for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : anisotropy) / directions);
+    for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : gs) / directions);
     job.m = directions;
-    for (c = 0; c < 3; c++) job.albedo[c] = albedo[c];
+    if (gs == anisotropy)
+        for (c = 0; c < 3; c++) job.albedo[c] = albedo[c];
     memset(&tiles, 0, sizeof tiles);
     tiles.width = (int)g.n;
     tiles.height = 1;
@@ -434,8 +488,12 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     }
     /* close the series with each band's geometric tail from the last two orders */
     if (stats->orders >= 2 && prev_sum > 0.0)
-        stats->tail = close_series(&g, ms, last_sum, prev_sum, tail_sum, anisotropy);
+        stats->tail = close_series(&g, ms, last_sum, prev_sum, tail_sum, gs);
     if (je) subtract_emission(&g, ms, je);
+    if (gs != anisotropy) {
+        delta_m_back(&g, ms, albedo, anisotropy, gs);
+        if (je) delta_m_back(&g, je, albedo, anisotropy, gs);
+    }
     /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), each of
      * bands 0 (and 1)'s coefficients in turn: the emission scattered once onto the single
      * scattering, J_ms onto the multiple */

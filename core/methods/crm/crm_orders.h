@@ -48,10 +48,15 @@ typedef struct vsd_crm_orders_stats {
  * NULL; albedo: the medium's, with which the single scattering (J_1) was computed;
  * node_albedo: NULL, or per fine node 3 floats, the albedo the orders scatter with there
  * (several overlapping volumes: sigma_s / sigma_t of their mixture); coarse: fine nodes per
- * coarse cell (>= 1); directions: HEALPix count (12 nside^2). */
+ * coarse cell (>= 1); directions: HEALPix count (12 nside^2).
+ * j1: the nodes (CRM_NODE_FLOATS layout) J_1's bands are read from, or NULL: `nodes`.
+ * delta: delta-M scaling of the phase for g > 0 (crm_orders.c, delta_m): the orders run the
+ * scaled problem (sigma_t (1 - a g^2), a (1 - g^2) / (1 - a g^2), g / (1 + g)), whose J_1 j1
+ * must then hold (crm.c), and J_ms goes back to the true phase for the view. */
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
                           const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
-                          float *nodes, uint8_t *valid, int coarse, int directions, int max_orders, double tolerance,
-                          int threads, vsd_crm_orders_stats *stats, char *err, size_t errlen);
+                          const float *j1, int delta, float *nodes, uint8_t *valid, int coarse, int directions,
+                          int max_orders, double tolerance, int threads, vsd_crm_orders_stats *stats, char *err,
+                          size_t errlen);
 
 #endif

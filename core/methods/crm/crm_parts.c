@@ -12,6 +12,39 @@
 /* every volume of the scene (the part's box holds whichever of them reach into it) */
 static uint32_t all_volumes(const vsd_kernel_data *kd) { return kd->volume_count >= 32 ? ~0u : (1u << kd->volume_count) - 1u; }
 
+void vsd_crm_part_box(const vsd_frame_ctx *ctx, int32_t origin[3], int32_t dims[3])
+{
+    const vsd_kernel_data *kd = &ctx->kd;
+    const float *m = kd->density.world_to_index.m;
+    double lo[3], hi[3];
+    int j, a, corner;
+    for (a = 0; a < 3; a++) {
+        lo[a] = origin[a];
+        hi[a] = (double)origin[a] + dims[a];
+    }
+    for (j = 0; j < kd->volume_count && j < 32; j++) {
+        double wlo[3], whi[3];
+        if (j == ctx->part.volume || !((ctx->part.group >> j) & 1u)) continue;
+        if (!vsd_kobject_world_box(&kd->volumes[j], wlo, whi)) continue;
+        for (corner = 0; corner < 8; corner++) {
+            double w[3];
+            for (a = 0; a < 3; a++) w[a] = (corner >> a) & 1 ? whi[a] : wlo[a];
+            for (a = 0; a < 3; a++) {
+                double q = m[4 * a] * w[0] + m[4 * a + 1] * w[1] + m[4 * a + 2] * w[2] + m[4 * a + 3];
+                lo[a] = fmin(lo[a], q);
+                hi[a] = fmax(hi[a], q);
+            }
+        }
+    }
+    /* whole bricks outward from the volume's own origin, so the box stays the brick box's
+     * kind (the shadows clip with it as a vsd_kvolume) */
+    for (a = 0; a < 3; a++) {
+        int32_t below = (int32_t)ceil((origin[a] - lo[a]) / 8.0), above = (int32_t)ceil((hi[a] - origin[a]) / 8.0);
+        origin[a] -= 8 * below;
+        dims[a] = 8 * (below + above);
+    }
+}
+
 void vsd_crm_part_medium(const vsd_frame_ctx *ctx, const int32_t node_res[3], const vsd_affine *n2w, float scale,
                          float *density, float *albedo, float *emission)
 {
@@ -51,6 +84,7 @@ void vsd_crm_part_medium(const vsd_frame_ctx *ctx, const int32_t node_res[3], co
 typedef struct shadow_job {
     const vsd_frame_ctx *ctx;
     const vsd_affine *n2w;
+    vsd_kvolume box;           /* the node grid's box (the density's transform) */
     const double *dirs;
     int directions;
     int32_t cres[3];
@@ -63,7 +97,7 @@ static void shadow_items(void *user, int a, int y0, int b, int y1)
 {
     const shadow_job *job = user;
     const vsd_kernel_data *kd = &job->ctx->kd;
-    uint32_t own = 1u << job->ctx->part.volume;
+    uint32_t inside = job->ctx->part.group | 1u << job->ctx->part.volume;   /* in the box */
     int m, d;
     (void)y0;
     (void)y1;
@@ -74,16 +108,17 @@ static void shadow_items(void *user, int a, int y0, int b, int y1)
         for (d = 0; d < job->directions; d++) {
             vsd_f3 dir = f3((float)job->dirs[3 * d], (float)job->dirs[3 * d + 1], (float)job->dirs[3 * d + 2]);
             float t0 = 0.0f, t1 = VSD_INF, tr;
-            /* the box's own medium (every volume's inside it) is in the node grid already */
-            if (!vsd_kvolume_clip(&kd->density, p, dir, &t0, &t1)) t1 = 0.0f;
-            tr = vsd_kvolumes_march_transmittance(kd, f3_madd(p, dir, t1), dir, VSD_INF, own, job->step);
+            /* the medium inside the box (every volume's) is in the node grid already */
+            if (!vsd_kvolume_clip(&job->box, p, dir, &t0, &t1)) t1 = 0.0f;
+            tr = vsd_kvolumes_march_transmittance(kd, f3_madd(p, dir, t1), dir, VSD_INF, inside, job->step);
             job->od[(size_t)m * job->directions + d] = tr > 1e-30f ? -logf(tr) : 69.0f;
         }
     }
 }
 
-vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c, const vsd_affine *n2w, float scale,
-                                float step, int threads, char *err, size_t errlen)
+vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c, const vsd_affine *n2w,
+                                const int32_t origin[3], const int32_t dims[3], float scale, float step, int threads,
+                                char *err, size_t errlen)
 {
     shadow_job job;
     size_t points, m;
@@ -101,6 +136,11 @@ vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c
     }
     job.ctx = ctx;
     job.n2w = n2w;
+    job.box = ctx->kd.density;
+    for (a = 0; a < 3; a++) {
+        job.box.origin[a] = origin[a];
+        job.box.dims[a] = dims[a] / 8;
+    }
     job.dirs = c->dirs;
     job.directions = c->directions;
     job.step = step;

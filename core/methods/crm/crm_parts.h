@@ -1,13 +1,20 @@
 /* crm_parts.h — crm over several volumes: a part per volume (src/method/method_parts.h),
- * each crm's one-volume state with its node grid over its own volume's box, plus what a
- * part needs beyond one volume:
+ * each crm's one-volume state with its node grid in its volume's index space (over its
+ * group's box, below), plus what a part needs beyond one volume:
  *   - every volume's medium on its nodes (the mixture: summed extinction, sigma_s / sigma_t
  *     as the albedo the successive orders scatter with, summed emission), so overlapping
  *     volumes shadow and light each other inside the box as one medium does;
  *   - the shadows of what lies outside the box: each node's optical depth toward each sky
- *     direction gains the depth through every other volume beyond the box's exit;
+ *     direction gains the depth through the volumes beyond the box's exit;
  *   - the view: one march over all volumes mixing the parts' sources
  *     (crm_volumes_kernel.h).
+ * A part's node grid covers its *group* (src/grids/volume_groups.h: the volumes whose media
+ * overlap its own), not only its own box: the light one member sends another (a flame's
+ * glow on the smoke over it) is carried by the orders only where both lie inside one grid,
+ * and the view mixes the parts' multiple scattering by sigma_i / sigma, which sums back to
+ * the mixture's only where every part's grid saw the same medium. On the issue-30 scene the
+ * smoke's grid over its own box left the fire's light below it out: VolumeInd 6% dark over
+ * the fire and smoke (docs/methods/crm.md, "Several volumes").
  * A part's own single scattering keeps its volume's albedo and phase (the view weights it
  * by sigma_i / sigma); its multiple scattering is the mixture's at each node, which the
  * same weights sum back to the mixture. */
@@ -16,6 +23,11 @@
 #include "src/method/method.h"
 #include "crm_kernel.h"
 #include "crm_node_single.h"
+
+/* The box of the part's node grid, in its volume's index space (voxels; dims multiples of
+ * 8, the brick box's units): the volume's own brick box (origin, dims on entry) grown to
+ * hold the world boxes of the other members of its group (ctx->part.group). */
+void vsd_crm_part_box(const vsd_frame_ctx *ctx, int32_t origin[3], int32_t dims[3]);
 
 /* Per node of a part's grid (node_res; n2w: node coordinates to world), the mean over the
  * node's cell (3 x 3 x 3 samples, as the one-volume node density) of every volume's summed
@@ -28,10 +40,11 @@ void vsd_crm_part_medium(const vsd_frame_ctx *ctx, const int32_t node_res[3], co
                          float *density, float *albedo, float *emission);
 
 /* Adds to each of c's optical depths (unscaled: the part's density units) the depth through
- * every other volume along the same ray from where it leaves the part's own box, over
- * `scale`; step: the march step in world units. */
-vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c, const vsd_affine *n2w, float scale,
-                                float step, int threads, char *err, size_t errlen);
+ * the volumes along the same ray from where it leaves the node grid's box (origin, dims:
+ * vsd_crm_part_box's), over `scale`; step: the march step in world units. */
+vsd_status vsd_crm_part_shadows(const vsd_frame_ctx *ctx, vsd_crm_node_depths *c, const vsd_affine *n2w,
+                                const int32_t origin[3], const int32_t dims[3], float scale, float step, int threads,
+                                char *err, size_t errlen);
 
 /* The view over all parts (parts[i] goes with volume i, its node pass done; count =
  * ctx->kd.volume_count), n x n rays per pixel: on the CPU threads with host parts, or on
