@@ -232,14 +232,16 @@ static void test_deterministic_exact(void)
 #define TOL_LBL3_EMIT 0.08     /* error 0.027; the flame is a few pixels: 2 x 2048 spp leave noise 0.023 */
 #define TOL_LBL3_T 0.005
 /* crm on the same scene and references (its parts, crm_parts.h): measured (RGBA, this
- * harness) Combined 0.092, Emit and Transmittance as lbl's (the same march); `vsd compare`
- * RGB against 8192 spp: Combined 0.147, VolumeDir 0.054, VolumeInd 0.269, with each part's
- * node grid over its group (the fire and the smoke: VolumeInd over their rows 0.943 -> 0.975
- * of the reference's mean) and delta-M on the orders; before both 0.096 here and 0.154 /
- * 0.049 / 0.280. crm alone on each volume (96x54, 4096 spp): fire 0.029, smoke 0.047,
- * cloud 0.158 Combined (the cloud's VolumeInd 0.206, 6% dark; 0.020 / 0.034 at g 0 instead
- * of its 0.6): what limits the scene is crm's cloud at g 0.6 (docs/methods/crm.md). */
-#define TOL_CRM3_COMBINED 0.12
+ * harness) Combined 0.059, Emit and Transmittance as lbl's (the same march); `vsd compare`
+ * RGB against 8192 spp: Combined 0.094, VolumeDir 0.075, VolumeInd 0.166, with each part's
+ * node grid over its group and the volumes near it (the fire, the smoke and the cloud 0.1 m
+ * above it light each other: the smoke's top was 20-50% dark under the cloud) and delta-M
+ * only where a grid holds one phase. Before: 0.092 here (`vsd compare` 0.147 / 0.054 / 0.269)
+ * with grids over the media-overlap groups, 0.096 (0.154 / 0.049 / 0.280) with grids over
+ * each volume's own box. crm alone on each volume (96x54, 4096 spp): fire 0.029, smoke
+ * 0.047, cloud 0.158 Combined (the cloud at g 0.6; 0.020 at g 0). The tolerance is 1.35x the
+ * error, below the 0.092 of the grids over the overlap groups. */
+#define TOL_CRM3_COMBINED 0.08
 /* `method` on the scene with 4x4 rays per pixel (the volumes are a few pixels wide); what
  * gets "<label> <method>" for the harness's lines. */
 static vsd_framebuffer *render_method(const mvr_scene *sc, const char *method, const char *label, char *what,

@@ -12,28 +12,61 @@
 /* every volume of the scene (the part's box holds whichever of them reach into it) */
 static uint32_t all_volumes(const vsd_kernel_data *kd) { return kd->volume_count >= 32 ? ~0u : (1u << kd->volume_count) - 1u; }
 
+/* Volume j's world box (its non-empty bricks) in the part's index space, the box of its
+ * corners: 0 when the volume is empty. */
+static int index_box(const vsd_kernel_data *kd, int j, double lo[3], double hi[3])
+{
+    const float *m = kd->density.world_to_index.m;
+    double wlo[3], whi[3];
+    int a, corner;
+    if (!vsd_kobject_world_box(&kd->volumes[j], wlo, whi)) return 0;
+    for (a = 0; a < 3; a++) {
+        lo[a] = VSD_INF;
+        hi[a] = -VSD_INF;
+    }
+    for (corner = 0; corner < 8; corner++) {
+        double w[3];
+        for (a = 0; a < 3; a++) w[a] = (corner >> a) & 1 ? whi[a] : wlo[a];
+        for (a = 0; a < 3; a++) {
+            double q = m[4 * a] * w[0] + m[4 * a + 1] * w[1] + m[4 * a + 2] * w[2] + m[4 * a + 3];
+            lo[a] = fmin(lo[a], q);
+            hi[a] = fmax(hi[a], q);
+        }
+    }
+    return 1;
+}
+
+int vsd_crm_volumes_near(const vsd_kernel_data *kd, int i, int j)
+{
+    double lo[2][3], hi[2][3], gap2 = 0.0, extent = 0.0;
+    int a, k;
+    if (!vsd_kobject_world_box(&kd->volumes[i], lo[0], hi[0]) || !vsd_kobject_world_box(&kd->volumes[j], lo[1], hi[1]))
+        return 0;
+    for (a = 0; a < 3; a++) {
+        double gap = fmax(0.0, fmax(lo[1][a] - hi[0][a], lo[0][a] - hi[1][a]));
+        gap2 += gap * gap;
+        for (k = 0; k < 2; k++) extent = fmax(extent, hi[k][a] - lo[k][a]);
+    }
+    return gap2 <= 0.25 * extent * extent;
+}
+
 void vsd_crm_part_box(const vsd_frame_ctx *ctx, int32_t origin[3], int32_t dims[3])
 {
     const vsd_kernel_data *kd = &ctx->kd;
-    const float *m = kd->density.world_to_index.m;
     double lo[3], hi[3];
-    int j, a, corner;
+    int j, a;
     for (a = 0; a < 3; a++) {
         lo[a] = origin[a];
         hi[a] = (double)origin[a] + dims[a];
     }
     for (j = 0; j < kd->volume_count && j < 32; j++) {
-        double wlo[3], whi[3];
-        if (j == ctx->part.volume || !((ctx->part.group >> j) & 1u)) continue;
-        if (!vsd_kobject_world_box(&kd->volumes[j], wlo, whi)) continue;
-        for (corner = 0; corner < 8; corner++) {
-            double w[3];
-            for (a = 0; a < 3; a++) w[a] = (corner >> a) & 1 ? whi[a] : wlo[a];
-            for (a = 0; a < 3; a++) {
-                double q = m[4 * a] * w[0] + m[4 * a + 1] * w[1] + m[4 * a + 2] * w[2] + m[4 * a + 3];
-                lo[a] = fmin(lo[a], q);
-                hi[a] = fmax(hi[a], q);
-            }
+        double jlo[3], jhi[3];
+        if (j == ctx->part.volume) continue;
+        if (!((ctx->part.group >> j) & 1u) && !vsd_crm_volumes_near(kd, ctx->part.volume, j)) continue;
+        if (!index_box(kd, j, jlo, jhi)) continue;
+        for (a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], jlo[a]);
+            hi[a] = fmax(hi[a], jhi[a]);
         }
     }
     /* whole bricks outward from the volume's own origin, so the box stays the brick box's
@@ -43,6 +76,21 @@ void vsd_crm_part_box(const vsd_frame_ctx *ctx, int32_t origin[3], int32_t dims[
         origin[a] -= 8 * below;
         dims[a] = 8 * (below + above);
     }
+}
+
+int vsd_crm_part_one_phase(const vsd_frame_ctx *ctx, const int32_t origin[3], const int32_t dims[3])
+{
+    const vsd_kernel_data *kd = &ctx->kd;
+    int j, a;
+    for (j = 0; j < kd->volume_count; j++) {
+        double lo[3], hi[3];
+        int meets = 1;
+        if (j == ctx->part.volume || kd->volumes[j].medium.anisotropy == kd->medium.anisotropy) continue;
+        if (!index_box(kd, j, lo, hi)) continue;
+        for (a = 0; a < 3 && meets; a++) meets = lo[a] < (double)origin[a] + dims[a] && hi[a] > (double)origin[a];
+        if (meets) return 0;
+    }
+    return 1;
 }
 
 void vsd_crm_part_medium(const vsd_frame_ctx *ctx, const int32_t node_res[3], const vsd_affine *n2w, float scale,

@@ -9,12 +9,14 @@
  *   - the view: one march over all volumes mixing the parts' sources
  *     (crm_volumes_kernel.h).
  * A part's node grid covers its *group* (src/grids/volume_groups.h: the volumes whose media
- * overlap its own), not only its own box: the light one member sends another (a flame's
- * glow on the smoke over it) is carried by the orders only where both lie inside one grid,
+ * overlap its own) and the volumes near it, not only its own box: the light one volume
+ * sends another (a flame's glow on the smoke over it, a cloud's on the smoke below it) is
+ * carried by the orders only where both lie inside one grid,
  * and the view mixes the parts' multiple scattering by sigma_i / sigma, which sums back to
  * the mixture's only where every part's grid saw the same medium. On the issue-30 scene the
- * smoke's grid over its own box left the fire's light below it out: VolumeInd 6% dark over
- * the fire and smoke (docs/methods/crm.md, "Several volumes").
+ * smoke's grid over its own box left the fire's light below it out (VolumeInd 6% dark over
+ * the fire and smoke), and the cloud's light on the smoke's top (docs/methods/crm.md,
+ * "Several volumes").
  * A part's own single scattering keeps its volume's albedo and phase (the view weights it
  * by sigma_i / sigma); its multiple scattering is the mixture's at each node, which the
  * same weights sum back to the mixture. */
@@ -24,10 +26,22 @@
 #include "crm_kernel.h"
 #include "crm_node_single.h"
 
+/* Whether volumes i and j of kd lie near each other: the gap between their world boxes
+ * (non-empty bricks) at most half the largest extent of either box. Near volumes share a
+ * crm grid, so each lights the other (a cloud over a smoke brightens its top), where
+ * far ones only shadow each other (two smokes 100 m apart keep grids of their own size). */
+int vsd_crm_volumes_near(const vsd_kernel_data *kd, int i, int j);
+
 /* The box of the part's node grid, in its volume's index space (voxels; dims multiples of
  * 8, the brick box's units): the volume's own brick box (origin, dims on entry) grown to
- * hold the world boxes of the other members of its group (ctx->part.group). */
+ * hold the world boxes of the other members of its group (ctx->part.group) and of the
+ * volumes near it (vsd_crm_volumes_near). */
 void vsd_crm_part_box(const vsd_frame_ctx *ctx, int32_t origin[3], int32_t dims[3]);
+
+/* Whether every other volume whose box meets the node box (index space, as
+ * vsd_crm_part_box's) has the part's own anisotropy: delta-M scales the whole grid's medium
+ * with the part's phase (crm_orders.h), which is only right for one phase. */
+int vsd_crm_part_one_phase(const vsd_frame_ctx *ctx, const int32_t origin[3], const int32_t dims[3]);
 
 /* Per node of a part's grid (node_res; n2w: node coordinates to world), the mean over the
  * node's cell (3 x 3 x 3 samples, as the one-volume node density) of every volume's summed

@@ -16,7 +16,8 @@
  * would carry it, but lbl's six lattice directions carry light across empty space as
  * beams along the axes (the ray effect of a discrete-ordinates solve): on the issue-30
  * scene a cloud 0.1 m above a fire's smoke got an orange streak straight above the flame
- * that `reference` does not show (docs/design-notes.md, "Several volumes"). */
+ * that `reference` does not show (docs/design-notes.md, "Several volumes"). crm's grids,
+ * whose orders gather 48 directions, take the near volumes in too (crm_parts.h). */
 #ifndef VSD_VOLUME_GROUPS_H
 #define VSD_VOLUME_GROUPS_H
 #include <stdint.h>
