@@ -591,9 +591,9 @@ static vsd_status delta_m_single(crm_state *s, vsd_frame_ctx *ctx, const double 
 /* What delta-M's orders leave out of J_ms (crm_orders.h): the scaled problem counts the
  * light its forward peak passes on as unscattered (J_1 of j1, through sigma_t'), where the
  * view's single scattering (J_1, through sigma_t) does not, so that light's next scattering
- * is J_ms's: the true phase on j1's light less J_1, bands 0-1 per node into diff (3 x 4
- * floats per node; a part's, lit with unit albedo, times its node's). nodes: J_1 with the
- * lights' bands. */
+ * is J_ms's: the true phase on j1's light less J_1, bands 0-1 (J_ms's) per node into diff
+ * (3 x CRM_MS_N floats per node; a part's, lit with unit albedo, times its node's). nodes:
+ * J_1 with the lights' bands. */
 static void delta_m_forward(const crm_state *s, const vsd_frame_ctx *ctx, const float *j1, double g, float *diff)
 {
     size_t count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
@@ -601,12 +601,12 @@ static void delta_m_forward(const crm_state *s, const vsd_frame_ctx *ctx, const 
     int c, l;
     for (i = 0; i < count; i++)
         for (c = 0; c < 3; c++)
-            for (l = 0; l < 4; l++) {
+            for (l = 0; l < CRM_MS_N; l++) {
                 const float *now = s->nodes.nodes + i * CRM_NODE_FLOATS + c * CRM_SS_N,
                             *scaled = j1 + i * CRM_NODE_FLOATS + c * CRM_SS_N;
                 double a = s->node_albedo ? s->node_albedo[3 * i + c] : 1.0,
                        d = scaled[l] * back * (l ? 1.0 + g : 1.0) - now[l];
-                diff[12 * i + 4 * c + l] = (s->nodes.valid[i] & CRM_NODE_SINGLE) ? (float)(a * d) : 0.0f;
+                diff[(3 * i + c) * CRM_MS_N + l] = (s->nodes.valid[i] & CRM_NODE_SINGLE) ? (float)(a * d) : 0.0f;
             }
 }
 
@@ -804,7 +804,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
              * j1's already, scaled, with delta-M) */
             if (!st && !j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, 1.0f, s->nodes.nodes);
             if (!st && j1) {
-                if (!(forward = malloc(12 * nodes * sizeof *forward))) {
+                if (!(forward = malloc(3 * CRM_MS_N * nodes * sizeof *forward))) {
                     st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the delta-M source of %zu nodes",
                                   nodes);
                 } else {
@@ -824,7 +824,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                 int c, l;
                 if (!(s->nodes.valid[i] & CRM_NODE_MULTIPLE)) continue;
                 for (c = 0; c < 3; c++)
-                    for (l = 0; l < 4; l++) ms[c * CRM_MS_N + l] += forward[12 * i + 4 * c + l];
+                    for (l = 0; l < CRM_MS_N; l++) ms[c * CRM_MS_N + l] += forward[(3 * i + c) * CRM_MS_N + l];
             }
             free(forward);
             if (emission != part_emission) free(emission);

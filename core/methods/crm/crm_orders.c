@@ -291,28 +291,24 @@ static void subtract_emission(const coarse_grid *g, float *ms, const float *je)
 /* Delta-M (Wiscombe 1977) for the orders' truncated phase: HG with bands 0-1 kept is
  * scaled as f delta(forward) + (1 - f) HG(g'), f = g^2 (the first band dropped), g' = g /
  * (1 + g). The forward part is light that goes on unscattered, so the orders march
- * sigma_t' = sigma_t (1 - a f) and scatter a' = a (1 - f) / (1 - a f) with g'; J_1 is made
- * J_1 is the scaled problem's already (its single scattering with sigma_t', a' and g':
- * crm.c). Returns g'; job_albedo gets a' (the uniform albedo's), g->albedo and g->sigma the
- * cells'. */
+ * sigma_t' = sigma_t (1 - a f) and scatter a' = a (1 - f) / (1 - a f) with g' (a: the mean
+ * of the albedo's channels, the extinction being one number). J_1 is the scaled problem's
+ * already (its single scattering with sigma_t', a' and g': crm.c). Returns g'; job_albedo
+ * gets a' (the uniform albedo's), g->albedo and g->sigma the cells'. */
 static double delta_m(coarse_grid *g, const double albedo[3], double anisotropy, double job_albedo[3])
 {
-    double f = anisotropy * anisotropy, gs = anisotropy / (1.0 + anisotropy);
+    double f = anisotropy * anisotropy, uniform = (albedo[0] + albedo[1] + albedo[2]) / 3.0;
     size_t n;
     int c;
-    for (c = 0; c < 3; c++) {
-        double mean = (albedo[0] + albedo[1] + albedo[2]) / 3.0;
-        job_albedo[c] = albedo[c] * (1.0 - f) / (1.0 - mean * f);
-    }
+    for (c = 0; c < 3; c++) job_albedo[c] = albedo[c] * (1.0 - f) / (1.0 - uniform * f);
     for (n = 0; n < g->n; n++) {
         const float *a = g->albedo ? g->albedo + 3 * n : NULL;
-        double mean = a ? ((double)a[0] + a[1] + a[2]) / 3.0 : (albedo[0] + albedo[1] + albedo[2]) / 3.0,
-               s = 1.0 - mean * f;
+        double mean = a ? ((double)a[0] + a[1] + a[2]) / 3.0 : uniform, s = 1.0 - mean * f;
         g->sigma[n] = (float)(g->sigma[n] * s);
         if (a)
             for (c = 0; c < 3; c++) g->albedo[3 * n + c] = (float)(a[c] * (1.0 - f) / s);
     }
-    return gs;
+    return anisotropy / (1.0 + anisotropy);
 }
 
 /* The scaled problem's sources (laid out as g->j) back to the true phase's, for the view:
@@ -354,7 +350,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     vsd_tile_job tiles;
     size_t fine = (size_t)node_res[0] * node_res[1] * node_res[2], i;
     vsd_status st = VSD_OK;
-    int a, k, c;
+    int a, k, c, scaled;
     memset(stats, 0, sizeof *stats);
     memset(&g, 0, sizeof g);
     if (!j1) j1 = nodes;
@@ -444,13 +440,15 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         st = vsd_fail(VSD_ERR_INVALID, err, errlen, "crm orders: %zu cells", g.n);
         goto done;
     }
-    gs = delta && nb > 1 ? delta_m(&g, albedo, anisotropy, job.albedo) : anisotropy;
+    /* delta-M needs band 1 (g > 0): else the orders run the medium as it is */
+    scaled = delta && nb > 1;
+    gs = scaled ? delta_m(&g, albedo, anisotropy, job.albedo) : anisotropy;
     job.g = &g;
     job.dirs = dirs;
     job.y_in = y_in;
     for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : gs) / directions);
     job.m = directions;
-    if (gs == anisotropy)
+    if (!scaled)
         for (c = 0; c < 3; c++) job.albedo[c] = albedo[c];
     memset(&tiles, 0, sizeof tiles);
     tiles.width = (int)g.n;
@@ -490,7 +488,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     if (stats->orders >= 2 && prev_sum > 0.0)
         stats->tail = close_series(&g, ms, last_sum, prev_sum, tail_sum, gs);
     if (je) subtract_emission(&g, ms, je);
-    if (gs != anisotropy) {
+    if (scaled) {
         delta_m_back(&g, ms, albedo, anisotropy, gs);
         if (je) delta_m_back(&g, je, albedo, anisotropy, gs);
     }
