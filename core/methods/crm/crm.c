@@ -473,9 +473,9 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
          * spacing, up to 2x its nodes (a small fire in a large smoke: the smoke's size then
          * sets the spacing; 4x cost the issue-30 scene twice the time for 0.5 points) */
         vsd_crm_part_box(ctx, s->origin, s->dims);
-        s->spacing = fmaxf(s->spacing, cbrtf((float)s->dims[0] * (float)s->dims[1] * (float)s->dims[2] /
-                                             (2.0f * 48.0f * 48.0f * 48.0f)));
-        if (s->opt.node_spacing > 0) s->spacing = (float)s->opt.node_spacing;
+        if (!(s->opt.node_spacing > 0))
+            s->spacing = fmaxf(s->spacing, cbrtf((float)s->dims[0] * (float)s->dims[1] * (float)s->dims[2] /
+                                                 (2.0f * 48.0f * 48.0f * 48.0f)));
     }
     free(s->node_density);
     s->node_density = NULL;

@@ -3,6 +3,7 @@
 #include "crm_volumes_kernel.h"
 #include "crm_device.h"
 #include "src/grids/volume_groups.h"
+#include "src/grids/kvolume_boxes.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/sh.h"
 #include <math.h>
@@ -17,22 +18,12 @@ static uint32_t all_volumes(const vsd_kernel_data *kd) { return kd->volume_count
 static int index_box(const vsd_kernel_data *kd, int j, double lo[3], double hi[3])
 {
     const float *m = kd->density.world_to_index.m;
-    double wlo[3], whi[3];
-    int a, corner;
+    double wlo[3], whi[3], w2i[16] = {0};
+    int k;
     if (!vsd_kobject_world_box(&kd->volumes[j], wlo, whi)) return 0;
-    for (a = 0; a < 3; a++) {
-        lo[a] = VSD_INF;
-        hi[a] = -VSD_INF;
-    }
-    for (corner = 0; corner < 8; corner++) {
-        double w[3];
-        for (a = 0; a < 3; a++) w[a] = (corner >> a) & 1 ? whi[a] : wlo[a];
-        for (a = 0; a < 3; a++) {
-            double q = m[4 * a] * w[0] + m[4 * a + 1] * w[1] + m[4 * a + 2] * w[2] + m[4 * a + 3];
-            lo[a] = fmin(lo[a], q);
-            hi[a] = fmax(hi[a], q);
-        }
-    }
+    for (k = 0; k < 12; k++) w2i[k] = m[k];
+    w2i[15] = 1.0;
+    vsd_affine_box(w2i, wlo, whi, lo, hi);
     return 1;
 }
 
