@@ -90,6 +90,9 @@ static const struct {
 } declared[] = {
     {"lbl", "leaps", "false", "",
      "the same result by design, only faster (\"the same result; 0 = march every step\"): equality IS the check"},
+    {"lbl", "exchange", "false", "",
+     "light between near groups of volumes (lbl_exchange.h): this scene has one volume, so nothing is sent and "
+     "nothing may change; test_volumes renders its effect on three volumes and a cloud beside a smoke"},
     {"constellation", "distance_map", "false", "",
      "the map only leaps samples of zero density (density_threshold 0): bit-identical by design "
      "(docs/methods/constellation.md, \"Exactness of the accelerations\"): equality IS the check"},

@@ -21,26 +21,27 @@ typedef struct VSD_ALIGN16 vsd_krecord_grids {
     int32_t pad[3];
 } vsd_krecord_grids;
 
-VSD_DEVICE vsd_sample_result vsd_records_pixel_volumes(const vsd_krecord_grids *gs, int32_t px, int32_t py, float jx,
-                                                       float jy)
+/* The march along o + t d (walk begun on it) over every volume, into acc: every volume's
+ * extinction and emission, and the in-scattered light of the volumes in `sources` (bit i:
+ * volume i) — all of them for the view; lbl's parts gather the light of the other groups
+ * only (lbl_exchange.h). */
+VSD_DEVICE void vsd_records_march_volumes(const vsd_krecord_grids *gs, vsd_march_acc *acc, vsd_volumes_walk *walk,
+                                          vsd_f3 o, vsd_f3 d, uint32_t sources)
 {
     const vsd_kernel_data *kd = gs->kd;
-    vsd_march_acc acc;
-    vsd_volumes_walk walk;
-    vsd_f3 o, d, p;
+    vsd_f3 p;
     float mid, sigma, absorbed, sig[VSD_KMAX_VOLUMES];
     /* per volume: the lights' per-ray weights at its phase, its SH weights, its corners */
     float ph[VSD_KMAX_VOLUMES][VSD_RECORDS_PH_FLOATS], w[VSD_KMAX_VOLUMES][VSD_SH_MAX_COEFFS];
     vsd_records_corners corners[VSD_KMAX_VOLUMES];
     int32_t i, n = gs->count;
-    if (!vsd_volumes_view_begin(kd, px, py, jx, jy, &acc, &walk, &o, &d)) return vsd_march_finish(kd, &acc, d);
     for (i = 0; i < n; i++) {
         const vsd_krecord_grid *g = &gs->grid[i];
         float an = kd->volumes[i].medium.anisotropy;
         corners[i].filled = 0;
         corners[i].valid = 0;
         corners[i].key[0] = corners[i].key[1] = corners[i].key[2] = 0;
-        if (walk.lo[i] >= VSD_INF) continue;   /* the ray misses this volume */
+        if (walk->lo[i] >= VSD_INF || !((sources >> i) & 1u)) continue;   /* missed, or not a source */
         vsd_records_light_weights(g->lights, g->light_count, g->sub_count, d, an, ph[i]);
         if (g->kind == VSD_RECORDS_SH_RGB) {
             float gl = 1.0f;
@@ -52,18 +53,29 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel_volumes(const vsd_krecord_grids *
             }
         }
     }
-    while (vsd_volumes_view_step(&walk, kd, &acc, o, d, &p, &mid, &sigma, &absorbed, sig)) {
+    while (vsd_volumes_view_step(walk, kd, acc, o, d, &p, &mid, &sigma, &absorbed, sig)) {
         vsd_f3 single = f3s(0.0f), multiple = f3s(0.0f);
         for (i = 0; i < n; i++) {
             vsd_f3 ms, ss, a;
-            if (!(sig[i] > 0.0f)) continue;
+            if (!(sig[i] > 0.0f) || !((sources >> i) & 1u)) continue;
             ss = vsd_records_inscatter(&gs->grid[i], p, w[i], ph[i], &corners[i], &ms);
             a = f3_scale(kd->volumes[i].medium.albedo, sig[i] / sigma);
             single = f3_add(single, f3_mul(a, ss));
             multiple = f3_add(multiple, f3_mul(a, ms));
         }
-        vsd_march_source(&acc, single, multiple, mid, absorbed, absorbed);
+        vsd_march_source(acc, single, multiple, mid, absorbed, absorbed);
     }
+}
+
+VSD_DEVICE vsd_sample_result vsd_records_pixel_volumes(const vsd_krecord_grids *gs, int32_t px, int32_t py, float jx,
+                                                       float jy)
+{
+    const vsd_kernel_data *kd = gs->kd;
+    vsd_march_acc acc;
+    vsd_volumes_walk walk;
+    vsd_f3 o, d;
+    if (vsd_volumes_view_begin(kd, px, py, jx, jy, &acc, &walk, &o, &d))
+        vsd_records_march_volumes(gs, &acc, &walk, o, d, ~0u);
     return vsd_march_finish(kd, &acc, d);
 }
 

@@ -27,20 +27,6 @@ static int index_box(const vsd_kernel_data *kd, int j, double lo[3], double hi[3
     return 1;
 }
 
-int vsd_crm_volumes_near(const vsd_kernel_data *kd, int i, int j)
-{
-    double lo[2][3], hi[2][3], gap2 = 0.0, extent = 0.0;
-    int a, k;
-    if (!vsd_kobject_world_box(&kd->volumes[i], lo[0], hi[0]) || !vsd_kobject_world_box(&kd->volumes[j], lo[1], hi[1]))
-        return 0;
-    for (a = 0; a < 3; a++) {
-        double gap = fmax(0.0, fmax(lo[1][a] - hi[0][a], lo[0][a] - hi[1][a]));
-        gap2 += gap * gap;
-        for (k = 0; k < 2; k++) extent = fmax(extent, hi[k][a] - lo[k][a]);
-    }
-    return gap2 <= 0.25 * extent * extent;
-}
-
 void vsd_crm_part_box(const vsd_frame_ctx *ctx, int32_t origin[3], int32_t dims[3])
 {
     const vsd_kernel_data *kd = &ctx->kd;
@@ -53,7 +39,7 @@ void vsd_crm_part_box(const vsd_frame_ctx *ctx, int32_t origin[3], int32_t dims[
     for (j = 0; j < kd->volume_count && j < 32; j++) {
         double jlo[3], jhi[3];
         if (j == ctx->part.volume) continue;
-        if (!((ctx->part.group >> j) & 1u) && !vsd_crm_volumes_near(kd, ctx->part.volume, j)) continue;
+        if (!((ctx->part.group >> j) & 1u) && !vsd_volumes_near(kd, ctx->part.volume, j)) continue;
         if (!index_box(kd, j, jlo, jhi)) continue;
         for (a = 0; a < 3; a++) {
             lo[a] = fmin(lo[a], jlo[a]);

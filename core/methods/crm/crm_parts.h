@@ -26,16 +26,10 @@
 #include "crm_kernel.h"
 #include "crm_node_single.h"
 
-/* Whether volumes i and j of kd lie near each other: the gap between their world boxes
- * (non-empty bricks) at most half the largest extent of either box. Near volumes share a
- * crm grid, so each lights the other (a cloud over a smoke brightens its top), where
- * far ones only shadow each other (two smokes 100 m apart keep grids of their own size). */
-int vsd_crm_volumes_near(const vsd_kernel_data *kd, int i, int j);
-
 /* The box of the part's node grid, in its volume's index space (voxels; dims multiples of
  * 8, the brick box's units): the volume's own brick box (origin, dims on entry) grown to
  * hold the world boxes of the other members of its group (ctx->part.group) and of the
- * volumes near it (vsd_crm_volumes_near). */
+ * volumes near it (vsd_volumes_near, src/grids/volume_groups.h). */
 void vsd_crm_part_box(const vsd_frame_ctx *ctx, int32_t origin[3], int32_t dims[3]);
 
 /* Whether every other volume whose box meets the node box (index space, as

@@ -39,6 +39,8 @@
 #include "lbl_readout.h"
 #include "src/grids/refraction.h"
 #include "lbl_escape.h"
+#include "lbl_exchange.h"
+#include "device/cpu/cpu_tiles.h"
 #include "src/grids/volume_groups.h"
 #include "src/method/method_parts.h"
 #include <math.h>
@@ -54,7 +56,7 @@
 static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape, escape;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape, escape, exchange;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -123,6 +125,10 @@ static const vsd_option_spec lbl_option_rows[] = {
      "diffusion: the paper's isotropic scattering, or the medium's phase (Henyey-Greenstein) on the six directions' "
      "cones, first scattering included (D3Q6 global lattice; lbl_readout.h)",
      offsetof(lbl_options, lattice_phase), 0, NULL, .when = lbl_on_global_d3q6},
+    {"exchange", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "several volumes: the light each group of volumes sends the near ones enters their lattices at the faces "
+     "(D3Q6 global lattice; lbl_exchange.h)",
+     offsetof(lbl_options, exchange), 0, NULL, .when = lbl_on_global_d3q6},
     {"cell_light", VSD_OPT_CHOICE, 0, 0, VSD_LBL_CELL_PATH, lbl_cell_light_names,
      "diffusion: the light in a cell, the paper's photons counted at the faces they arrive at with what is born "
      "there leaving whole, or each photon's path through the cell, born light crossing the rest of it (global "
@@ -189,7 +195,15 @@ typedef struct lbl_state {
     float *light_lost;            /* [records * dir_count] the power the rays lost (lbl_march.h), or NULL */
     float *local_trans;           /* [records * local_count] transmittance times falloff */
     float *source;                /* [3][cells], or with source_dirs [6][3][cells] */
-    int source_dirs;              /* the lattice scatters with the phase (lattice_phase "hg") */
+    int source_dirs;              /* the source per direction: the lattice scatters with the phase
+                                     (lattice_phase "hg"), or light comes in at its faces */
+    int receives;                 /* a part with near volumes outside its group: their light comes
+                                     in at the lattice's faces (lbl_exchange.h) */
+    vsd_lbl_exchange exchange;    /* a receiving part's: the other groups seen from its faces */
+    /* [records][exchange.count][3]: the scattered light of each kept direction reaching the
+     * record (irradiance, E T), read toward the eye per view with the volume's lobe */
+    float *exchange_irr;
+    float anisotropy;             /* the part's volume's g (the exchange's readout) */
     float dir_shares[VSD_RECORDS_MAX_LIGHTS][6];  /* each directional light's light_shares */
     float *fluence;               /* [3][cells] */
     float *ms;                    /* [records * 3] VolumeInd source per unit sigma_s */
@@ -241,6 +255,9 @@ static void free_lighting(lbl_state *s)
     s->light_trans = s->source = s->fluence = s->ms = s->view_baked = NULL;
     s->source_e = s->fluence_e = s->emission_once = NULL;
     s->emission_steps = 0;
+    vsd_lbl_exchange_free(&s->exchange);
+    free(s->exchange_irr);
+    s->exchange_irr = NULL;
 }
 
 static void free_frame(lbl_state *s)
@@ -291,7 +308,16 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     int32_t x, y, z;
     free_frame(s);
     if (!ctx->part.active) {
-        if (ctx->kd.volume_count > 1) return vsd_parts_prepare_frame(&s->parts, &vsd_method_lbl, &s->opt, ctx, err, errlen);
+        if (ctx->kd.volume_count > 1) {
+            int i;
+            st = vsd_parts_prepare_frame(&s->parts, &vsd_method_lbl, &s->opt, ctx, err, errlen);
+            /* with light between groups a part reads the others' lighting too, so any
+             * material edit re-lights every part (and the exchange after them) */
+            s->parts.materials_of_all = 0;
+            for (i = 0; i < s->parts.count && s->opt.exchange; i++)
+                if (vsd_group_near_outside(&ctx->kd, s->parts.group[i])) s->parts.materials_of_all = 1;
+            return st;
+        }
         vsd_parts_free(&s->parts, &vsd_method_lbl);
     }
     if (ctx->part.active) {
@@ -611,6 +637,15 @@ static vsd_status readout_view(lbl_state *s, const vsd_kcamera *cam, char *err, 
             for (i = 0; i < 6; i++) v += w[i] * f[3 * i + a];
             s->ms_view[3 * r + a] = v;
         }
+        if (s->exchange_irr) {
+            /* the other groups' light, scattered once here toward the eye (lbl_exchange.h) */
+            const float *e = s->exchange_irr + 3 * (size_t)s->exchange.count * r;
+            d = f3_normalize(d);
+            for (i = 0; i < s->exchange.count; i++) {
+                float ph = vsd_hg_eval(f3_dot(d, s->exchange.light[i].w), s->anisotropy);
+                for (a = 0; a < 3; a++) s->ms_view[3 * r + a] += ph * e[3 * i + a];
+            }
+        }
     }
     return VSD_OK;
 }
@@ -642,6 +677,50 @@ static void mix_albedo_cells(lbl_state *s, const vsd_frame_ctx *ctx)
             }
 }
 
+/* The records' diffused light from the lattice's steady state: VolumeInd's source per unit
+ * sigma_s, phi / 4pi, phi = the cell's photons / lambda^2 (less the emission's unscattered
+ * fluence, VolumeDir's emission_once), and with readout "phase" the populations (ms6). */
+static vsd_status records_from_fluence(lbl_state *s, const vsd_frame_ctx *ctx, const vsd_lbl_layout *layout, char *err,
+                                       size_t errlen)
+{
+    const size_t n = cell_count(s);
+    size_t c;
+    int a;
+    for (c = 0; c < n; c++) {
+        int32_t rec = s->rg.cell_record[c];
+        if (rec < 0) continue;
+        for (a = 0; a < 3; a++) {
+            double k = 1.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D), phi = s->fluence[(size_t)a * n + c];
+            if (s->fluence_e) {
+                double phi_e = s->fluence_e[(size_t)a * n + c];
+                s->emission_once[3 * (size_t)rec + a] = (float)(phi_e * k);
+                phi = phi > phi_e ? phi - phi_e : 0.0;
+            }
+            s->ms[3 * (size_t)rec + a] = (float)(phi * k);
+        }
+    }
+    free(s->ms6);
+    s->ms6 = NULL;
+    return readout_populations(s, ctx, layout, err, errlen);
+}
+
+static vsd_status exchange_between_groups(lbl_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen);
+
+/* The cells as the light march reads them (lbl_march.h). */
+static void march_grid(const lbl_state *s, vsd_lbl_grid *grid)
+{
+    int a, q;
+    memset(grid, 0, sizeof *grid);
+    memcpy(grid->res, s->rg.res, sizeof grid->res);
+    grid->sigma = s->sigma;
+    for (a = 0; a < 3; a++)
+        for (q = 0; q < 3; q++) grid->to_grid[3 * a + q] = s->rg.world_to_grid.m[4 * a + q];
+    grid->refract = s->refraction.k.ng ? &s->refraction.k : NULL;
+    grid->empty_d2 = s->opt.leaps ? s->empty_d2 : NULL;
+    grid->world_to_grid = s->rg.world_to_grid;
+    for (a = 0; a < 12; a++) grid->grid_to_world.m[a] = (float)s->g2w[a];
+}
+
 static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     lbl_state *s = state;
@@ -656,7 +735,11 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     size_t c;
     int suns;
     free_lighting(s);
-    if (s->parts.count) return vsd_parts_prepare_lighting(&s->parts, &vsd_method_lbl, ctx, err, errlen);
+    if (s->parts.count) {
+        if ((st = vsd_parts_prepare_lighting(&s->parts, &vsd_method_lbl, ctx, err, errlen)) || !s->parts.relit)
+            return st;
+        return exchange_between_groups(s, ctx, err, errlen);
+    }
     if (s->albedo_cells) mix_albedo_cells(s, ctx);
     if ((st = split_scene_lights(s, &ctx->kd, &suns))) return vsd_fail(st, err, errlen, "lbl: internal: too many lights");
     /* the record grid's per-ray weights hold VSD_RECORDS_MAX_LIGHTS directional lights,
@@ -695,8 +778,11 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if (s->opt.light_deposit == LBL_DEPOSIT_LOST &&
         !(s->light_lost = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *s->light_lost)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lost power of %zu records", recs);
-    /* the lattice's phase: with directions the source is per direction */
-    s->source_dirs = s->opt.lattice_phase == LBL_PHASE_HG && ctx->kd.medium.anisotropy != 0.0f &&
+    /* the lattice's phase: with directions the source is per direction; so too where light
+     * from near volumes outside the group comes in at the faces */
+    s->receives = s->opt.exchange && ctx->part.active && layout.block_steps == 0 && !layout.d3q18 &&
+                  vsd_group_near_outside(&ctx->kd, ctx->part.group);
+    s->source_dirs = ((s->opt.lattice_phase == LBL_PHASE_HG && ctx->kd.medium.anisotropy != 0.0f) || s->receives) &&
                      layout.block_steps == 0 && !layout.d3q18;
     vsd_lbl_readout_build(&s->readout, ctx->kd.medium.anisotropy);
     s->source = malloc(source_floats(s) * sizeof *s->source);
@@ -711,21 +797,14 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         (vsd_group_emits(&ctx->kd, vsd_ctx_group(ctx)) && (!s->source_e || !s->fluence_e || !s->emission_once)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lighting of %zu cells", n);
     /* marching pass */
-    memcpy(grid.res, s->rg.res, sizeof grid.res);
-    grid.sigma = s->sigma;
-    for (a = 0; a < 3; a++)
-        for (q = 0; q < 3; q++) grid.to_grid[3 * a + q] = s->rg.world_to_grid.m[4 * a + q];
-    grid.refract = s->refraction.k.ng ? &s->refraction.k : NULL;
-    grid.empty_d2 = s->opt.leaps ? s->empty_d2 : NULL;
-    grid.world_to_grid = s->rg.world_to_grid;
-    for (a = 0; a < 12; a++) grid.grid_to_world.m[a] = (float)s->g2w[a];
+    march_grid(s, &grid);
     /* the lattice first: with a ray history it steps while the rays march */
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
     vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
     vsd_lbl_lattice_set_cell_shape(&s->lattice, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
     vsd_lbl_lattice_set_keep(&s->lattice, s->keep);
     vsd_lbl_lattice_set_albedo_cells(&s->lattice, s->albedo_cells);
-    if (s->source_dirs) {
+    if (s->opt.lattice_phase == LBL_PHASE_HG && s->source_dirs) {
         float f, b, sd;
         vsd_lbl_readout_lattice_phase(ctx->kd.medium.anisotropy, &f, &b, &sd);
         vsd_lbl_lattice_set_phase(&s->lattice, f, b, sd);
@@ -736,7 +815,10 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         }
     } else {
         vsd_lbl_lattice_set_phase(&s->lattice, 1.0f / 6.0f, 1.0f / 6.0f, 1.0f / 6.0f);
+        for (a = 0; a < s->dir_count; a++)
+            for (q = 0; q < 6; q++) s->dir_shares[a][q] = 1.0f / 6.0f;
     }
+    if (s->source_dirs) vsd_lbl_lattice_set_source_per_direction(&s->lattice);
     albedo[0] = ctx->kd.medium.albedo.x;
     albedo[1] = ctx->kd.medium.albedo.y;
     albedo[2] = ctx->kd.medium.albedo.z;
@@ -803,22 +885,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         s->diffusion.seconds += stats_e.seconds;
         s->emission_steps = stats_e.steps;
     }
-    /* VolumeInd's source per unit sigma_s: phi / 4pi, phi = the cell's photons / lambda^2 (less the
-     * emission's unscattered fluence, VolumeDir's emission_once) */
-    for (c = 0; c < n; c++) {
-        int32_t rec = s->rg.cell_record[c];
-        if (rec < 0) continue;
-        for (a = 0; a < 3; a++) {
-            double k = 1.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D), phi = s->fluence[(size_t)a * n + c];
-            if (s->fluence_e) {
-                double phi_e = s->fluence_e[(size_t)a * n + c];
-                s->emission_once[3 * (size_t)rec + a] = (float)(phi_e * k);
-                phi = phi > phi_e ? phi - phi_e : 0.0;
-            }
-            s->ms[3 * (size_t)rec + a] = (float)(phi * k);
-        }
-    }
-    return readout_populations(s, ctx, &layout, err, errlen);
+    return records_from_fluence(s, ctx, &layout, err, errlen);
 }
 
 static vsd_sample_result bent_sample(const void *m, int x, int y, int s, int n)
@@ -845,14 +912,13 @@ static vsd_status render_bent(lbl_state *s, vsd_frame_ctx *ctx, vsd_framebuffer 
                                   errlen);
 }
 
-/* The record grid the view reads, *g, with the lights' term baked for this view where the
- * CPU renders it; also a part's (vsd_part_view_fn, src/method/method_parts.h). */
-static vsd_status view_grid(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g_out, char *err, size_t errlen)
+/* The part's records as a record grid for any direction: the lights' term per ray, the
+ * diffused light as its isotropic fluence / 4 pi (view_grid bakes both toward an eye). */
+static void records_grid(const lbl_state *s, const vsd_kernel_data *kd, vsd_krecord_grid *out)
 {
-    lbl_state *s = state;
     vsd_krecord_grid g;
     memset(&g, 0, sizeof g);
-    g.kd = &ctx->kd;
+    g.kd = kd;
     g.cell_record = s->rg.cell_record;
     g.world_to_grid = s->rg.world_to_grid;
     memcpy(g.res, s->rg.res, sizeof g.res);
@@ -868,13 +934,23 @@ static vsd_status view_grid(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g
     g.local_count = s->local_trans ? s->local_count : 0;
     g.record_pos = s->rg.record_pos;
     g.records_ms = s->ms;
+    g.records_emission_once = s->emission_once;
+    *out = g;
+}
+
+/* The record grid the view reads, *g, with the lights' term baked for this view where the
+ * CPU renders it; also a part's (vsd_part_view_fn, src/method/method_parts.h). */
+static vsd_status view_grid(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g_out, char *err, size_t errlen)
+{
+    lbl_state *s = state;
+    vsd_krecord_grid g;
+    records_grid(s, &ctx->kd, &g);
     if (s->ms6) {
         vsd_status st = readout_view(s, &ctx->kd.camera, err, errlen);
         if (st) return st;
         g.records_ms = s->ms_view;
         g.records_ms_per_view = 1;
     }
-    g.records_emission_once = s->emission_once;
     /* on the CPU the lights' term is baked per view; the device keeps its arrays per
      * lighting generation, so there the march sums the lights per ray (exact phase) */
     /* (bent view rays always read baked records: they run on the CPU) */
@@ -893,6 +969,174 @@ static vsd_status view_grid(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g
         g.local_count = 0;
     }
     *g_out = g;
+    return VSD_OK;
+}
+
+typedef struct receive_job {
+    lbl_state *p;
+    vsd_f3 albedo;
+    const float *trans, *lost;
+    const float (*shares)[6];
+    float *once_s, *once_e;
+    int per_view;
+} receive_job;
+
+/* receive_exchange's records in the cells of slices [z0, z1) */
+static void receive_slices(void *arg, int z0, int y0, int z1, int y1)
+{
+    const receive_job *j = arg;
+    lbl_state *p = j->p;
+    const size_t n = cell_count(p);
+    const int k_count = p->exchange.count;
+    const double lambda2 = p->cell_world * p->cell_world, lambda3 = lambda2 * p->cell_world, k4pi = 1.0 / (4.0 * PI_D);
+    const double dw = p->exchange.domega;
+    int32_t x, y, z;
+    int k, i, ch;
+    (void)y0;
+    (void)y1;
+    for (z = z0; z < z1; z++)
+        for (y = 0; y < p->rg.res[1]; y++)
+            for (x = 0; x < p->rg.res[0]; x++) {
+                const size_t c = (size_t)x + (size_t)p->rg.res[0] * ((size_t)y + (size_t)p->rg.res[1] * z);
+                const int32_t rec = p->rg.cell_record[c];
+                const vsd_f3 q = f3(x + 0.5f, y + 0.5f, z + 0.5f);
+                double a3[3];
+                if (rec < 0) continue;
+                for (ch = 0; ch < 3; ch++)
+                    a3[ch] = p->albedo_cells ? p->albedo_cells[(size_t)ch * n + c]
+                                             : ch == 0 ? j->albedo.x : ch == 1 ? j->albedo.y : j->albedo.z;
+                for (k = 0; k < k_count; k++) {
+                    const size_t at = (size_t)rec * k_count + k;
+                    const double t = j->trans[at], w = j->lost ? j->lost[at] * lambda3 : t * p->collide[c] * lambda2;
+                    vsd_f3 ls, le;
+                    double es[3], ee[3];
+                    if (!(t > 0.0) && !(w > 0.0)) continue;
+                    vsd_lbl_exchange_radiance(&p->exchange, k, q, &ls, &le);
+                    es[0] = ls.x * dw, es[1] = ls.y * dw, es[2] = ls.z * dw;
+                    ee[0] = le.x * dw, ee[1] = le.y * dw, ee[2] = le.z * dw;
+                    for (ch = 0; ch < 3; ch++) {
+                        /* the first scattering here, toward the eye */
+                        j->once_e[3 * (size_t)rec + ch] += (float)(ee[ch] * t * k4pi);
+                        if (j->per_view) p->exchange_irr[3 * at + ch] = (float)(es[ch] * t);
+                        else j->once_s[3 * (size_t)rec + ch] += (float)(es[ch] * t * k4pi);
+                        /* what it loses in the cell, scattered into the lattice */
+                        for (i = 0; i < 6; i++)
+                            p->source[((size_t)i * 3 + ch) * n + c] +=
+                                (float)(a3[ch] * (es[ch] + ee[ch]) * w * j->shares[k][i]);
+                    }
+                }
+            }
+}
+
+/* Part p's light from the other groups (lbl_exchange.h), gathered into p->exchange: each
+ * kept direction's rays march through the cells as the lights' do; its light at each record
+ * goes into the lattice's source (the power lost in the cell, the phase's cone shares) and,
+ * scattered once toward the eye, into exchange_irr (VolumeInd, read per view) or, for the
+ * emitted part and the isotropic readout, into the records' isotropic terms (*once_e:
+ * VolumeDir's emission scattered once; *once_s: VolumeInd), per unit sigma_s. */
+static vsd_status receive_exchange(lbl_state *p, const vsd_frame_ctx *pc, float *once_s, float *once_e, char *err,
+                                   size_t errlen)
+{
+    const size_t recs = (size_t)p->rg.count;
+    const int k_count = p->exchange.count;
+    const vsd_f3 albedo = pc->kd.medium.albedo;
+    float *lights = calloc(8 * (size_t)k_count, sizeof *lights), *trans = malloc(recs * k_count * sizeof *trans),
+          *lost = p->light_lost ? malloc(recs * k_count * sizeof *lost) : NULL, points_trans = 0.0f;
+    float (*shares)[6] = malloc((size_t)k_count * sizeof *shares);
+    const int per_view = p->ms6 != NULL;
+    vsd_lbl_grid grid;
+    vsd_status st = VSD_OK;
+    int k, i;
+    if (per_view && !(p->exchange_irr = calloc(3 * recs * k_count, sizeof *p->exchange_irr))) st = VSD_ERR_NOMEM;
+    if (st || !lights || !trans || !shares || (p->light_lost && !lost)) {
+        free(lights), free(trans), free(lost), free(shares);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the light between groups at %zu records", recs);
+    }
+    for (k = 0; k < k_count; k++) {
+        const vsd_f3 w = p->exchange.light[k].w;
+        lights[8 * k] = w.x, lights[8 * k + 1] = w.y, lights[8 * k + 2] = w.z;
+        lights[8 * k + 4] = lights[8 * k + 5] = lights[8 * k + 6] = 1.0f;
+        if (p->opt.lattice_phase == LBL_PHASE_HG)
+            vsd_lbl_readout_weights(&p->readout, vsd_affine_vector(&p->rg.world_to_grid, w), shares[k]);
+        else
+            for (i = 0; i < 6; i++) shares[k][i] = 1.0f / 6.0f;
+    }
+    march_grid(p, &grid);
+    st = vsd_lbl_march_lights(&grid, lights, k_count, NULL, 0, (float)p->opt.ray_spacing, (float)p->opt.light_step,
+                              p->rg.cell_record, pc->threads, trans, lost, &points_trans, NULL, err, errlen);
+    if (st == VSD_OK) {
+        receive_job j = {p, albedo, trans, lost, (const float(*)[6])shares, once_s, once_e, per_view};
+        /* (the pool fails only when cancelled, which this stage is not) */
+        if (vsd_cpu_run_items(p->rg.res[2], pc->threads, receive_slices, &j, "light between groups") != VSD_OK)
+            receive_slices(&j, 0, 0, p->rg.res[2], 1);
+    }
+    free(lights), free(trans), free(lost), free(shares);
+    return st;
+}
+
+/* Light between groups (lbl_exchange.h): once every part is lit, each part with near
+ * volumes outside its group gathers the light they send it (all gathers first, from the
+ * lighting without this exchange), takes it into its records and lattice, and solves the
+ * lattice again from its steady state. */
+static vsd_status exchange_between_groups(lbl_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    vsd_krecord_grid grids[VSD_KMAX_VOLUMES];
+    const vsd_krecord_grids gs = {&ctx->kd, grids, s->parts.count, {0, 0, 0}};
+    const uint32_t all = s->parts.count >= 32 ? ~0u : (1u << s->parts.count) - 1u;
+    float step = 0.0f;
+    vsd_status st;
+    int i, a;
+    for (i = 0; i < s->parts.count; i++) {
+        const lbl_state *p = s->parts.state[i];
+        records_grid(p, &ctx->kd, &grids[i]);
+        /* the march's step: the finest part's cell */
+        if (p->rg.count > 0 && (step == 0.0f || p->cell_world < step)) step = (float)p->cell_world;
+    }
+    for (i = 0; i < s->parts.count; i++) {
+        lbl_state *p = s->parts.state[i];
+        vsd_lbl_exchange_grid eg;
+        if (!p->receives || !p->source || p->rg.count == 0) continue;
+        memcpy(eg.res, p->rg.res, sizeof eg.res);
+        eg.world_to_grid = p->rg.world_to_grid;
+        for (a = 0; a < 12; a++) eg.grid_to_world.m[a] = (float)p->g2w[a];
+        if ((st = vsd_lbl_exchange_gather(&gs, all & ~s->parts.group[i], &eg, step, ctx->threads, &p->exchange, err,
+                                          errlen)))
+            return st;
+    }
+    for (i = 0; i < s->parts.count; i++) {
+        lbl_state *p = s->parts.state[i];
+        const size_t recs = (size_t)p->rg.count;
+        const vsd_lbl_layout layout = {p->opt.block_steps, p->opt.lattice == 1};
+        vsd_lbl_diffusion_stats stats;
+        vsd_frame_ctx pc;
+        float albedo[3], *once;
+        size_t r;
+        if (!p->exchange.count) continue;
+        vsd_part_ctx(ctx, &s->parts, i, &pc);
+        p->anisotropy = pc.kd.medium.anisotropy;
+        if (!(once = calloc(6 * recs, sizeof *once)) ||
+            (p->exchange.emits && !p->emission_once && !(p->emission_once = calloc(3 * recs, sizeof *p->emission_once)))) {
+            free(once);
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the light between groups");
+        }
+        albedo[0] = pc.kd.medium.albedo.x;
+        albedo[1] = pc.kd.medium.albedo.y;
+        albedo[2] = pc.kd.medium.albedo.z;
+        if ((st = receive_exchange(p, &pc, once, once + 3 * recs, err, errlen)) ||
+            (st = vsd_lbl_diffuse(&p->lattice, p->collide, albedo, p->source, p->opt.tolerance, p->opt.max_steps,
+                                  ctx->threads, p->fluence, &stats, err, errlen)) ||
+            (st = records_from_fluence(p, &pc, &layout, err, errlen))) {
+            free(once);
+            return st;
+        }
+        for (r = 0; r < 3 * recs; r++) {
+            p->ms[r] += once[r];
+            if (p->emission_once) p->emission_once[r] += once[3 * recs + r];
+        }
+        free(once);
+        p->diffusion.steps += stats.steps;
+        p->diffusion.seconds += stats.seconds;
+    }
     return VSD_OK;
 }
 

@@ -53,6 +53,12 @@ void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward
     l->anisotropic = l->f != NULL && !(forward == backward && forward == side);
 }
 
+void vsd_lbl_lattice_set_source_per_direction(vsd_lbl_lattice *l)
+{
+    /* the anisotropic step with equal shares is the isotropic one, reading S per direction */
+    l->anisotropic = l->f != NULL;
+}
+
 void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light) { l->cell_light = cell_light; }
 
 void vsd_lbl_lattice_set_keep(vsd_lbl_lattice *l, const float *keep) { l->keep = keep; }

@@ -86,6 +86,11 @@ void vsd_lbl_lattice_free(vsd_lbl_lattice *l);
  * paper's. Call after vsd_lbl_lattice_init, which resets it. */
 void vsd_lbl_lattice_set_phase(vsd_lbl_lattice *l, float forward, float backward, float side);
 
+/* The source per direction, [6][3][cells], whatever the phase (global D3Q6 only): light
+ * that enters through the lattice's faces has a direction even where the medium scatters
+ * isotropically (lbl_exchange.h). Call after vsd_lbl_lattice_set_phase. */
+void vsd_lbl_lattice_set_source_per_direction(vsd_lbl_lattice *l);
+
 /* VSD_LBL_CELL_FACES (the paper's, and what vsd_lbl_lattice_init leaves) or _PATH; call
  * after vsd_lbl_lattice_init. */
 void vsd_lbl_lattice_set_cell_light(vsd_lbl_lattice *l, int cell_light);

@@ -245,3 +245,26 @@ void vsd_group_shadow_records(const vsd_kernel_data *kd, uint32_t group, const f
     if (vsd_cpu_run_items(records, threads, shadow_items, &j, "shadows of other volumes") != VSD_OK)
         shadow_items(&j, 0, 0, records, 1);
 }
+
+int vsd_volumes_near(const vsd_kernel_data *kd, int i, int j)
+{
+    double lo[2][3], hi[2][3], gap2 = 0.0, extent = 0.0;
+    int a, k;
+    if (!vsd_kobject_world_box(&kd->volumes[i], lo[0], hi[0]) || !vsd_kobject_world_box(&kd->volumes[j], lo[1], hi[1]))
+        return 0;
+    for (a = 0; a < 3; a++) {
+        double gap = fmax(0.0, fmax(lo[1][a] - hi[0][a], lo[0][a] - hi[1][a]));
+        gap2 += gap * gap;
+        for (k = 0; k < 2; k++) extent = fmax(extent, hi[k][a] - lo[k][a]);
+    }
+    return gap2 <= 0.25 * extent * extent;
+}
+
+int vsd_group_near_outside(const vsd_kernel_data *kd, uint32_t group)
+{
+    int i, j;
+    for (i = 0; i < kd->volume_count; i++)
+        for (j = 0; j < kd->volume_count; j++)
+            if (((group >> i) & 1u) && !((group >> j) & 1u) && vsd_volumes_near(kd, i, j)) return 1;
+    return 0;
+}

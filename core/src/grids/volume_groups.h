@@ -2,22 +2,22 @@
  *
  * A method that caches its lighting on a grid (lbl's lattice, the record grids) gives each
  * volume its own grid, in its own index space, over the volume's *group*: the volumes whose
- * boxes overlap it or come near it (transitively). Inside a group the grids hold every
- * member's extinction and emission, so a smoke around a fire is lit by the flame and
- * shadows it; between groups only shadows are exchanged (light marched through the other
- * groups' volumes, kernel_volumes.h), so two small volumes 100 m apart never share a grid
- * and nothing is allocated for the space between them.
+ * media overlap it (transitively). Inside a group the grids hold every member's extinction
+ * and emission, so a smoke around a fire is lit by the flame and shadows it; between
+ * groups the shadows are marched through the other groups' volumes (kernel_volumes.h) and
+ * the light of near groups comes in as the method carries it (below), so two small volumes
+ * 100 m apart never share a grid and nothing is allocated for the space between them.
  *
  * Two volumes are in one group when their media overlap: some point where both have
  * density (or emission) — found by probing the common boxes of their non-empty bricks.
  * Boxes alone would group a cloud with the smoke whose box only grazes its empty corner.
- * Volumes that are near but do not overlap stay apart: the light one sends the other (a
- * flame's glow on a smoke beside it) is not carried, only their shadows. A shared grid
- * would carry it, but lbl's six lattice directions carry light across empty space as
- * beams along the axes (the ray effect of a discrete-ordinates solve): on the issue-30
- * scene a cloud 0.1 m above a fire's smoke got an orange streak straight above the flame
- * that `reference` does not show (docs/design-notes.md, "Several volumes"). crm's grids,
- * whose orders gather 48 directions, take the near volumes in too (crm_parts.h). */
+ * Volumes that are near but do not overlap stay apart: lbl's six lattice directions would
+ * carry light across the empty space between them as beams along the axes (the ray effect
+ * of a discrete-ordinates solve): on the issue-30 scene a cloud 0.1 m above a fire's smoke
+ * got an orange streak straight above the flame that `reference` does not show
+ * (docs/design-notes.md, "Several volumes"). The light near groups send each other enters
+ * lbl's lattices at their faces instead (lbl_exchange.h); crm's grids, whose orders gather
+ * 48 directions, take the near volumes in (crm_parts.h). */
 #ifndef VSD_VOLUME_GROUPS_H
 #define VSD_VOLUME_GROUPS_H
 #include <stdint.h>
@@ -38,6 +38,15 @@ vsd_f3 vsd_group_emission(const vsd_kernel_data *kd, uint32_t group, vsd_f3 p);
  * scatter[3] (sigma_i albedo_i). */
 float vsd_group_scattering(const vsd_kernel_data *kd, uint32_t group, vsd_f3 p, double scatter[3]);
 int vsd_group_emits(const vsd_kernel_data *kd, uint32_t group);
+/* Whether volumes i and j of kd lie near each other: the gap between their world boxes
+ * (non-empty bricks) at most half the largest extent of either box. Near volumes light
+ * each other where a method carries it (crm's grids take them in, crm_parts.h; lbl's
+ * parts send each other light through their grids' faces, lbl_exchange.h), where far ones
+ * only shadow each other (two smokes 100 m apart keep grids of their own size). */
+int vsd_volumes_near(const vsd_kernel_data *kd, int i, int j);
+/* Whether some volume outside the group lies near one of its members. */
+int vsd_group_near_outside(const vsd_kernel_data *kd, uint32_t group);
+
 /* Whether some volume lies outside the group (then its grids need the shadows below). */
 int vsd_group_has_outside(const vsd_kernel_data *kd, uint32_t group);
 
