@@ -39,6 +39,7 @@
 #include "methods/lbl/lbl_march.h"
 #include "methods/lbl/lbl_readout.h"
 #include "methods/lbl/lbl_escape.h"
+#include "methods/lbl/lbl_delta_m.h"
 #include "kernel/kernel_phase.h"
 #include <math.h>
 #include <stdlib.h>
@@ -323,6 +324,71 @@ static void test_infinite_medium(const vsd_lbl_layout *layout, int cell_light, f
     free(collide);
     free(source);
     free(fluence);
+}
+
+/* [12] Delta-M's scaled cells (lbl_delta_m.h): sigma' = sigma (1 - a f), albedo' = a (1 - f) /
+ * (1 - a f), so sigma_s' = a (1 - f) sigma and the absorption sigma (1 - a) is kept; an
+ * infinite medium of scaled cells (path in the cell) fed the same isotropic source then
+ * holds the same fluence, 1 / ((1 - a) sigma lambda) per unit source, as the unscaled one.
+ * With RGB albedo the extinction's scale takes the channels' mean; per cell (albedo_cells)
+ * the same numbers as for the one albedo. */
+static void test_delta_m(void)
+{
+    const int32_t res[3] = {33, 33, 33};
+    const size_t n = 33 * 33 * 33, centre = (16 * 33 + 16) * 33 + 16;
+    const double f = 0.49, lambda = 0.05;   /* g 0.7 */
+    const float grey[3] = {0.6f, 0.6f, 0.6f}, rgb[3] = {0.95f, 0.8f, 0.5f};
+    float *sigma = malloc(n * sizeof *sigma), *sig2 = malloc(n * sizeof *sig2), *col = malloc(n * sizeof *col),
+          *col2 = malloc(n * sizeof *col2), *source = malloc(3 * n * sizeof *source),
+          *phi = malloc(3 * n * sizeof *phi), *phi2 = malloc(3 * n * sizeof *phi2),
+          *cells = malloc(3 * n * sizeof *cells), *cells2 = malloc(3 * n * sizeof *cells2);
+    float a2[3], a3[3];
+    vsd_lbl_lattice l, l2;
+    vsd_lbl_diffusion_stats st;
+    size_t c;
+    int ch;
+    memset(&l, 0, sizeof l);
+    memset(&l2, 0, sizeof l2);
+    if (!sigma || !sig2 || !col || !col2 || !source || !phi || !phi2 || !cells || !cells2) return;
+    for (c = 0; c < n; c++) {
+        sigma[c] = 12.0f;
+        col[c] = (float)(1.0 - exp(-12.0 * lambda));
+        for (ch = 0; ch < 3; ch++) source[ch * n + c] = 1.0f, cells[ch * n + c] = rgb[ch];
+    }
+    /* the relations, RGB: the mean albedo scales the extinction */
+    vsd_lbl_delta_m_cells(n, sigma, lambda, NULL, rgb, f, sig2, col2, NULL, a2);
+    {
+        const double mean = (0.95 + 0.8 + 0.5) / 3.0, want_sigma = 12.0 * (1.0 - mean * f);
+        CHECK_MSG(fabs(sig2[centre] - want_sigma) < 1e-5 * want_sigma, "delta-M sigma %g, want %g", sig2[centre],
+                  want_sigma);
+        CHECK(fabs(col2[centre] - (1.0 - exp(-want_sigma * lambda))) < 1e-6);
+        for (ch = 0; ch < 3; ch++)
+            CHECK_MSG(fabs(a2[ch] * sig2[centre] - rgb[ch] * (1.0 - f) * 12.0) < 1e-4,
+                      "delta-M sigma_s channel %d: %g, want a (1 - f) sigma %g", ch, a2[ch] * sig2[centre],
+                      rgb[ch] * (1.0 - f) * 12.0);
+    }
+    /* per cell: the same numbers */
+    vsd_lbl_delta_m_cells(n, sigma, lambda, cells, rgb, f, sig2, col2, cells2, a3);
+    for (ch = 0; ch < 3; ch++) CHECK(cells2[ch * n + centre] == a2[ch]);
+    /* grey: the absorption kept, so the infinite medium's fluence */
+    vsd_lbl_delta_m_cells(n, sigma, lambda, NULL, grey, f, sig2, col2, NULL, a2);
+    CHECK(vsd_lbl_lattice_init(&l, res, NULL, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_lattice_init(&l2, res, NULL, NULL, 0) == VSD_OK);
+    vsd_lbl_lattice_set_cell_light(&l, VSD_LBL_CELL_PATH);
+    vsd_lbl_lattice_set_cell_light(&l2, VSD_LBL_CELL_PATH);
+    CHECK(vsd_lbl_diffuse(&l, col, grey, source, 1e-7, 20000, 0, phi, &st, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_diffuse(&l2, col2, a2, source, 1e-7, 20000, 0, phi2, &st, NULL, 0) == VSD_OK);
+    printf("[12] delta-M (g 0.7, albedo 0.6): infinite medium fluence %.5f unscaled, %.5f scaled (albedo' %.4f, "
+           "sigma' / sigma %.4f), want %.5f\n",
+           phi[centre], phi2[centre], a2[0], sig2[centre] / 12.0, 1.0 / (0.4 * 12.0 * lambda));
+    /* (albedo 0.6 keeps the diffusion length under 2 cells: the 33^3 box's faces lose nothing at its centre) */
+    CHECK_MSG(fabs(phi2[centre] - phi[centre]) < 0.01 * phi[centre], "delta-M changed the absorption: %g against %g",
+              phi2[centre], phi[centre]);
+    CHECK(fabs(phi2[centre] - 1.0 / (0.4 * 12.0 * lambda)) < 0.01 / (0.4 * 12.0 * lambda));
+    CHECK(a2[0] < grey[0] && sig2[centre] < 12.0f);
+    vsd_lbl_lattice_free(&l);
+    vsd_lbl_lattice_free(&l2);
+    free(sigma), free(sig2), free(col), free(col2), free(source), free(phi), free(phi2), free(cells), free(cells2);
 }
 
 /* a 16^3 box of sigma 2 per world unit, cells of 1/16 world unit (identity-like grid) */
@@ -873,6 +939,7 @@ int main(void)
         test_infinite_medium(NULL, VSD_LBL_CELL_PATH, 0.6f, boxes, "[2] D3Q6, path, cells 1.6 x 1 x 1/1.6 (x 0.92)");
     }
     test_march();
+    test_delta_m();
     test_blocked_conservation();
     test_blocked_against_global();
     test_d3q18();

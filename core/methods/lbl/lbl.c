@@ -40,6 +40,7 @@
 #include "src/grids/refraction.h"
 #include "lbl_escape.h"
 #include "lbl_exchange.h"
+#include "lbl_delta_m.h"
 #include "device/cpu/cpu_tiles.h"
 #include "src/grids/volume_groups.h"
 #include "src/method/method_parts.h"
@@ -56,7 +57,7 @@
 static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape, escape, exchange;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape, escape, exchange, delta_m;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -125,6 +126,11 @@ static const vsd_option_spec lbl_option_rows[] = {
      "diffusion: the paper's isotropic scattering, or the medium's phase (Henyey-Greenstein) on the six directions' "
      "cones, first scattering included (D3Q6 global lattice; lbl_readout.h)",
      offsetof(lbl_options, lattice_phase), 0, NULL, .when = lbl_on_global_d3q6},
+    {"delta_m", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "diffusion: delta-M scaling of a forward-peaked phase (g > 0; with lattice_phase \"hg\", readout \"phase\" and "
+     "no ray history): the lattice solves the problem without HG's forward peak, the light it leaves out is read "
+     "toward the eye with the true phase (lbl_delta_m.h)",
+     offsetof(lbl_options, delta_m), 0, NULL, .when = lbl_on_global_d3q6},
     {"exchange", VSD_OPT_BOOL, 0, 1, 1, NULL,
      "several volumes: the light each group of volumes sends the near ones enters their lattices at the faces "
      "(D3Q6 global lattice; lbl_exchange.h)",
@@ -176,6 +182,15 @@ typedef struct lbl_state {
      * extinction (several volumes of different albedo in its cells), or NULL */
     float *albedo_cells;
     vsd_lbl_readout readout;      /* the phase's cone weights (readout "phase") */
+    /* the medium the lattice solves (lighting stage): the cells' own, or with delta-M the
+     * scaled problem's (lbl_delta_m.h), whose arrays are dm_* */
+    const float *lat_sigma, *lat_collide, *lat_albedo_cells;
+    float lat_albedo[3];
+    float *dm_sigma, *dm_collide, *dm_albedo_cells;
+    vsd_lbl_readout readout_dm;   /* the scaled phase's cone shares (delta-M) */
+    /* with delta-M, [records * dir_count] and [records * local_count]: T' - T, the light
+     * the true problem scattered forward and the scaled one calls unscattered (VolumeInd) */
+    float *fwd_trans, *fwd_local;
     float *ms6;                   /* [records][6][3] the populations as cone radiances, or NULL */
     float *ms_view;               /* [records][3] their light toward this view's eye */
     double cell_world;            /* edge of a cube of a cell's world volume */
@@ -231,6 +246,7 @@ static vsd_status lbl_create(void **state, const vsd_scene *scene, const void *o
     if (!s) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
     s->opt = *(const lbl_options *)options;
     s->readout.g = NAN;
+    s->readout_dm.g = NAN;
     *state = s;
     return VSD_OK;
 }
@@ -258,6 +274,10 @@ static void free_lighting(lbl_state *s)
     vsd_lbl_exchange_free(&s->exchange);
     free(s->exchange_irr);
     s->exchange_irr = NULL;
+    free(s->dm_sigma), free(s->dm_collide), free(s->dm_albedo_cells);
+    free(s->fwd_trans), free(s->fwd_local);
+    s->dm_sigma = s->dm_collide = s->dm_albedo_cells = s->fwd_trans = s->fwd_local = NULL;
+    s->lat_sigma = s->lat_collide = s->lat_albedo_cells = NULL;
 }
 
 static void free_frame(lbl_state *s)
@@ -446,7 +466,7 @@ static void light_shares(const lbl_state *s, int light, int32_t rec, float q[6])
  * p lambda^2 — or, for the lost power (light_deposit "lost"), lambda^3. */
 static double deposit_scale(const lbl_state *s, size_t c, int lost)
 {
-    return lost ? s->cell_world * s->cell_world * s->cell_world : s->collide[c] * s->cell_world * s->cell_world;
+    return lost ? s->cell_world * s->cell_world * s->cell_world : s->lat_collide[c] * s->cell_world * s->cell_world;
 }
 
 /* Adds light k's first scattering at record rec (cell c), t its transmittance (times the
@@ -484,14 +504,13 @@ static void add_deposit(lbl_state *s, const float albedo[3], int light, size_t c
  * that, so this is low by about x/2. With light_deposit "lost" (default) the march's exact
  * loss in the cell replaces T_k (1 - e^-x) lambda^2 (docs/methods/lbl.md, "What a cell
  * scatters out of the rays"). */
-static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
+static void deposit(lbl_state *s, const vsd_frame_ctx *ctx, const float *trans, const float *lost, const float *local)
 {
     const size_t n = cell_count(s);
-    const vsd_kmedium *m = &ctx->kd.medium;
     /* with each cell's own albedo (a part's group), E_k's share here and the cell's albedo
-     * per record below */
-    const float albedo[3] = {s->albedo_cells ? 1.0f : m->albedo.x, s->albedo_cells ? 1.0f : m->albedo.y,
-                             s->albedo_cells ? 1.0f : m->albedo.z};
+     * per record below; the lattice's medium (delta-M's scaled one where it runs) */
+    const float albedo[3] = {s->lat_albedo_cells ? 1.0f : s->lat_albedo[0], s->lat_albedo_cells ? 1.0f : s->lat_albedo[1],
+                             s->lat_albedo_cells ? 1.0f : s->lat_albedo[2]};
     size_t c;
     const int nd = s->source_dirs ? 6 : 1, m3 = 3 * nd;
     /* the directional lights, the bulk: albedo E_k times each direction's share, once per
@@ -514,17 +533,17 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx)
         if (rec < 0) continue;
         /* with the lost power (light_deposit "lost") the rays' loss in the cell, else their
          * T at its centre times the cell's collision probability */
-        t = (s->light_lost ? s->light_lost : s->light_trans) + (size_t)rec * s->dir_count;
+        t = (lost ? lost : trans) + (size_t)rec * s->dir_count;
         for (k = 0; k < s->dir_count; k++)
             for (q = 0; q < m3; q++) acc[q] += t[k] * qe[(size_t)k * m3 + q];
-        if (s->albedo_cells)
-            for (q = 0; q < m3; q++) acc[q] *= s->albedo_cells[(size_t)(q % 3) * n + c];
-        for (q = 0; q < m3; q++) s->source[(size_t)q * n + c] += (float)(acc[q] * deposit_scale(s, c, s->light_lost != NULL));
+        if (s->lat_albedo_cells)
+            for (q = 0; q < m3; q++) acc[q] *= s->lat_albedo_cells[(size_t)(q % 3) * n + c];
+        for (q = 0; q < m3; q++) s->source[(size_t)q * n + c] += (float)(acc[q] * deposit_scale(s, c, lost != NULL));
         /* point and spot lights: their falloff is in local_trans */
         for (k = 0; k < s->local_count; k++) {
             float a3[3];
-            for (q = 0; q < 3; q++) a3[q] = s->albedo_cells ? s->albedo_cells[(size_t)q * n + c] : albedo[q];
-            add_deposit(s, a3, s->dir_count + k, c, rec, s->local_trans[(size_t)rec * s->local_count + k], NAN);
+            for (q = 0; q < 3; q++) a3[q] = s->lat_albedo_cells ? s->lat_albedo_cells[(size_t)q * n + c] : albedo[q];
+            add_deposit(s, a3, s->dir_count + k, c, rec, local[(size_t)rec * s->local_count + k], NAN);
         }
     }
     if (vsd_group_emits(&ctx->kd, vsd_ctx_group(ctx))) {
@@ -592,7 +611,6 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
 {
     const size_t n = cell_count(s), recs = (size_t)s->rg.count;
     const double k = 6.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D);
-    const float albedo[3] = {ctx->kd.medium.albedo.x, ctx->kd.medium.albedo.y, ctx->kd.medium.albedo.z};
     size_t c;
     /* (g = 0: every cone weighs 1/6, the isotropic readout exactly: none needed) */
     if (s->opt.readout != LBL_READOUT_PHASE || layout->block_steps > 0 || layout->d3q18 || !s->lattice.f || recs == 0 ||
@@ -606,7 +624,7 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
         if (rec < 0) continue;
         for (a = 0; a < 3; a++) {
             float m[6], me[6] = {0};
-            vsd_lbl_lattice_node_means(&s->lattice, s->collide, albedo, s->source, a, c, m);
+            vsd_lbl_lattice_node_means(&s->lattice, s->lat_collide, s->lat_albedo, s->source, a, c, m);
             if (s->fluence_e && s->lattice_e.f)
                 vsd_lbl_lattice_node_means(&s->lattice_e, s->collide, no_scattering, s->source_e, a, c, me);
             for (i = 0; i < 6; i++) {
@@ -618,9 +636,38 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
     return VSD_OK;
 }
 
-/* The diffused light toward this view's eye per record (readout "phase"), into ms_view. */
-static vsd_status readout_view(lbl_state *s, const vsd_kcamera *cam, char *err, size_t errlen)
+/* The part's records as a record grid for any direction: the lights' term per ray, the
+ * diffused light as its isotropic fluence / 4 pi (view_grid bakes both toward an eye). */
+static void records_grid(const lbl_state *s, const vsd_kernel_data *kd, vsd_krecord_grid *out)
 {
+    vsd_krecord_grid g;
+    memset(&g, 0, sizeof g);
+    g.kd = kd;
+    g.cell_record = s->rg.cell_record;
+    g.world_to_grid = s->rg.world_to_grid;
+    memcpy(g.res, s->rg.res, sizeof g.res);
+    g.record_count = s->rg.count;
+    g.interp = s->opt.interp;
+    g.kind = VSD_RECORDS_LIGHTS;
+    g.lights = s->dir_lights;
+    g.light_trans = s->light_trans;
+    g.light_count = s->light_trans ? s->dir_count : 0;
+    g.sub_count = s->light_trans ? s->sub_count : 0;
+    g.local_lights = s->local_lights;
+    g.local_trans = s->local_trans;
+    g.local_count = s->local_trans ? s->local_count : 0;
+    g.record_pos = s->rg.record_pos;
+    g.records_ms = s->ms;
+    g.records_emission_once = s->emission_once;
+    *out = g;
+}
+
+/* The diffused light toward this view's eye per record (readout "phase"), into ms_view:
+ * the lattice's populations, the light other groups send (lbl_exchange.h) and delta-M's
+ * forward light (lbl_delta_m.h), each at the volume's true phase. */
+static vsd_status readout_view(lbl_state *s, const vsd_frame_ctx *ctx, int with_forward, char *err, size_t errlen)
+{
+    const vsd_kcamera *cam = &ctx->kd.camera;
     const float *m = cam->cam_to_world.m;
     const vsd_f3 eye = f3(m[3], m[7], m[11]), forward = f3_scale(f3(m[2], m[6], m[10]), -1.0f);
     size_t r, recs = (size_t)s->rg.count;
@@ -646,6 +693,23 @@ static vsd_status readout_view(lbl_state *s, const vsd_kcamera *cam, char *err, 
                 for (a = 0; a < 3; a++) s->ms_view[3 * r + a] += ph * e[3 * i + a];
             }
         }
+    }
+    if (s->fwd_trans && with_forward) {
+        /* delta-M's forward light, E (T' - T) per light, at the true phase toward the eye:
+         * the lights' bake with T' - T for T (view_grid's own bake does it alongside, with
+         * the same phase weights, where the view bakes the lights on the CPU) */
+        vsd_krecord_grid g;
+        float *fwd = malloc(3 * (recs ? recs : 1) * sizeof *fwd);
+        if (!fwd) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %zu view records", recs);
+        records_grid(s, &ctx->kd, &g);
+        g.light_trans = s->fwd_trans;
+        g.local_trans = s->fwd_local;
+        g.records_ms = NULL;
+        g.records_emission_once = NULL;
+        g.interp = VSD_RECORDS_TRILINEAR;   /* (the bake's output linear, not its log) */
+        vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, fwd);
+        for (r = 0; r < 3 * recs; r++) s->ms_view[r] += fwd[r];
+        free(fwd);
     }
     return VSD_OK;
 }
@@ -706,6 +770,99 @@ static vsd_status records_from_fluence(lbl_state *s, const vsd_frame_ctx *ctx, c
 
 static vsd_status exchange_between_groups(lbl_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen);
 
+/* Whether every volume of the lattice's medium (the part's group) that scatters has the
+ * part's phase: delta-M scales the whole medium with one g (a pure absorber's lobe scatters
+ * nothing, so it does not count). */
+static int one_phase(const vsd_frame_ctx *ctx)
+{
+    int j;
+    for (j = 0; ctx->part.active && j < ctx->kd.volume_count; j++) {
+        const vsd_kmedium *m = &ctx->kd.volumes[j].medium;
+        if (!((ctx->part.group >> j) & 1u) || m->anisotropy == ctx->kd.medium.anisotropy) continue;
+        if (m->albedo.x > 0.0f || m->albedo.y > 0.0f || m->albedo.z > 0.0f) return 0;
+    }
+    return 1;
+}
+
+/* The medium the lattice solves: the cells' own, or with delta-M (lbl_delta_m.h) the scaled
+ * problem's, with the forward light's arrays. */
+static vsd_status lattice_medium(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    const size_t n = cell_count(s), recs = (size_t)s->rg.count;
+    const float g = ctx->kd.medium.anisotropy;
+    const float albedo[3] = {ctx->kd.medium.albedo.x, ctx->kd.medium.albedo.y, ctx->kd.medium.albedo.z};
+    s->lat_sigma = s->sigma;
+    s->lat_collide = s->collide;
+    s->lat_albedo_cells = s->albedo_cells;
+    memcpy(s->lat_albedo, albedo, sizeof albedo);
+    if (!s->opt.delta_m || s->opt.lattice_phase != LBL_PHASE_HG || s->opt.readout != LBL_READOUT_PHASE ||
+        !s->source_dirs || !(g > 0.0f) || s->opt.history > 0 || !one_phase(ctx))
+        return VSD_OK;
+    s->dm_sigma = malloc(n * sizeof *s->dm_sigma);
+    s->dm_collide = malloc(n * sizeof *s->dm_collide);
+    s->dm_albedo_cells = s->albedo_cells ? malloc(3 * n * sizeof *s->dm_albedo_cells) : NULL;
+    s->fwd_trans = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *s->fwd_trans);
+    s->fwd_local = calloc(recs * (size_t)(s->local_count > 0 ? s->local_count : 1), sizeof *s->fwd_local);
+    if (!s->dm_sigma || !s->dm_collide || (s->albedo_cells && !s->dm_albedo_cells) || !s->fwd_trans || !s->fwd_local)
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for delta-M's medium of %zu cells", n);
+    vsd_lbl_delta_m_cells(n, s->sigma, s->cell_world, s->albedo_cells, albedo, (double)g * g, s->dm_sigma,
+                          s->dm_collide, s->dm_albedo_cells, s->lat_albedo);
+    s->lat_sigma = s->dm_sigma;
+    s->lat_collide = s->dm_collide;
+    s->lat_albedo_cells = s->dm_albedo_cells;
+    vsd_lbl_readout_build(&s->readout_dm, g / (1.0f + g));
+    return VSD_OK;
+}
+
+/* The point and spot lights' falloff (1/d^2, the sphere, the spot's mask) at each record. */
+static void local_falloff(const lbl_state *s, float *local_trans)
+{
+    size_t c;
+    int q;
+    for (c = 0; c < (size_t)s->rg.count; c++)
+        for (q = 0; q < s->local_count; q++) {
+            const float *x = s->rg.record_pos + 4 * c;
+            local_trans[c * s->local_count + q] *=
+                vsd_light_falloff(s->local_lights + (size_t)VSD_KLIGHT_FLOATS * q, f3(x[0], x[1], x[2]));
+        }
+}
+
+/* With delta-M, the lights marched through the scaled extinction (T' into fwd_trans and
+ * fwd_local, the power lost into *lost_out when the deposit takes it; the other groups'
+ * shadows as for T), whose loss feeds the scaled lattice. */
+static vsd_status march_scaled(lbl_state *s, const vsd_frame_ctx *ctx, vsd_lbl_grid grid, float **lost_out, char *err,
+                               size_t errlen)
+{
+    const size_t recs = (size_t)s->rg.count;
+    float *lost = NULL;
+    vsd_status st;
+    *lost_out = NULL;
+    if (s->light_lost && !(lost = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *lost)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lost power of %zu records", recs);
+    grid.sigma = s->dm_sigma;
+    if ((st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
+                                   (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record, ctx->threads,
+                                   s->fwd_trans, lost, s->fwd_local, NULL, err, errlen))) {
+        free(lost);
+        return st;
+    }
+    local_falloff(s, s->fwd_local);
+    if (ctx->part.active)
+        vsd_group_shadow_records(&ctx->kd, ctx->part.group, s->rg.record_pos, (int)recs, s->dir_lights, s->dir_count,
+                                 s->local_lights, s->local_count, s->fwd_trans, lost, s->fwd_local, ctx->threads);
+    *lost_out = lost;
+    return VSD_OK;
+}
+
+/* T' - T: what the true problem scattered forward (VolumeInd, read per view). */
+static void forward_light(lbl_state *s)
+{
+    const size_t recs = (size_t)s->rg.count, nd = recs * s->dir_count, nl = recs * s->local_count;
+    size_t i;
+    for (i = 0; i < nd; i++) s->fwd_trans[i] = fmaxf(s->fwd_trans[i] - s->light_trans[i], 0.0f);
+    for (i = 0; i < nl; i++) s->fwd_local[i] = fmaxf(s->fwd_local[i] - s->local_trans[i], 0.0f);
+}
+
 /* The cells as the light march reads them (lbl_march.h). */
 static void march_grid(const lbl_state *s, vsd_lbl_grid *grid)
 {
@@ -732,7 +889,6 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     double t0;
     vsd_status st;
     int a, q;
-    size_t c;
     int suns;
     free_lighting(s);
     if (s->parts.count) {
@@ -803,14 +959,17 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
     vsd_lbl_lattice_set_cell_shape(&s->lattice, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
     vsd_lbl_lattice_set_keep(&s->lattice, s->keep);
-    vsd_lbl_lattice_set_albedo_cells(&s->lattice, s->albedo_cells);
+    if ((st = lattice_medium(s, ctx, err, errlen))) return st;
+    vsd_lbl_lattice_set_albedo_cells(&s->lattice, s->lat_albedo_cells);
     if (s->opt.lattice_phase == LBL_PHASE_HG && s->source_dirs) {
+        /* the lattice's phase and the first scattering's cone shares: delta-M's g / (1 + g) */
+        const vsd_lbl_readout *shares = s->dm_sigma ? &s->readout_dm : &s->readout;
         float f, b, sd;
-        vsd_lbl_readout_lattice_phase(ctx->kd.medium.anisotropy, &f, &b, &sd);
+        vsd_lbl_readout_lattice_phase(shares->g, &f, &b, &sd);
         vsd_lbl_lattice_set_phase(&s->lattice, f, b, sd);
         for (a = 0; a < s->dir_count; a++) {
             const float *l = s->dir_lights + 8 * (size_t)a;
-            vsd_lbl_readout_weights(&s->readout, vsd_affine_vector(&s->rg.world_to_grid, f3(l[0], l[1], l[2])),
+            vsd_lbl_readout_weights(shares, vsd_affine_vector(&s->rg.world_to_grid, f3(l[0], l[1], l[2])),
                                     s->dir_shares[a]);
         }
     } else {
@@ -819,9 +978,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             for (q = 0; q < 6; q++) s->dir_shares[a][q] = 1.0f / 6.0f;
     }
     if (s->source_dirs) vsd_lbl_lattice_set_source_per_direction(&s->lattice);
-    albedo[0] = ctx->kd.medium.albedo.x;
-    albedo[1] = ctx->kd.medium.albedo.y;
-    albedo[2] = ctx->kd.medium.albedo.z;
+    memcpy(albedo, s->lat_albedo, sizeof albedo);
     t0 = vsd_clock_seconds();
     {
         overlap_ctx oc;
@@ -837,7 +994,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                 emission_source(s, ctx);
                 add_emission(s);
             }
-            if ((st = vsd_lbl_stepper_new(&s->lattice, s->collide, albedo, s->source, &oc.stepper, err, errlen)))
+            if ((st = vsd_lbl_stepper_new(&s->lattice, s->lat_collide, albedo, s->source, &oc.stepper, err, errlen)))
                 return st;
         }
         st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
@@ -849,22 +1006,24 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         s->history_rounds = s->opt.history > 0 ? ov.rounds : 0;
         s->history_steps = oc.steps;
     }
-    /* the point and spot lights' falloff (1/d^2, the sphere, the spot's mask) at each record */
-    for (c = 0; c < recs; c++)
-        for (q = 0; q < s->local_count; q++) {
-            const float *x = s->rg.record_pos + 4 * c;
-            s->local_trans[c * s->local_count + q] *=
-                vsd_light_falloff(s->local_lights + (size_t)VSD_KLIGHT_FLOATS * q, f3(x[0], x[1], x[2]));
-        }
+    local_falloff(s, s->local_trans);
     /* the other groups' shadows: light reaching the grid's box has crossed them */
     if (ctx->part.active)
         vsd_group_shadow_records(&ctx->kd, ctx->part.group, s->rg.record_pos, (int)recs, s->dir_lights, s->dir_count,
                                  s->local_lights, s->local_count, s->light_trans, s->light_lost, s->local_trans,
                                  ctx->threads);
+    if (s->dm_sigma) {
+        float *lost_dm;
+        if ((st = march_scaled(s, ctx, grid, &lost_dm, err, errlen))) return st;
+        deposit(s, ctx, s->fwd_trans, lost_dm, s->fwd_local);
+        free(lost_dm);
+        forward_light(s);
+    } else {
+        deposit(s, ctx, s->light_trans, s->light_lost, s->local_trans);
+    }
     s->march_seconds = vsd_clock_seconds() - t0;
-    deposit(s, ctx);
     /* diffusion pass to the steady state, from the last solve's state (or the overlap's) */
-    if ((st = vsd_lbl_diffuse(&s->lattice, s->collide, albedo, s->source, s->opt.tolerance,
+    if ((st = vsd_lbl_diffuse(&s->lattice, s->lat_collide, albedo, s->source, s->opt.tolerance,
                               s->opt.max_steps - s->history_steps > 8 ? s->opt.max_steps - s->history_steps : 8,
                               ctx->threads, s->fluence, &s->diffusion, err, errlen)))
         return st;
@@ -912,52 +1071,39 @@ static vsd_status render_bent(lbl_state *s, vsd_frame_ctx *ctx, vsd_framebuffer 
                                   errlen);
 }
 
-/* The part's records as a record grid for any direction: the lights' term per ray, the
- * diffused light as its isotropic fluence / 4 pi (view_grid bakes both toward an eye). */
-static void records_grid(const lbl_state *s, const vsd_kernel_data *kd, vsd_krecord_grid *out)
-{
-    vsd_krecord_grid g;
-    memset(&g, 0, sizeof g);
-    g.kd = kd;
-    g.cell_record = s->rg.cell_record;
-    g.world_to_grid = s->rg.world_to_grid;
-    memcpy(g.res, s->rg.res, sizeof g.res);
-    g.record_count = s->rg.count;
-    g.interp = s->opt.interp;
-    g.kind = VSD_RECORDS_LIGHTS;
-    g.lights = s->dir_lights;
-    g.light_trans = s->light_trans;
-    g.light_count = s->light_trans ? s->dir_count : 0;
-    g.sub_count = s->light_trans ? s->sub_count : 0;
-    g.local_lights = s->local_lights;
-    g.local_trans = s->local_trans;
-    g.local_count = s->local_trans ? s->local_count : 0;
-    g.record_pos = s->rg.record_pos;
-    g.records_ms = s->ms;
-    g.records_emission_once = s->emission_once;
-    *out = g;
-}
-
 /* The record grid the view reads, *g, with the lights' term baked for this view where the
  * CPU renders it; also a part's (vsd_part_view_fn, src/method/method_parts.h). */
 static vsd_status view_grid(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g_out, char *err, size_t errlen)
 {
     lbl_state *s = state;
     vsd_krecord_grid g;
+    /* on the CPU the lights' term is baked per view; the device keeps its arrays per
+     * lighting generation, so there the march sums the lights per ray (exact phase) */
+    /* (bent view rays always read baked records: they run on the CPU) */
+    const int bake = (!ctx->cuda || s->refraction.k.ng) && (s->opt.view_bake || s->refraction.k.ng) && s->light_trans;
     records_grid(s, &ctx->kd, &g);
     if (s->ms6) {
-        vsd_status st = readout_view(s, &ctx->kd.camera, err, errlen);
+        vsd_status st = readout_view(s, ctx, !bake, err, errlen);
         if (st) return st;
         g.records_ms = s->ms_view;
         g.records_ms_per_view = 1;
     }
-    /* on the CPU the lights' term is baked per view; the device keeps its arrays per
-     * lighting generation, so there the march sums the lights per ray (exact phase) */
-    /* (bent view rays always read baked records: they run on the CPU) */
-    if ((!ctx->cuda || s->refraction.k.ng) && (s->opt.view_bake || s->refraction.k.ng) && s->light_trans) {
+    if (bake) {
         if (!s->view_baked && !(s->view_baked = malloc(3 * (size_t)s->rg.count * sizeof *s->view_baked)))
             return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d view records", (int)s->rg.count);
-        vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, s->view_baked);
+        if (s->fwd_trans && s->ms_view) {
+            /* delta-M's forward light with the lights' own phase weights (readout_view) */
+            const size_t n3 = 3 * (size_t)s->rg.count;
+            float *fwd = malloc((n3 ? n3 : 1) * sizeof *fwd);
+            size_t r;
+            if (!fwd) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %d view records", (int)s->rg.count);
+            vsd_record_grid_bake_view_pair(&g, s->rg.record_pos, ctx->threads, s->view_baked, s->fwd_trans, s->fwd_local,
+                                           fwd);
+            for (r = 0; r < n3; r++) s->ms_view[r] += fwd[r];
+            free(fwd);
+        } else {
+            vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, s->view_baked);
+        }
         g.kind = VSD_RECORDS_BAKED;
         g.records_log = g.interp == VSD_RECORDS_LOG_TRILINEAR;
         g.records = s->view_baked;
@@ -974,8 +1120,11 @@ static vsd_status view_grid(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g
 
 typedef struct receive_job {
     lbl_state *p;
-    vsd_f3 albedo;
+    const float *albedo;          /* the lattice's (delta-M's scaled one where it runs) */
     const float *trans, *lost;
+    /* the true T where delta-M's T' is `trans` and some light is emitted (the emission
+     * scattered once is VolumeDir, T' - T of it VolumeInd), else trans */
+    const float *trans_true;
     const float (*shares)[6];
     float *once_s, *once_e;
     int per_view;
@@ -1003,11 +1152,11 @@ static void receive_slices(void *arg, int z0, int y0, int z1, int y1)
                 double a3[3];
                 if (rec < 0) continue;
                 for (ch = 0; ch < 3; ch++)
-                    a3[ch] = p->albedo_cells ? p->albedo_cells[(size_t)ch * n + c]
-                                             : ch == 0 ? j->albedo.x : ch == 1 ? j->albedo.y : j->albedo.z;
+                    a3[ch] = p->lat_albedo_cells ? p->lat_albedo_cells[(size_t)ch * n + c] : j->albedo[ch];
                 for (k = 0; k < k_count; k++) {
                     const size_t at = (size_t)rec * k_count + k;
-                    const double t = j->trans[at], w = j->lost ? j->lost[at] * lambda3 : t * p->collide[c] * lambda2;
+                    const double t = j->trans[at], w = j->lost ? j->lost[at] * lambda3 : t * p->lat_collide[c] * lambda2;
+                    const double t1 = j->trans_true[at];
                     vsd_f3 ls, le;
                     double es[3], ee[3];
                     if (!(t > 0.0) && !(w > 0.0)) continue;
@@ -1016,9 +1165,10 @@ static void receive_slices(void *arg, int z0, int y0, int z1, int y1)
                     ee[0] = le.x * dw, ee[1] = le.y * dw, ee[2] = le.z * dw;
                     for (ch = 0; ch < 3; ch++) {
                         /* the first scattering here, toward the eye */
-                        j->once_e[3 * (size_t)rec + ch] += (float)(ee[ch] * t * k4pi);
-                        if (j->per_view) p->exchange_irr[3 * at + ch] = (float)(es[ch] * t);
-                        else j->once_s[3 * (size_t)rec + ch] += (float)(es[ch] * t * k4pi);
+                        const double ind = es[ch] * t + ee[ch] * (t - t1);
+                        j->once_e[3 * (size_t)rec + ch] += (float)(ee[ch] * t1 * k4pi);
+                        if (j->per_view) p->exchange_irr[3 * at + ch] = (float)ind;
+                        else j->once_s[3 * (size_t)rec + ch] += (float)(ind * k4pi);
                         /* what it loses in the cell, scattered into the lattice */
                         for (i = 0; i < 6; i++)
                             p->source[((size_t)i * 3 + ch) * n + c] +=
@@ -1039,17 +1189,18 @@ static vsd_status receive_exchange(lbl_state *p, const vsd_frame_ctx *pc, float 
 {
     const size_t recs = (size_t)p->rg.count;
     const int k_count = p->exchange.count;
-    const vsd_f3 albedo = pc->kd.medium.albedo;
     float *lights = calloc(8 * (size_t)k_count, sizeof *lights), *trans = malloc(recs * k_count * sizeof *trans),
-          *lost = p->light_lost ? malloc(recs * k_count * sizeof *lost) : NULL, points_trans = 0.0f;
+          *lost = p->light_lost ? malloc(recs * k_count * sizeof *lost) : NULL, points_trans = 0.0f,
+          *trans_true = p->dm_sigma && p->exchange.emits ? malloc(recs * k_count * sizeof *trans_true) : NULL;
     float (*shares)[6] = malloc((size_t)k_count * sizeof *shares);
     const int per_view = p->ms6 != NULL;
     vsd_lbl_grid grid;
     vsd_status st = VSD_OK;
     int k, i;
     if (per_view && !(p->exchange_irr = calloc(3 * recs * k_count, sizeof *p->exchange_irr))) st = VSD_ERR_NOMEM;
-    if (st || !lights || !trans || !shares || (p->light_lost && !lost)) {
-        free(lights), free(trans), free(lost), free(shares);
+    if (st || !lights || !trans || !shares || (p->light_lost && !lost) ||
+        (p->dm_sigma && p->exchange.emits && !trans_true)) {
+        free(lights), free(trans), free(lost), free(shares), free(trans_true);
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the light between groups at %zu records", recs);
     }
     for (k = 0; k < k_count; k++) {
@@ -1057,20 +1208,28 @@ static vsd_status receive_exchange(lbl_state *p, const vsd_frame_ctx *pc, float 
         lights[8 * k] = w.x, lights[8 * k + 1] = w.y, lights[8 * k + 2] = w.z;
         lights[8 * k + 4] = lights[8 * k + 5] = lights[8 * k + 6] = 1.0f;
         if (p->opt.lattice_phase == LBL_PHASE_HG)
-            vsd_lbl_readout_weights(&p->readout, vsd_affine_vector(&p->rg.world_to_grid, w), shares[k]);
+            vsd_lbl_readout_weights(p->dm_sigma ? &p->readout_dm : &p->readout,
+                                    vsd_affine_vector(&p->rg.world_to_grid, w), shares[k]);
         else
             for (i = 0; i < 6; i++) shares[k][i] = 1.0f / 6.0f;
     }
     march_grid(p, &grid);
+    grid.sigma = p->lat_sigma;   /* with delta-M the light scattered forward goes on with it */
     st = vsd_lbl_march_lights(&grid, lights, k_count, NULL, 0, (float)p->opt.ray_spacing, (float)p->opt.light_step,
                               p->rg.cell_record, pc->threads, trans, lost, &points_trans, NULL, err, errlen);
+    if (st == VSD_OK && trans_true) {
+        grid.sigma = p->sigma;
+        st = vsd_lbl_march_lights(&grid, lights, k_count, NULL, 0, (float)p->opt.ray_spacing, (float)p->opt.light_step,
+                                  p->rg.cell_record, pc->threads, trans_true, NULL, &points_trans, NULL, err, errlen);
+    }
     if (st == VSD_OK) {
-        receive_job j = {p, albedo, trans, lost, (const float(*)[6])shares, once_s, once_e, per_view};
+        receive_job j = {p,      p->lat_albedo, trans, lost, trans_true ? trans_true : trans, (const float(*)[6])shares,
+                         once_s, once_e, per_view};
         /* (the pool fails only when cancelled, which this stage is not) */
         if (vsd_cpu_run_items(p->rg.res[2], pc->threads, receive_slices, &j, "light between groups") != VSD_OK)
             receive_slices(&j, 0, 0, p->rg.res[2], 1);
     }
-    free(lights), free(trans), free(lost), free(shares);
+    free(lights), free(trans), free(lost), free(shares), free(trans_true);
     return st;
 }
 
@@ -1109,7 +1268,7 @@ static vsd_status exchange_between_groups(lbl_state *s, vsd_frame_ctx *ctx, char
         const vsd_lbl_layout layout = {p->opt.block_steps, p->opt.lattice == 1};
         vsd_lbl_diffusion_stats stats;
         vsd_frame_ctx pc;
-        float albedo[3], *once;
+        float *once;
         size_t r;
         if (!p->exchange.count) continue;
         vsd_part_ctx(ctx, &s->parts, i, &pc);
@@ -1119,11 +1278,8 @@ static vsd_status exchange_between_groups(lbl_state *s, vsd_frame_ctx *ctx, char
             free(once);
             return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the light between groups");
         }
-        albedo[0] = pc.kd.medium.albedo.x;
-        albedo[1] = pc.kd.medium.albedo.y;
-        albedo[2] = pc.kd.medium.albedo.z;
         if ((st = receive_exchange(p, &pc, once, once + 3 * recs, err, errlen)) ||
-            (st = vsd_lbl_diffuse(&p->lattice, p->collide, albedo, p->source, p->opt.tolerance, p->opt.max_steps,
+            (st = vsd_lbl_diffuse(&p->lattice, p->lat_collide, p->lat_albedo, p->source, p->opt.tolerance, p->opt.max_steps,
                                   ctx->threads, p->fluence, &stats, err, errlen)) ||
             (st = records_from_fluence(p, &pc, &layout, err, errlen))) {
             free(once);

@@ -147,7 +147,7 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
  * direction (cam NULL: g = 0, any direction does), or at the direction from the camera to
  * the record. */
 static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const vsd_kcamera *cam, int32_t r0,
-                       int32_t r1, float *out)
+                       int32_t r1, float *out, const vsd_krecord_grid *g2, float *out2)
 {
     float ph[VSD_RECORDS_PH_FLOATS];
     vsd_f3 eye = f3s(0.0f), forward = f3(0.0f, 0.0f, 1.0f);
@@ -167,6 +167,12 @@ static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const
                                       g->kd->medium.anisotropy, ph);
         }
         v = vsd_records_radiance(g, r, NULL, ph);
+        if (g2) {
+            vsd_f3 v2 = vsd_records_radiance(g2, r, NULL, ph);
+            out2[3 * (size_t)r] = v2.x;
+            out2[3 * (size_t)r + 1] = v2.y;
+            out2[3 * (size_t)r + 2] = v2.z;
+        }
         out[3 * (size_t)r] = v.x;
         out[3 * (size_t)r + 1] = v.y;
         out[3 * (size_t)r + 2] = v.z;
@@ -182,6 +188,8 @@ typedef struct bake_job {
     const vsd_krecord_grid *g;
     const float *record_pos;
     float *out;
+    const vsd_krecord_grid *g2;   /* the second transmittances' grid, or NULL */
+    float *out2;
 } bake_job;
 
 /* records in blocks of 256 as the items of the CPU pool: the per-record phase weights
@@ -192,7 +200,7 @@ static void bake_items(void *arg, int b0, int y0, int b1, int y1)
     int32_t r0 = b0 * 256, r1 = b1 * 256 < j->g->record_count ? b1 * 256 : j->g->record_count;
     (void)y0;
     (void)y1;
-    bake_range(j->g, j->record_pos, &j->g->kd->camera, r0, r1, j->out);
+    bake_range(j->g, j->record_pos, &j->g->kd->camera, r0, r1, j->out, j->g2, j->out2);
 }
 
 vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *err, size_t errlen)
@@ -202,16 +210,30 @@ vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *er
     baked = malloc(sizeof(float) * 3 * (size_t)(g->record_count > 0 ? g->record_count : 1));
     if (!baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d baked records", (int)g->record_count);
     /* g = 0: the weights are the same for every direction */
-    bake_range(g, NULL, NULL, 0, g->record_count, baked);
+    bake_range(g, NULL, NULL, 0, g->record_count, baked, NULL, NULL);
     *out = baked;
     return VSD_OK;
 }
 
 void vsd_record_grid_bake_view(const vsd_krecord_grid *g, const float *record_pos, int threads, float *out)
 {
-    bake_job job = {g, record_pos, out};
+    vsd_record_grid_bake_view_pair(g, record_pos, threads, out, NULL, NULL, NULL);
+}
+
+void vsd_record_grid_bake_view_pair(const vsd_krecord_grid *g, const float *record_pos, int threads, float *out,
+                                    const float *light_trans2, const float *local_trans2, float *out2)
+{
+    vsd_krecord_grid g2 = *g;
+    bake_job job = {g, record_pos, out, out2 ? &g2 : NULL, out2};
+    /* the second grid: the same lights, the other transmittances, no other term, linear */
+    g2.light_trans = light_trans2;
+    g2.local_trans = local_trans2;
+    g2.records_ms = NULL;
+    g2.records_emission_once = NULL;
+    g2.interp = VSD_RECORDS_TRILINEAR;
     if (vsd_cpu_run_items((g->record_count + 255) / 256, threads, bake_items, &job, "record bake") != VSD_OK)
-        bake_range(g, record_pos, &g->kd->camera, 0, g->record_count, out);   /* (the pool cannot fail without cancel) */
+        /* (the pool cannot fail without cancel) */
+        bake_range(g, record_pos, &g->kd->camera, 0, g->record_count, out, job.g2, out2);
 }
 
 vsd_status vsd_record_grid_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *g, int n,

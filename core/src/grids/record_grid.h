@@ -45,6 +45,11 @@ vsd_status vsd_record_grid_bake(const struct vsd_krecord_grid *g, float **out, c
  * grid's (4 floats per record); out: 3 floats per record, their logs when g->interp is
  * VSD_RECORDS_LOG_TRILINEAR (set the grid's records_log to read them). */
 void vsd_record_grid_bake_view(const struct vsd_krecord_grid *g, const float *record_pos, int threads, float *out);
+/* The same, and with the same per-record phase weights (the bake's cost) the lights' term
+ * of a second set of transmittances, light_trans2 and local_trans2 (g's layout), into out2
+ * (3 floats per record, linear): lbl's delta-M forward light (lbl_delta_m.h). */
+void vsd_record_grid_bake_view_pair(const struct vsd_krecord_grid *g, const float *record_pos, int threads, float *out,
+                                    const float *light_trans2, const float *local_trans2, float *out2);
 
 /* The view pass of every record-grid method, on the CPU tiles or the CUDA device of ctx:
  * n x n rays per pixel through the shared march with a step of `step` world units (0 = the
