@@ -219,9 +219,9 @@ static void test_deterministic_exact(void)
  * overlapping it, a cloud above them; tests/cycles/test_cycles_crosscheck.c) against
  * `reference`, 96x54 with 4x4 rays per pixel (the volumes are a few pixels wide: one ray
  * per pixel centre puts Emit 17 % off at the edges). Measured (2-core VM, 2026-12-04) with
- * `vsd compare` against 8192 spp: Combined (RGB) 0.090 (0.096 without delta-M on the
+ * `vsd compare` against 8192 spp: Combined (RGB) 0.089 (0.096 without delta-M on the
  * lattice, 0.127 before the groups sent each other light, lbl_exchange.h; 0.163 before the
- * lattice took each cell's mixed albedo), VolumeDir 0.087, VolumeInd 0.148 (0.225 before
+ * lattice took each cell's mixed albedo), VolumeDir 0.087, VolumeInd 0.146 (0.225 before
  * the exchange), Emit 0.022, Transmittance 0.0005; lbl
  * alone on each volume (128x72): fire 0.067, smoke 0.132, cloud 0.179. The issue's target,
  * 12 %, is met; what is left is lbl's single-volume accuracy on the cloud (docs/methods/

@@ -1242,26 +1242,43 @@ static vsd_status exchange_between_groups(lbl_state *s, vsd_frame_ctx *ctx, char
     vsd_krecord_grid grids[VSD_KMAX_VOLUMES];
     const vsd_krecord_grids gs = {&ctx->kd, grids, s->parts.count, {0, 0, 0}};
     const uint32_t all = s->parts.count >= 32 ? ~0u : (1u << s->parts.count) - 1u;
+    /* a sender with delta-M: its lights' term through T' = T + (T' - T), the light it
+     * scattered forward included (its lattice holds only the scaled problem's) */
+    float *forward[VSD_KMAX_VOLUMES][2] = {{NULL}};
     float step = 0.0f;
-    vsd_status st;
+    vsd_status st = VSD_OK;
     int i, a;
-    for (i = 0; i < s->parts.count; i++) {
+    for (i = 0; i < s->parts.count && st == VSD_OK; i++) {
         const lbl_state *p = s->parts.state[i];
         records_grid(p, &ctx->kd, &grids[i]);
         /* the march's step: the finest part's cell */
         if (p->rg.count > 0 && (step == 0.0f || p->cell_world < step)) step = (float)p->cell_world;
+        if (p->fwd_trans) {
+            const size_t nd = (size_t)p->rg.count * p->dir_count, nl = (size_t)p->rg.count * p->local_count;
+            size_t k;
+            forward[i][0] = malloc((nd ? nd : 1) * sizeof(float));
+            forward[i][1] = malloc((nl ? nl : 1) * sizeof(float));
+            if (!forward[i][0] || !forward[i][1]) {
+                st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the light between groups");
+                break;
+            }
+            for (k = 0; k < nd; k++) forward[i][0][k] = p->light_trans[k] + p->fwd_trans[k];
+            for (k = 0; k < nl; k++) forward[i][1][k] = p->local_trans[k] + p->fwd_local[k];
+            grids[i].light_trans = forward[i][0];
+            grids[i].local_trans = forward[i][1];
+        }
     }
-    for (i = 0; i < s->parts.count; i++) {
+    for (i = 0; i < s->parts.count && st == VSD_OK; i++) {
         lbl_state *p = s->parts.state[i];
         vsd_lbl_exchange_grid eg;
         if (!p->receives || !p->source || p->rg.count == 0) continue;
         memcpy(eg.res, p->rg.res, sizeof eg.res);
         eg.world_to_grid = p->rg.world_to_grid;
         for (a = 0; a < 12; a++) eg.grid_to_world.m[a] = (float)p->g2w[a];
-        if ((st = vsd_lbl_exchange_gather(&gs, all & ~s->parts.group[i], &eg, step, ctx->threads, &p->exchange, err,
-                                          errlen)))
-            return st;
+        st = vsd_lbl_exchange_gather(&gs, all & ~s->parts.group[i], &eg, step, ctx->threads, &p->exchange, err, errlen);
     }
+    for (i = 0; i < s->parts.count; i++) free(forward[i][0]), free(forward[i][1]);
+    if (st) return st;
     for (i = 0; i < s->parts.count; i++) {
         lbl_state *p = s->parts.state[i];
         const size_t recs = (size_t)p->rg.count;
