@@ -218,7 +218,6 @@ typedef struct lbl_state {
     /* [records][exchange.count][3]: the scattered light of each kept direction reaching the
      * record (irradiance, E T), read toward the eye per view with the volume's lobe */
     float *exchange_irr;
-    float anisotropy;             /* the part's volume's g (the exchange's readout) */
     float dir_shares[VSD_RECORDS_MAX_LIGHTS][6];  /* each directional light's light_shares */
     float *fluence;               /* [3][cells] */
     float *ms;                    /* [records * 3] VolumeInd source per unit sigma_s */
@@ -689,7 +688,7 @@ static vsd_status readout_view(lbl_state *s, const vsd_frame_ctx *ctx, int with_
             const float *e = s->exchange_irr + 3 * (size_t)s->exchange.count * r;
             d = f3_normalize(d);
             for (i = 0; i < s->exchange.count; i++) {
-                float ph = vsd_hg_eval(f3_dot(d, s->exchange.light[i].w), s->anisotropy);
+                float ph = vsd_hg_eval(f3_dot(d, s->exchange.light[i].w), ctx->kd.medium.anisotropy);
                 for (a = 0; a < 3; a++) s->ms_view[3 * r + a] += ph * e[3 * i + a];
             }
         }
@@ -702,12 +701,7 @@ static vsd_status readout_view(lbl_state *s, const vsd_frame_ctx *ctx, int with_
         float *fwd = malloc(3 * (recs ? recs : 1) * sizeof *fwd);
         if (!fwd) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %zu view records", recs);
         records_grid(s, &ctx->kd, &g);
-        g.light_trans = s->fwd_trans;
-        g.local_trans = s->fwd_local;
-        g.records_ms = NULL;
-        g.records_emission_once = NULL;
-        g.interp = VSD_RECORDS_TRILINEAR;   /* (the bake's output linear, not its log) */
-        vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, fwd);
+        vsd_record_grid_bake_view_lights(&g, s->rg.record_pos, ctx->threads, s->fwd_trans, s->fwd_local, fwd);
         for (r = 0; r < 3 * recs; r++) s->ms_view[r] += fwd[r];
         free(fwd);
     }
@@ -827,9 +821,27 @@ static void local_falloff(const lbl_state *s, float *local_trans)
         }
 }
 
-/* With delta-M, the lights marched through the scaled extinction (T' into fwd_trans and
- * fwd_local, the power lost into *lost_out when the deposit takes it; the other groups'
- * shadows as for T), whose loss feeds the scaled lattice. */
+/* Every light marched through the cells of `grid` into the records: T into trans and local
+ * (the point and spot lights' falloff applied), the power the rays lost into lost (or NULL),
+ * then the shadows of the volumes outside the group (light reaching the grid's box has
+ * crossed them). The true extinction for the records, and with delta-M the scaled one for
+ * its lattice (T' into fwd_trans and fwd_local). overlap: the ray history's, or NULL. */
+static vsd_status march_lights(lbl_state *s, const vsd_frame_ctx *ctx, const vsd_lbl_grid *grid, float *trans,
+                               float *lost, float *local, vsd_lbl_overlap *overlap, char *err, size_t errlen)
+{
+    vsd_status st = vsd_lbl_march_lights(grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
+                                         (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record,
+                                         ctx->threads, trans, lost, local, overlap, err, errlen);
+    if (st) return st;
+    local_falloff(s, local);
+    if (ctx->part.active)
+        vsd_group_shadow_records(&ctx->kd, ctx->part.group, s->rg.record_pos, s->rg.count, s->dir_lights, s->dir_count,
+                                 s->local_lights, s->local_count, trans, lost, local, ctx->threads);
+    return VSD_OK;
+}
+
+/* With delta-M, the lights marched through the scaled extinction (march_lights), the power
+ * lost into *lost_out when the deposit takes it: what feeds the scaled lattice. */
 static vsd_status march_scaled(lbl_state *s, const vsd_frame_ctx *ctx, vsd_lbl_grid grid, float **lost_out, char *err,
                                size_t errlen)
 {
@@ -840,16 +852,10 @@ static vsd_status march_scaled(lbl_state *s, const vsd_frame_ctx *ctx, vsd_lbl_g
     if (s->light_lost && !(lost = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *lost)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lost power of %zu records", recs);
     grid.sigma = s->dm_sigma;
-    if ((st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
-                                   (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record, ctx->threads,
-                                   s->fwd_trans, lost, s->fwd_local, NULL, err, errlen))) {
+    if ((st = march_lights(s, ctx, &grid, s->fwd_trans, lost, s->fwd_local, NULL, err, errlen))) {
         free(lost);
         return st;
     }
-    local_falloff(s, s->fwd_local);
-    if (ctx->part.active)
-        vsd_group_shadow_records(&ctx->kd, ctx->part.group, s->rg.record_pos, (int)recs, s->dir_lights, s->dir_count,
-                                 s->local_lights, s->local_count, s->fwd_trans, lost, s->fwd_local, ctx->threads);
     *lost_out = lost;
     return VSD_OK;
 }
@@ -997,21 +1003,13 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             if ((st = vsd_lbl_stepper_new(&s->lattice, s->lat_collide, albedo, s->source, &oc.stepper, err, errlen)))
                 return st;
         }
-        st = vsd_lbl_march_lights(&grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
-                                  (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record, ctx->threads,
-                                  s->light_trans, s->light_lost, s->local_trans, s->opt.history > 0 ? &ov : NULL, err,
-                                  errlen);
+        st = march_lights(s, ctx, &grid, s->light_trans, s->light_lost, s->local_trans,
+                          s->opt.history > 0 ? &ov : NULL, err, errlen);
         vsd_lbl_stepper_free(oc.stepper);
         if (st) return st;
         s->history_rounds = s->opt.history > 0 ? ov.rounds : 0;
         s->history_steps = oc.steps;
     }
-    local_falloff(s, s->local_trans);
-    /* the other groups' shadows: light reaching the grid's box has crossed them */
-    if (ctx->part.active)
-        vsd_group_shadow_records(&ctx->kd, ctx->part.group, s->rg.record_pos, (int)recs, s->dir_lights, s->dir_count,
-                                 s->local_lights, s->local_count, s->light_trans, s->light_lost, s->local_trans,
-                                 ctx->threads);
     if (s->dm_sigma) {
         float *lost_dm;
         if ((st = march_scaled(s, ctx, grid, &lost_dm, err, errlen))) return st;
@@ -1289,7 +1287,6 @@ static vsd_status exchange_between_groups(lbl_state *s, vsd_frame_ctx *ctx, char
         size_t r;
         if (!p->exchange.count) continue;
         vsd_part_ctx(ctx, &s->parts, i, &pc);
-        p->anisotropy = pc.kd.medium.anisotropy;
         if (!(once = calloc(6 * recs, sizeof *once)) ||
             (p->exchange.emits && !p->emission_once && !(p->emission_once = calloc(3 * recs, sizeof *p->emission_once)))) {
             free(once);

@@ -1,4 +1,5 @@
 #include "lbl_escape.h"
+#include "src/common/fibonacci_sphere.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -30,9 +31,9 @@ static void solid_angles(const int d[VECTORS][3], const double len[VECTORS], con
     int k, v;
     memset(share, 0, sizeof(double) * VECTORS);
     for (k = 0; k < FIB; k++) {
-        double z = 1.0 - (2.0 * k + 1.0) / FIB, r = sqrt(1.0 - z * z), ph = k * 2.399963229728653;
-        double p[3] = {r * cos(ph), r * sin(ph), z}, best = -2.0;
+        double p[3], best = -2.0;
         int arg = 0;
+        vsd_fibonacci_point(k, FIB, p);
         for (v = 0; v < VECTORS; v++) {
             double c = 0.0;
             int a;

@@ -1,6 +1,7 @@
 /* The light other groups of volumes send a lattice, seen at its faces (lbl_exchange.h). */
 #include "lbl_exchange.h"
 #include "device/cpu/cpu_tiles.h"
+#include "src/common/fibonacci_sphere.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -84,7 +85,6 @@ static int any_light(const float *v, size_t n)
 vsd_status vsd_lbl_exchange_gather(const vsd_krecord_grids *senders, uint32_t sources, const vsd_lbl_exchange_grid *g,
                                    float step, int threads, vsd_lbl_exchange *x, char *err, size_t errlen)
 {
-    const double golden = 3.14159265358979323846 * (3.0 - sqrt(5.0));
     vsd_kernel_data kd = *senders->kd;
     vsd_krecord_grids gs = *senders;
     exchange_job j;
@@ -110,12 +110,13 @@ vsd_status vsd_lbl_exchange_gather(const vsd_krecord_grids *senders, uint32_t so
     j.first[6] = items;
     for (k = 0; k < VSD_LBL_EXCHANGE_DIRS; k++) {
         vsd_lbl_exchange_light *l = &j.all[k];
-        double z = 1.0 - (2.0 * k + 1.0) / VSD_LBL_EXCHANGE_DIRS, r = sqrt(1.0 - z * z), phi = golden * k;
+        double p[3];
         vsd_f3 q;
         float c[3], s[3];
         int a;
         size_t blocks;
-        l->w = f3((float)(r * cos(phi)), (float)(r * sin(phi)), (float)z);
+        vsd_fibonacci_point(k, VSD_LBL_EXCHANGE_DIRS, p);
+        l->w = f3((float)p[0], (float)p[1], (float)p[2]);
         q = vsd_affine_vector(&g->world_to_grid, l->w);
         c[0] = fabsf(q.x), c[1] = fabsf(q.y), c[2] = fabsf(q.z);
         s[0] = q.x, s[1] = q.y, s[2] = q.z;

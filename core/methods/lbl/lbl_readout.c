@@ -1,5 +1,6 @@
 #include "lbl_readout.h"
 #include "kernel/kernel_phase.h"
+#include "src/common/fibonacci_sphere.h"
 #include <math.h>
 #include <string.h>
 
@@ -33,8 +34,10 @@ static void fib_init(void)
     int k, iu, iv;
     if (fib_ready) return;
     for (k = 0; k < FIB; k++) {
-        double z = 1.0 - (2.0 * k + 1.0) / FIB, r = sqrt(1.0 - z * z), ph = k * 2.399963229728653;
-        vsd_f3 d = f3((float)(r * cos(ph)), (float)(r * sin(ph)), (float)z);
+        double p[3];
+        vsd_f3 d;
+        vsd_fibonacci_point(k, FIB, p);
+        d = f3((float)p[0], (float)p[1], (float)p[2]);
         fib_dirs[k][0] = d.x, fib_dirs[k][1] = d.y, fib_dirs[k][2] = d.z;
         cell_of(d, &fib_cone[k], &iu, &iv);
     }

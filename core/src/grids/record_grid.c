@@ -220,17 +220,30 @@ void vsd_record_grid_bake_view(const vsd_krecord_grid *g, const float *record_po
     vsd_record_grid_bake_view_pair(g, record_pos, threads, out, NULL, NULL, NULL);
 }
 
+/* g's lights with other transmittances and no other term, baked linear */
+static vsd_krecord_grid lights_only(const vsd_krecord_grid *g, const float *light_trans, const float *local_trans)
+{
+    vsd_krecord_grid l = *g;
+    l.light_trans = light_trans;
+    l.local_trans = local_trans;
+    l.records_ms = NULL;
+    l.records_emission_once = NULL;
+    l.interp = VSD_RECORDS_TRILINEAR;
+    return l;
+}
+
+void vsd_record_grid_bake_view_lights(const vsd_krecord_grid *g, const float *record_pos, int threads,
+                                      const float *light_trans, const float *local_trans, float *out)
+{
+    vsd_krecord_grid l = lights_only(g, light_trans, local_trans);
+    vsd_record_grid_bake_view(&l, record_pos, threads, out);
+}
+
 void vsd_record_grid_bake_view_pair(const vsd_krecord_grid *g, const float *record_pos, int threads, float *out,
                                     const float *light_trans2, const float *local_trans2, float *out2)
 {
-    vsd_krecord_grid g2 = *g;
+    vsd_krecord_grid g2 = lights_only(g, light_trans2, local_trans2);
     bake_job job = {g, record_pos, out, out2 ? &g2 : NULL, out2};
-    /* the second grid: the same lights, the other transmittances, no other term, linear */
-    g2.light_trans = light_trans2;
-    g2.local_trans = local_trans2;
-    g2.records_ms = NULL;
-    g2.records_emission_once = NULL;
-    g2.interp = VSD_RECORDS_TRILINEAR;
     if (vsd_cpu_run_items((g->record_count + 255) / 256, threads, bake_items, &job, "record bake") != VSD_OK)
         /* (the pool cannot fail without cancel) */
         bake_range(g, record_pos, &g->kd->camera, 0, g->record_count, out, job.g2, out2);

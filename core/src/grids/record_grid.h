@@ -48,6 +48,10 @@ void vsd_record_grid_bake_view(const struct vsd_krecord_grid *g, const float *re
 /* The same, and with the same per-record phase weights (the bake's cost) the lights' term
  * of a second set of transmittances, light_trans2 and local_trans2 (g's layout), into out2
  * (3 floats per record, linear): lbl's delta-M forward light (lbl_delta_m.h). */
+/* The lights' term alone with other transmittances (g's layout), linear: what the pair's
+ * second output holds, where no bake of g itself goes with it (a device view). */
+void vsd_record_grid_bake_view_lights(const struct vsd_krecord_grid *g, const float *record_pos, int threads,
+                                      const float *light_trans, const float *local_trans, float *out);
 void vsd_record_grid_bake_view_pair(const struct vsd_krecord_grid *g, const float *record_pos, int threads, float *out,
                                     const float *light_trans2, const float *local_trans2, float *out2);
 
