@@ -7,6 +7,7 @@
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_env.h"
 #include "kernel/kernel_phase.h"
+#include "kernel/kernel_sobol.h"
 #include "src/render/kernel_setup.h"
 #include <stdlib.h>
 
@@ -279,8 +280,48 @@ static void test_field_integral_random(void)
     vsd_volume_destroy(vol);
 }
 
+/* kernel_sobol.h: the first 2^m points of every (pixel, pair) form a (0,m,2)-net (each
+ * dyadic box of area 2^-m, of every shape, holds exactly one point), for prefixes of 16,
+ * 64 and 256 points, and over many pixels the points are uniform (means 1/2, the two
+ * coordinates and different pairs uncorrelated). */
+static void test_sobol_pairs(void)
+{
+    static const int prefixes[3] = {4, 6, 8};
+    double mean_u = 0, mean_v = 0, uv = 0, cross = 0;
+    const int pixels = 64, n = 256;
+    int px, k;
+    for (px = 0; px < pixels; px++) {
+        for (k = 0; k < 3; k++) {
+            const int m = prefixes[k], count = 1 << m;
+            int a, bad = 0;
+            for (a = 0; a <= m && !bad; a++) {
+                int boxes[256] = {0}, i;
+                for (i = 0; i < count; i++) {
+                    float u, v;
+                    vsd_sobol_pair(7u, (uint32_t)px, (uint32_t)i, (uint32_t)(px % 5), &u, &v);
+                    boxes[((int)(u * (1 << a))) * (1 << (m - a)) + (int)(v * (1 << (m - a)))]++;
+                }
+                for (i = 0; i < count; i++) bad |= boxes[i] != 1;
+            }
+            CHECK_MSG(!bad, "pixel %d: the first %d points are not a (0,%d,2)-net", px, count, m);
+        }
+        for (k = 0; k < n; k++) {
+            float u, v, u2, v2;
+            vsd_sobol_pair(7u, (uint32_t)px, (uint32_t)k, 1u, &u, &v);
+            vsd_sobol_pair(7u, (uint32_t)px, (uint32_t)k, 2u, &u2, &v2);
+            mean_u += u, mean_v += v, uv += (u - 0.5) * (v - 0.5), cross += (u - 0.5) * (u2 - 0.5);
+        }
+    }
+    mean_u /= pixels * n, mean_v /= pixels * n, uv /= pixels * n, cross /= pixels * n;
+    /* a uniform variable's variance is 1/12: the correlations below are relative to it */
+    CHECK_MSG(fabs(mean_u - 0.5) < 0.005 && fabs(mean_v - 0.5) < 0.005, "means %.4f %.4f", mean_u, mean_v);
+    CHECK_MSG(fabs(uv * 12) < 0.02 && fabs(cross * 12) < 0.02, "correlation within a pair %.4f, across pairs %.4f",
+              uv * 12, cross * 12);
+}
+
 int main(void)
 {
+    test_sobol_pairs();
     test_hg_normalisation();
     test_hg_sampling();
     test_env_mapping();

@@ -27,7 +27,10 @@
  * bench/tte/plot_tte.py, which draws the log-log plot of error against camera-change time.
  * A render past --time-limit seconds (default 600) is cancelled and shown as "> limit".
  * --set key=value (up to 8) overrides a scene field for the methods' renders, not for the
- * reference (e.g. --set render.options.step=0.0156). */
+ * reference (e.g. --set render.options.step=0.0156).
+ * --reference-caches none,lbl (default none): the `reference` rows once per value of its
+ * render.options.cache (issue 33), shown as "reference+lbl"; the cache's lighting is in the
+ * cold time and not scaled (it does not grow with the film), the paths are. */
 #include "vsd/clock.h"
 #include "vsd/compare.h"
 #include "vsd/image.h"
@@ -46,7 +49,7 @@
 #define MAX_SETS 8
 
 typedef struct tte_opts {
-    const char *data, *scenes, *methods, *cache, *csv, *spp_list;
+    const char *data, *scenes, *methods, *cache, *csv, *spp_list, *ref_caches;
     const char *sets[MAX_SETS];   /* --set key=value overrides for the methods (not the reference) */
     int set_count;
     int width, height, eval_w, eval_h, ref_spp, threads;
@@ -67,11 +70,12 @@ static void on_progress(void *user, const char *stage, float fraction)
     if (vsd_clock_seconds() - t->start > t->limit) t->cancel = 1;
 }
 
+/* extra: one more override (reference's cache), or NULL */
 static int load(const tte_opts *o, const char *scene, const char *method, int w, int h, int spp, int seed,
-                vsd_scene *sc)
+                const char *extra, vsd_scene *sc)
 {
     char path[1024], ov[5][96], err[1024];
-    const char *ovp[5 + MAX_SETS];
+    const char *ovp[6 + MAX_SETS];
     int i, n = 5;
     snprintf(path, sizeof path, "%s/scenes/%s.json", o->data, scene);
     snprintf(ov[0], sizeof ov[0], "render.method=%s", method);
@@ -82,6 +86,7 @@ static int load(const tte_opts *o, const char *scene, const char *method, int w,
     for (i = 0; i < 5; i++) ovp[i] = ov[i];
     if (strcmp(method, "reference") != 0)
         for (i = 0; i < o->set_count; i++) ovp[n++] = o->sets[i];
+    if (extra) ovp[n++] = extra;
     if (vsd_scene_load(path, ovp, n, sc, err, sizeof err) != VSD_OK) {
         fprintf(stderr, "bench_tte: %s\n", err);
         return 0;
@@ -184,7 +189,7 @@ static int get_reference(const tte_opts *o, const char *scene, reference *ref)
         vsd_renderer *r = NULL;
         tte_opts unlimited = *o;
         unlimited.time_limit = 1e30;
-        ok = load(o, scene, "reference", w, h, n, 1001 + i, &sc) &&
+        ok = load(o, scene, "reference", w, h, n, 1001 + i, NULL, &sc) &&
              render_timed(&unlimited, &sc, &r, sc.frames.start, &half[i], &st) >= 0;
         vsd_renderer_destroy(r);
     }
@@ -255,7 +260,7 @@ static void measure_method(const tte_opts *o, const char *scene, const char *met
     int f2;
     memset(out, 0, sizeof *out);
     out->frame = out->err_comb = out->err_vdir = NAN;
-    if (!load(o, scene, method, o->width, o->height, 1, 1, &sc)) return;
+    if (!load(o, scene, method, o->width, o->height, 1, 1, NULL, &sc)) return;
     memcpy(base, sc.camera.matrix, sizeof base);
     out->cold = render_timed(o, &sc, &r, sc.frames.start, &fb, &st);
     out->spp = st.samples;
@@ -272,7 +277,7 @@ static void measure_method(const tte_opts *o, const char *scene, const char *met
     vsd_renderer_destroy(r);
     r = NULL;
     /* the error at the evaluation film, the scene as it is */
-    if (load(o, scene, method, o->eval_w, o->eval_h, 1, 1, &sc) &&
+    if (load(o, scene, method, o->eval_w, o->eval_h, 1, 1, NULL, &sc) &&
         render_timed(o, &sc, &r, sc.frames.start, &fb, &st) >= 0) {
         out->err_comb = block_error(fb, ref->pass[VSD_PASS_COMBINED], VSD_PASS_COMBINED, o->eval_w, o->eval_h);
         out->err_vdir = block_error(fb, ref->pass[VSD_PASS_VOLUME_DIR], VSD_PASS_VOLUME_DIR, o->eval_w, o->eval_h);
@@ -283,8 +288,10 @@ static void measure_method(const tte_opts *o, const char *scene, const char *met
     vsd_framebuffer_destroy(fb);
 }
 
-static void measure_reference(const tte_opts *o, const char *scene, int spp, const reference *ref, row *out)
+static void measure_reference(const tte_opts *o, const char *scene, int spp, const char *cache, const reference *ref,
+                              row *out)
 {
+    char set[96];
     vsd_scene sc;
     vsd_renderer *r = NULL;
     vsd_framebuffer *fb = NULL;
@@ -293,7 +300,8 @@ static void measure_reference(const tte_opts *o, const char *scene, int spp, con
     memset(out, 0, sizeof *out);
     out->spp = spp;
     out->cold = out->camera = out->lighting = out->frame = out->err_comb = out->err_vdir = out->err_vind = NAN;
-    if (load(o, scene, "reference", o->eval_w, o->eval_h, spp, 7, &sc) &&
+    snprintf(set, sizeof set, "render.options.cache=%s", cache);
+    if (load(o, scene, "reference", o->eval_w, o->eval_h, spp, 7, set, &sc) &&
         render_timed(o, &sc, &r, sc.frames.start, &fb, &st) >= 0) {
         /* a path tracer redoes everything for every edit: each is one full render */
         out->camera = out->lighting = out->frame = st.render_seconds * scale;
@@ -342,6 +350,7 @@ static int parse(int argc, char **argv, tte_opts *o)
     o->methods = "raymarch,shgrid,constellation";
     o->cache = VSD_BENCH_CACHE;
     o->spp_list = "16,64,256,1024";
+    o->ref_caches = "none";
     o->width = 1280;
     o->height = 720;
     o->eval_w = 320;
@@ -357,6 +366,7 @@ static int parse(int argc, char **argv, tte_opts *o)
         else if (!strcmp(a, "--cache")) o->cache = v;
         else if (!strcmp(a, "--csv")) o->csv = v;
         else if (!strcmp(a, "--spp-list")) o->spp_list = v;
+        else if (!strcmp(a, "--reference-caches")) o->ref_caches = v;
         else if (!strcmp(a, "--width")) o->width = atoi(v);
         else if (!strcmp(a, "--height")) o->height = atoi(v);
         else if (!strcmp(a, "--eval-width")) o->eval_w = atoi(v);
@@ -376,7 +386,7 @@ static int parse(int argc, char **argv, tte_opts *o)
 int main(int argc, char **argv)
 {
     tte_opts o;
-    char scenes[1024], methods[512], spps[256], *sp, *mp, *pp, *sv, *mv, *pv;
+    char scenes[1024], methods[512], spps[256], caches[256], *sp, *mp, *pp, *cp, *sv, *mv, *pv, *cv;
     FILE *csv = NULL;
     memset(&o, 0, sizeof o);
     if (!parse(argc, argv, &o)) return 2;
@@ -396,10 +406,15 @@ int main(int argc, char **argv)
             continue;
         }
         fprintf(stderr, "[%s] reference noise %.3f%%\n", sv, 100.0 * ref.noise);
-        snprintf(spps, sizeof spps, "%s", o.spp_list);
-        for (pv = strtok_r(spps, ",", &pp); pv; pv = strtok_r(NULL, ",", &pp)) {
-            measure_reference(&o, sv, atoi(pv), &ref, &rw);
-            print_row(&o, csv, sv, "reference", &rw, 1);
+        snprintf(caches, sizeof caches, "%s", o.ref_caches);
+        for (cv = strtok_r(caches, ",", &cp); cv; cv = strtok_r(NULL, ",", &cp)) {
+            char label[64];
+            snprintf(label, sizeof label, strcmp(cv, "none") ? "reference+%s" : "reference", cv);
+            snprintf(spps, sizeof spps, "%s", o.spp_list);
+            for (pv = strtok_r(spps, ",", &pp); pv; pv = strtok_r(NULL, ",", &pp)) {
+                measure_reference(&o, sv, atoi(pv), cv, &ref, &rw);
+                print_row(&o, csv, sv, label, &rw, 1);
+            }
         }
         snprintf(methods, sizeof methods, "%s", o.methods);
         for (mv = strtok_r(methods, ",", &mp); mv; mv = strtok_r(NULL, ",", &mp)) {

@@ -5,8 +5,8 @@
 
 One column per scene, rows: VolumeDir error, Combined error, each against the time of a
 camera change at the timing film (for `reference`, a whole render: a path tracer caches
-nothing). `reference` is a line through its sample counts; every other method is one
-point. A method earns its place where its point lies below and left of the reference
+nothing). `reference` is a line through its sample counts (and `reference+lbl`, the path
+tracer with lbl's light as its cache, a dashed one); every other method is one point. A method earns its place where its point lies below and left of the reference
 line. Needs Debian's python3-matplotlib (not installed by scripts/install-deps.sh: only
 the benchmark needs it).
 """
@@ -33,16 +33,21 @@ def main(argv):
     for col, scene in enumerate(scenes):
         for row, (key, label) in enumerate((("err_voldir", "VolumeDir"), ("err_combined", "Combined"))):
             ax = axes[row][col]
-            ref = [r for r in rows if r["scene"] == scene and r["method"] == "reference"]
-            pts = [(float(r["camera"]), float(r[key]), int(r["spp"])) for r in ref
-                   if float(r["camera"]) > 0 and float(r[key]) > 0 and not math.isnan(float(r[key]))]
-            if pts:
-                ax.plot([p[0] for p in pts], [p[1] for p in pts], "-", color="black", marker=".",
-                        label="reference (path tracer)")
-                for t, e, spp in pts:
-                    ax.annotate("%d spp" % spp, (t, e), textcoords="offset points", xytext=(4, 4), fontsize=8)
+            lines = [m for m in dict.fromkeys(r["method"] for r in rows) if m.startswith("reference")]
+            for m in lines:
+                ref = [r for r in rows if r["scene"] == scene and r["method"] == m]
+                pts = [(float(r["camera"]), float(r[key]), int(r["spp"])) for r in ref
+                       if float(r["camera"]) > 0 and float(r[key]) > 0 and not math.isnan(float(r[key]))]
+                if not pts:
+                    continue
+                ax.plot([p[0] for p in pts], [p[1] for p in pts], "-" if m == "reference" else "--",
+                        color="black" if m == "reference" else "grey", marker=".",
+                        label="reference (path tracer)" if m == "reference" else m.replace("+", " with cache "))
+                if m == "reference":
+                    for t, e, spp in pts:
+                        ax.annotate("%d spp" % spp, (t, e), textcoords="offset points", xytext=(4, 4), fontsize=8)
             for r in rows:
-                if r["scene"] != scene or r["method"] == "reference":
+                if r["scene"] != scene or r["method"].startswith("reference"):
                     continue
                 t, e = float(r["camera"]), float(r[key])
                 if not (t > 0 and e > 0) or math.isnan(e):

@@ -41,6 +41,7 @@
 #include "lbl_escape.h"
 #include "lbl_exchange.h"
 #include "lbl_delta_m.h"
+#include "src/lighting/radiance_cache.h"
 #include "device/cpu/cpu_tiles.h"
 #include "src/grids/volume_groups.h"
 #include "src/method/method_parts.h"
@@ -1346,6 +1347,20 @@ static void lbl_destroy(void *state)
     free(s);
 }
 
+/* reference's cache (render.options.cache "lbl"): the lattice's diffused light as cone
+ * radiances where the readout keeps them (ms6), else its isotropic fluence / 4pi. With
+ * delta-M these are the scaled problem's: what the lattice carries without HG's forward
+ * peak (the cache need only be near the truth: reference's estimate is unbiased with any). */
+static vsd_status lbl_radiance_cache(void *state, vsd_radiance_cache *out, char *err, size_t errlen)
+{
+    const lbl_state *s = state;
+    if (s->parts.count > 0)
+        return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                        "render.options.cache: lbl's cache covers one volume so far (the scene has %d)", s->parts.count);
+    if (!s->ms) return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "lbl: the cache was asked for before the lighting");
+    return vsd_radiance_cache_from_records(&s->rg, s->ms6, s->ms, out, err, errlen);
+}
+
 /* The rendered viewport's default: it scatters more than once, so the viewport shows what a
  * final render with `reference` shows (shgrid, the default before issue 28, scatters once:
  * its smoke is about half as bright). Measured for issue 28 at 264x166, lbl / crm: Combined
@@ -1368,4 +1383,5 @@ const vsd_method vsd_method_lbl = {
     .prepare_lighting = lbl_prepare_lighting,
     .render = lbl_render,
     .destroy = lbl_destroy,
+    .radiance_cache = lbl_radiance_cache,
 };

@@ -18,6 +18,8 @@
 #include "method_options.h"
 #include "methods/registry.h"
 
+struct vsd_radiance_cache;
+
 /* Everything a method may read while preparing or rendering one frame. */
 typedef struct vsd_frame_ctx {
     const vsd_scene *scene;
@@ -75,6 +77,11 @@ typedef struct vsd_method {
     vsd_status (*render)(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                          char *err, size_t errlen);
     void (*destroy)(void *state);
+    /* After the lighting stage: the method's light scattered at least once, as a P1 radiance
+     * field for `reference`'s control variate (render.options.cache, issue 33;
+     * src/lighting/radiance_cache.h). NULL for a method that has no multiple scattering to
+     * give. */
+    vsd_status (*radiance_cache)(void *state, struct vsd_radiance_cache *out, char *err, size_t errlen);
 } vsd_method;
 
 /* Whether m renders sc's volumes[]: an error naming the methods that do when there are
