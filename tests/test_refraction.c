@@ -526,8 +526,116 @@ static void test_heat_haze(void)
     vsd_volume_destroy(temp);
 }
 
+/* Two in-memory copies of the ball as volumes 0 and 1 (`volumes` JSON array contents), the
+ * orthographic camera of [4] looking along +y; NULL with a failed CHECK on an error. */
+static vsd_framebuffer *render_two_balls(const vsd_volume *ball, const char *volumes, int two, const char *method)
+{
+    char json[2048];
+    vsd_scene sc;
+    vsd_renderer *r;
+    vsd_framebuffer *fb = NULL;
+    snprintf(json, sizeof json,
+             "{\"version\":1,\"volumes\":[%s],\"environment\":{\"file\":\"%s\"},"
+             "\"camera\":{\"type\":\"orthographic\",\"ortho_scale\":4,\"position\":[0.96875,-4,0.96875],"
+             "\"look_at\":[0.96875,0.96875,0.96875],\"up\":[0,0,1]},"
+             "\"film\":{\"width\":32,\"height\":32,\"transparent\":false},"
+             "\"render\":{\"method\":\"%s\",\"samples\":16}}",
+             volumes, test_data("env/sunset.exr"), method);
+    if (!test_parse_scene(json, NULL, 0, &sc) || !(r = test_make_renderer(&sc, NULL))) return NULL;
+    vsd_renderer_use_volume(r, 0, ball, NULL, NULL);
+    if (two) vsd_renderer_use_volume(r, 1, ball, NULL, NULL);
+    if (!test_render(r, 1, &fb, NULL)) {
+        vsd_framebuffer_destroy(fb);
+        fb = NULL;
+    }
+    vsd_renderer_destroy(r);
+    return fb;
+}
+
+#define THIN_BALL(ior) "{\"file\":\"memory.vdb\",\"medium\":{\"density\":0.05,\"albedo\":[0.9,0.9,0.9],\"ior\":" ior "}}"
+/* the same ball 3 units behind (along the camera's +y) */
+#define BALL_BEHIND(density) \
+    "{\"file\":\"memory.vdb\",\"matrix\":[1,0,0,0, 0,1,0,3, 0,0,1,0, 0,0,0,1]," \
+    "\"medium\":{\"density\":" density ",\"albedo\":[0.9,0.9,0.9]}}"
+
+/* A refracting volume among others (issue 30): reference bends every volume's rays through
+ * the one refracting volume's field.
+ *   - an empty volume 0 and the refracting ball as volume 1 render bit for bit as the ball
+ *     alone: the field is volume 1's, and the bent paths track every volume (the empty one
+ *     draws no random numbers);
+ *   - a dense ball behind the refracting one is still seen through it: the transmittance
+ *     through the lens's middle stays that of the dense ball (with the bent paths tracking
+ *     volume 1 alone it would be the thin ball's, ~0.9);
+ *   - two refracting volumes, and lbl with a refracting volume among others, are errors
+ *     naming them. */
+static void test_among_volumes(void)
+{
+    vsd_volume *ball = test_ball_volume();
+    vsd_framebuffer *alone, *pair, *behind, *behind_flat;
+    if (!ball) return;
+    alone = render_two_balls(ball, THIN_BALL("1.33"), 0, "reference");
+    pair = render_two_balls(ball, BALL_BEHIND("0") "," THIN_BALL("1.33"), 1, "reference");
+    CHECK(alone && pair);
+    if (alone && pair) CHECK_MSG(test_identical(alone, pair), "an empty volume 0 changed the refracting ball's image");
+    behind = render_two_balls(ball, BALL_BEHIND("4") "," THIN_BALL("1.33"), 1, "reference");
+    behind_flat = render_two_balls(ball, BALL_BEHIND("4") "," THIN_BALL("1"), 1, "reference");
+    CHECK(behind && behind_flat);
+    if (behind && behind_flat) {
+        double t = 0, t_flat = 0;
+        int x, y, n = 0;
+        for (y = 0; y < 32; y++)
+            for (x = 0; x < 32; x++) {
+                double wx = (x + 0.5) / 32.0 * 4.0 - 2.0, wz = 2.0 - (y + 0.5) / 32.0 * 4.0;
+                if (wx * wx + wz * wz >= 0.3 * 0.3) continue;
+                t += behind->pass[VSD_PASS_TRANSMITTANCE][3 * (y * 32 + x)];
+                t_flat += behind_flat->pass[VSD_PASS_TRANSMITTANCE][3 * (y * 32 + x)];
+                n++;
+            }
+        t /= n, t_flat /= n;
+        printf("[among volumes] T through the lens's middle onto the dense ball: %.4f (ior 1: %.4f)\n", t, t_flat);
+        CHECK_MSG(t < 0.5 && fabs(t - t_flat) < 0.1, "T through the refracting ball %.4f, without refraction %.4f", t,
+                  t_flat);
+    }
+    {
+        char json[2048];
+        const char *const cases[2][3] = {
+            {BALL_BEHIND("4") "," THIN_BALL("1.33"), "lbl", "reference renders a refracting volume among others"},
+            {"{\"file\":\"memory.vdb\",\"medium\":{\"ior\":1.2}}," THIN_BALL("1.33"), "reference",
+             "volumes[0] and volumes[1] both refract"}};
+        int k;
+        for (k = 0; k < 2; k++) {
+            vsd_scene sc;
+            vsd_renderer *r = NULL;
+            vsd_render_options o;
+            vsd_framebuffer *fb = NULL;
+            char err[1024] = "";
+            vsd_status st;
+            snprintf(json, sizeof json, "{\"version\":1,\"volumes\":[%s],\"environment\":{\"color\":[1,1,1]},"
+                     "\"render\":{\"method\":\"%s\",\"samples\":1}}", cases[k][0], cases[k][1]);
+            if (!test_parse_scene(json, NULL, 0, &sc)) continue;
+            memset(&o, 0, sizeof o);
+            st = vsd_renderer_create(&sc, &o, &r, err, sizeof err);
+            if (!st) {
+                vsd_renderer_use_volume(r, 0, ball, NULL, NULL);
+                vsd_renderer_use_volume(r, 1, ball, NULL, NULL);
+                st = vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err);
+            }
+            CHECK_MSG(st != VSD_OK, "%s accepted: %s", cases[k][1], cases[k][0]);
+            CHECK_CONTAINS(err, cases[k][2]);
+            vsd_framebuffer_destroy(fb);
+            vsd_renderer_destroy(r);
+        }
+    }
+    vsd_framebuffer_destroy(alone);
+    vsd_framebuffer_destroy(pair);
+    vsd_framebuffer_destroy(behind);
+    vsd_framebuffer_destroy(behind_flat);
+    vsd_volume_destroy(ball);
+}
+
 int main(void)
 {
+    test_among_volumes();
     test_parabola();
     test_snell();
     test_snell_built();

@@ -162,6 +162,11 @@ vsd_status vsd_frame_path(const char *pattern, int frame, char *out, size_t outl
 /* The grid the refractive index of volume v comes from: its ior_grid, else "temperature"
  * when its medium.ior_from is "temperature", else "" (none). */
 const char *vsd_scene_ior_grid(const vsd_scene_volume *v);
+/* Whether volume v refracts: medium.ior != 1 or a refractive index grid. */
+int vsd_scene_volume_refracts(const vsd_scene_volume *v);
+/* The index of the scene's refracting volume, -1 when none refracts (the first when
+ * several do: vsd_method_check_volumes refuses that). */
+int vsd_scene_refracting_volume(const vsd_scene *sc);
 /* The frame number volume v reads for scene frame `frame` (frame + frame_offset, clamped
  * to Blender's frame range). */
 int vsd_scene_volume_frame(const vsd_scene_volume *v, int frame);

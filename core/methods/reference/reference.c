@@ -236,4 +236,5 @@ const vsd_method vsd_method_reference = {
     .prepare_lighting = reference_prepare_lighting,
     .render = reference_render,
     .destroy = reference_destroy,
+    .refraction_among_volumes = 1,
 };

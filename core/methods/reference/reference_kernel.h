@@ -88,16 +88,18 @@ VSD_DEVICE vsd_f3 vsd_segment_emission(const vsd_kernel_data *kd, vsd_f3 o, vsd_
 
 /* Delta tracking along the bent ray from *o, *d: on a collision returns the arc length to
  * it and leaves *o, *d there; on escape VSD_INF with *d the exit direction. The emission of
- * each straight piece (track-length estimator) is added to *emit. */
+ * each straight piece (track-length estimator) is added to *emit; *which gets the volume
+ * collided with (kernel_volumes.h: every volume's medium is tracked along the bent path,
+ * the index field is the one refracting volume's). */
 VSD_DEVICE float vsd_bent_delta_track(const vsd_kernel_data *kd, const vsd_krefract *r, vsd_f3 *o, vsd_f3 *d,
-                                      vsd_rng *rng, vsd_f3 *emit)
+                                      vsd_rng *rng, vsd_f3 *emit, int32_t *which)
 {
     float travelled = 0.0f, t0, t1, t;
     int32_t steps = 0;
     for (;;) {
         if (steps >= r->max_steps || !vsd_refract_clip(r, *o, *d, &t0, &t1)) {
             /* straight from here on: n = 1 (or the ray has bent for long enough) */
-            t = vsd_delta_track(&kd->density, *o, *d, VSD_INF, rng);
+            t = vsd_kvolumes_delta_track(kd, *o, *d, VSD_INF, rng, which);
             *emit = f3_add(*emit, vsd_segment_emission(kd, *o, *d, t, rng));
             if (t >= VSD_INF) return VSD_INF;
             *o = f3_madd(*o, *d, t);
@@ -105,7 +107,7 @@ VSD_DEVICE float vsd_bent_delta_track(const vsd_kernel_data *kd, const vsd_krefr
         }
         if (!vsd_refract_inside(r, *o)) { /* straight up to the grid, a hair into it */
             t0 += 1e-3f * r->step;
-            t = vsd_delta_track(&kd->density, *o, *d, t0, rng);
+            t = vsd_kvolumes_delta_track(kd, *o, *d, t0, rng, which);
             *emit = f3_add(*emit, vsd_segment_emission(kd, *o, *d, vsd_minf(t, t0), rng));
             if (t < t0) {
                 *o = f3_madd(*o, *d, t);
@@ -119,7 +121,7 @@ VSD_DEVICE float vsd_bent_delta_track(const vsd_kernel_data *kd, const vsd_krefr
             vsd_f3 g, v = f3_scale(*d, vsd_refract_eval(r, *o, &g));
             float h = r->step;
             while (steps < r->max_steps && vsd_refract_inside(r, *o)) {
-                t = vsd_delta_track(&kd->density, *o, *d, h, rng);
+                t = vsd_kvolumes_delta_track(kd, *o, *d, h, rng, which);
                 *emit = f3_add(*emit, vsd_segment_emission(kd, *o, *d, vsd_minf(t, h), rng));
                 if (t < h) {
                     *o = f3_madd(*o, *d, t);
@@ -142,12 +144,12 @@ VSD_DEVICE float vsd_bent_ratio_track(const vsd_kernel_data *kd, const vsd_krefr
     int32_t steps = 0;
     while (tr > 0.0f) {
         if (steps >= r->max_steps || !vsd_refract_clip(r, o, d, &t0, &t1)) {
-            tr *= vsd_ratio_track(&kd->density, o, d, VSD_INF, rng);
+            tr *= vsd_kvolumes_ratio_track(kd, o, d, VSD_INF, rng);
             break;
         }
         if (!vsd_refract_inside(r, o)) {
             t0 += 1e-3f * r->step;
-            tr *= vsd_ratio_track(&kd->density, o, d, t0, rng);
+            tr *= vsd_kvolumes_ratio_track(kd, o, d, t0, rng);
             o = f3_madd(o, d, t0);
             steps++;
         }
@@ -155,7 +157,7 @@ VSD_DEVICE float vsd_bent_ratio_track(const vsd_kernel_data *kd, const vsd_krefr
             vsd_f3 g, v = f3_scale(d, vsd_refract_eval(r, o, &g));
             float h = r->step;
             while (tr > 0.0f && steps < r->max_steps && vsd_refract_inside(r, o)) {
-                tr *= vsd_ratio_track(&kd->density, o, d, h, rng);
+                tr *= vsd_kvolumes_ratio_track(kd, o, d, h, rng);
                 vsd_refract_step(r, &o, &v, &d, h);
                 steps++;
             }
@@ -208,7 +210,7 @@ VSD_DEVICE vsd_sample_result vsd_reference_sample_bent(const vsd_kernel_data *kd
         vsd_f3 d_start = d, e = f3s(0.0f);
         float t;
         if (r) {
-            t = vsd_bent_delta_track(kd, r, &o, &d, &rng, &e);
+            t = vsd_bent_delta_track(kd, r, &o, &d, &rng, &e, &which);
         } else {
             t = vsd_kvolumes_delta_track(kd, o, d, VSD_INF, &rng, &which);
             e = vsd_segment_emission(kd, o, d, t, &rng);

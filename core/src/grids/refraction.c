@@ -2,6 +2,7 @@
 #include "src/method/method.h"
 #include "src/render/kernel_setup.h"
 #include "kernel/kernel_volume.h"
+#include "kernel/kernel_volumes.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -169,21 +170,25 @@ done:
 vsd_status vsd_refraction_for_frame(const vsd_frame_ctx *ctx, vsd_refraction_field *out, char *err, size_t errlen)
 {
     const vsd_scene *sc = ctx->scene;
-    const char *name = vsd_scene_ior_grid(&sc->volumes[0]);
+    /* a part's context stands its volume as volume 0 and never refracts (method_parts.c) */
+    const int i = ctx->part.active ? -1 : vsd_scene_refracting_volume(sc);
+    const vsd_scene_volume *sv = i >= 0 ? &sc->volumes[i] : NULL;
+    const char *name = sv ? vsd_scene_ior_grid(sv) : "";
+    const vsd_kvolume *density = i >= 0 ? vsd_kvolumes_density(&ctx->kd, i) : NULL;
+    const vsd_volume *grid = i >= 0 ? (i == 0 ? ctx->ior : ctx->volume_ior[i]) : NULL;
     vsd_kvolume src;
     vsd_status st;
     memset(out, 0, sizeof *out);
+    if (!sv) return VSD_OK;
     if (!name[0])
-        return sc->volumes[0].medium.ior == 1.0f ? VSD_OK
-                                      : vsd_refraction_build(&ctx->kd.density, NULL, NULL, VSD_IOR_CONSTANT,
-                                                             sc->volumes[0].medium.ior, 1.0f, 128, out, err, errlen);
-    if (sc->volumes[0].medium.ior != 1.0f)
+        return vsd_refraction_build(density, NULL, NULL, VSD_IOR_CONSTANT, sv->medium.ior, 1.0f, 128, out, err, errlen);
+    if (sv->medium.ior != 1.0f)
         return vsd_fail(VSD_ERR_INVALID, err, errlen,
                         "medium.ior (%g) and the grid '%s' (volume.ior_grid / medium.ior_from) both give the refractive "
-                        "index: set one", (double)sc->volumes[0].medium.ior, name);
-    if (!ctx->ior) return vsd_fail(VSD_ERR_INVALID, err, errlen, "the refractive index's grid '%s' is not loaded", name);
-    if ((st = vsd_kvolume_setup(&src, ctx->ior, sc->volumes[0].matrix, 1.0f, err, errlen))) return st;
-    return vsd_refraction_build(&ctx->kd.density, &src, name,
-                                strcmp(sc->volumes[0].medium.ior_from, "temperature") == 0 ? VSD_IOR_TEMPERATURE : VSD_IOR_GRID, 1.0f,
+                        "index: set one", (double)sv->medium.ior, name);
+    if (!grid) return vsd_fail(VSD_ERR_INVALID, err, errlen, "the refractive index's grid '%s' is not loaded", name);
+    if ((st = vsd_kvolume_setup(&src, grid, sv->matrix, 1.0f, err, errlen))) return st;
+    return vsd_refraction_build(density, &src, name,
+                                strcmp(sv->medium.ior_from, "temperature") == 0 ? VSD_IOR_TEMPERATURE : VSD_IOR_GRID, 1.0f,
                                 1.0f, 128, out, err, errlen);
 }

@@ -32,7 +32,8 @@ typedef struct vsd_frame_ctx {
     /* every volume's (volume_count of them; [0] = density, emission above) */
     const vsd_volume *volume_density[VSD_KMAX_VOLUMES];
     const vsd_volume *volume_emission[VSD_KMAX_VOLUMES];
-    const vsd_volume *ior;              /* volume.ior_grid's grid (of n or of temperature), or NULL */
+    const vsd_volume *ior;              /* volume 0's volume.ior_grid grid (of n or of temperature), or NULL */
+    const vsd_volume *volume_ior[VSD_KMAX_VOLUMES];   /* every volume's, or NULL */
     const vsd_env *env;
     vsd_kernel_data kd;                 /* host pointers; method fills lights/march_step */
     int threads;
@@ -77,6 +78,9 @@ typedef struct vsd_method {
     vsd_status (*render)(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *fb, int *samples,
                          char *err, size_t errlen);
     void (*destroy)(void *state);
+    /* 1: renders refraction in a scene of several volumes where one of them refracts (the
+     * others' rays bend through that one's field; vsd_method_check_volumes) */
+    int refraction_among_volumes;
     /* After the lighting stage: the method's light scattered at least once, as a P1 radiance
      * field for `reference`'s control variate (render.options.cache, issue 33;
      * src/lighting/radiance_cache.h). NULL for a method that has no multiple scattering to

@@ -48,13 +48,23 @@ static const char *methods_with(unsigned cap, char *which, size_t n)
 vsd_status vsd_method_check_volumes(const vsd_method *m, const vsd_scene *sc, char *err, size_t errlen)
 {
     char which[256];
+    int refracting = -1;
     if (sc->volume_count <= 1) return VSD_OK;
-    for (int i = 0; i < sc->volume_count; i++)
-        if (sc->volumes[i].medium.ior != 1.0f || vsd_scene_ior_grid(&sc->volumes[i])[0])
+    for (int i = 0; i < sc->volume_count; i++) {
+        if (!vsd_scene_volume_refracts(&sc->volumes[i])) continue;
+        if (refracting >= 0)
             return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
-                            "volumes[%d].medium: refraction (ior, ior_grid) in a scene with several volumes is not "
-                            "supported yet: render the refracting volume alone",
-                            i);
+                            "volumes[%d] and volumes[%d] both refract (medium.ior, ior_grid): one refracting volume "
+                            "per scene so far (its index field is one volume's)",
+                            refracting, i);
+        refracting = i;
+        if (!m->refraction_among_volumes)
+            return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
+                            "volumes[%d].medium: refraction (ior, ior_grid) in a scene with several volumes: method "
+                            "'%s' bends rays through one volume alone so far (reference renders a refracting volume "
+                            "among others)",
+                            i, m->name);
+    }
     if (m->caps & VSD_METHOD_CAP_SEVERAL_VOLUMES) return VSD_OK;
     return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                     "volumes: the scene has %d volumes; method '%s' renders one volume so far (%s render several)",
@@ -66,7 +76,7 @@ vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, cha
     char which[256] = "";
     size_t i;
     if (sc->light_count == 0) return VSD_OK;
-    if (sc->volumes[0].medium.ior != 1.0f || vsd_scene_ior_grid(&sc->volumes[0])[0])
+    if (vsd_scene_refracting_volume(sc) >= 0)
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "lights: extra lights through a refracting medium (medium.ior, volume.ior_grid) are not "
                         "supported yet: a bent ray cannot be aimed at a point or a sun");

@@ -477,6 +477,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     for (int i = 0; i < sc->volume_count; i++) {
         ctx.volume_density[i] = r->volumes[i].density;
         ctx.volume_emission[i] = r->volumes[i].emission;
+        ctx.volume_ior[i] = r->volumes[i].ior;
     }
     ctx.ior = r->volumes[0].ior;
     ctx.env = r->env;

@@ -1448,6 +1448,18 @@ const char *vsd_scene_ior_grid(const vsd_scene_volume *v)
     return strcmp(v->medium.ior_from, "temperature") == 0 ? "temperature" : "";
 }
 
+int vsd_scene_volume_refracts(const vsd_scene_volume *v)
+{
+    return v->medium.ior != 1.0f || vsd_scene_ior_grid(v)[0] != '\0';
+}
+
+int vsd_scene_refracting_volume(const vsd_scene *sc)
+{
+    for (int i = 0; i < sc->volume_count; i++)
+        if (vsd_scene_volume_refracts(&sc->volumes[i])) return i;
+    return -1;
+}
+
 int vsd_scene_volume_frame(const vsd_scene_volume *v, int frame)
 {
     long f = (long)frame + v->frame_offset;
