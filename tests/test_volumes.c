@@ -708,10 +708,19 @@ static void test_errors(void)
     vsd_renderer_destroy(r);
     r = NULL;
 
-    const char *ior[] = {"volumes.1.medium.ior=1.3"};
-    CHECK(test_parse_scene(two, ior, 1, &sc));
+    /* one refracting volume among others: reference bends every ray through it
+     * (test_refraction); lbl refuses it by name, and two refracting volumes are refused */
+    const char *ior[] = {"volumes.1.medium.ior=1.3", "render.method=lbl"};
+    CHECK(test_parse_scene(two, ior, 2, &sc));
     CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
     CHECK_CONTAINS(err, "volumes[1].medium: refraction");
+    CHECK_CONTAINS(err, "'lbl'");
+    vsd_renderer_destroy(r);
+    r = NULL;
+    const char *ior2[] = {"volumes.0.medium.ior=1.2", "volumes.1.medium.ior=1.3", "render.method=reference"};
+    CHECK(test_parse_scene(two, ior2, 3, &sc));
+    CHECK(vsd_renderer_create(&sc, &o, &r, err, sizeof err) == VSD_ERR_UNSUPPORTED);
+    CHECK_CONTAINS(err, "volumes[0] and volumes[1] both refract");
     vsd_renderer_destroy(r);
     vsd_framebuffer_destroy(fb);
     free(two);
