@@ -87,6 +87,25 @@ vsd_framebuffer *test_render_fresh(const vsd_scene *sc, const char *cache_dir, c
     return fb;
 }
 
+void test_expect_render_error(const vsd_scene *sc, const vsd_volume *const *vols, int nvols, char *err, size_t errlen)
+{
+    vsd_renderer *r = NULL;
+    vsd_render_options o;
+    vsd_framebuffer *fb = NULL;
+    vsd_status st;
+    int i;
+    err[0] = '\0';
+    memset(&o, 0, sizeof o);
+    st = vsd_renderer_create(sc, &o, &r, err, errlen);
+    if (st == VSD_OK) {
+        for (i = 0; i < nvols; i++) vsd_renderer_use_volume(r, i, vols[i], NULL, NULL);
+        st = vsd_renderer_render(r, sc->frames.start, &fb, NULL, err, errlen);
+    }
+    CHECK_MSG(st != VSD_OK, "rendered a scene that must be refused (method %s)", sc->render.method);
+    vsd_framebuffer_destroy(fb);
+    vsd_renderer_destroy(r);
+}
+
 /* Relative RMSE of pass p of a against b after 4x4 block averages, as `vsd compare`. */
 double test_rel_err(const vsd_framebuffer *a, const vsd_framebuffer *b, vsd_pass p)
 {

@@ -30,6 +30,10 @@ int test_render(vsd_renderer *r, int frame, vsd_framebuffer **fb, vsd_render_sta
 /* One render by a fresh renderer (in-memory volume / environment when given); NULL on failure. */
 vsd_framebuffer *test_render_fresh(const vsd_scene *sc, const char *cache_dir, const vsd_volume *vol,
                                    const vsd_env *env, int frame, vsd_render_stats *stats);
+/* sc must be refused: by vsd_renderer_create or by the render of frame sc->frames.start
+ * (volume i from vols[i] in memory when given, nvols of them). A failed CHECK when it
+ * renders; the error into err either way. */
+void test_expect_render_error(const vsd_scene *sc, const vsd_volume *const *vols, int nvols, char *err, size_t errlen);
 /* Relative RMSE of pass p of a against b after 4x4 block averages, as `vsd compare`. */
 double test_rel_err(const vsd_framebuffer *a, const vsd_framebuffer *b, vsd_pass p);
 double test_rel_err_planes(const float *a, const float *b, int w, int h, int ch);

@@ -59,10 +59,8 @@ static vsd_status create_cache(reference_state *s, const vsd_scene *scene, char 
     if (!m || !m->radiance_cache)   /* (the table lists only methods that serve) */
         return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "render.options.cache: method '%s' cannot serve",
                         reference_cache_names[s->opt.cache]);
-    if (!(options = calloc(1, m->options.struct_size ? m->options.struct_size : 1)))
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
-    st = vsd_options_parse(&m->options, m->name, NULL, options, err, errlen);
-    if (!st) st = m->create(&s->cache_state, scene, options, err, errlen);
+    if ((st = vsd_method_options_from_json(m, NULL, &options, err, errlen))) return st;
+    st = m->create(&s->cache_state, scene, options, err, errlen);
     free(options);
     if (!st) s->cache_method = m;
     return st;

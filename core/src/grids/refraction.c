@@ -175,7 +175,7 @@ vsd_status vsd_refraction_for_frame(const vsd_frame_ctx *ctx, vsd_refraction_fie
     const vsd_scene_volume *sv = i >= 0 ? &sc->volumes[i] : NULL;
     const char *name = sv ? vsd_scene_ior_grid(sv) : "";
     const vsd_kvolume *density = i >= 0 ? vsd_kvolumes_density(&ctx->kd, i) : NULL;
-    const vsd_volume *grid = i >= 0 ? (i == 0 ? ctx->ior : ctx->volume_ior[i]) : NULL;
+    const vsd_volume *grid = i >= 0 ? ctx->volume_ior[i] : NULL;
     vsd_kvolume src;
     vsd_status st;
     memset(out, 0, sizeof *out);

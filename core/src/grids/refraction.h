@@ -36,9 +36,11 @@ vsd_status vsd_refraction_build(const vsd_kvolume *density, const vsd_kvolume *s
                                 size_t errlen);
 void vsd_refraction_free(vsd_refraction_field *f);
 
-/* The field a frame's scene asks for (an empty one, k.ng NULL, when n = 1 everywhere):
- * medium.ior, or the grid of volume.ior_grid / medium.ior_from (ctx->ior); both at once is
- * an error that names them. What `reference` and `lbl` call in their frame stage. */
+/* The field a frame's scene asks for (an empty one, k.ng NULL, when n = 1 everywhere, and
+ * in a part's context): the refracting volume's (vsd_scene_refracting_volume; at most one,
+ * vsd_method_check_volumes) medium.ior over its density, or its grid of volume.ior_grid /
+ * medium.ior_from (ctx->volume_ior); both at once is an error that names them. What
+ * `reference` and `lbl` call in their frame stage. */
 struct vsd_frame_ctx;
 vsd_status vsd_refraction_for_frame(const struct vsd_frame_ctx *ctx, vsd_refraction_field *out, char *err,
                                     size_t errlen);

@@ -32,8 +32,8 @@ typedef struct vsd_frame_ctx {
     /* every volume's (volume_count of them; [0] = density, emission above) */
     const vsd_volume *volume_density[VSD_KMAX_VOLUMES];
     const vsd_volume *volume_emission[VSD_KMAX_VOLUMES];
-    const vsd_volume *ior;              /* volume 0's volume.ior_grid grid (of n or of temperature), or NULL */
-    const vsd_volume *volume_ior[VSD_KMAX_VOLUMES];   /* every volume's, or NULL */
+    /* every volume's volume.ior_grid grid (of n or of temperature), or NULL */
+    const vsd_volume *volume_ior[VSD_KMAX_VOLUMES];
     const vsd_env *env;
     vsd_kernel_data kd;                 /* host pointers; method fills lights/march_step */
     int threads;
@@ -117,6 +117,10 @@ void vsd_method_item_job(struct vsd_tile_job *job, const vsd_frame_ctx *ctx, int
  * it): an unknown key, wrong type or out-of-range value is an error naming it. */
 vsd_status vsd_method_parse_options(const vsd_method *m, const vsd_scene *scene, void **options, char *err,
                                     size_t errlen);
+/* The same from options_json (NULL: every default), e.g. a method another one runs inside
+ * it with its own defaults (reference's cache). */
+vsd_status vsd_method_options_from_json(const vsd_method *m, const char *options_json, void **options, char *err,
+                                        size_t errlen);
 
 /* A method's kernel struct with its arrays on ctx's device: fills dev (the pass's
  * struct_bytes) from the host struct `host`, arrays replaced by resident device copies. */

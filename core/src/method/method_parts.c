@@ -16,7 +16,6 @@ void vsd_part_ctx(const vsd_frame_ctx *ctx, const vsd_method_parts *p, int i, vs
     out->kd.medium = ctx->kd.volumes[i].medium;
     out->density = ctx->volume_density[i];
     out->emission = ctx->volume_emission[i];
-    out->ior = NULL;   /* (refraction renders one volume: refused before this) */
     out->info = NULL;
     out->info_len = 0;
     out->part.active = 1;

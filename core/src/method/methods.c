@@ -92,12 +92,18 @@ vsd_status vsd_method_check_lights(const vsd_method *m, const vsd_scene *sc, cha
 vsd_status vsd_method_parse_options(const vsd_method *m, const vsd_scene *scene, void **options, char *err,
                                     size_t errlen)
 {
+    return vsd_method_options_from_json(m, scene->render.options_json, options, err, errlen);
+}
+
+vsd_status vsd_method_options_from_json(const vsd_method *m, const char *options_json, void **options, char *err,
+                                        size_t errlen)
+{
     /* at least one byte, so a method without options still gets a pointer to free */
     void *o = calloc(1, m->options.struct_size ? m->options.struct_size : 1);
     vsd_status st;
     *options = NULL;
     if (!o) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory");
-    st = vsd_options_parse(&m->options, m->name, scene->render.options_json, o, err, errlen);
+    st = vsd_options_parse(&m->options, m->name, options_json, o, err, errlen);
     if (st) {
         free(o);
         return st;

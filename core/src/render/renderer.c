@@ -479,7 +479,6 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
         ctx.volume_emission[i] = r->volumes[i].emission;
         ctx.volume_ior[i] = r->volumes[i].ior;
     }
-    ctx.ior = r->volumes[0].ior;
     ctx.env = r->env;
     ctx.threads = vsd_cpu_thread_count(r->opt.threads > 0 ? r->opt.threads : sc->render.threads);
     ctx.progress = r->opt.progress;
