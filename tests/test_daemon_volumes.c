@@ -354,9 +354,11 @@ int main(int argc, char **argv)
     /* (c) only volumes[1]'s file changes (frame 16's blob): volumes[0] comes from the cache */
     scene2(scene, sizeof scene, b10, b16, eb, "reference");
     if (render_remote(c, scene, &res, &info, err, sizeof err) == 0) {
+        /* the renderer of frames 10 + 15 is taken over (docs/protocol.md): volumes[0] stays */
         CHECK_MSG(cache_flag(info, 0, "volume") == 1 && cache_flag(info, 1, "volume") == 0 &&
                       cache_flag(info, 1, "emission") == 0 && cache_flag(info, -1, "volume") == 1 &&
-                      cache_flag(info, -1, "environment") == 1,
+                      cache_flag(info, -1, "environment") == 1 && cache_flag(info, -1, "renderer") == 0 &&
+                      cache_flag(info, -1, "renderer_taken_over") == 1 && cache_flag(info, -1, "preparation") == 0,
                   "volumes[1] to another frame: %s", res.json);
         diff = test_exr_bytes_diff(res.exr, res.exr_len, fb16, g_dir, "volumes");
         CHECK_MSG(diff == 0, "volumes[1] at frame 16: %ld values differ from in-process", diff);
@@ -366,6 +368,42 @@ int main(int argc, char **argv)
     }
     vsdc_result_free(&res);
     cJSON_Delete(info);
+
+    /* (d) the same with constellation, whose part per volume builds its frame stage from its
+     * own volume alone: taking over the frames-10 + 15 renderer prepares volumes[1]'s part
+     * only ("reframed=1"), and the image is a fresh in-process renderer's, bit for bit */
+    {
+        vsd_framebuffer *fresh;
+        scene2(scene, sizeof scene, b10, b15, eb, "constellation");
+        if (render_remote(c, scene, &res, &info, err, sizeof err) == 0)
+            CHECK_MSG(cache_flag(info, -1, "renderer") == 0 && cache_flag(info, -1, "renderer_taken_over") == 0,
+                      "constellation's first two-volume render: %s", res.json);
+        else
+            CHECK_MSG(0, "constellation, frames 10 + 15: %s", err);
+        vsdc_result_free(&res);
+        cJSON_Delete(info);
+        scene2(local, sizeof local, frame_file(10), frame_file(16), g_env, "constellation");
+        fresh = render_local(local);
+        scene2(scene, sizeof scene, b10, b16, eb, "constellation");
+        if (fresh && render_remote(c, scene, &res, &info, err, sizeof err) == 0) {
+            const cJSON *mi = cJSON_GetObjectItemCaseSensitive(info, "method_info");
+            CHECK_MSG(cache_flag(info, -1, "renderer_taken_over") == 1, "constellation, volumes[1] to frame 16: %s",
+                      res.json);
+            CHECK_MSG(cJSON_IsString(mi) && strstr(mi->valuestring, "reframed=1") &&
+                          strstr(mi->valuestring, "relit=2"),
+                      "constellation, volumes[1] to frame 16: method_info %s", res.json);
+            diff = test_exr_bytes_diff(res.exr, res.exr_len, fresh, g_dir, "volumes_cst");
+            CHECK_MSG(diff == 0, "constellation, a renderer taken over: %ld values differ from in-process", diff);
+            printf("constellation, volumes[1] to frame 16 in a renderer taken over: %s; %ld values differ from "
+                   "in-process\n",
+                   cJSON_IsString(mi) ? mi->valuestring : "?", diff);
+        } else {
+            CHECK_MSG(0, "constellation, frames 10 + 16: %s", err);
+        }
+        vsdc_result_free(&res);
+        cJSON_Delete(info);
+        vsd_framebuffer_destroy(fresh);
+    }
 
     /* (e) a form that renders one volume (crm's paper form: one volume's RBF fit): the
      * daemon's error with the renderer's message */

@@ -599,6 +599,59 @@ static void test_material_edits(void)
     }
 }
 
+/* A new frame of one volume prepares again only the parts whose frame stage reads it
+ * (src/method/method_parts.h, "reframed" in the method's figures): volumes[0] follows the
+ * sequence, volumes[1] is one file. lbl's part reads its group (apart: its own volume;
+ * overlapping: both), constellation's its own volume, shgrid's every volume (its records'
+ * transmittance marches through all). Every part is lit again (shadows reach across), and
+ * the image is a fresh renderer's: bit for bit, but lbl, whose lattice starts from the last
+ * solve (converged to its tolerance). */
+static void test_frame_of_one_volume(void)
+{
+    static const struct { const char *method, *x, *reframed; } cases[] = {
+        {"lbl", "40", "reframed=1"}, {"lbl", "0.5", "reframed=2"},
+        {"constellation", "0.5", "reframed=1"}, {"shgrid", "40", "reframed=2"}};
+    for (size_t m = 0; m < sizeof cases / sizeof cases[0]; m++) {
+        char method[64], volumes[512];
+        const char *ov[] = {method};
+        vsd_scene a;
+        vsd_render_stats st;
+        snprintf(method, sizeof method, "render.method=%s", cases[m].method);
+        snprintf(volumes, sizeof volumes,
+                 "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 6}}, "
+                 "{\"file\": \"" VSD_SHARED_DATA "/smoke64/fluid_data_0008.vdb\", "
+                 "\"matrix\": [1,0,0,%s, 0,1,0,0, 0,0,1,0, 0,0,0,1], \"medium\": {\"density\": 4}}",
+                 cases[m].x);
+        char *json = scene_json(volumes, 10);
+        CHECK(test_parse_scene(json, ov, 1, &a));
+        free(json);
+        vsd_renderer *r = test_make_renderer(&a, NULL);
+        vsd_framebuffer *first = NULL, *second = NULL, *fresh = NULL;
+        CHECK(r && test_render(r, 10, &first, &st));
+        CHECK_CONTAINS(st.method_info, "reframed=2");
+        CHECK(r && test_render(r, 11, &second, &st));
+        printf("%s, volumes[1] at x %s m, frame 10 -> 11 (volumes[0] only): %s\n", cases[m].method, cases[m].x,
+               st.method_info);
+        CHECK_CONTAINS(st.method_info, cases[m].reframed);
+        CHECK_CONTAINS(st.method_info, "relit=2");
+        fresh = test_render_fresh(&a, NULL, NULL, NULL, 11, NULL);
+        CHECK(first && second && fresh);
+        if (first && second && fresh) {
+            double d = test_max_rel_diff(second, fresh, VSD_PASS_COMBINED);
+            printf("    against a fresh renderer: Combined max rel. diff %.3g (the new frame moved it by %.3g)\n", d,
+                   test_max_rel_diff(second, first, VSD_PASS_COMBINED));
+            if (strcmp(cases[m].method, "lbl") == 0)
+                CHECK_MSG(d < 1e-3, "lbl: the new frame differs from a fresh renderer's by %g", d);
+            else
+                CHECK_MSG(test_identical(second, fresh), "%s: the new frame differs from a fresh renderer's (%g)",
+                          cases[m].method, d);
+            CHECK(!test_identical(first, second));
+        }
+        vsd_framebuffer_destroy(first), vsd_framebuffer_destroy(second), vsd_framebuffer_destroy(fresh);
+        vsd_renderer_destroy(r);
+    }
+}
+
 /* vsd_scene_frame_hash covers every volume (core/src/render/frame_output_check.c): the
  * fields and medium of volumes[1], its frame_offset and the file it reads change the hash
  * that `vsd render --continue` compares; warn_above (a warning only) does not; a scene of
@@ -732,6 +785,7 @@ int main(void)
     test_frame_hash_volumes();
     test_frames_and_caches();
     test_material_edits();
+    test_frame_of_one_volume();
     test_deterministic_exact();
     test_transmittance_product();
     test_summed_density();

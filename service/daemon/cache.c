@@ -569,6 +569,7 @@ cJSON *vsdd_cache_stats(vsdd_cache *k)
     cJSON_AddNumberToObject(o, "blob_used_bytes", (double)(k->disk_used + k->disk_reserved));
     cJSON_AddNumberToObject(o, "blob_peak_bytes", (double)k->disk_peak);
     cJSON_AddNumberToObject(o, "evictions", (double)k->evictions);
+    cJSON_AddNumberToObject(o, "renderers_taken_over", (double)k->taken_over);
     for (i = 0; i < ENT_KINDS; i++) {
         kind = cJSON_AddObjectToObject(o, kind_names[i]);
         cJSON_AddNumberToObject(kind, "entries", (double)k->count[i]);

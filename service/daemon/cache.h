@@ -62,12 +62,19 @@ vsd_renderer *vsdd_slot_renderer(vsdd_slot *s);
 typedef void (*vsdd_slot_progress_fn)(void *user, const char *stage, float fraction);
 /* Find an idle renderer for key or create one (key names every input; a long one is kept
  * by its hash). A new one is handed the pinned grids of each of the scene's volumes and the
- * map (vsd_renderer_use_volume / _use_env). A new one first waits until the memory
+ * map (vsd_renderer_use_volume / _use_env). With several volumes, an idle renderer of the
+ * same `family` (the key without the volumes: method, options, map) that holds at least one
+ * of the volumes as pinned here is taken over instead: it keys anew, is handed the volumes
+ * that differ, and its method prepares again only what reads them (the parts of
+ * src/method/method_parts.h; a new frame of one volume in a shot of several). *hit says
+ * which: VSDD_SLOT_NEW, VSDD_SLOT_HIT, VSDD_SLOT_TAKEN_OVER. A new one first waits until the memory
  * budget can hold it, or until no other renderer is busy (then it renders alone and is not
  * kept); raising *cancel ends the wait with -VSD_ERR_CANCELLED. Takes over the caller's
  * pins in every case (kept by a new slot, released on a hit or a failure); returns 0 or
  * -vsd_status. The slot is in use until vsdd_cache_release_slot. */
-int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
+enum { VSDD_SLOT_NEW = 0, VSDD_SLOT_HIT = 1, VSDD_SLOT_TAKEN_OVER = 2 };
+int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const char *family, const vsd_scene *scene,
+                        vsdd_entry *pins[VSDD_SLOT_PINS],
                         vsdd_slot_progress_fn progress, volatile int *cancel, vsdd_slot **out, int *hit, char *msg,
                         size_t msglen);
 void vsdd_cache_release_slot(vsdd_cache *k, vsdd_slot *s, int keep);

@@ -28,6 +28,7 @@ struct vsdd_slot {
     vsdd_entry *pins[VSDD_SLOT_PINS]; /* the map, each volume's density, emission, ior grid (cache.h; may be NULL) */
     vsdd_entry *self;
     char method[32];                  /* render.method: what learned bytes are kept by */
+    char family[1400];                /* its key without the volumes (vsdd_cache_get_slot), fitted */
     int64_t held;                     /* heap bytes the renderer was seen to keep (sum of the
                                          allocator's in-use growth over its create and renders) */
     uint64_t heap_start;              /* the heap in use at the render's begin */
@@ -46,6 +47,7 @@ struct vsdd_cache {
     uint64_t admission_waits;         /* new renderers that had to wait for memory */
     int trim;                         /* a decoded entry or renderer was freed since the last trim */
     uint64_t hits[ENT_KINDS], misses[ENT_KINDS], evictions, count[ENT_KINDS];
+    uint64_t taken_over;              /* renderer misses served by another frame's renderer */
     struct { char method[32]; uint64_t bytes; } learned[16]; /* cache_slots.c's learned sizes */
     char dir[VSD_PATH_LEN];           /* the private folder, made at start, removed at shutdown;
                                          set before any thread, read-only after */

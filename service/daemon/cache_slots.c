@@ -154,9 +154,66 @@ static void end_admission(vsdd_cache *k, uint64_t est, int cached)
     else k->uncached -= est;
 }
 
-int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, vsdd_entry *pins[VSDD_SLOT_PINS],
-                        vsdd_slot_progress_fn progress, volatile int *cancel, vsdd_slot **out, int *hit, char *msg,
-                        size_t msglen)
+/* Lock held. The idle kept renderer of `family` holding the most of the scene's volumes as
+ * `pins` has them (at least one), or NULL. Only with several volumes: one volume's new frame
+ * leaves its renderer nothing to keep but the map's, and a renderer kept per frame makes
+ * scrubbing back free. */
+static vsdd_entry *renderer_to_take_over(vsdd_cache *k, const char *family, const vsd_scene *scene,
+                                         vsdd_entry *pins[VSDD_SLOT_PINS])
+{
+    vsdd_entry *e, *best = NULL;
+    int v, w, most = 0;
+    if (scene->volume_count < 2) return NULL;
+    for (e = k->head; e; e = e->next) {
+        int same = 0;
+        if (e->kind != ENT_SLOT || e->refs > 0 || e->uncached || strcmp(e->slot->family, family) != 0) continue;
+        for (v = 0; v < scene->volume_count; v++) {
+            int equal = 1;
+            for (w = 0; w < VSDD_PINS_PER_VOLUME; w++) equal &= e->slot->pins[VSDD_PIN(v, w)] == pins[VSDD_PIN(v, w)];
+            same += equal;
+        }
+        if (same > most) {
+            most = same;
+            best = e;
+        }
+    }
+    return best;
+}
+
+/* Lock held. e (idle, found above) becomes the slot for key: it takes the caller's pins of
+ * the volumes that differ (releasing its own) and is handed those volumes; the volumes
+ * that stay keep their key in the renderer, so their parts are not prepared again. */
+static void take_over(vsdd_cache *k, vsdd_entry *e, const char *ekey, const vsd_scene *scene,
+                      vsdd_entry *pins[VSDD_SLOT_PINS])
+{
+    vsdd_slot *s = e->slot;
+    int v, w, i;
+    e->refs = 1;
+    k->busy_slots++;
+    k->taken_over++;
+    vsdd_cache_touch(k, e);
+    snprintf(e->key, sizeof e->key, "%s", ekey);
+    for (v = 0; v < scene->volume_count; v++) {
+        int equal = 1;
+        for (w = 0; w < VSDD_PINS_PER_VOLUME; w++) equal &= s->pins[VSDD_PIN(v, w)] == pins[VSDD_PIN(v, w)];
+        if (equal) continue;
+        for (w = 0; w < VSDD_PINS_PER_VOLUME; w++) {
+            i = VSDD_PIN(v, w);
+            vsdd_cache_unpin_locked(k, s->pins[i]);
+            s->pins[i] = pins[i];
+            pins[i] = NULL;   /* the slot's now */
+        }
+        vsd_renderer_use_volume(s->r, v, vsdd_entry_volume(s->pins[VSDD_PIN(v, VSDD_PIN_DENSITY)]),
+                                vsdd_entry_volume(s->pins[VSDD_PIN(v, VSDD_PIN_EMISSION)]),
+                                vsdd_entry_volume(s->pins[VSDD_PIN(v, VSDD_PIN_IOR)]));
+    }
+    /* the same entries as the slot's: the caller's extra pins go */
+    for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, pins[i]);
+}
+
+int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const char *family, const vsd_scene *scene,
+                        vsdd_entry *pins[VSDD_SLOT_PINS], vsdd_slot_progress_fn progress, volatile int *cancel,
+                        vsdd_slot **out, int *hit, char *msg, size_t msglen)
 {
     vsdd_entry *e;
     vsdd_slot *s;
@@ -165,11 +222,26 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, 
     uint64_t est;
     int i, cached = 0;
     char ekey[sizeof e->key];
+    char efamily[sizeof e->key];
     *out = NULL;
-    *hit = 0;
+    *hit = VSDD_SLOT_NEW;
     vsdd_key_fit(key, ekey, sizeof ekey);
+    vsdd_key_fit(family, efamily, sizeof efamily);
     vsdd_lock(&k->lock);
     e = vsdd_cache_find(k, ENT_SLOT, ekey, 1);
+    if (!e && (e = renderer_to_take_over(k, efamily, scene, pins))) {
+        k->misses[ENT_SLOT]++;
+        take_over(k, e, ekey, scene, pins);
+        vsdd_unlock(&k->lock);
+        st = vsd_renderer_set_scene(e->slot->r, scene, msg, msglen);
+        if (st) {
+            vsdd_cache_release_slot(k, e->slot, 0);
+            return -(int)st;
+        }
+        *out = e->slot;
+        *hit = VSDD_SLOT_TAKEN_OVER;
+        return 0;
+    }
     if (e) {
         e->refs = 1;
         k->busy_slots++;
@@ -183,7 +255,7 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, 
             return -(int)st;
         }
         *out = e->slot;
-        *hit = 1;
+        *hit = VSDD_SLOT_HIT;
         return 0;
     }
     k->misses[ENT_SLOT]++;
@@ -218,6 +290,7 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const vsd_scene *scene, 
         s->held = (int64_t)vsdd_heap_in_use() - (int64_t)before;
     }
     snprintf(s->method, sizeof s->method, "%.31s", scene->render.method);
+    snprintf(s->family, sizeof s->family, "%s", efamily);
     if (st) {
         free(s);
         free(e);

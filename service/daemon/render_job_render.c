@@ -100,8 +100,10 @@ static void slot_progress(void *user, const char *stage, float fraction)
 }
 
 /* The renderer slot's key: the method, its options, the map and every volume's sources
- * and grids (the inputs a renderer is made for). Malloc'd; NULL when out of memory. */
-static char *slot_key_of(const vsdd_run *run)
+ * and grids (the inputs a renderer is made for); without the volumes (with_volumes 0), its
+ * family: the renderers a new frame of some volumes may take over (vsdd_cache_get_slot).
+ * Malloc'd; NULL when out of memory. */
+static char *slot_key_of(const vsdd_run *run, int with_volumes)
 {
     const vsd_scene *sc = &run->sc;
     char conversion[2 * VSD_NAME_LEN + 2];
@@ -112,7 +114,7 @@ static char *slot_key_of(const vsdd_run *run)
     key[0] = '\0';
     bad = append(&key, &cap, &used, "%s|%s|%s|%s|%d", sc->render.method, sc->render.options_json, run->esrc,
                  vsd_scene_env_conversion(sc, conversion, sizeof conversion), sc->volume_count);
-    for (v = 0; v < sc->volume_count && !bad; v++) {
+    for (v = 0; v < sc->volume_count && !bad && with_volumes; v++) {
         const vsd_scene_volume *vol = &sc->volumes[v];
         bad = append(&key, &cap, &used, "|%s|%s|%d|%s|%s", run->vsrc[v], vol->grid, vol->grid_index,
                      vol->emission_grid, vsd_scene_ior_grid(vol));
@@ -127,17 +129,22 @@ static char *slot_key_of(const vsdd_run *run)
 static int get_slot(vsdd_run *run)
 {
     const vsd_scene *sc = &run->sc;
-    char err[2048], *key = slot_key_of(run);
+    char err[2048], *key = slot_key_of(run, 1), *family = slot_key_of(run, 0);
     volatile int wait_cancel;
     int rc;
-    if (!key) return vsdd_fail(&run->err, VSD_E_INTERNAL, "out of memory");
+    if (!key || !family) {
+        free(key);
+        free(family);
+        return vsdd_fail(&run->err, VSD_E_INTERNAL, "out of memory");
+    }
     /* a new renderer may wait for memory: a cancel, a disconnect or the job's time limit
      * ends the wait through this flag as it would end a render */
     vsdd_cancel_watch(run->job->cancel, &wait_cancel);
-    rc = vsdd_cache_get_slot(run->d->cache, key, sc, run->pins, slot_progress, &wait_cancel, &run->slot,
+    rc = vsdd_cache_get_slot(run->d->cache, key, family, sc, run->pins, slot_progress, &wait_cancel, &run->slot,
                              &run->slot_hit, err, sizeof err);
     vsdd_cancel_unwatch(run->job->cancel);
     free(key);
+    free(family);
     memset(run->pins, 0, sizeof run->pins); /* the slot owns them now, or get_slot released them */
     if (rc == -(int)VSD_ERR_CANCELLED) return rc;
     if (rc) return vsdd_fail(&run->err, code_for_status((vsd_status)-rc), "%s", err);
@@ -170,7 +177,7 @@ int vsdd_step_render(vsdd_run *run)
     if (rc) return VSDD_STEP_FAILED;
     use = vsdd_slot_use_of(run->slot);
     prep_key_of(&run->sc, prep, sizeof prep);
-    run->prep_hit = run->slot_hit && strcmp(prep, use->prep_key) == 0;
+    run->prep_hit = run->slot_hit == VSDD_SLOT_HIT && strcmp(prep, use->prep_key) == 0;
     use->job = j;
     use->last_stage[0] = '\0';
     use->last_fraction = 0;

@@ -57,6 +57,8 @@ static cJSON *result_json(const vsdd_run *run, size_t exr_len, size_t png_len, c
     if (stats->device_note[0]) cJSON_AddStringToObject(o, "device_note", stats->device_note);
     if (stats->warnings[0]) cJSON_AddStringToObject(o, "warnings", stats->warnings);
     cJSON_AddNumberToObject(o, "samples", stats->samples);
+    /* the method's own figures (what `vsd render` prints after the frame) */
+    cJSON_AddStringToObject(o, "method_info", stats->method_info);
     cJSON_AddNumberToObject(o, "threads", stats->threads);
     cJSON_AddNumberToObject(o, "width", sc->film.width);
     cJSON_AddNumberToObject(o, "height", sc->film.height);
@@ -74,7 +76,9 @@ static cJSON *result_json(const vsdd_run *run, size_t exr_len, size_t png_len, c
     /* volumes[0]'s at the top (clients from before volumes[]), every volume's in "volumes" */
     add_volume_hits(cache, run, 0);
     cJSON_AddItemToObject(cache, "environment", hit_json(run->esrc[0] != 0, run->hits[VSDD_PIN_ENV]));
-    cJSON_AddItemToObject(cache, "renderer", cJSON_CreateBool(run->slot_hit));
+    cJSON_AddItemToObject(cache, "renderer", cJSON_CreateBool(run->slot_hit == VSDD_SLOT_HIT));
+    /* a renderer of another frame of these volumes, handed the ones that changed */
+    cJSON_AddItemToObject(cache, "renderer_taken_over", cJSON_CreateBool(run->slot_hit == VSDD_SLOT_TAKEN_OVER));
     cJSON_AddItemToObject(cache, "preparation", cJSON_CreateBool(run->prep_hit));
     list = cJSON_AddArrayToObject(cache, "volumes");
     for (v = 0; v < sc->volume_count; v++) {

@@ -141,6 +141,10 @@ static void free_shadow_records(cst_state *s)
 
 static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen);
 
+/* A part's frame stage (below) builds its distance map, field and shadow grid from its own
+ * volume alone; the others reach it in the lighting stage. */
+static uint32_t cst_part_reads(const vsd_frame_ctx *ctx) { return 1u << ctx->part.volume; }
+
 static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     cst_state *s = state;
@@ -151,7 +155,8 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
                             "constellation: render.options.shadows \"rays\" renders one volume; with %d volumes use "
                             "\"grid\" (the default)",
                             ctx->kd.volume_count);
-        return vsd_parts_prepare_frame(&s->parts, &vsd_method_constellation, &s->opt, ctx, err, errlen);
+        return vsd_parts_prepare_frame(&s->parts, &vsd_method_constellation, &s->opt, cst_part_reads, ctx, err,
+                                       errlen);
     }
     if (!ctx->part.active) vsd_parts_free(&s->parts, &vsd_method_constellation);
     vsd_distance_map_free(&s->dm_density);

@@ -442,7 +442,9 @@ static vsd_status crm_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
             if (needs_fit(&s->opt))
                 return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen, "%s",
                                 several_volumes_refusal(ctx->volume_count, buf, sizeof buf));
-            st = vsd_parts_prepare_frame(&s->parts, &vsd_method_crm, &s->opt, ctx, err, errlen);
+            /* every volume: a part's box grows over the volumes near it (its frame stage is
+             * that box alone; the nodes' media are the lighting stage's) */
+            st = vsd_parts_prepare_frame(&s->parts, &vsd_method_crm, &s->opt, NULL, ctx, err, errlen);
             /* a part's nodes mix every volume in its box, so any material edit re-lights it */
             s->parts.materials_of_all = 1;
             return st;

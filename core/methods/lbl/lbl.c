@@ -319,6 +319,10 @@ static vsd_f3 grid_point(const lbl_state *s, double x, double y, double z)
               (float)(g[8] * x + g[9] * y + g[10] * z + g[11]));
 }
 
+/* A part's frame stage (below) reads its group's media: its grid covers the group, its
+ * cells sum their extinction. */
+static uint32_t lbl_part_reads(const vsd_frame_ctx *ctx) { return ctx->part.group; }
+
 /* The material volume: sigma_t of each cell as the mean of 3^3 samples inside it. */
 static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
@@ -330,7 +334,7 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     if (!ctx->part.active) {
         if (ctx->kd.volume_count > 1) {
             int i;
-            st = vsd_parts_prepare_frame(&s->parts, &vsd_method_lbl, &s->opt, ctx, err, errlen);
+            st = vsd_parts_prepare_frame(&s->parts, &vsd_method_lbl, &s->opt, lbl_part_reads, ctx, err, errlen);
             /* with light between groups a part reads the others' lighting too, so any
              * material edit re-lights every part (and the exchange after them) */
             s->parts.materials_of_all = 0;

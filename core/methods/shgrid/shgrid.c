@@ -270,7 +270,8 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
     free_frame(s);
     if (!ctx->part.active) {
         if (ctx->kd.volume_count > 1)
-            return vsd_parts_prepare_frame(&s->parts, &vsd_method_shgrid, &s->opt, ctx, err, errlen);
+            /* every volume: the records' transmittance marches through all of them */
+            return vsd_parts_prepare_frame(&s->parts, &vsd_method_shgrid, &s->opt, NULL, ctx, err, errlen);
         vsd_parts_free(&s->parts, &vsd_method_shgrid);
     }
     if ((st = vsd_record_grid_build(v, s->opt.grid > 0 ? s->opt.grid : auto_grid(v), s->opt.probes, &s->rg, err, errlen)))

@@ -34,6 +34,9 @@ typedef struct vsd_frame_ctx {
     const vsd_volume *volume_emission[VSD_KMAX_VOLUMES];
     /* every volume's volume.ior_grid grid (of n or of temperature), or NULL */
     const vsd_volume *volume_ior[VSD_KMAX_VOLUMES];
+    /* every volume's frame inputs (its files and frame, grids, density scale, ior, matrix)
+     * as a hash: an unchanged key is an unchanged volume for the frame stage */
+    uint64_t volume_key[VSD_KMAX_VOLUMES];
     const vsd_env *env;
     vsd_kernel_data kd;                 /* host pointers; method fills lights/march_step */
     int threads;

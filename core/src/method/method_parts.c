@@ -21,6 +21,8 @@ void vsd_part_ctx(const vsd_frame_ctx *ctx, const vsd_method_parts *p, int i, vs
     out->part.active = 1;
     out->part.volume = i;
     out->part.group = p->group[i];
+    /* the part's frame-stage arrays are as old as its own frame stage */
+    if (p->frame_gen[i]) out->frame_gen = p->frame_gen[i];
 }
 
 uint32_t vsd_ctx_group(const vsd_frame_ctx *ctx)
@@ -44,8 +46,28 @@ void vsd_parts_free(vsd_method_parts *p, const vsd_method *m)
     memset(p, 0, sizeof *p);
 }
 
-vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, const void *options, vsd_frame_ctx *ctx,
-                                   char *err, size_t errlen)
+/* What part i's frame stage reads: its group and the frame inputs of the volumes `reads`
+ * names (vsd_method_parts, frame_key). */
+static uint64_t frame_key(const vsd_method_parts *p, vsd_part_reads_fn reads, const vsd_frame_ctx *pc, int i)
+{
+    uint32_t mask = reads ? reads(pc) : ~0u;
+    uint64_t words[3 + 2 * VSD_KMAX_VOLUMES], key;
+    size_t n = 0;
+    int j;
+    words[n++] = (uint64_t)pc->kd.volume_count;
+    words[n++] = p->group[i];
+    words[n++] = (uint64_t)(uintptr_t)pc->cuda;   /* a dropped device: its arrays are gone */
+    for (j = 0; j < pc->kd.volume_count && j < VSD_KMAX_VOLUMES; j++)
+        if ((mask >> j) & 1u) {
+            words[n++] = (uint64_t)j;
+            words[n++] = pc->volume_key[j];
+        }
+    key = XXH3_64bits(words, n * sizeof *words);
+    return key ? key : 1;   /* 0 is "not prepared" */
+}
+
+vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, const void *options,
+                                   vsd_part_reads_fn reads, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     int i, n = ctx->kd.volume_count;
     vsd_status st;
@@ -58,11 +80,19 @@ vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, con
     }
     vsd_volume_groups(&ctx->kd, p->group);
     p->frame_ran = 1;
+    p->reframed = 0;
     for (i = 0; i < n; i++) {
         vsd_frame_ctx pc;
+        uint64_t key;
         vsd_part_ctx(ctx, p, i, &pc);
+        key = frame_key(p, reads, &pc, i);
+        if (key == p->frame_key[i]) continue;   /* nothing its frame stage reads changed */
+        p->frame_key[i] = 0;                     /* until this part's frame stage succeeds */
+        p->frame_gen[i] = pc.frame_gen = ctx->frame_gen;
         if (m->prepare_frame && (st = m->prepare_frame(p->state[i], &pc, err, errlen)))
             return part_failed(st, i, err, errlen);
+        p->frame_key[i] = key;
+        p->reframed++;
     }
     return VSD_OK;
 }
@@ -103,6 +133,7 @@ vsd_status vsd_parts_prepare_lighting(vsd_method_parts *p, const vsd_method *m, 
     int i;
     vsd_status st;
     p->relit = 0;
+    if (!p->frame_ran) p->reframed = 0;   /* a lighting edit alone */
     for (i = 0; i < p->count; i++) {
         vsd_frame_ctx pc;
         uint64_t key = light_key(p, ctx, i);
@@ -136,8 +167,8 @@ vsd_status vsd_parts_render(const vsd_method_parts *p, vsd_part_view_fn view, vs
         groups += (p->group[i] & ((1u << i) - 1u)) == 0;   /* counted at its first member */
     }
     if (st == VSD_OK && ctx->info && ctx->info_len)
-        snprintf(ctx->info, ctx->info_len, "volumes=%d groups=%d records=%d relit=%d", p->count, groups, records,
-                 p->relit);
+        snprintf(ctx->info, ctx->info_len, "volumes=%d groups=%d records=%d reframed=%d relit=%d", p->count, groups,
+                 records, p->reframed, p->relit);
     if (st == VSD_OK)
         st = vsd_record_grids_render(ctx, fb, grids, p->count, n, step, stop, vs, samples, err, errlen);
     free(pc);

@@ -29,10 +29,24 @@ typedef struct vsd_method_parts {
      * Another group's material edit leaves a part as it is: a part sees the other groups
      * through their extinction only, which is a frame-stage input. */
     uint64_t light_key[VSD_KMAX_VOLUMES];
+    /* A new frame prepares again only the parts whose frame stage reads a volume that
+     * changed: part i's key hashes its group and the frame inputs (ctx->volume_key) of the
+     * volumes its method's frame stage reads (vsd_part_reads_fn); frame_gen[i] is the
+     * renderer's frame generation when part i's frame stage last ran, the generation its
+     * device arrays of that stage are keyed by. */
+    uint64_t frame_key[VSD_KMAX_VOLUMES];
+    uint64_t frame_gen[VSD_KMAX_VOLUMES];
     int frame_ran;           /* a frame stage ran since the last lighting stage */
+    int reframed;            /* parts the last frame stage ran */
     int materials_of_all;
     int relit;               /* parts the last lighting stage ran */
 } vsd_method_parts;
+
+/* The volumes (bit j = volume j) whose frame inputs the method's prepare_frame reads for
+ * the part of ctx (a part's context, its group set): its own volume for a method whose
+ * frame stage builds from that alone, its group for one whose grid holds the group's
+ * medium. NULL stands for every volume. */
+typedef uint32_t (*vsd_part_reads_fn)(const vsd_frame_ctx *ctx);
 
 /* The record grid part `state` shows this view (records baked toward ctx's camera where the
  * method bakes them); ctx is the part's. */
@@ -44,10 +58,12 @@ void vsd_part_ctx(const vsd_frame_ctx *ctx, const vsd_method_parts *p, int i, vs
 /* The group the context lights: a part's group, or volume 0 alone. */
 uint32_t vsd_ctx_group(const vsd_frame_ctx *ctx);
 
-/* m's prepare_frame for every volume's part (created with `options` on first use, again when
- * the volume count changes); the groups are found anew each frame. */
-vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, const void *options, vsd_frame_ctx *ctx,
-                                   char *err, size_t errlen);
+/* m's prepare_frame for every volume's part whose inputs changed (`reads`, above; created
+ * with `options` on first use, again when the volume count changes); the groups are found
+ * anew each frame. Every part is lit again after it (a part's lighting marches every
+ * volume's shadows). */
+vsd_status vsd_parts_prepare_frame(vsd_method_parts *p, const vsd_method *m, const void *options,
+                                   vsd_part_reads_fn reads, vsd_frame_ctx *ctx, char *err, size_t errlen);
 vsd_status vsd_parts_prepare_lighting(vsd_method_parts *p, const vsd_method *m, vsd_frame_ctx *ctx, char *err,
                                       size_t errlen);
 /* The view: every part's record grid by `view`, then one march over all volumes with n x n

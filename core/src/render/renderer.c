@@ -331,7 +331,7 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
 
 /* The frame key: every volume's grids, density, ior and matrix. The lighting key adds
  * the map, the lights and every volume's material. Long scenes hash rather than list. */
-static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key)
+static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key, uint64_t *volume_keys)
 {
     const vsd_scene *sc = &r->scene;
     XXH3_state_t *fh = XXH3_createState(), *lh = XXH3_createState();
@@ -344,6 +344,7 @@ static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key
         int n = snprintf(part, sizeof part, "%d:%s|%g|%g|", v, r->volumes[v].key, m->density, m->ior);
         for (int i = 0; i < 16 && n < (int)sizeof part - 32; i++) n += snprintf(part + n, sizeof part - n, "%.9g,", sv->matrix[i]);
         XXH3_64bits_update(fh, part, strlen(part));
+        volume_keys[v] = XXH3_64bits(part, strlen(part));
         n = snprintf(part, sizeof part, "%d:%g,%g,%g|%g|%g,%g,%g|%g;", v, m->albedo[0], m->albedo[1], m->albedo[2],
                      m->anisotropy, m->emission_color[0], m->emission_color[1], m->emission_color[2],
                      m->emission_strength);
@@ -512,7 +513,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.interpolation, sc->environment.strength,
                    sc->environment.rotation_z);
 
-    make_keys(r, frame_key, lighting_key);
+    make_keys(r, frame_key, lighting_key, ctx.volume_key);
     {
         /* A stage's generation is new whenever its data may change; a new frame also
          * starts a new lighting generation before prepare_frame runs, so nothing a method
