@@ -227,6 +227,53 @@ static void test_uncompressed(void)
     vsd_framebuffer_destroy(fb);
 }
 
+/* vsd_exr_encode: the bytes vsd_exr_write puts in the file, byte for byte, for ZIP and
+ * uncompressed, float and half, a pass subset under another layer with header attributes;
+ * and its input errors as vsd_exr_write's. */
+static void test_encode_in_memory(void)
+{
+    vsd_framebuffer *fb = make_fb(53, 29, pattern);
+    static const vsd_exr_attr attrs[] = {{"vsd/method", "lbl"}, {"vsd/frame", "12"}};
+    if (!fb)
+        return;
+    for (int k = 0; k < 4; k++) {
+        vsd_exr_write_options opt = {0};
+        unsigned char *bytes = NULL, *file = NULL;
+        size_t len = 0;
+        long size = 0;
+        const char *path = tmp_path("encoded.exr");
+        opt.uncompressed = k & 1;
+        opt.half = (k >> 1) & 1;
+        if (k == 3) {
+            opt.layer = "RenderLayer.001";
+            opt.pass_mask = (1u << VSD_PASS_COMBINED) | (1u << VSD_PASS_DEPTH);
+            opt.attrs = attrs;
+            opt.attr_count = 2;
+        }
+        CHECK_MSG(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+        CHECK_MSG(vsd_exr_encode(fb, &opt, &bytes, &len, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+        file = test_read_file(path, &size);
+        CHECK_MSG(file && bytes && (long)len == size && memcmp(file, bytes, len) == 0,
+                  "case %d: %zu bytes in memory, %ld in the file, %s", k, len, size,
+                  file && bytes && (long)len == size ? "contents differ" : "sizes differ");
+        free(file);
+        free(bytes);
+    }
+    {
+        unsigned char *bytes = (unsigned char *)"x";
+        size_t len = 1;
+        vsd_exr_write_options bad = {0};
+        const char *names[VSD_PASS_COUNT] = {0};
+        CHECK(vsd_exr_encode(NULL, NULL, &bytes, &len, g_err, sizeof g_err) == VSD_ERR_INVALID);
+        CHECK(bytes == NULL && len == 0);
+        names[VSD_PASS_EMIT] = "Emission.001";
+        bad.pass_names = names;
+        CHECK(vsd_exr_encode(fb, &bad, &bytes, &len, g_err, sizeof g_err) == VSD_ERR_INVALID);
+        CHECK_CONTAINS(g_err, "Emission.001");
+    }
+    vsd_framebuffer_destroy(fb);
+}
+
 /* A subset of passes under a user layer name with a dot (Blender's "ViewLayer.001"), and
  * an empty Depth (the 1e10 marker must survive). Names longer than EXR's classic 31
  * characters need the long-names flag. */
@@ -600,6 +647,7 @@ int main(int argc, char **argv)
     test_roundtrip(0);
     test_roundtrip(1);
     test_uncompressed();
+    test_encode_in_memory();
     test_mask_and_layer();
     test_renamed_passes();
     test_attributes();

@@ -89,12 +89,14 @@ static cJSON *result_json(const vsdd_run *run, size_t exr_len, size_t png_len, c
     return o;
 }
 
-/* Write the files and read their bytes back; the blobs' files stay pinned meanwhile,
- * because vsd/scene_hash reads them (the hash then equals the client's own). */
+/* The EXR in memory (the library's encoder of the file `vsd render` writes: no disk write,
+ * fsync or read-back of a result sent at once; 1280x720 float passes, 63 MB: 0.11 s -> see
+ * docs/daemon-bench.md) and the preview PNG through a file; the blobs' files stay pinned
+ * meanwhile, because vsd/scene_hash reads them (the hash then equals the client's own). */
 static int encode(vsdd_run *run, vsd_scene *out, unsigned char **exr, size_t *exr_len, unsigned char **png,
                   size_t *png_len, char *note, size_t notelen)
 {
-    char exr_path[VSD_PATH_LEN], png_path[VSD_PATH_LEN], err[2048];
+    char png_path[VSD_PATH_LEN], err[2048];
     vsdd_cache *k = run->d->cache;
     vsdd_entry *file_pins[VSD_MAX_VOLUMES + 1]; /* each volume's file, the map's */
     vsd_status st;
@@ -108,16 +110,16 @@ static int encode(vsdd_run *run, vsd_scene *out, unsigned char **exr, size_t *ex
     if (run->esrc[0] && vsdd_cache_pin_file(k, run->esrc, out->environment.file, sizeof out->environment.file,
                                             &file_pins[VSD_MAX_VOLUMES], &run->err))
         goto done;
-    snprintf(exr_path, sizeof exr_path, "%.960s/job-%lu.exr", vsdd_cache_dir(k), run->job->seq);
     snprintf(png_path, sizeof png_path, "%.960s/job-%lu.png", vsdd_cache_dir(k), run->job->seq);
-    snprintf(out->output.exr, sizeof out->output.exr, "%s", exr_path);
-    if (run->preview) snprintf(out->output.preview_png, sizeof out->output.preview_png, "%s", png_path);
-    else out->output.preview_png[0] = '\0';
-    st = vsd_write_frame_outputs(out, run->frame, run->fb, &run->stats, NULL, 0, note, notelen, err, sizeof err);
-    if (!st && read_whole(exr_path, exr, exr_len)) st = VSD_ERR_IO;
-    if (!st && run->preview && read_whole(png_path, png, png_len)) st = VSD_ERR_IO;
-    unlink(exr_path);
-    unlink(png_path);
+    st = vsd_encode_frame_exr(out, run->frame, run->fb, &run->stats, exr, exr_len, err, sizeof err);
+    if (!st && run->preview) {
+        vsd_preview_options po;
+        memset(&po, 0, sizeof po);
+        po.view = out->output.view[0] ? out->output.view : NULL;
+        st = vsd_preview_write_png(png_path, run->fb, &po, note, notelen, err, sizeof err);
+        if (!st && read_whole(png_path, png, png_len)) st = VSD_ERR_IO;
+        unlink(png_path);
+    }
     if (st) vsdd_fail(&run->err, VSD_E_RENDER_FAILED, "encoding the result failed: %.2000s", err);
     else rc = 0;
 done:

@@ -78,6 +78,10 @@ typedef struct vsd_exr_write_options {
  * (a crash never leaves a half-written frame). Creates no folders. */
 vsd_status vsd_exr_write(const char *path, const vsd_framebuffer *fb,
                          const vsd_exr_write_options *opt, char *err, size_t errlen);
+/* The same file's bytes in memory (*bytes malloc'd, free() them): a result sent at once
+ * (the daemon), which no disk write, fsync or read-back needs to delay. */
+vsd_status vsd_exr_encode(const vsd_framebuffer *fb, const vsd_exr_write_options *opt, unsigned char **bytes,
+                          size_t *len, char *err, size_t errlen);
 
 /* Any EXR (any compression), all channels as float planes, row 0 = top. */
 typedef struct vsd_exr_image {

@@ -89,6 +89,11 @@ void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env);
 vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_framebuffer *fb,
                                    const vsd_render_stats *stats, char *exr_path, size_t exr_len,
                                    char *note, size_t notelen, char *err, size_t errlen);
+/* The EXR vsd_write_frame_outputs writes (the same channels and attributes), as bytes in
+ * memory (*bytes malloc'd): the daemon's result. */
+vsd_status vsd_encode_frame_exr(const vsd_scene *scene, int frame, const vsd_framebuffer *fb,
+                                const vsd_render_stats *stats, unsigned char **bytes, size_t *len, char *err,
+                                size_t errlen);
 
 /* What a frame's output EXR holds, for `vsd render --continue` and `vsd farm status`. */
 typedef enum vsd_frame_output_state {

@@ -22,9 +22,12 @@ typedef struct exr_chan {
     int half;                         /* stored as half (else float32) */
 } exr_chan;
 
-/* Per-write state reachable from OpenEXR's callbacks through the context's user data. */
+/* Per-write state reachable from OpenEXR's callbacks through the context's user data:
+ * a temporary file (vsd_exr_write) or a growing buffer (vsd_exr_encode). */
 typedef struct exr_writer {
     vsd_io_tmpfile file;
+    unsigned char *bytes;             /* memory: the file's bytes so far */
+    size_t len, cap;
     char msg[512];                    /* first error OpenEXR reported */
     int write_errno;                  /* errno of a failed pwrite, 0 if none */
 } exr_writer;
@@ -58,6 +61,34 @@ static int64_t write_fn(exr_const_context_t ctxt, void *userdata, const void *bu
         }
         done += (uint64_t)n;
     }
+    return (int64_t)sz;
+}
+
+/* The same into memory: the library writes at increasing offsets but for the chunk table,
+ * which it writes last, back near the start. */
+static int64_t memory_write_fn(exr_const_context_t ctxt, void *userdata, const void *buffer, uint64_t sz,
+                               uint64_t offset, exr_stream_error_func_ptr_t error_cb)
+{
+    exr_writer *w = userdata;
+    uint64_t end = offset + sz;
+    if (end < offset || end > (uint64_t)SIZE_MAX / 2) {
+        error_cb(ctxt, EXR_ERR_WRITE_IO, "EXR larger than memory can hold");
+        return -1;
+    }
+    if (end > w->cap) {
+        size_t cap = w->cap ? w->cap : 1 << 16;
+        unsigned char *b;
+        while (cap < end) cap *= 2;
+        if (!(b = realloc(w->bytes, cap))) {
+            error_cb(ctxt, EXR_ERR_OUT_OF_MEMORY, "no memory for %llu bytes of EXR", (unsigned long long)end);
+            return -1;
+        }
+        w->bytes = b;
+        w->cap = cap;
+    }
+    if (offset > w->len) memset(w->bytes + w->len, 0, (size_t)(offset - w->len));
+    memcpy(w->bytes + offset, buffer, (size_t)sz);
+    if (end > w->len) w->len = (size_t)end;
     return (int64_t)sz;
 }
 
@@ -262,6 +293,29 @@ static vsd_status check_inputs(const char *path, const vsd_framebuffer *fb,
     return VSD_OK;
 }
 
+/* The EXR of fb through w (its write_fn), named `name` in OpenEXR's messages. */
+static exr_result_t encode_exr(exr_writer *w, exr_write_func_ptr_t write, const char *name,
+                               const vsd_framebuffer *fb, const exr_chan *chans, int n, int long_names,
+                               const vsd_exr_write_options *opt)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = on_exr_error;
+    init.user_data = w;
+    init.write_fn = write;
+    exr_context_t ctxt = NULL;
+    exr_result_t rv = exr_start_write(&ctxt, name, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (!rv)
+        rv = define_header(ctxt, fb, chans, n, long_names, opt);
+    if (!rv)
+        rv = write_chunks(ctxt, fb, chans, n);
+    if (ctxt) {
+        exr_result_t fin = exr_finish(&ctxt); /* writes the chunk offset table */
+        if (!rv)
+            rv = fin;
+    }
+    return rv;
+}
+
 vsd_status vsd_exr_write(const char *path, const vsd_framebuffer *fb,
                          const vsd_exr_write_options *opt, char *err, size_t errlen)
 {
@@ -276,25 +330,40 @@ vsd_status vsd_exr_write(const char *path, const vsd_framebuffer *fb,
         s = vsd_io_tmp_open(&w.file, path, err, errlen);
     if (s != VSD_OK)
         return s;
-
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = on_exr_error;
-    init.user_data = &w;
-    init.write_fn = write_fn;
-    exr_context_t ctxt = NULL;
-    exr_result_t rv = exr_start_write(&ctxt, w.file.tmp, EXR_WRITE_FILE_DIRECTLY, &init);
-    if (!rv)
-        rv = define_header(ctxt, fb, chans, n, long_names, opt);
-    if (!rv)
-        rv = write_chunks(ctxt, fb, chans, n);
-    if (ctxt) {
-        exr_result_t fin = exr_finish(&ctxt); /* writes the chunk offset table */
-        if (!rv)
-            rv = fin;
-    }
+    exr_result_t rv = encode_exr(&w, write_fn, w.file.tmp, fb, chans, n, long_names, opt);
     if (rv) {
         vsd_io_tmp_abort(&w.file);
         return exr_failure(rv, &w, path, err, errlen);
     }
     return vsd_io_tmp_commit(&w.file, err, errlen);
+}
+
+vsd_status vsd_exr_encode(const vsd_framebuffer *fb, const vsd_exr_write_options *opt, unsigned char **bytes,
+                          size_t *len, char *err, size_t errlen)
+{
+    static const char name[] = "(in memory)";
+    vsd_status s = check_inputs(name, fb, opt, err, errlen);
+    exr_chan chans[4 * VSD_PASS_COUNT];
+    int n = 0, long_names = 0;
+    exr_writer w;
+    *bytes = NULL;
+    *len = 0;
+    if (s == VSD_OK)
+        s = build_channels(opt, chans, &n, &long_names, err, errlen);
+    if (s != VSD_OK)
+        return s;
+    memset(&w, 0, sizeof w);
+    /* room for the uncompressed file at once (pages a smaller ZIP file leaves untouched
+     * cost no memory): no copies while it grows */
+    w.cap = (size_t)fb->width * (size_t)fb->height * (size_t)n * sizeof(float) + ((size_t)1 << 16) +
+            (size_t)fb->height * sizeof(uint64_t);
+    if (!(w.bytes = malloc(w.cap))) w.cap = 0;
+    exr_result_t rv = encode_exr(&w, memory_write_fn, name, fb, chans, n, long_names, opt);
+    if (rv) {
+        free(w.bytes);
+        return exr_failure(rv, &w, name, err, errlen);
+    }
+    *bytes = w.bytes;
+    *len = w.len;
+    return VSD_OK;
 }
