@@ -10,9 +10,12 @@
 #include "vsd/env.h"
 #include "vsd/compare.h"
 #include "src/grids/distance_map.h"
+#include "src/grids/record_grid.h"
+#include "src/grids/kvolume_boxes.h"
 #include "src/render/kernel_setup.h"
 #include "methods/constellation/dense_grid.h"
 #include "methods/constellation/constellation_kernel.h"
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -69,6 +72,53 @@ static vsd_volume *blobs_volume(void)
     CHECK(vsd_volume_create_dense(v, dims, lo, m, &vol, NULL, 0) == VSD_OK);
     free(v);
     return vol;
+}
+
+/* The automatic shadow grid's layout (vsd_record_grid_build_shaped): cubic cells following
+ * an elongated box (the bricks of 16 x 48 x 24 voxels of medium, `cells` = 24 along the
+ * longest axis, as many as fit along the others), every record at the centre of its cell;
+ * the fixed form keeps `cells` per axis. */
+static void test_shadow_grid_shape(void)
+{
+    int32_t dims[3] = {16, 48, 24}, lo[3] = {0, 0, 0};
+    double m[16] = {0.1, 0, 0, 0, 0, 0.1, 0, 0, 0, 0, 0.1, 0, 0, 0, 0, 1}, id[16] = {1, 0, 0, 0, 0, 1, 0, 0,
+                                                                                     0, 0, 1, 0, 0, 0, 0, 1};
+    double blo[3], bhi[3], side;
+    float *v = calloc(16 * 48 * 24, sizeof(float));
+    vsd_volume *vol = NULL;
+    vsd_kvolume kv;
+    vsd_record_grid g = {0};
+    int i, a, centred = 1;
+    for (i = 0; i < 16 * 48 * 24; i++) v[i] = 1.0f;
+    CHECK(vsd_volume_create_dense(v, dims, lo, m, &vol, NULL, 0) == VSD_OK);
+    free(v);
+    if (!vol) return;
+    CHECK(vsd_kvolume_setup(&kv, vol, id, 1.0f, NULL, 0) == VSD_OK);
+    CHECK(vsd_kvolume_active_index_box(&kv, blo, bhi));
+    side = (bhi[1] - blo[1]) / 24.0;   /* y is the longest axis */
+    CHECK(vsd_record_grid_build_shaped(&kv, 24, 0, &g, NULL, 0) == VSD_OK);
+    printf("shaped shadow grid over a %g x %g x %g box: %d x %d x %d cells, %d records\n", bhi[0] - blo[0],
+           bhi[1] - blo[1], bhi[2] - blo[2], g.res[0], g.res[1], g.res[2], g.count);
+    for (a = 0; a < 3; a++)
+        CHECK_MSG(g.res[a] == (int)ceil((bhi[a] - blo[a]) / side - 1e-9), "axis %d: %d cells for %g voxels of %g",
+                  a, g.res[a], bhi[a] - blo[a], side);
+    CHECK(g.res[1] == 24 && g.res[0] < g.res[2] && g.res[2] < g.res[1]);
+    /* cubic: the world-to-grid map scales every axis alike (the voxels are cubic) */
+    CHECK(fabsf(g.world_to_grid.m[0] - g.world_to_grid.m[5]) < 1e-6f &&
+          fabsf(g.world_to_grid.m[5] - g.world_to_grid.m[10]) < 1e-6f);
+    CHECK(g.count > 0 && g.count <= g.res[0] * g.res[1] * g.res[2]);
+    for (i = 0; i < g.count; i++)
+        for (a = 0; a < 3; a++) {
+            const float *r = g.world_to_grid.m + 4 * a, *p = g.record_pos + 4 * i;
+            float c = r[0] * p[0] + r[1] * p[1] + r[2] * p[2] + r[3];
+            centred &= fabsf(c - floorf(c) - 0.5f) < 1e-3f;
+        }
+    CHECK_MSG(centred, "a record off its cell's centre");
+    vsd_record_grid_free(&g);
+    CHECK(vsd_record_grid_build(&kv, 24, 0, &g, NULL, 0) == VSD_OK);
+    CHECK(g.res[0] == 24 && g.res[1] == 24 && g.res[2] == 24);
+    vsd_record_grid_free(&g);
+    vsd_volume_destroy(vol);
 }
 
 /* Every point within the stored leap radius of any cell holds field <= threshold: sample
@@ -502,6 +552,7 @@ static void test_against_reference(void)
 
 int main(void)
 {
+    test_shadow_grid_shape();
     test_edt_exact();
     test_leap_is_safe();
     test_dense_grid();

@@ -56,7 +56,7 @@ static const struct {
 } cheap[] = {
     /* 64 median-cut lights at 24x16 pixels: 8 are enough to show every option's effect */
     {"constellation", "lights", "8", "fewer lights: a fraction of the shadow work"},
-    {"constellation", "shadow_grid", "16", "shadows grid: 16^3 records instead of 64^3"},
+    {"constellation", "shadow_grid", "16", "shadows grid: 16^3 records instead of the automatic grid"},
     {"lbl", "lights", "8", "fewer lights: an eighth of the marching"},
     {"lbl", "cells", "16", "16^3 lattice cells instead of 64^3: the diffusion in milliseconds"},
     {"shgrid", "grid", "8", "8^3 records instead of a cell per 4 voxels"},

@@ -56,8 +56,23 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
     return vsd_record_grid_build_over(v, NULL, 0, cells, probes, g, err, errlen);
 }
 
+static vsd_status build(const vsd_kvolume *v, const vsd_kvolume *const *others, int other_count, int cells,
+                        int shaped, int probes, vsd_record_grid *g, char *err, size_t errlen);
+
 vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *const *others, int other_count,
                                       int cells, int probes, vsd_record_grid *g, char *err, size_t errlen)
+{
+    return build(v, others, other_count, cells, 0, probes, g, err, errlen);
+}
+
+vsd_status vsd_record_grid_build_shaped(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
+                                        size_t errlen)
+{
+    return build(v, NULL, 0, cells, 1, probes, g, err, errlen);
+}
+
+static vsd_status build(const vsd_kvolume *v, const vsd_kvolume *const *others, int other_count, int cells,
+                        int shaped, int probes, vsd_record_grid *g, char *err, size_t errlen)
 {
     double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3], i2w[16], to_other[VSD_KMAX_VOLUMES][16];
     int a, x, y, z, o, any;
@@ -87,9 +102,19 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
         any = 1;
     }
     if (!any) return VSD_OK;
-    for (a = 0; a < 3; a++) {
-        g->res[a] = cells;
-        cell[a] = (hi[a] - lo[a]) / cells;
+    if (shaped) {
+        /* cubic cells (in index space), `cells` of them along the box's longest axis */
+        double side = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2])) / cells;
+        for (a = 0; a < 3; a++) {
+            g->res[a] = (int32_t)ceil((hi[a] - lo[a]) / side - 1e-9);
+            if (g->res[a] < 1) g->res[a] = 1;
+            cell[a] = side;
+        }
+    } else {
+        for (a = 0; a < 3; a++) {
+            g->res[a] = cells;
+            cell[a] = (hi[a] - lo[a]) / cells;
+        }
     }
     /* world -> grid = scale(1/cell) . translate(-lo) . world_to_index */
     for (a = 0; a < 3; a++) {
@@ -102,7 +127,8 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
     g->cell_record = malloc(sizeof(int32_t) * ncell);
     if (!g->cell_record) {
         vsd_record_grid_free(g);
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %d^3 record grid", cells);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %dx%dx%d record grid", g->res[0], g->res[1],
+                        g->res[2]);
     }
     for (z = 0; z < g->res[2]; z++)
         for (y = 0; y < g->res[1]; y++)

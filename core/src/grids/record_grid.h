@@ -28,6 +28,10 @@ vsd_status vsd_record_grid_build(const vsd_kvolume *v, int cells, int probes, vs
  * is vsd_record_grid_build. */
 vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *const *others, int other_count,
                                       int cells, int probes, vsd_record_grid *g, char *err, size_t errlen);
+/* Cubic cells (in v's index space) following the box's shape: `cells` of them along its
+ * longest axis, as many as fit along the others (the last cell may overhang the box). */
+vsd_status vsd_record_grid_build_shaped(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
+                                        size_t errlen);
 void vsd_record_grid_free(vsd_record_grid *g);
 
 /* Isotropic phase: every record's in-scattered RGB (the SH term and the lights' term of
