@@ -154,6 +154,14 @@ static void end_admission(vsdd_cache *k, uint64_t est, int cached)
     else k->uncached -= est;
 }
 
+/* Whether slot s holds volume v as `pins` has it (density, emission and ior grid entries). */
+static int holds_volume(const vsdd_slot *s, vsdd_entry *pins[VSDD_SLOT_PINS], int v)
+{
+    int w, equal = 1;
+    for (w = 0; w < VSDD_PINS_PER_VOLUME; w++) equal &= s->pins[VSDD_PIN(v, w)] == pins[VSDD_PIN(v, w)];
+    return equal;
+}
+
 /* Lock held. The idle kept renderer of `family` holding the most of the scene's volumes as
  * `pins` has them (at least one), or NULL. Only with several volumes: one volume's new frame
  * leaves its renderer nothing to keep but the map's, and a renderer kept per frame makes
@@ -162,16 +170,12 @@ static vsdd_entry *renderer_to_take_over(vsdd_cache *k, const char *family, cons
                                          vsdd_entry *pins[VSDD_SLOT_PINS])
 {
     vsdd_entry *e, *best = NULL;
-    int v, w, most = 0;
+    int v, most = 0;
     if (scene->volume_count < 2) return NULL;
     for (e = k->head; e; e = e->next) {
         int same = 0;
         if (e->kind != ENT_SLOT || e->refs > 0 || e->uncached || strcmp(e->slot->family, family) != 0) continue;
-        for (v = 0; v < scene->volume_count; v++) {
-            int equal = 1;
-            for (w = 0; w < VSDD_PINS_PER_VOLUME; w++) equal &= e->slot->pins[VSDD_PIN(v, w)] == pins[VSDD_PIN(v, w)];
-            same += equal;
-        }
+        for (v = 0; v < scene->volume_count; v++) same += holds_volume(e->slot, pins, v);
         if (same > most) {
             most = same;
             best = e;
@@ -194,9 +198,7 @@ static void take_over(vsdd_cache *k, vsdd_entry *e, const char *ekey, const vsd_
     vsdd_cache_touch(k, e);
     snprintf(e->key, sizeof e->key, "%s", ekey);
     for (v = 0; v < scene->volume_count; v++) {
-        int equal = 1;
-        for (w = 0; w < VSDD_PINS_PER_VOLUME; w++) equal &= s->pins[VSDD_PIN(v, w)] == pins[VSDD_PIN(v, w)];
-        if (equal) continue;
+        if (holds_volume(s, pins, v)) continue;
         for (w = 0; w < VSDD_PINS_PER_VOLUME; w++) {
             i = VSDD_PIN(v, w);
             vsdd_cache_unpin_locked(k, s->pins[i]);
