@@ -499,6 +499,47 @@ static void test_frames_and_caches(void)
     free(shifted), free(plain);
 }
 
+/* `live` (a renderer that was handed an edit or a new frame) against `fresh` (a new
+ * renderer of the same scene and frame): bit for bit, but lbl, whose lattice starts from the
+ * last solve (converged to its tolerance: within 1e-3); and the change moved the image away
+ * from `before`. `what` names the change in the log. */
+static void check_live_as_fresh(const char *method, const char *what, const vsd_framebuffer *before,
+                                const vsd_framebuffer *live, const vsd_framebuffer *fresh)
+{
+    double d;
+    CHECK(before && live && fresh);
+    if (!before || !live || !fresh) return;
+    d = test_max_rel_diff(live, fresh, VSD_PASS_COMBINED);
+    printf("%s, %s: against a fresh renderer Combined max rel. diff %.3g (the change moved it by %.3g)\n", method,
+           what, d, test_max_rel_diff(live, before, VSD_PASS_COMBINED));
+    if (strcmp(method, "lbl") == 0)
+        CHECK_MSG(d < 1e-3, "lbl, %s: the live renderer differs from a fresh one by %g", what, d);
+    else
+        CHECK_MSG(test_identical(live, fresh), "%s, %s: the live renderer differs from a fresh one (%g)", method, what,
+                  d);
+    CHECK_MSG(!test_identical(before, live), "%s, %s: the image did not change", method, what);
+}
+
+/* Two volumes under render.method `method` at `frame`: volumes[0] the smoke64 sequence at
+ * density 6, volumes[1] the file `file1` moved by `x` along x with the medium `medium1`
+ * (a JSON object). */
+static int two_volumes(const char *method, const char *file1, const char *x, const char *medium1, int frame,
+                       vsd_scene *out)
+{
+    char set[64], volumes[1024], *json;
+    const char *ov[] = {set};
+    int ok;
+    snprintf(set, sizeof set, "render.method=%s", method);
+    snprintf(volumes, sizeof volumes,
+             "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 6}}, "
+             "{\"file\": \"%s\", \"matrix\": [1,0,0,%s, 0,1,0,0, 0,0,1,0, 0,0,0,1], \"medium\": %s}",
+             file1, x, medium1);
+    json = scene_json(volumes, frame);
+    ok = test_parse_scene(json, ov, 1, out);
+    free(json);
+    return ok;
+}
+
 /* A material edit of one volume (albedo, anisotropy: the lighting stage only) in a live
  * renderer shows what a fresh renderer shows, for every method that keeps lighting grids
  * over several volumes: two overlapping volumes (one group, whose grids mix their
@@ -529,19 +570,7 @@ static void test_material_edits(void)
         CHECK(r && vsd_renderer_set_scene(r, &b, err, sizeof err) == VSD_OK);
         CHECK(r && test_render(r, 11, &second, NULL));
         fresh = test_render_fresh(&b, NULL, NULL, NULL, 11, NULL);
-        CHECK(first && second && fresh);
-        if (first && second && fresh) {
-            double d = test_max_rel_diff(second, fresh, VSD_PASS_COMBINED);
-            printf("%s: volumes[1]'s albedo and anisotropy edited in a live renderer against a fresh one: Combined max "
-                   "rel. diff %.3g (the edit moved it by %.3g)\n",
-                   methods[m], d, test_max_rel_diff(second, first, VSD_PASS_COMBINED));
-            if (strcmp(methods[m], "lbl") == 0)
-                CHECK_MSG(d < 1e-3, "lbl: the edited renderer differs from a fresh one by %g", d);
-            else
-                CHECK_MSG(test_identical(second, fresh), "%s: the edited renderer differs from a fresh one (%g)",
-                          methods[m], d);
-            CHECK(!test_identical(first, second));
-        }
+        check_live_as_fresh(methods[m], "volumes[1]'s albedo and anisotropy edited", first, second, fresh);
         vsd_framebuffer_destroy(first), vsd_framebuffer_destroy(second), vsd_framebuffer_destroy(fresh);
         vsd_renderer_destroy(r);
     }
@@ -556,20 +585,11 @@ static void test_material_edits(void)
     static const struct { const char *method, *x, *after_edit; } relight[] = {
         {"lbl", "40", "relit=1"}, {"lbl", "1.6", "relit=2"}, {"shgrid", "1.6", "relit=1"}};
     for (size_t m = 0; m < sizeof relight / sizeof relight[0]; m++) {
-        char method[64], err[512];
-        const char *ov[] = {method};
+        char err[512];
         vsd_scene a, b, c;
         vsd_render_stats st;
-        char volumes[512];
-        snprintf(method, sizeof method, "render.method=%s", relight[m].method);
-        snprintf(volumes, sizeof volumes,
-                 "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 6}}, "
-                 "{\"file\": \"" SMOKE "\", \"matrix\": [1,0,0,%s, 0,1,0,0, 0,0,1,0, 0,0,0,1], "
-                 "\"medium\": {\"density\": 4, \"albedo\": [0.3, 0.5, 0.9]}}",
-                 relight[m].x);
-        char *apart = scene_json(volumes, 11);
-        CHECK(test_parse_scene(apart, ov, 1, &a));
-        free(apart);
+        CHECK(two_volumes(relight[m].method, SMOKE, relight[m].x, "{\"density\": 4, \"albedo\": [0.3, 0.5, 0.9]}", 11,
+                          &a));
         b = a;
         b.volumes[1].medium.albedo[0] = 0.95f;
         c = b;
@@ -612,19 +632,11 @@ static void test_frame_of_one_volume(void)
         {"lbl", "40", "reframed=1"}, {"lbl", "0.5", "reframed=2"},
         {"constellation", "0.5", "reframed=1"}, {"shgrid", "40", "reframed=2"}};
     for (size_t m = 0; m < sizeof cases / sizeof cases[0]; m++) {
-        char method[64], volumes[512];
-        const char *ov[] = {method};
         vsd_scene a;
         vsd_render_stats st;
-        snprintf(method, sizeof method, "render.method=%s", cases[m].method);
-        snprintf(volumes, sizeof volumes,
-                 "{\"file\": \"" SMOKE "\", \"medium\": {\"density\": 6}}, "
-                 "{\"file\": \"" VSD_SHARED_DATA "/smoke64/fluid_data_0008.vdb\", "
-                 "\"matrix\": [1,0,0,%s, 0,1,0,0, 0,0,1,0, 0,0,0,1], \"medium\": {\"density\": 4}}",
-                 cases[m].x);
-        char *json = scene_json(volumes, 10);
-        CHECK(test_parse_scene(json, ov, 1, &a));
-        free(json);
+        char what[96];
+        CHECK(two_volumes(cases[m].method, VSD_SHARED_DATA "/smoke64/fluid_data_0008.vdb", cases[m].x,
+                          "{\"density\": 4}", 10, &a));
         vsd_renderer *r = test_make_renderer(&a, NULL);
         vsd_framebuffer *first = NULL, *second = NULL, *fresh = NULL;
         CHECK(r && test_render(r, 10, &first, &st));
@@ -635,18 +647,8 @@ static void test_frame_of_one_volume(void)
         CHECK_CONTAINS(st.method_info, cases[m].reframed);
         CHECK_CONTAINS(st.method_info, "relit=2");
         fresh = test_render_fresh(&a, NULL, NULL, NULL, 11, NULL);
-        CHECK(first && second && fresh);
-        if (first && second && fresh) {
-            double d = test_max_rel_diff(second, fresh, VSD_PASS_COMBINED);
-            printf("    against a fresh renderer: Combined max rel. diff %.3g (the new frame moved it by %.3g)\n", d,
-                   test_max_rel_diff(second, first, VSD_PASS_COMBINED));
-            if (strcmp(cases[m].method, "lbl") == 0)
-                CHECK_MSG(d < 1e-3, "lbl: the new frame differs from a fresh renderer's by %g", d);
-            else
-                CHECK_MSG(test_identical(second, fresh), "%s: the new frame differs from a fresh renderer's (%g)",
-                          cases[m].method, d);
-            CHECK(!test_identical(first, second));
-        }
+        snprintf(what, sizeof what, "volumes[1] at x %s m, frame 10 -> 11", cases[m].x);
+        check_live_as_fresh(cases[m].method, what, first, second, fresh);
         vsd_framebuffer_destroy(first), vsd_framebuffer_destroy(second), vsd_framebuffer_destroy(fresh);
         vsd_renderer_destroy(r);
     }

@@ -184,18 +184,16 @@ static vsdd_entry *renderer_to_take_over(vsdd_cache *k, const char *family, cons
     return best;
 }
 
-/* Lock held. e (idle, found above) becomes the slot for key: it takes the caller's pins of
- * the volumes that differ (releasing its own) and is handed those volumes; the volumes
- * that stay keep their key in the renderer, so their parts are not prepared again. */
+/* Lock held. e (idle, found above) is keyed for `ekey` and takes the caller's pins of the
+ * volumes it holds otherwise (releasing its own; pins[] of those become NULL) and is handed
+ * those volumes; the volumes that stay keep their key in the renderer, so their parts are
+ * not prepared again. */
 static void take_over(vsdd_cache *k, vsdd_entry *e, const char *ekey, const vsd_scene *scene,
                       vsdd_entry *pins[VSDD_SLOT_PINS])
 {
     vsdd_slot *s = e->slot;
     int v, w, i;
-    e->refs = 1;
-    k->busy_slots++;
     k->taken_over++;
-    vsdd_cache_touch(k, e);
     snprintf(e->key, sizeof e->key, "%s", ekey);
     for (v = 0; v < scene->volume_count; v++) {
         if (holds_volume(s, pins, v)) continue;
@@ -209,8 +207,6 @@ static void take_over(vsdd_cache *k, vsdd_entry *e, const char *ekey, const vsd_
                                 vsdd_entry_volume(s->pins[VSDD_PIN(v, VSDD_PIN_EMISSION)]),
                                 vsdd_entry_volume(s->pins[VSDD_PIN(v, VSDD_PIN_IOR)]));
     }
-    /* the same entries as the slot's: the caller's extra pins go */
-    for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, pins[i]);
 }
 
 int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const char *family, const vsd_scene *scene,
@@ -231,33 +227,28 @@ int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const char *family, cons
     vsdd_key_fit(family, efamily, sizeof efamily);
     vsdd_lock(&k->lock);
     e = vsdd_cache_find(k, ENT_SLOT, ekey, 1);
-    if (!e && (e = renderer_to_take_over(k, efamily, scene, pins))) {
+    if (e) {
+        k->hits[ENT_SLOT]++;
+        *hit = VSDD_SLOT_HIT;
+    } else if ((e = renderer_to_take_over(k, efamily, scene, pins))) {
         k->misses[ENT_SLOT]++;
         take_over(k, e, ekey, scene, pins);
-        vsdd_unlock(&k->lock);
-        st = vsd_renderer_set_scene(e->slot->r, scene, msg, msglen);
-        if (st) {
-            vsdd_cache_release_slot(k, e->slot, 0);
-            return -(int)st;
-        }
-        *out = e->slot;
         *hit = VSDD_SLOT_TAKEN_OVER;
-        return 0;
     }
     if (e) {
         e->refs = 1;
         k->busy_slots++;
         vsdd_cache_touch(k, e);
-        k->hits[ENT_SLOT]++;
-        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, pins[i]); /* the slot pins the same entries */
+        /* the slot pins the same entries (a take-over moved the others into it) */
+        for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, pins[i]);
         vsdd_unlock(&k->lock);
         st = vsd_renderer_set_scene(e->slot->r, scene, msg, msglen);
         if (st) {
+            *hit = VSDD_SLOT_NEW;
             vsdd_cache_release_slot(k, e->slot, 0);
             return -(int)st;
         }
         *out = e->slot;
-        *hit = VSDD_SLOT_HIT;
         return 0;
     }
     k->misses[ENT_SLOT]++;

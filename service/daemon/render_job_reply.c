@@ -113,10 +113,7 @@ static int encode(vsdd_run *run, vsd_scene *out, unsigned char **exr, size_t *ex
     snprintf(png_path, sizeof png_path, "%.960s/job-%lu.png", vsdd_cache_dir(k), run->job->seq);
     st = vsd_encode_frame_exr(out, run->frame, run->fb, &run->stats, exr, exr_len, err, sizeof err);
     if (!st && run->preview) {
-        vsd_preview_options po;
-        memset(&po, 0, sizeof po);
-        po.view = out->output.view[0] ? out->output.view : NULL;
-        st = vsd_preview_write_png(png_path, run->fb, &po, note, notelen, err, sizeof err);
+        st = vsd_write_frame_preview(out, run->fb, png_path, note, notelen, err, sizeof err);
         if (!st && read_whole(png_path, png, png_len)) st = VSD_ERR_IO;
         unlink(png_path);
     }

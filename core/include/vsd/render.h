@@ -89,6 +89,9 @@ void vsd_renderer_use_env(vsd_renderer *r, const vsd_env *env);
 vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_framebuffer *fb,
                                    const vsd_render_stats *stats, char *exr_path, size_t exr_len,
                                    char *note, size_t notelen, char *err, size_t errlen);
+/* The preview PNG vsd_write_frame_outputs writes (the scene's output.view), to `path`. */
+vsd_status vsd_write_frame_preview(const vsd_scene *scene, const vsd_framebuffer *fb, const char *path, char *note,
+                                   size_t notelen, char *err, size_t errlen);
 /* The EXR vsd_write_frame_outputs writes (the same channels and attributes), as bytes in
  * memory (*bytes malloc'd): the daemon's result. */
 vsd_status vsd_encode_frame_exr(const vsd_scene *scene, int frame, const vsd_framebuffer *fb,

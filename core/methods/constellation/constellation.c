@@ -18,6 +18,7 @@
 #include "dense_grid.h"
 #include "constellation_device.h"
 #include "src/grids/record_grid.h"
+#include "src/grids/kvolume_boxes.h"
 #include "kernel/kernel_record_grid.h"
 #include "src/grids/volume_groups.h"
 #include "src/method/method_parts.h"
@@ -151,12 +152,8 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
  * (docs/methods/constellation.md, "The shadow grid follows the volume"). */
 static int auto_shadow_cells(const vsd_kvolume *v)
 {
-    int a, longest = 0, shortest = 0, cells;
-    for (a = 0; a < 3; a++) {
-        int n = 8 * v->dims[a];
-        if (n > longest) longest = n;
-        if (!shortest || n < shortest) shortest = n;
-    }
+    int longest, shortest, cells;
+    vsd_kvolume_brick_extent(v, &longest, &shortest);
     if (shortest <= 0) return 64;
     cells = (longest + 1) / 2;                                       /* 2 voxels */
     if (64 * longest / shortest > cells) cells = 64 * longest / shortest;   /* 64 across */

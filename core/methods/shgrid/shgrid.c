@@ -27,6 +27,7 @@
 #include "src/render/accum.h"
 #include "src/render/kernel_setup.h"
 #include "src/grids/record_grid.h"
+#include "src/grids/kvolume_boxes.h"
 #include "src/lighting/env_healpix.h"
 #include "device/cpu/cpu_tiles.h"
 #include "vsd/sh.h"
@@ -255,9 +256,9 @@ static int want_product(const shgrid_state *s, const vsd_frame_ctx *ctx)
  * interpolation blurred the self-shadowing (docs/methods/shgrid.md, "Large volumes"). */
 static int auto_grid(const vsd_kvolume *v)
 {
-    int longest = 8 * (v->dims[0] > v->dims[1] ? (v->dims[0] > v->dims[2] ? v->dims[0] : v->dims[2])
-                                               : (v->dims[1] > v->dims[2] ? v->dims[1] : v->dims[2]));
-    int cells = (longest + 3) / 4;
+    int longest, shortest, cells;
+    vsd_kvolume_brick_extent(v, &longest, &shortest);
+    cells = (longest + 3) / 4;
     return cells < 32 ? 32 : cells > 64 ? 64 : cells;
 }
 

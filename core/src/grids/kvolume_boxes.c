@@ -2,6 +2,17 @@
 #include "kvolume_boxes.h"
 #include "vsd/volume.h"
 
+void vsd_kvolume_brick_extent(const vsd_kvolume *v, int *longest, int *shortest)
+{
+    int a;
+    *longest = *shortest = 8 * v->dims[0];
+    for (a = 1; a < 3; a++) {
+        int n = 8 * v->dims[a];
+        if (n > *longest) *longest = n;
+        if (n < *shortest) *shortest = n;
+    }
+}
+
 int vsd_kvolume_active_index_box(const vsd_kvolume *v, double lo[3], double hi[3])
 {
     int a, x, y, z, any = 0;

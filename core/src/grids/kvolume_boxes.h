@@ -6,6 +6,9 @@
 #define VSD_KVOLUME_BOXES_H
 #include "kernel/kernel_types.h"
 
+/* The voxels along the longest and the shortest axis of v's brick box (8 per brick; 0 for
+ * an empty volume): what the automatic record grids size their cells by. */
+void vsd_kvolume_brick_extent(const vsd_kvolume *v, int *longest, int *shortest);
 /* v's non-empty bricks' box in its index space; 0 when it has none. */
 int vsd_kvolume_active_index_box(const vsd_kvolume *v, double lo[3], double hi[3]);
 /* v's world -> index map as a 4x4, and its inverse (0 when singular). */

@@ -89,14 +89,20 @@ vsd_status vsd_write_frame_outputs(const vsd_scene *scene, int frame, const vsd_
     if ((st = frame_exr_options(scene, frame, stats, &f, err, errlen))) return st;
     if ((st = vsd_exr_write(path, fb, &f.wo, err, errlen))) return st;
     if (scene->output.preview_png[0]) {
-        vsd_preview_options po;
-        memset(&po, 0, sizeof po);
-        po.view = scene->output.view[0] ? scene->output.view : NULL;
         if ((st = vsd_frame_path(scene->output.preview_png, frame, path, sizeof path, err, errlen))) return st;
         if ((st = make_parent_dirs(path, err, errlen))) return st;
-        if ((st = vsd_preview_write_png(path, fb, &po, note, notelen, err, errlen))) return st;
+        if ((st = vsd_write_frame_preview(scene, fb, path, note, notelen, err, errlen))) return st;
     }
     return VSD_OK;
+}
+
+vsd_status vsd_write_frame_preview(const vsd_scene *scene, const vsd_framebuffer *fb, const char *path, char *note,
+                                   size_t notelen, char *err, size_t errlen)
+{
+    vsd_preview_options po;
+    memset(&po, 0, sizeof po);
+    po.view = scene->output.view[0] ? scene->output.view : NULL;
+    return vsd_preview_write_png(path, fb, &po, note, notelen, err, errlen);
 }
 
 vsd_status vsd_encode_frame_exr(const vsd_scene *scene, int frame, const vsd_framebuffer *fb,
