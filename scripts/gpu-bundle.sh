@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the CUDA backend for the GPU machine (sm_90, Release) into build-gpu/ and packs
-# build-gpu/bundle/: the vsd, test_cuda and bench_device executables, every shared library
+# build-gpu/bundle/: the vsd (with vsd-core), test_cuda and bench_device executables, every shared library
 # they load except glibc's own, and exactly the data files the GPU test and benchmark read.
 # The GPU machine has CUDA and a driver but none of Debian's libraries, and takes at most
 # 64 MiB of files, so the bundle is one xz tarball that must stay under 48 MiB.
@@ -26,7 +26,7 @@ data_src=${VSD_SHARED_DATA:-$PWD/../shared/data}
 max_mib=48
 bundle=build-gpu/bundle
 stage=build-gpu/bundle-stage
-programs=(vsd tests/test_cuda bench_device)
+programs=(vsd vsd-core tests/test_cuda bench_device)
 # What test_cuda and bench_device read (tests/test_cuda.c, bench/device/bench_device.c's
 # default scenes at their first frames), plus what those scene files name.
 data_files=(
@@ -42,7 +42,7 @@ if [ "$build" -eq 1 ]; then
     { echo "gpu-bundle.sh: nvcc not found (the bundle needs the CUDA backend)" >&2; exit 1; }
   cmake -S . -B build-gpu -DCMAKE_BUILD_TYPE=Release -DVSD_CUDA=ON \
         -DVSD_CUDA_ARCHITECTURES="90-real;90-virtual" -DVSD_BLENDER_TESTS=OFF
-  cmake --build build-gpu -j"$(nproc)" --target vsd test_cuda bench_device
+  cmake --build build-gpu -j"$(nproc)" --target vsd vsd-core test_cuda bench_device
 fi
 
 rm -rf "$stage" "$bundle"
@@ -93,7 +93,7 @@ rm -rf "$stage"
 probe=$(mktemp -d)
 trap 'rm -rf "$probe"' EXIT
 xz -dc "$bundle/vsd-gpu.tar.xz" | tar -C "$probe" -xf -
-outside=$(env -i LD_LIBRARY_PATH="$probe/lib" ldd "$probe/bin/vsd" "$probe/bin/test_cuda" "$probe/bin/bench_device" |
+outside=$(env -i LD_LIBRARY_PATH="$probe/lib" ldd "$probe/bin/vsd" "$probe/bin/vsd-core" "$probe/bin/test_cuda" "$probe/bin/bench_device" |
           awk '/=>/ { print $1, $3 }' | while read -r soname path; do
             is_glibc "$soname" || case "$path" in "$probe"/lib/*) ;; *) echo "$soname => $path" ;; esac
           done)

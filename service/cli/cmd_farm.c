@@ -65,7 +65,10 @@ static int load(int argc, char **argv, farm_job *fj)
         farm_usage(stderr);
         return VSD_EXIT_USAGE;
     }
-    if ((rc = vsd_render_job_parse(fj->args.render_argc, fj->args.render_argv, &fj->job)) != 0) {
+    rc = vsd_render_job_parse(fj->args.render_argc, fj->args.render_argv, &fj->job);
+    vsd_render_job_print_usage(&fj->job);
+    if (fj->job.help) return VSD_EXIT_OK;
+    if (rc != 0) {
         fprintf(stderr, "vsd farm %s: options that are not the farm's own go to `vsd render` "
                         "(see vsd farm --help)\n", sub);
         return rc;

@@ -6,32 +6,11 @@
 #include "render_remote.h"
 #include "render_progress.h"
 #include "render_args.h"
-#include <signal.h>
+#include "render_common.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-static volatile int g_cancel = 0;
-
-static void on_sigint(int sig)
-{
-    (void)sig;
-    g_cancel = 1;
-}
-
-/* Reading failures (a missing VDB or map) are bad input; writing failures are failed renders. */
-static int exit_code_for(vsd_status st, int writing)
-{
-    if (st == VSD_ERR_IO && !writing) return VSD_EXIT_INPUT;
-    switch (st) {
-    case VSD_OK: return VSD_EXIT_OK;
-    case VSD_ERR_CANCELLED: return VSD_EXIT_CANCELLED;
-    case VSD_ERR_FORMAT: case VSD_ERR_NOT_FOUND: case VSD_ERR_TYPE: case VSD_ERR_INVALID:
-    case VSD_ERR_UNSUPPORTED: return VSD_EXIT_INPUT;
-    default: return VSD_EXIT_RENDER_FAILED;
-    }
-}
 
 /* --continue: which frames of the range still need rendering. Checked once before the
  * run, so that the ETA counts only the frames that will render. */
@@ -79,30 +58,6 @@ static int plan_frames(const vsd_scene *scene, const vsd_render_job *job, frame_
     return 0;
 }
 
-static void end_frame_cb(void *user, int ok) { render_progress_end_frame(user, ok); }
-static void report_cb(void *user) { render_progress_report(user); }
-
-/* The same frames through a daemon (render_remote.c); files written where render_frames
- * writes them. */
-static int render_frames_remote(const vsd_scene *scene, const vsd_render_job *job, frame_plan *plan)
-{
-    render_progress prog;
-    vsd_remote_options ro = {0};
-    render_progress_init(&prog, job->quiet, plan->to_render);
-    ro.address = job->remote_address;
-    ro.token_file = job->token_file[0] ? job->token_file : NULL;
-    ro.quiet = job->quiet;
-    ro.progress = render_progress_update;
-    ro.user = &prog;
-    ro.begin_frame = render_progress_begin_frame;
-    ro.end_frame = end_frame_cb;
-    ro.report = report_cb;
-    ro.skip_frame = plan_skip_frame;
-    ro.skip_user = plan;
-    ro.cancel = &g_cancel;
-    return vsd_render_remote(job->scene_path, scene, job->overrides, job->override_count, &ro);
-}
-
 /* --cache-dir, or the per-user default (vsd_default_cache_dir); "none" = no cache. */
 static const char *cache_dir(const vsd_render_job *job, char *buf, size_t len)
 {
@@ -120,7 +75,8 @@ static void print_frame_done(int frame, const char *path, const char *note, cons
     fflush(stdout);
 }
 
-static int render_frames(const vsd_scene *scene, const vsd_render_job *job, const frame_plan *plan)
+static int render_frames(const vsd_scene *scene, const vsd_render_job *job, const frame_plan *plan,
+                         volatile int *cancel)
 {
     char cache[VSD_PATH_LEN];
     render_progress prog;
@@ -134,13 +90,13 @@ static int render_frames(const vsd_scene *scene, const vsd_render_job *job, cons
     render_progress_init(&prog, job->quiet, plan->to_render);
     ro.progress = render_progress_update;
     ro.user = &prog;
-    ro.cancel = &g_cancel;
+    ro.cancel = cancel;
     ro.cache_dir = cache_dir(job, cache, sizeof cache);
     ro.max_voxels = job->max_voxels;
     st = vsd_renderer_create(scene, &ro, &r, err, sizeof err);
     if (st) {
         fprintf(stderr, "vsd render: %s\n", err);
-        return exit_code_for(st, 0);
+        return vsd_exit_code_for(st, 0);
     }
     for (frame = scene->frames.start; frame <= scene->frames.end && !st; frame++) {
         int writing = 0;
@@ -156,7 +112,7 @@ static int render_frames(const vsd_scene *scene, const vsd_render_job *job, cons
         render_progress_end_frame(&prog, st == VSD_OK);
         if (st) {
             fprintf(stderr, "vsd render: frame %d: %s\n", frame, err);
-            rc = exit_code_for(st, writing);
+            rc = vsd_exit_code_for(st, writing);
             break;
         }
         if (!job->quiet) print_frame_done(frame, path, note, &stats);
@@ -173,18 +129,15 @@ int vsd_cmd_render(int argc, char **argv)
     static vsd_render_job job; /* large: its override strings */
     vsd_scene scene;
     frame_plan plan;
-    char err[2048];
-    vsd_status st;
+    volatile int *cancel;
     int rc = vsd_render_job_parse(argc, argv, &job);
+    vsd_render_job_print_usage(&job);
     if (rc || job.help) return rc;
-    st = vsd_render_job_scene(&job, &scene, err, sizeof err);
-    if (st) {
-        fprintf(stderr, "vsd render: %s\n", err);
-        return exit_code_for(st, 0);
-    }
+    if ((rc = vsd_cli_job_scene(&job, &scene)) != 0) return rc;
     if (plan_frames(&scene, &job, &plan)) return VSD_EXIT_RENDER_FAILED;
-    signal(SIGINT, on_sigint);
-    rc = job.remote ? render_frames_remote(&scene, &job, &plan) : render_frames(&scene, &job, &plan);
+    cancel = vsd_cli_cancel_on_sigint();
+    rc = job.remote ? vsd_render_job_remote(&scene, &job, plan.to_render, plan_skip_frame, &plan, cancel)
+                    : render_frames(&scene, &job, &plan, cancel);
     free(plan.skip);
     return rc;
 }

@@ -6,6 +6,7 @@
 #define _GNU_SOURCE
 #include "render_remote.h"
 #include "commands.h"
+#include "render_progress.h"
 #include "vsd_client.h"
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -249,4 +250,27 @@ int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char
     vsdc_close(c);
     free(text);
     return rc;
+}
+
+static void end_frame_cb(void *user, int ok) { render_progress_end_frame(user, ok); }
+static void report_cb(void *user) { render_progress_report(user); }
+
+int vsd_render_job_remote(const vsd_scene *scene, const vsd_render_job *job, int to_render,
+                          int (*skip)(void *skip_user, int frame), void *skip_user, volatile int *cancel)
+{
+    render_progress prog;
+    vsd_remote_options ro = {0};
+    render_progress_init(&prog, job->quiet, to_render);
+    ro.address = job->remote_address;
+    ro.token_file = job->token_file[0] ? job->token_file : NULL;
+    ro.quiet = job->quiet;
+    ro.progress = render_progress_update;
+    ro.user = &prog;
+    ro.begin_frame = render_progress_begin_frame;
+    ro.end_frame = end_frame_cb;
+    ro.report = report_cb;
+    ro.skip_frame = skip;
+    ro.skip_user = skip_user;
+    ro.cancel = cancel;
+    return vsd_render_remote(job->scene_path, scene, job->overrides, job->override_count, &ro);
 }

@@ -2,6 +2,7 @@
  * rendering, rendered by a daemon (render_remote.c). */
 #ifndef VSD_CLI_RENDER_REMOTE_H
 #define VSD_CLI_RENDER_REMOTE_H
+#include "render_args.h"
 #include "vsd/render.h"
 
 typedef struct vsd_remote_options {
@@ -24,4 +25,9 @@ typedef struct vsd_remote_options {
  * Returns the process exit code. */
 int vsd_render_remote(const char *scene_path, const vsd_scene *scene, const char *const *overrides,
                       int override_count, const vsd_remote_options *opt);
+
+/* vsd_render_remote as `vsd render --remote` runs it: the CLI's progress lines over the
+ * `to_render` frames that `skip` (NULL: none) does not skip, and `cancel` (SIGINT). */
+int vsd_render_job_remote(const vsd_scene *scene, const vsd_render_job *job, int to_render,
+                          int (*skip)(void *skip_user, int frame), void *skip_user, volatile int *cancel);
 #endif

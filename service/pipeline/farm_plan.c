@@ -4,6 +4,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "farm_slurm.h"
 #include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -30,17 +32,29 @@ static int make_dirs(const char *path, char *err, size_t errlen)
     return 0;
 }
 
+/* The `vsd` command that exec'ed this vsd-core (service/front sets $VSD_FRONT), so the
+ * tasks run what the user ran; 0 when there is none. */
+static int front_path(char *out, size_t len)
+{
+    const char *front = getenv("VSD_FRONT");
+    if (!front || front[0] != '/' || strlen(front) >= len || access(front, X_OK) != 0) return 0;
+    snprintf(out, len, "%s", front);
+    return 1;
+}
+
 int vsd_farm_plan_locate(vsd_farm_plan *p, const char *job_path, const char *log_dir, char *err,
                          size_t errlen)
 {
-    ssize_t n = readlink("/proc/self/exe", p->vsd_exe, sizeof p->vsd_exe - 1);
     struct stat st;
-    if (n <= 0 || (size_t)n >= sizeof p->vsd_exe - 1) {
-        snprintf(err, errlen, "cannot find this vsd executable (/proc/self/exe): %s",
-                 n <= 0 ? strerror(errno) : "path too long");
-        return -1;
+    if (!front_path(p->vsd_exe, sizeof p->vsd_exe)) {
+        ssize_t n = readlink("/proc/self/exe", p->vsd_exe, sizeof p->vsd_exe - 1);
+        if (n <= 0 || (size_t)n >= sizeof p->vsd_exe - 1) {
+            snprintf(err, errlen, "cannot find this vsd executable (/proc/self/exe): %s",
+                     n <= 0 ? strerror(errno) : "path too long");
+            return -1;
+        }
+        p->vsd_exe[n] = '\0';
     }
-    p->vsd_exe[n] = '\0';
     if (!getcwd(p->work_dir, sizeof p->work_dir)) {
         snprintf(err, errlen, "cannot read the current folder: %s", strerror(errno));
         return -1;

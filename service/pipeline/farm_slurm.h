@@ -21,7 +21,8 @@ typedef struct vsd_farm_plan {
     int render_argc;
 } vsd_farm_plan;
 
-/* Fills vsd_exe (this process's own executable, /proc/self/exe), work_dir (the current
+/* Fills vsd_exe (the `vsd` command that ran this vsd-core, $VSD_FRONT, else this process's own
+ * executable, /proc/self/exe), work_dir (the current
  * folder), log_dir (`log_dir` or "vsd-farm", made absolute and created: Slurm does not
  * create the folder of --output and would lose the log) and job_name (from job_path).
  * Returns 0, or -1 with err. */

@@ -24,37 +24,6 @@ static const struct { const char *flag, *key; } k_field_flags[] = {
 static const char *const k_other_valued[] = {"--set", "--frames", "--output", "-o", "--preview", "--token-file",
                                              "--cache-dir", "--max-voxels", NULL};
 
-void vsd_render_job_usage(FILE *f)
-{
-    const char *const *n = vsd_method_names();
-    fprintf(f, "usage: vsd render SCENE.json|JOB.ini[Section] [options] [+switches]\n"
-               "  --method NAME        render.method (%s", n[0]);
-    for (n++; *n; n++) fprintf(f, ", %s", *n);
-    fprintf(f, ")\n"
-               "  --width N, --height N film size in pixels\n"
-               "  --frames A-B | N     frame range (inclusive)\n"
-               "  --samples N          samples per pixel\n"
-               "  --seed N             random seed\n"
-               "  --device auto|cpu|cuda\n"
-               "  --threads N          CPU threads (default: all cores)\n"
-               "  --output PATH        output.exr (#### = frame number), relative to the current folder\n"
-               "  --preview PATH       also write a display PNG (#### = frame number)\n"
-               "  --set KEY=VALUE      any scene field, e.g. --set medium.density=20\n"
-               "  --continue           skip frames whose EXR is complete for this scene (POV-Ray's +C)\n"
-               "  --remote[=ADDR]      render through a running `vsd serve` (default socket, a socket path,\n"
-               "                       or HOST:PORT); uploads only the VDB frames and map it lacks\n"
-               "  --token-file FILE    token for --remote=HOST:PORT (else $VSD_TOKEN)\n"
-               "  --cache-dir DIR      where methods keep per-frame work between runs (crm's RBF fits;\n"
-               "                       default $VSD_CACHE_DIR, else $XDG_CACHE_HOME/vsd or ~/.cache/vsd;\n"
-               "                       'none' = no cache)\n"
-               "  --max-voxels N       the most active voxels of the scene's density grids together,\n"
-               "                       checked before loading (default 1e9)\n"
-               "  --quiet              print nothing but errors\n"
-               "POV-Ray INI files (Key=Value, [Section]) and switches +W +H +KFI +KFF +SF +EF +C +O +I +A +R\n"
-               "+UA +FE +D +V are read as POV-Ray reads them (docs/pipeline.md). Command line over INI file\n"
-               "over scene file.\n");
-}
-
 /* Every option that takes a value (so that a value is never read as a file). */
 static int takes_value(const char *arg)
 {
@@ -185,7 +154,6 @@ int vsd_render_job_parse(int argc, char **argv, vsd_render_job *job)
     for (i = 1; i < argc; i++) {
         const char *arg = argv[i];
         if (strcmp(arg, "--help") == 0 || strcmp(arg, "-h") == 0) {
-            vsd_render_job_usage(stdout);
             job->help = 1;
             return 0;
         }
@@ -235,7 +203,7 @@ int vsd_render_job_parse(int argc, char **argv, vsd_render_job *job)
             fprintf(stderr, "vsd render: %s: no Input_File_Name, and no scene file on the command line\n",
                     job->ini_path);
         else
-            vsd_render_job_usage(stderr);
+            job->usage_error = 1;
         return EXIT_USAGE;
     }
     finish_output_folder(job);

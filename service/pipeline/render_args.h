@@ -23,7 +23,8 @@ typedef struct vsd_render_job {
     char token_file[VSD_PATH_LEN];
     char cache_dir[VSD_PATH_LEN];    /* --cache-dir; "" = the default */
     unsigned long long max_voxels;   /* --max-voxels; 0 = the renderer's default */
-    int help;                        /* --help was asked: usage printed, nothing else to do */
+    int help;                        /* --help was asked: nothing else to do but print usage */
+    int usage_error;                 /* no scene named: parse returned EXIT_USAGE, print usage */
     /* Subset_Start_Frame / Subset_End_Frame (+SF/+EF): frame numbers, or fractions of the
        sequence when written with a '.' (POV-Ray's rule); applied by vsd_render_job_scene. */
     int has_subset_start, has_subset_end;
@@ -35,7 +36,9 @@ typedef struct vsd_render_job {
 } vsd_render_job;
 
 /* Parse `vsd render`'s arguments (argv[0] is "render"). Returns 0, or a VSD_EXIT_* code
- * after printing the error (naming the option, or the INI file and line) to stderr.
+ * after printing the error (naming the option, or the INI file and line) to stderr. It
+ * prints no usage: with job->help or job->usage_error set the caller prints it
+ * (vsd_render_job_print_usage), so the parser links without the method registry.
  * Paths given on the command line or in an INI file are made absolute (the command
  * line's against the current folder, the INI's against the INI's folder). */
 int vsd_render_job_parse(int argc, char **argv, vsd_render_job *job);
@@ -44,7 +47,9 @@ int vsd_render_job_parse(int argc, char **argv, vsd_render_job *job);
 vsd_status vsd_render_job_scene(const vsd_render_job *job, vsd_scene *scene, char *err,
                                 size_t errlen);
 
-/* `vsd render --help`. */
+/* `vsd render --help` (render_usage.c: it lists the registry's methods). */
 void vsd_render_job_usage(FILE *f);
+/* The usage the parse asked for: to stdout after --help, to stderr when no scene was named. */
+void vsd_render_job_print_usage(const vsd_render_job *job);
 
 #endif
