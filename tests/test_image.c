@@ -199,36 +199,85 @@ static void test_roundtrip(int half)
     vsd_framebuffer_destroy(fb);
 }
 
-/* output.compression "none": the same pixels, bit for bit, and every float stored as is
- * (the file at least as large as the raw channels; the ZIP file of the same frame smaller). */
-static void test_uncompressed(void)
+/* Half the rows of every pass zero (an empty background), half the pattern. */
+static float background_pattern(int p, int c, int x, int y)
+{
+    return y % 8 < 4 ? 0.0f : pattern(p, c, x, y);
+}
+
+/* output.compression: every one lossless, bit for bit; "none" stores every float as is (the
+ * file at least as large as the raw channels), ZIP and RLE less where a background repeats;
+ * the names the scene file uses map to the writer's values and back. */
+static void test_compressions(void)
 {
     const int w = 37, h = 21;
-    vsd_framebuffer *fb = make_fb(w, h, pattern);
+    long raw = (long)w * h * 17 * (long)sizeof(float), size[VSD_EXR_COMPRESSION_COUNT];
+    vsd_framebuffer *fb = make_fb(w, h, background_pattern);
     if (!fb)
         return;
-    vsd_exr_write_options opt = {0};
-    const char *zip = tmp_path("compressed_zip.exr");
-    CHECK_MSG(vsd_exr_write(zip, fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
-    long zip_size = file_size(zip);
-    opt.uncompressed = 1;
-    const char *path = tmp_path("uncompressed.exr");
-    CHECK_MSG(vsd_exr_write(path, fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
-    long raw = (long)w * h * 17 * (long)sizeof(float), size = file_size(path);
-    CHECK_MSG(size >= raw && zip_size > 0 && zip_size < size, "uncompressed %ld bytes, zip %ld, raw channels %ld",
-              size, zip_size, raw);
-    vsd_exr_image *img = NULL;
-    CHECK_MSG(vsd_exr_read(path, &img, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
-    if (img) {
-        CHECK(img->width == w && img->height == h && img->channel_count == 17);
-        check_passes(img, fb, "ViewLayer", 0);
+    for (int c = 0; c < VSD_EXR_COMPRESSION_COUNT; c++) {
+        vsd_exr_write_options opt = {0};
+        char file[64];
+        vsd_exr_image *img = NULL;
+        const char *name = vsd_exr_compression_name((vsd_exr_compression)c);
+        CHECK_MSG(vsd_exr_compression_from_name(name) == (vsd_exr_compression)c, "compression %d is named %s", c, name);
+        snprintf(file, sizeof file, "compressed_%s.exr", name);
+        opt.compression = (vsd_exr_compression)c;
+        CHECK_MSG(vsd_exr_write(tmp_path(file), fb, &opt, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+        size[c] = file_size(tmp_path(file));
+        CHECK_MSG(vsd_exr_read(tmp_path(file), &img, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+        if (img) {
+            CHECK(img->width == w && img->height == h && img->channel_count == 17);
+            check_passes(img, fb, "ViewLayer", 0);
+        }
+        vsd_exr_image_destroy(img);
     }
-    vsd_exr_image_destroy(img);
+    CHECK(vsd_exr_compression_from_name("lz4") == VSD_EXR_COMPRESSION_COUNT);
+    CHECK_MSG(size[VSD_EXR_NONE] >= raw && size[VSD_EXR_ZIP] < size[VSD_EXR_NONE] &&
+              size[VSD_EXR_RLE] < size[VSD_EXR_NONE], "none %ld bytes, zip %ld, rle %ld, raw channels %ld",
+              size[VSD_EXR_NONE], size[VSD_EXR_ZIP], size[VSD_EXR_RLE], raw);
+    {
+        vsd_exr_write_options bad = {0};
+        bad.compression = VSD_EXR_COMPRESSION_COUNT;
+        CHECK(vsd_exr_write(tmp_path("bad_compression.exr"), fb, &bad, g_err, sizeof g_err) == VSD_ERR_INVALID);
+        CHECK_CONTAINS(g_err, "unknown compression");
+    }
     vsd_framebuffer_destroy(fb);
 }
 
-/* vsd_exr_encode: the bytes vsd_exr_write puts in the file, byte for byte, for ZIP and
- * uncompressed, float and half, a pass subset under another layer with header attributes;
+/* The chunks are encoded on several threads and written in order: the bytes do not depend
+ * on the thread count (1, 2, 3, 32: more threads than ZIP's 16-row chunks), for every
+ * compression, on a height that is no multiple of a chunk. */
+static void test_encode_threads(void)
+{
+    vsd_framebuffer *fb = make_fb(61, 203, background_pattern);
+    static const int threads[] = {2, 3, 32};
+    if (!fb)
+        return;
+    for (int c = 0; c < VSD_EXR_COMPRESSION_COUNT; c++) {
+        vsd_exr_write_options opt = {0};
+        unsigned char *one = NULL;
+        size_t one_len = 0;
+        opt.compression = (vsd_exr_compression)c;
+        opt.threads = 1;
+        CHECK_MSG(vsd_exr_encode(fb, &opt, &one, &one_len, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+        for (int t = 0; t < 3; t++) {
+            unsigned char *many = NULL;
+            size_t len = 0;
+            opt.threads = threads[t];
+            CHECK_MSG(vsd_exr_encode(fb, &opt, &many, &len, g_err, sizeof g_err) == VSD_OK, "%s", g_err);
+            CHECK_MSG(one && many && len == one_len && memcmp(one, many, len) == 0,
+                      "%s with %d threads: %zu bytes, with one %zu%s", vsd_exr_compression_name(opt.compression),
+                      threads[t], len, one_len, len == one_len ? " (contents differ)" : "");
+            free(many);
+        }
+        free(one);
+    }
+    vsd_framebuffer_destroy(fb);
+}
+
+/* vsd_exr_encode: the bytes vsd_exr_write puts in the file, byte for byte, for ZIP, none
+ * and RLE, float and half, a pass subset under another layer with header attributes;
  * and its input errors as vsd_exr_write's. */
 static void test_encode_in_memory(void)
 {
@@ -236,15 +285,15 @@ static void test_encode_in_memory(void)
     static const vsd_exr_attr attrs[] = {{"vsd/method", "lbl"}, {"vsd/frame", "12"}};
     if (!fb)
         return;
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < 6; k++) {
         vsd_exr_write_options opt = {0};
         unsigned char *bytes = NULL, *file = NULL;
         size_t len = 0;
         long size = 0;
         const char *path = tmp_path("encoded.exr");
-        opt.uncompressed = k & 1;
-        opt.half = (k >> 1) & 1;
-        if (k == 3) {
+        opt.compression = (vsd_exr_compression)(k % 3);
+        opt.half = k >= 3;
+        if (k == 5) {
             opt.layer = "RenderLayer.001";
             opt.pass_mask = (1u << VSD_PASS_COMBINED) | (1u << VSD_PASS_DEPTH);
             opt.attrs = attrs;
@@ -646,7 +695,8 @@ int main(int argc, char **argv)
     test_framebuffer();
     test_roundtrip(0);
     test_roundtrip(1);
-    test_uncompressed();
+    test_compressions();
+    test_encode_threads();
     test_encode_in_memory();
     test_mask_and_layer();
     test_renamed_passes();

@@ -388,7 +388,7 @@ static void test_errors(void)
     EXPECT_ERR(with("\"output\": {\"exr\": \"f_##_##.exr\"}"), VSD_ERR_INVALID, "output.exr: \"/base/f_##_##.exr\": more than one run");
     EXPECT_ERR(with("\"output\": {\"half\": \"yes\"}"), VSD_ERR_TYPE, "output.half: expected boolean");
     EXPECT_ERR(with("\"output\": {\"compression\": \"lz4\"}"), VSD_ERR_INVALID,
-               "output.compression: \"lz4\" is not one of \"zip\", \"none\"");
+               "output.compression: \"lz4\" is not one of \"zip\", \"none\", \"rle\"");
     EXPECT_ERR(with("\"output\": {\"layer\": \"aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa\"}"),
                VSD_ERR_INVALID, "output.layer: too long (140 characters, max 127)");
     EXPECT_ERR(with("\"volume\": {}"), VSD_ERR_INVALID, "volume: duplicate key");

@@ -123,7 +123,7 @@ def export_scene(context, filepath, relative=True, frame_range=True):
             m.warn("volume object '%s' is animated: the scene file holds its frame-%d matrix"
                    % (v.object.name, scene.frame_current))
     sc["output"]["exr"] = rel(output_pattern(scene))
-    # the exported frames are files kept on disk: compressed, not the transient results' "none"
+    # the exported frames are files kept on disk: ZIP, not the transient results' RLE
     sc["output"].pop("compression", None)
     with open(filepath, "w") as f:
         json.dump(sc, f, indent=1)

@@ -1008,9 +1008,11 @@ def build_scene(depsgraph, camera=None, size=None, viewport=False, export=False)
         "film": {"width": int(w), "height": int(h), "transparent": bool(r.film_transparent)},
         "render": render_block(scene.vsd, viewport, method),
         "frames": {"start": int(frame), "end": int(frame)},
-        # the add-on reads each result at once: no ZIP encode (0.85-1.16 s at 1280x720 on 2 cores)
+        # the add-on reads each result at once: RLE, not ZIP. At 1280x720 on 2 cores ZIP's encode
+        # takes 0.34 s; RLE's 0.07 s halves the bytes that "none" sends (the empty background),
+        # and the Python client's wall over the render fell from 0.23 s (none) to 0.10 s.
         "output": {"passes": list(passes.VSD_PASS_NAMES), "layer": depsgraph.view_layer.name,
-                   "pass_names": passes.pass_names(bpy.app.version), "compression": "none"},
+                   "pass_names": passes.pass_names(bpy.app.version), "compression": "rle"},
     }
     m.scene = sc
     return m

@@ -328,9 +328,24 @@ def _channels(header):
     return chans
 
 
+def _unrle(block):
+    """EXR's RLE: a signed count byte, then -count literal bytes or count + 1 repeats of one."""
+    out, i = bytearray(), 0
+    while i < len(block):
+        n = struct.unpack_from("b", block, i)[0]
+        i += 1
+        if n < 0:
+            out += block[i:i - n]
+            i -= n
+        else:
+            out += block[i:i + 1] * (n + 1)
+            i += 1
+    return out
+
+
 def read_exr(path):
     """{channel name: list of floats, row-major, top row first}, width, height.
-    Scanline files with NONE, ZIPS or ZIP compression (what vsd and Blender write here),
+    Scanline files with NONE, RLE, ZIPS or ZIP compression (what vsd and Blender write here),
     single-part (3.4-4.5, vsd) or multi-part (Blender 5.0 writes a part per pass)."""
     with open(path, "rb") as f:
         return read_exr_bytes(f.read(), path)
@@ -357,8 +372,8 @@ def read_exr_bytes(data, path="EXR"):
         w, h = xmax - xmin + 1, ymax - ymin + 1
         size_wh = size_wh or (w, h)
         comp = header["compression"][1][0]
-        assert comp in (0, 2, 3), "%s: compression %d not supported by this reader" % (path, comp)
-        lines = {0: 1, 2: 1, 3: 16}[comp]
+        assert comp in (0, 1, 2, 3), "%s: compression %d not supported by this reader" % (path, comp)
+        lines = {0: 1, 1: 1, 2: 1, 3: 16}[comp]
         nblocks = (h + lines - 1) // lines
         offsets = struct.unpack_from("<%dQ" % nblocks, data, pos)
         pos += 8 * nblocks
@@ -372,7 +387,7 @@ def read_exr_bytes(data, path="EXR"):
             nl = min(lines, ymax - y + 1)
             expected = sum(nl * w * (2 if t == 1 else 4) for _, t in chans)
             if comp != 0 and size < expected:
-                t = bytearray(zlib.decompress(block))
+                t = _unrle(block) if comp == 1 else bytearray(zlib.decompress(block))
                 for i in range(1, len(t)):
                     t[i] = (t[i - 1] + t[i] - 128) & 0xFF
                 half = (len(t) + 1) // 2

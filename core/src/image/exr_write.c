@@ -1,8 +1,10 @@
-/* Multilayer EXR writer on OpenEXR's C API (openexr.h): one scanline part, ZIP compressed (or none),
+/* Multilayer EXR writer on OpenEXR's C API (openexr.h): one scanline part, ZIP, RLE or no
+ * compression (the chunks encoded on several threads, exr_chunks.c),
  * channels "<layer>.<Pass>.<chan>" as Blender writes them, through a temporary file that is
  * renamed into place only once the whole file is on disk (docs/architecture.md §6). */
 #define _POSIX_C_SOURCE 200809L
 #include "src/image/imageio_internal.h"
+#include "src/image/exr_chunks.h"
 #include <errno.h>
 #include <openexr.h>
 #include <Imath/half.h>
@@ -11,16 +13,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-#define LAYER_MAX 200                 /* keeps every channel name within a fixed buffer */
-#define EXR_SHORT_NAME_MAX 31         /* longer names need the EXR "long names" flag */
-
-typedef struct exr_chan {
-    char name[LAYER_MAX + VSD_PASS_NAME_MAX + 8];
-    vsd_pass pass;
-    int comp;                         /* index into the pass's interleaved channels */
-    int half;                         /* stored as half (else float32) */
-} exr_chan;
 
 /* Per-write state reachable from OpenEXR's callbacks through the context's user data:
  * a temporary file (vsd_exr_write) or a growing buffer (vsd_exr_encode). */
@@ -152,6 +144,19 @@ static vsd_status build_channels(const vsd_exr_write_options *opt, exr_chan *cha
     return VSD_OK;
 }
 
+/* OpenEXR's code for each of vsd's compressions */
+static const exr_compression_t k_exr_compression[VSD_EXR_COMPRESSION_COUNT] = {
+    [VSD_EXR_ZIP] = EXR_COMPRESSION_ZIP,
+    [VSD_EXR_NONE] = EXR_COMPRESSION_NONE,
+    [VSD_EXR_RLE] = EXR_COMPRESSION_RLE,
+};
+
+/* (check_inputs refused any other value) */
+static exr_compression_t exr_compression_of(const vsd_exr_write_options *opt)
+{
+    return k_exr_compression[opt ? opt->compression : VSD_EXR_ZIP];
+}
+
 /* Everything that goes before the pixels: size, compression, channels, attributes. The
  * library sorts the channel list by name, as the EXR format requires; write_chunks therefore
  * matches channels by name, never by position. */
@@ -165,8 +170,7 @@ static exr_result_t define_header(exr_context_t ctxt, const vsd_framebuffer *fb,
         rv = exr_set_longname_support(ctxt, 1);
     if (!rv)
         rv = exr_initialize_required_attr_simple(ctxt, part, fb->width, fb->height,
-                                                 opt && opt->uncompressed ? EXR_COMPRESSION_NONE
-                                                                          : EXR_COMPRESSION_ZIP);
+                                                 exr_compression_of(opt));
     for (int i = 0; !rv && i < n; i++)
         rv = exr_add_channel(ctxt, part, chans[i].name,
                              chans[i].half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
@@ -177,89 +181,6 @@ static exr_result_t define_header(exr_context_t ctxt, const vsd_framebuffer *fb,
         rv = exr_attr_set_string(ctxt, part, opt->attrs[i].name, opt->attrs[i].value);
     if (!rv)
         rv = exr_write_header(ctxt);
-    return rv;
-}
-
-/* Copy rows [y0, y0+rows) of one channel out of its interleaved pass into a planar buffer
- * of the stored type: the library's packer then only has to byte-swap and compress. */
-static void stage_channel(const vsd_framebuffer *fb, const exr_chan *c, int y0, int rows,
-                          void *dst)
-{
-    int nc = vsd_pass_channels(c->pass);
-    size_t w = (size_t)fb->width;
-    const float *src = fb->pass[c->pass] + (size_t)y0 * w * (size_t)nc + (size_t)c->comp;
-    size_t n = (size_t)rows * w;
-    if (c->half) {
-        uint16_t *h = dst;
-        for (size_t i = 0; i < n; i++)
-            h[i] = imath_float_to_half(src[i * (size_t)nc]);
-    } else {
-        float *f = dst;
-        for (size_t i = 0; i < n; i++)
-            f[i] = src[i * (size_t)nc];
-    }
-}
-
-/* Point each encoder channel at its staged rows. Returns EXR_ERR_INVALID_ARGUMENT if the
- * library names a channel we did not define (cannot happen unless the API changes). */
-static exr_result_t bind_channels(exr_encode_pipeline_t *enc, const vsd_framebuffer *fb,
-                                  const exr_chan *chans, int n, unsigned char *staging,
-                                  size_t plane_bytes)
-{
-    for (int i = 0; i < enc->channel_count; i++) {
-        exr_coding_channel_info_t *ec = &enc->channels[i];
-        const exr_chan *c = NULL;
-        for (int k = 0; k < n && !c; k++)
-            if (strcmp(chans[k].name, ec->channel_name) == 0)
-                c = &chans[k];
-        if (!c)
-            return EXR_ERR_INVALID_ARGUMENT;
-        int bpe = c->half ? 2 : 4;
-        unsigned char *plane = staging + (size_t)i * plane_bytes;
-        stage_channel(fb, c, enc->chunk.start_y, enc->chunk.height, plane);
-        ec->encode_from_ptr = plane;
-        ec->user_bytes_per_element = (int16_t)bpe;
-        ec->user_data_type = (uint16_t)(c->half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT);
-        ec->user_pixel_stride = bpe;
-        ec->user_line_stride = bpe * fb->width;
-    }
-    return EXR_ERR_SUCCESS;
-}
-
-/* Encode and write every scanline chunk (16 rows for ZIP, 1 uncompressed) in increasing y. */
-static exr_result_t write_chunks(exr_context_t ctxt, const vsd_framebuffer *fb,
-                                 const exr_chan *chans, int n)
-{
-    int32_t lines = 1;
-    exr_result_t rv = exr_get_scanlines_per_chunk(ctxt, 0, &lines);
-    if (rv)
-        return rv;
-    size_t plane_bytes = (size_t)lines * (size_t)fb->width * sizeof(float);
-    unsigned char *staging = malloc(plane_bytes * (size_t)n);
-    if (!staging)
-        return EXR_ERR_OUT_OF_MEMORY;
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    int started = 0;
-    for (int y = 0; !rv && y < fb->height; y += lines) {
-        exr_chunk_info_t cinfo;
-        rv = exr_write_scanline_chunk_info(ctxt, 0, y, &cinfo);
-        if (!rv)
-            rv = started ? exr_encoding_update(ctxt, 0, &cinfo, &enc)
-                         : exr_encoding_initialize(ctxt, 0, &cinfo, &enc);
-        if (!rv && !started) {
-            started = 1;
-            rv = bind_channels(&enc, fb, chans, n, staging, plane_bytes);
-            if (!rv)
-                rv = exr_encoding_choose_default_routines(ctxt, 0, &enc);
-        } else if (!rv) {
-            rv = bind_channels(&enc, fb, chans, n, staging, plane_bytes);
-        }
-        if (!rv)
-            rv = exr_encoding_run(ctxt, 0, &enc);
-    }
-    if (started)
-        exr_encoding_destroy(ctxt, &enc);
-    free(staging);
     return rv;
 }
 
@@ -286,6 +207,9 @@ static vsd_status check_inputs(const char *path, const vsd_framebuffer *fb,
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR write: no file name given");
     if (!fb || fb->width <= 0 || fb->height <= 0)
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR write '%s': empty framebuffer", path);
+    if (opt && (unsigned)opt->compression >= VSD_EXR_COMPRESSION_COUNT)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "EXR write '%s': unknown compression %d", path,
+                        (int)opt->compression);
     for (int i = 0; opt && i < opt->attr_count; i++)
         if (!opt->attrs || !opt->attrs[i].name || !*opt->attrs[i].name || !opt->attrs[i].value)
             return vsd_fail(VSD_ERR_INVALID, err, errlen,
@@ -307,7 +231,7 @@ static exr_result_t encode_exr(exr_writer *w, exr_write_func_ptr_t write, const 
     if (!rv)
         rv = define_header(ctxt, fb, chans, n, long_names, opt);
     if (!rv)
-        rv = write_chunks(ctxt, fb, chans, n);
+        rv = vsd_exr_write_chunks(ctxt, fb, chans, n, opt ? opt->threads : 0);
     if (ctxt) {
         exr_result_t fin = exr_finish(&ctxt); /* writes the chunk offset table */
         if (!rv)

@@ -68,7 +68,7 @@ static vsd_status frame_exr_options(const vsd_scene *scene, int frame, const vsd
     f->wo.pass_names = f->pass_names;
     f->wo.pass_mask = scene->output.pass_mask;
     f->wo.half = scene->output.half;
-    f->wo.uncompressed = strcmp(scene->output.compression, "none") == 0;
+    f->wo.compression = vsd_exr_compression_from_name(scene->output.compression);
     f->wo.attrs = attrs;
     f->wo.attr_count = n;
     return VSD_OK;

@@ -249,7 +249,6 @@ static const field frames_fields[] = {
 };
 TABLE(frames, frames_finish);
 
-static const char *const exr_compressions[] = {"zip", "none", NULL};
 
 static const field output_fields[] = {
     F_PATH("exr", s.output.exr, "out/frame_####.exr", F_NONEMPTY | F_FRAMES),
@@ -257,7 +256,7 @@ static const field output_fields[] = {
     F_CUSTOM("pass_names", apply_pass_names),
     F_STR("layer", s.output.layer, "ViewLayer", F_NONEMPTY),
     F_BOOL("half", s.output.half, 0),
-    F_CHOICE("compression", s.output.compression, exr_compressions, "zip"),
+    F_CHOICE("compression", s.output.compression, vsd_exr_compression_names, "zip"),
     F_PATH("preview_png", s.output.preview_png, "", F_NULLABLE | F_FRAMES),
     F_STR("view", s.output.view, "", F_NULLABLE),
 };
