@@ -8,6 +8,7 @@
 #include "kernel/kernel_env.h"
 #include "kernel/kernel_phase.h"
 #include "kernel/kernel_sobol.h"
+#include "kernel/kernel_record_grid.h"
 #include "src/render/kernel_setup.h"
 #include "src/grids/record_phase.h"
 #include <string.h>
@@ -92,6 +93,48 @@ static void test_hg_eval_many(void)
             }
         }
     CHECK_MSG(bad == 0, "%d phase values differ from vsd_hg_eval's", bad);
+}
+
+/* f3_trilerp (the record and crm node lookups where all eight corners are set) against the
+ * weighted mean it replaces there (sum of w_a v_a over the trilinear weights, divided by
+ * their sum): within float rounding at random points and at the corners. */
+static void test_f3_trilerp(void)
+{
+    unsigned seed = 777u;
+    int i, a, bad = 0;
+    double worst = 0.0;
+    for (i = 0; i < 2000; i++) {
+        vsd_f3 v[8], got, want = f3s(0.0f);
+        float t[3], wsum = 0.0f;
+        for (a = 0; a < 8; a++) {
+            float c[3];
+            int k;
+            for (k = 0; k < 3; k++) {
+                seed = seed * 1664525u + 1013904223u;
+                c[k] = (float)(seed >> 8) / 16777216.0f * 40.0f - 30.0f;   /* logs of 1e-13 .. 2e4 */
+            }
+            v[a] = f3(c[0], c[1], c[2]);
+        }
+        for (a = 0; a < 3; a++) {
+            seed = seed * 1664525u + 1013904223u;
+            t[a] = i < 8 ? (float)((i >> a) & 1) : (float)(seed >> 8) / 16777216.0f;   /* the corners first */
+        }
+        for (a = 0; a < 8; a++) {
+            float wt = ((a & 1) ? t[0] : 1.0f - t[0]) * (((a >> 1) & 1) ? t[1] : 1.0f - t[1]) *
+                       (((a >> 2) & 1) ? t[2] : 1.0f - t[2]);
+            want = f3_add(want, f3_scale(v[a], wt));
+            wsum += wt;
+        }
+        want = f3_scale(want, 1.0f / wsum);
+        got = f3_trilerp(v, t[0], t[1], t[2]);
+        {
+            float d = fmaxf(fabsf(got.x - want.x), fmaxf(fabsf(got.y - want.y), fabsf(got.z - want.z)));
+            if (d > worst) worst = d;
+            if (d > 2e-5f) bad++;
+        }
+    }
+    CHECK_MSG(bad == 0, "%d of 2000 trilinear lookups differ from the weighted mean by more than 2e-5 (worst %g)", bad,
+              worst);
 }
 
 /* A 64x32 black map with one bright texel at (col, row). */
@@ -359,6 +402,7 @@ int main(void)
     test_hg_normalisation();
     test_hg_sampling();
     test_hg_eval_many();
+    test_f3_trilerp();
     test_env_mapping();
     test_env_sampling(VSD_ENV_CLOSEST);
     test_env_sampling(VSD_ENV_LINEAR);

@@ -265,6 +265,15 @@ VSD_DEVICE vsd_f3 vsd_records_inscatter(const vsd_krecord_grid *g, vsd_f3 p, con
         vsd_f3 s = f3s(0.0f), m = f3s(0.0f), e = f3s(0.0f);
         if (!c->filled || c->key[0] != i0 || c->key[1] != j0 || c->key[2] != k0)
             vsd_records_fill_corners(g, i0, j0, k0, w, ph, c);
+        if (c->valid == 0xff) {
+            /* inside the medium every corner holds a record and the weights sum to one: seven
+               lerps a term instead of eight weights, their sum and a division (the view
+               march's largest cost, docs/methods/lbl.md) */
+            s = f3_trilerp(c->v, tx, ty, tz);
+            if (g->records_ms) *ms = f3_trilerp(c->m, tx, ty, tz);
+            if (g->interp == VSD_RECORDS_LOG_TRILINEAR) s = f3(expf(s.x), expf(s.y), expf(s.z));
+            return g->records_emission_once ? f3_add(s, f3_trilerp(c->e, tx, ty, tz)) : s;
+        }
         for (a = 0; a < 8; a++) {
             float wt = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
             if (!(c->valid & (1 << a)) || wt <= 0.0f) continue;

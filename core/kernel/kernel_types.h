@@ -42,6 +42,16 @@ VSD_DEVICE vsd_f3 f3_sub(vsd_f3 a, vsd_f3 b) { return f3(a.x - b.x, a.y - b.y, a
 VSD_DEVICE vsd_f3 f3_mul(vsd_f3 a, vsd_f3 b) { return f3(a.x * b.x, a.y * b.y, a.z * b.z); }
 VSD_DEVICE vsd_f3 f3_scale(vsd_f3 a, float s) { return f3(a.x * s, a.y * s, a.z * s); }
 VSD_DEVICE vsd_f3 f3_madd(vsd_f3 a, vsd_f3 b, float s) { return f3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s); }
+/* Trilinear between eight corner values, corner a at (a & 1, a >> 1 & 1, a >> 2): seven
+ * lerps (the record and node lookups where every corner is set; their weighted mean
+ * elsewhere). */
+VSD_DEVICE vsd_f3 f3_trilerp(const vsd_f3 *v, float tx, float ty, float tz)
+{
+    vsd_f3 x00 = f3_madd(v[0], f3_sub(v[1], v[0]), tx), x10 = f3_madd(v[2], f3_sub(v[3], v[2]), tx);
+    vsd_f3 x01 = f3_madd(v[4], f3_sub(v[5], v[4]), tx), x11 = f3_madd(v[6], f3_sub(v[7], v[6]), tx);
+    vsd_f3 y0 = f3_madd(x00, f3_sub(x10, x00), ty), y1 = f3_madd(x01, f3_sub(x11, x01), ty);
+    return f3_madd(y0, f3_sub(y1, y0), tz);
+}
 VSD_DEVICE float f3_dot(vsd_f3 a, vsd_f3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 VSD_DEVICE vsd_f3 f3_cross(vsd_f3 a, vsd_f3 b)
 {

@@ -225,6 +225,14 @@ VSD_DEVICE void vsd_crm_source(const vsd_kcrm *c, vsd_f3 q, vsd_crm_corners *cc,
             cc->valid |= (int32_t)c->node_valid[node] << (2 * a);
         }
     }
+    if (cc->valid == 0xffff) {
+        /* every corner holds both parts (inside the medium): the weights sum to one */
+        *ss = f3_trilerp(cc->ss, tx, ty, tz);
+        *ms = f3_trilerp(cc->ms, tx, ty, tz);
+        *ss = f3(ss->x > CRM_LOG_ZERO ? expf(ss->x) : 0.0f, ss->y > CRM_LOG_ZERO ? expf(ss->y) : 0.0f,
+                 ss->z > CRM_LOG_ZERO ? expf(ss->z) : 0.0f);
+        return;
+    }
     for (a = 0; a < 8; a++) {
         float wt = ((a & 1) ? tx : 1.0f - tx) * (((a >> 1) & 1) ? ty : 1.0f - ty) * (((a >> 2) & 1) ? tz : 1.0f - tz);
         int32_t bits = (cc->valid >> (2 * a)) & 3;
