@@ -4,7 +4,6 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 typedef struct pool_state {
     const vsd_tile_job *job;
@@ -12,14 +11,6 @@ typedef struct pool_state {
     atomic_int next, done;
     pthread_mutex_t lock;
 } pool_state;
-
-int vsd_cpu_thread_count(int threads)
-{
-    long n = threads > 0 ? threads : sysconf(_SC_NPROCESSORS_ONLN);
-    if (n < 1) n = 1;
-    if (n > 256) n = 256;
-    return (int)n;
-}
 
 static void *worker(void *arg)
 {

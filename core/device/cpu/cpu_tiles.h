@@ -40,7 +40,8 @@ vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job);
  * no cancel): the form the lighting stages of the methods use. */
 vsd_status vsd_cpu_run_items(int count, int threads, vsd_tile_fn fn, void *user, const char *stage);
 
-/* The thread count a request for `threads` (0 = all) resolves to. */
-int vsd_cpu_thread_count(int threads);
+/* The thread count a request for `threads` (0 = all) resolves to: vsd_cpu_thread_count,
+ * src/common/cpu_count.h (shared with the EXR writer). */
+#include "src/common/cpu_count.h"
 
 #endif

@@ -6,13 +6,13 @@
  * encode pipeline is OpenEXR's per-thread object for exactly this (openexr_encode.h). */
 #define _POSIX_C_SOURCE 200809L
 #include "src/image/exr_chunks.h"
+#include "src/common/cpu_count.h"
 #include <Imath/half.h>
 #include <pthread.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #define MAX_THREADS 32
 
@@ -180,10 +180,7 @@ exr_result_t vsd_exr_write_chunks(exr_context_t ctxt, const vsd_framebuffer *fb,
     job.n = n;
     job.lines = lines;
     job.chunk_count = (fb->height + lines - 1) / lines;
-    if (threads <= 0) {
-        long cpus = sysconf(_SC_NPROCESSORS_ONLN);
-        threads = cpus > 0 ? (int)cpus : 1;
-    }
+    threads = vsd_cpu_thread_count(threads);
     if (threads > MAX_THREADS) threads = MAX_THREADS;
     if (threads > job.chunk_count) threads = job.chunk_count;
     pthread_mutex_init(&job.mu, NULL);
