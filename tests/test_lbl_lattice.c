@@ -407,7 +407,7 @@ static void march_box(const float light_dir[3], float *trans, float *lost, int32
     g.sigma = sigma;
     memset(g.to_grid, 0, sizeof g.to_grid);
     g.to_grid[0] = g.to_grid[4] = g.to_grid[8] = 16.0;   /* 16 cells per world unit */
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, NULL, 0, 0.5f, 0.25f, records, 0, trans, lost, NULL, NULL, NULL, 0) ==
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, NULL, 0, 0.5f, 0.25f, records, 0, (const vsd_lbl_march_out[]){{trans, lost, NULL}}, NULL, NULL, 0) ==
           VSD_OK);
 }
 
@@ -663,12 +663,12 @@ static void test_leaps(void)
     double t_with, t_without;
     CHECK(vsd_lbl_empty_distance(g.res, ball_sigma, records, 0, d2));
     t_without = vsd_clock_seconds();
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, without[0], NULL, without[1], NULL, NULL, 0) ==
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, (const vsd_lbl_march_out[]){{without[0], NULL, without[1]}}, NULL, NULL, 0) ==
           VSD_OK);
     t_without = vsd_clock_seconds() - t_without;
     g.empty_d2 = d2;
     t_with = vsd_clock_seconds();
-    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, with[0], NULL, with[1], NULL, NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_march_lights(&g, lights, 1, point, 1, 0.25f, 0.25f, records, 1, (const vsd_lbl_march_out[]){{with[0], NULL, with[1]}}, NULL, NULL, 0) == VSD_OK);
     t_with = vsd_clock_seconds() - t_with;
     printf("[8] leaps over empty cells: %d records, T identical: directional %s, point %s; %.3f s -> %.3f s\n", rec,
            memcmp(with[0], without[0], (size_t)rec * sizeof(float)) ? "NO" : "yes",
@@ -685,6 +685,51 @@ static void test_leaps(void)
         CHECK_MSG(hi > 0.8 && lo < 0.3, "the ball's T spans %.3f..%.3f (optical diameter 1.8)", lo, hi);
     }
     CHECK_MSG(t_with < 0.5 * t_without, "leaps did not shorten the march (%.3f s against %.3f s)", t_with, t_without);
+}
+
+/* Part 8b: two media along the same rays (vsd_lbl_grid.sigma2, delta-M's true and scaled
+ * extinction): each medium's T, lost power and point T are, to the bit, what its own march
+ * gives, also where the denser one's rays die (T < 1e-4) long before the other's; a ray
+ * history with two media is refused. */
+static void test_two_media(void)
+{
+    enum { N = BALL_N };
+    static float d2[N * N * N], dense[N * N * N], alone[2][3][N * N * N], both[2][3][N * N * N];
+    float point[16];
+    vsd_lbl_grid g;
+    int32_t rec = ball_setup(&g, point), i;
+    int m, q, dead[2] = {0, 0};
+    vsd_lbl_overlap ov = {4, NULL, NULL, NULL, 0};
+    char err[256];
+    for (i = 0; i < N * N * N; i++) dense[i] = 8.0f * ball_sigma[i];   /* optical diameter 14 */
+    CHECK(vsd_lbl_empty_distance(g.res, ball_sigma, ball_records, 0, d2));
+    g.empty_d2 = d2;
+    for (m = 0; m < 2; m++) {
+        g.sigma = m ? ball_sigma : dense;
+        CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 1.0f, 0.5f, ball_records, 2,
+                                   (const vsd_lbl_march_out[]){{alone[m][0], alone[m][1], alone[m][2]}}, NULL, NULL,
+                                   0) == VSD_OK);
+    }
+    g.sigma = dense;
+    g.sigma2 = ball_sigma;
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 1.0f, 0.5f, ball_records, 2,
+                               (const vsd_lbl_march_out[]){{both[0][0], both[0][1], both[0][2]},
+                                                           {both[1][0], both[1][1], both[1][2]}},
+                               NULL, NULL, 0) == VSD_OK);
+    for (m = 0; m < 2; m++) {
+        for (i = 0; i < rec; i++) dead[m] += alone[m][0][i] == 0.0f;
+        for (q = 0; q < 3; q++)
+            CHECK_MSG(memcmp(alone[m][q], both[m][q], (size_t)rec * sizeof(float)) == 0,
+                      "medium %d's %s along shared rays differs from its own march", m,
+                      q == 0 ? "T" : q == 1 ? "lost power" : "point light's T");
+    }
+    printf("[8b] two media along the same rays: %d records, each medium's T, lost power and point T as its own "
+           "march's; cells no ray reached alive: dense %d, thin %d\n", rec, dead[0], dead[1]);
+    CHECK_MSG(dead[0] > 0 && dead[1] == 0, "the dense medium's rays should die inside the ball and the thin one's "
+              "not (%d, %d cells unreached)", dead[0], dead[1]);
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 1.0f, 0.5f, ball_records, 2,
+                               (const vsd_lbl_march_out[]){{both[0][0], NULL, both[0][2]}, {both[1][0], NULL, both[1][2]}},
+                               &ov, err, sizeof err) == VSD_ERR_INVALID);
 }
 
 /* Part 9: marching in rounds with the diffusion meanwhile (lbl_march.h, vsd_lbl_overlap):
@@ -727,8 +772,8 @@ static void test_overlap(void)
     int once = 1;
     CHECK(vsd_lbl_empty_distance(g.res, ball_sigma, ball_records, 0, d2));
     g.empty_d2 = d2;
-    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, seq[0], NULL, seq[1], NULL, NULL,
-                               0) == VSD_OK);
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, (const vsd_lbl_march_out[]){{seq[0], NULL, seq[1]}},
+                               NULL, NULL, 0) == VSD_OK);
     memset(&p, 0, sizeof p);
     p.seen = calloc(2 * (size_t)rec, 1);
     p.stored[0] = rounds[0];
@@ -741,8 +786,8 @@ static void test_overlap(void)
     ov.rounds = 0;
     CHECK(p.seen != NULL);
     if (!p.seen) return;
-    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, rounds[0], NULL, rounds[1], &ov,
-                               NULL, 0) == VSD_OK);
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, (const vsd_lbl_march_out[]){{rounds[0], NULL, rounds[1]}},
+                               &ov, NULL, 0) == VSD_OK);
     for (i = 0; i < rec; i++) {
         worst = fmax(worst, fabs(rounds[0][i] - seq[0][i]) / fmax(seq[0][i], 1e-3));
         worst = fmax(worst, fabs(rounds[1][i] - seq[1][i]) / fmax(seq[1][i], 1e-3));
@@ -758,8 +803,8 @@ static void test_overlap(void)
     CHECK_MSG(worst < 1e-5, "rounds changed T by %.3g relative to the sequential march", worst);
     /* a history of 0 is not a history */
     ov.history = 0;
-    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, rounds[0], NULL, rounds[1], &ov,
-                               NULL, 0) == VSD_ERR_INVALID);
+    CHECK(vsd_lbl_march_lights(&g, ball_light, 1, point, 1, 0.25f, 0.25f, ball_records, 2, (const vsd_lbl_march_out[]){{rounds[0], NULL, rounds[1]}},
+                               &ov, NULL, 0) == VSD_ERR_INVALID);
     free(p.seen);
 }
 
@@ -923,6 +968,7 @@ int main(void)
     test_escape();
     test_overlap();
     test_leaps();
+    test_two_media();
     test_conservation();
     {
         static const double cubes[3] = {1.0, 1.0, 1.0}, boxes[3] = {1.6, 1.0, 1.0 / 1.6};

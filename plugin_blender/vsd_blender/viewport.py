@@ -269,6 +269,9 @@ class Preview(object):
                 # from the change of view (or scene) to its full-resolution image on screen
                 connection.status["preview_latency"] = time.monotonic() - t_req
                 connection.status["preview_image"] = new.name
+            elif t_req is not None and key == self.key:
+                # the same to its first, 1/N-resolution image (when that pass ran)
+                connection.status["preview_first_latency"] = time.monotonic() - t_req
 
     def first_pass_pays(self, method):
         """Whether the 1/N-resolution pass puts an image on screen sooner after a change of

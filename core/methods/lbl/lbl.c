@@ -826,42 +826,28 @@ static void local_falloff(const lbl_state *s, float *local_trans)
         }
 }
 
-/* Every light marched through the cells of `grid` into the records: T into trans and local
- * (the point and spot lights' falloff applied), the power the rays lost into lost (or NULL),
- * then the shadows of the volumes outside the group (light reaching the grid's box has
- * crossed them). The true extinction for the records, and with delta-M the scaled one for
- * its lattice (T' into fwd_trans and fwd_local). overlap: the ray history's, or NULL. */
-static vsd_status march_lights(lbl_state *s, const vsd_frame_ctx *ctx, const vsd_lbl_grid *grid, float *trans,
-                               float *lost, float *local, vsd_lbl_overlap *overlap, char *err, size_t errlen)
+/* Every light marched through the cells of `grid` into the records, for each of its media
+ * (out[0]: grid->sigma's, out[1]: grid->sigma2's): T into trans and point_trans (the point
+ * and spot lights' falloff applied), the power the rays lost into lost (or NULL), then the
+ * shadows of the volumes outside the group (light reaching the grid's box has crossed
+ * them). The true extinction for the records, and with delta-M the scaled one for its
+ * lattice (T' into fwd_trans and fwd_local) along the same rays. overlap: the ray
+ * history's, or NULL. */
+static vsd_status march_lights(lbl_state *s, const vsd_frame_ctx *ctx, const vsd_lbl_grid *grid,
+                               const vsd_lbl_march_out *out, vsd_lbl_overlap *overlap, char *err, size_t errlen)
 {
     vsd_status st = vsd_lbl_march_lights(grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
                                          (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record,
-                                         ctx->threads, trans, lost, local, overlap, err, errlen);
+                                         ctx->threads, out, overlap, err, errlen);
+    int m;
     if (st) return st;
-    local_falloff(s, local);
-    if (ctx->part.active)
-        vsd_group_shadow_records(&ctx->kd, ctx->part.group, s->rg.record_pos, s->rg.count, s->dir_lights, s->dir_count,
-                                 s->local_lights, s->local_count, trans, lost, local, ctx->threads);
-    return VSD_OK;
-}
-
-/* With delta-M, the lights marched through the scaled extinction (march_lights), the power
- * lost into *lost_out when the deposit takes it: what feeds the scaled lattice. */
-static vsd_status march_scaled(lbl_state *s, const vsd_frame_ctx *ctx, vsd_lbl_grid grid, float **lost_out, char *err,
-                               size_t errlen)
-{
-    const size_t recs = (size_t)s->rg.count;
-    float *lost = NULL;
-    vsd_status st;
-    *lost_out = NULL;
-    if (s->light_lost && !(lost = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1), sizeof *lost)))
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lost power of %zu records", recs);
-    grid.sigma = s->dm_sigma;
-    if ((st = march_lights(s, ctx, &grid, s->fwd_trans, lost, s->fwd_local, NULL, err, errlen))) {
-        free(lost);
-        return st;
+    for (m = 0; m < (grid->sigma2 ? 2 : 1); m++) {
+        local_falloff(s, out[m].point_trans);
+        if (ctx->part.active)
+            vsd_group_shadow_records(&ctx->kd, ctx->part.group, s->rg.record_pos, s->rg.count, s->dir_lights,
+                                     s->dir_count, s->local_lights, s->local_count, out[m].trans, out[m].lost,
+                                     out[m].point_trans, ctx->threads);
     }
-    *lost_out = lost;
     return VSD_OK;
 }
 
@@ -1008,21 +994,29 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             if ((st = vsd_lbl_stepper_new(&s->lattice, s->lat_collide, albedo, s->source, &oc.stepper, err, errlen)))
                 return st;
         }
-        st = march_lights(s, ctx, &grid, s->light_trans, s->light_lost, s->local_trans,
-                          s->opt.history > 0 ? &ov : NULL, err, errlen);
+        /* with delta-M, the scaled extinction too (what feeds its lattice, the power lost
+           into lost_dm when the deposit takes it), along the same rays */
+        vsd_lbl_march_out out[2] = {{s->light_trans, s->light_lost, s->local_trans}, {s->fwd_trans, NULL, s->fwd_local}};
+        if (s->dm_sigma) {
+            grid.sigma2 = s->dm_sigma;
+            if (s->light_lost && !(out[1].lost = calloc(recs * (size_t)(s->dir_count > 0 ? s->dir_count : 1),
+                                                        sizeof *out[1].lost))) {
+                vsd_lbl_stepper_free(oc.stepper);
+                return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the lost power of %zu records", recs);
+            }
+        }
+        st = march_lights(s, ctx, &grid, out, s->opt.history > 0 ? &ov : NULL, err, errlen);
         vsd_lbl_stepper_free(oc.stepper);
+        if (!st && s->dm_sigma) {
+            deposit(s, ctx, s->fwd_trans, out[1].lost, s->fwd_local);
+            forward_light(s);
+        } else if (!st) {
+            deposit(s, ctx, s->light_trans, s->light_lost, s->local_trans);
+        }
+        free(out[1].lost);
         if (st) return st;
         s->history_rounds = s->opt.history > 0 ? ov.rounds : 0;
         s->history_steps = oc.steps;
-    }
-    if (s->dm_sigma) {
-        float *lost_dm;
-        if ((st = march_scaled(s, ctx, grid, &lost_dm, err, errlen))) return st;
-        deposit(s, ctx, s->fwd_trans, lost_dm, s->fwd_local);
-        free(lost_dm);
-        forward_light(s);
-    } else {
-        deposit(s, ctx, s->light_trans, s->light_lost, s->local_trans);
     }
     s->march_seconds = vsd_clock_seconds() - t0;
     /* diffusion pass to the steady state, from the last solve's state (or the overlap's) */
@@ -1217,13 +1211,14 @@ static vsd_status receive_exchange(lbl_state *p, const vsd_frame_ctx *pc, float 
             for (i = 0; i < 6; i++) shares[k][i] = 1.0f / 6.0f;
     }
     march_grid(p, &grid);
-    grid.sigma = p->lat_sigma;   /* with delta-M the light scattered forward goes on with it */
-    st = vsd_lbl_march_lights(&grid, lights, k_count, NULL, 0, (float)p->opt.ray_spacing, (float)p->opt.light_step,
-                              p->rg.cell_record, pc->threads, trans, lost, &points_trans, NULL, err, errlen);
-    if (st == VSD_OK && trans_true) {
-        grid.sigma = p->sigma;
-        st = vsd_lbl_march_lights(&grid, lights, k_count, NULL, 0, (float)p->opt.ray_spacing, (float)p->opt.light_step,
-                                  p->rg.cell_record, pc->threads, trans_true, NULL, &points_trans, NULL, err, errlen);
+    /* with delta-M the light scattered forward goes on with it; the emission's once-scattered
+       light needs the true T too, along the same rays */
+    grid.sigma = p->lat_sigma;
+    grid.sigma2 = trans_true ? p->sigma : NULL;
+    {
+        const vsd_lbl_march_out out[2] = {{trans, lost, &points_trans}, {trans_true, NULL, &points_trans}};
+        st = vsd_lbl_march_lights(&grid, lights, k_count, NULL, 0, (float)p->opt.ray_spacing,
+                                  (float)p->opt.light_step, p->rg.cell_record, pc->threads, out, NULL, err, errlen);
     }
     if (st == VSD_OK) {
         receive_job j = {p,      p->lat_albedo, trans, lost, trans_true ? trans_true : trans, (const float(*)[6])shares,

@@ -14,8 +14,12 @@
 #define LBL_T_MIN 1e-4f
 
 
-/* An accumulator's floats per cell: sum w T, sum w (the weighted mean T), the lost power. */
+/* An accumulator's floats per cell and medium: sum w T, sum w (the weighted mean T), the
+ * lost power; a cell's media side by side, so one splat touches the same cache lines. */
 enum { ACC_WT = 0, ACC_W = 1, ACC_LOST = 2, ACC = 3 };
+
+/* The media marched along the same rays: sigma, and delta-M's scaled sigma2 (lbl_march.h). */
+#define MEDIA_MAX 2
 
 /* A step's middle x and the eight cell centres around it: their trilinear weights, the
  * sigma at each (pad: the sigma grid, whose trilinear value at x is the step's sigma) and
@@ -23,42 +27,79 @@ enum { ACC_WT = 0, ACC_W = 1, ACC_LOST = 2, ACC = 3 };
  * interior cell (i,j,k) at (i+1, j+1, k+1)). Points are inside the box, so the corners are
  * inside the border. */
 typedef struct step_corners {
-    float *acc;                  /* the accumulator at the first corner */
-    float w[8], sw[8];           /* trilinear weights; sigma times weight */
-    float sigma;                 /* the step's sigma: sum of sw */
-    size_t sx, sy;
+    float *acc;                  /* the accumulator at the first corner (medium 0) */
+    float w[8];                  /* trilinear weights */
+    float sw[MEDIA_MAX][8];      /* per medium: sigma times weight */
+    float sigma[MEDIA_MAX];      /* per medium: the step's sigma, sum of sw */
+    size_t sx, sy;               /* the accumulator's strides, in cells */
+    int media;                   /* its media per cell */
 } step_corners;
 
-static void corners_at(const vsd_padded_grid *pad, size_t sx, size_t sy, const float x[3], float *acc, step_corners *k)
+/* The corners of x for `media` sigma grids pad[0..media) (the same cells, the weights once) */
+static void corners_at(const vsd_padded_grid *pad, int media, size_t sx, size_t sy, const float x[3], float *acc,
+                       step_corners *k)
 {
     float fx = x[0] - 0.5f, fy = x[1] - 0.5f, fz = x[2] - 0.5f, ix = floorf(fx), iy = floorf(fy), iz = floorf(fz);
     float tx = fx - ix, ty = fy - iy, tz = fz - iz;
-    const float *sg = pad->v + (size_t)((int32_t)iz + 1) * pad->sy + (size_t)((int32_t)iy + 1) * pad->sx + (size_t)((int32_t)ix + 1);
+    const size_t first = (size_t)((int32_t)iz + 1) * pad->sy + (size_t)((int32_t)iy + 1) * pad->sx + (size_t)((int32_t)ix + 1);
     const size_t poff[8] = {0, 1, pad->sx, pad->sx + 1, pad->sy, pad->sy + 1, pad->sy + pad->sx, pad->sy + pad->sx + 1};
     float w00 = (1.0f - ty) * (1.0f - tz), w10 = ty * (1.0f - tz), w01 = (1.0f - ty) * tz, w11 = ty * tz;
-    int q;
+    int q, m;
     k->w[0] = (1.0f - tx) * w00, k->w[1] = tx * w00, k->w[2] = (1.0f - tx) * w10, k->w[3] = tx * w10;
     k->w[4] = (1.0f - tx) * w01, k->w[5] = tx * w01, k->w[6] = (1.0f - tx) * w11, k->w[7] = tx * w11;
-    k->sigma = 0.0f;
-    for (q = 0; q < 8; q++) k->sigma += k->sw[q] = sg[poff[q]] * k->w[q];
-    k->acc = acc + ACC * ((size_t)((int32_t)iz + 1) * sy + (size_t)((int32_t)iy + 1) * sx + (size_t)((int32_t)ix + 1));
+    for (m = 0; m < media; m++) {
+        const float *sg = pad[m].v + first;   /* (the pads share their layout) */
+        k->sigma[m] = 0.0f;
+        for (q = 0; q < 8; q++) k->sigma[m] += k->sw[m][q] = sg[poff[q]] * k->w[q];
+    }
+    k->acc = acc + (size_t)(ACC * media) *
+                       ((size_t)((int32_t)iz + 1) * sy + (size_t)((int32_t)iy + 1) * sx + (size_t)((int32_t)ix + 1));
     k->sx = sx, k->sy = sy;
+    k->media = media;
 }
 
 /* The step's T at its middle (v) and its lost power onto the corners: += w v, += w (the
  * weighted mean's parts), and the lost power shared as the step's extinction is, the
  * corner's sigma w over sum sigma w, so what is lost lands where the medium took it. */
-static void splat(const step_corners *k, float v, float lost)
+static void splat(const step_corners *k, int m, float v, float lost)
 {
-    const size_t sx = k->sx, sy = k->sy;
+    const size_t sx = k->sx, sy = k->sy, cell = (size_t)(ACC * k->media);
     const size_t off[8] = {0, 1, sx, sx + 1, sy, sy + 1, sy + sx, sy + sx + 1};
+    float *acc = k->acc + ACC * m;
     int q;
     for (q = 0; q < 8; q++) {
-        k->acc[ACC * off[q] + ACC_WT] += k->w[q] * v;
-        k->acc[ACC * off[q] + ACC_W] += k->w[q];
+        acc[cell * off[q] + ACC_WT] += k->w[q] * v;
+        acc[cell * off[q] + ACC_W] += k->w[q];
     }
-    if (!(lost > 0.0f) || !(k->sigma > 0.0f)) return;   /* (lost 0 also when not wanted) */
-    for (q = 0; q < 8; q++) k->acc[ACC * off[q] + ACC_LOST] += lost * (k->sw[q] / k->sigma);
+    if (!(lost > 0.0f) || !(k->sigma[m] > 0.0f)) return;   /* (lost 0 also when not wanted) */
+    for (q = 0; q < 8; q++) acc[cell * off[q] + ACC_LOST] += lost * (k->sw[m][q] / k->sigma[m]);
+}
+
+/* Any medium's T still worth marching */
+static int any_alive(const float *tr, int media)
+{
+    int m;
+    for (m = 0; m < media; m++)
+        if (tr[m] > LBL_T_MIN) return 1;
+    return 0;
+}
+
+/* A step of straight or bent rays, world length len x part (part: the share of a whole
+ * step, as the single march multiplied them): the media whose T is still worth it lose
+ * exp(-sigma_m len part) each, T at its middle and the lost power splatted (lost_scale[m]:
+ * 0 when not wanted). */
+static void step_media(const step_corners *k, float len, float part, const float *lost_scale, float *tr)
+{
+    int m;
+    for (m = 0; m < k->media; m++) {
+        float half;
+        if (!(tr[m] > LBL_T_MIN)) continue;
+        half = expf(-0.5f * k->sigma[m] * len * part);
+        /* the transmittance at the step's middle is what the cells there see; what the
+         * step loses, tr (1 - half^2), is the light the medium takes out of the ray */
+        splat(k, m, tr[m] * half, tr[m] * (1.0f - half * half) * lost_scale[m]);
+        tr[m] *= half * half;
+    }
 }
 
 /* The ray o + t u (grid units) clipped to the box [0, res]: 0 when it misses. */
@@ -86,11 +127,11 @@ static int clip(const int32_t res[3], const float o[3], const float u[3], float 
  * grid point o + t0 u, world-space steps of h (the grid step `step` cells along u) bent by
  * the n field (eq. 2-3), each step's middle mapped into the grid for sigma and the deposit,
  * until it leaves the box or dies. */
-static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const float o[3], const float u[3], float t0,
-                       float h, float lost_scale, size_t sx, size_t sy, float *acc)
+static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, int media, const float o[3], const float u[3],
+                       float t0, float h, const float *lost_scale, size_t sx, size_t sy, float *acc)
 {
     const vsd_krefract *r = g->refract;
-    float q[3], tr = 1.0f;
+    float q[3], tr[MEDIA_MAX] = {1.0f, 1.0f};
     vsd_f3 x, d, v, gr;
     int32_t ax, steps = 0;
     /* the bending integrates at the field's own step at most (its smoothed interface is a
@@ -100,18 +141,15 @@ static void march_bent(const vsd_lbl_grid *g, const vsd_padded_grid *pad, const 
     x = vsd_affine_point(&g->grid_to_world, f3(q[0], q[1], q[2]));
     d = f3_normalize(vsd_affine_vector(&g->grid_to_world, f3(u[0], u[1], u[2])));
     v = f3_scale(d, vsd_refract_eval(r, x, &gr));
-    while (tr > LBL_T_MIN && steps++ < r->max_steps) {
+    while (any_alive(tr, media) && steps++ < r->max_steps) {
         vsd_f3 m = vsd_affine_point(&g->world_to_grid, f3_madd(x, d, 0.5f * h));
-        float xm[3] = {m.x, m.y, m.z}, half;
+        float xm[3] = {m.x, m.y, m.z};
         step_corners k;
         if (!(m.x >= 0.0f && m.y >= 0.0f && m.z >= 0.0f && m.x <= (float)g->res[0] && m.y <= (float)g->res[1] &&
               m.z <= (float)g->res[2]))
             break;   /* (also for a NaN position) */
-        corners_at(pad, sx, sy, xm, acc, &k);
-        half = expf(-0.5f * k.sigma * h);
-        /* what the step loses, tr (1 - half^2), and T at its middle */
-        splat(&k, tr * half, tr * (1.0f - half * half) * lost_scale);
-        tr *= half * half;
+        corners_at(pad, media, sx, sy, xm, acc, &k);
+        step_media(&k, h, 1.0f, lost_scale, tr);
         vsd_refract_step(r, &x, &v, &d, h);
     }
 }
@@ -167,12 +205,11 @@ typedef struct march_job {
     int light_count;
     const float *points;     /* point and spot lights, kernel_lights.h layout */
     int point_count;
-    float *point_trans;
     float spacing, step;
     const int32_t *cell_record;
-    const vsd_padded_grid *pad;
-    float *trans;
-    float *lost;             /* [records * light_count] or NULL */
+    const vsd_padded_grid *pad;   /* [media] the sigma grids, padded */
+    int media;
+    const vsd_lbl_march_out *out;   /* [media] */
     light_march *batch;
     int batch_count;
     float round_end;         /* this round's steps start before t_begin + round_end; INF: all */
@@ -186,9 +223,11 @@ typedef struct march_job {
  * by dT takes E A dT out of it. The lost power is accumulated divided by E V, so that a
  * cell's sum reads like sigma T (per world length), the thin cell's rate. 0 when the march
  * was not asked for the lost power (the splat then skips it). */
-static float lost_per_transmittance(const march_job *j, float world_step)
+static void lost_per_transmittance(const march_job *j, float world_step, float scale[MEDIA_MAX])
 {
-    return j->lost ? j->spacing * j->spacing * j->step / world_step : 0.0f;   /* 0: not wanted */
+    int m;
+    for (m = 0; m < j->media; m++)
+        scale[m] = j->out[m].lost ? j->spacing * j->spacing * j->step / world_step : 0.0f;   /* 0: not wanted */
 }
 
 static void rays_free(light_rays *r)
@@ -349,18 +388,19 @@ static int ray_at(const march_job *j, const light_rays *r, int i, float o[3], fl
  * starts before t_end, depositing its transmittance *tr at every step's middle; *t and *tr
  * are left where it stopped (a round's end, or t >= t1, or T < LBL_T_MIN). world_step is
  * the world length of a grid step of j->step along u. */
-static void march_straight(const march_job *j, const vsd_padded_grid *pad, const float o[3], const float u[3], float *tp,
-                           float t1, float t_end, float world_step, float *trp, size_t sx, size_t sy, float *acc)
+static void march_straight(const march_job *j, const float o[3], const float u[3], float *tp, float t1, float t_end,
+                           float world_step, float *tr, size_t sx, size_t sy, float *acc)
 {
     const vsd_lbl_grid *g = j->g;
-    const float lost_scale = lost_per_transmittance(j, world_step);
+    float lost_scale[MEDIA_MAX];
     /* a leap needs sqrt(D^2) - 2.61 - 0.5 step >= step (below): D^2 against this first,
      * so a step that cannot leap takes no square root */
     const float leap2 = (2.61f + 1.5f * j->step) * (2.61f + 1.5f * j->step);
-    float t = *tp, tr = *trp;
+    float t = *tp;
     int ax;
-    for (; t < t1 && t < t_end && tr > LBL_T_MIN; t += j->step) {
-        float h, x[3], half;
+    lost_per_transmittance(j, world_step, lost_scale);
+    for (; t < t1 && t < t_end && any_alive(tr, j->media); t += j->step) {
+        float h, x[3];
         step_corners k;
         if (g->empty_d2) {
             /* A step's middle reaches medium or a record only within sqrt(3) cells of a
@@ -385,15 +425,10 @@ static void march_straight(const march_job *j, const vsd_padded_grid *pad, const
         }
         h = fminf(j->step, t1 - t);
         for (ax = 0; ax < 3; ax++) x[ax] = o[ax] + (t + 0.5f * h) * u[ax];
-        corners_at(pad, sx, sy, x, acc, &k);
-        half = expf(-0.5f * k.sigma * world_step * (h / j->step));
-        /* the transmittance at the step's middle is what the cells there see; what the
-         * step loses, tr (1 - half^2), is the light the medium takes out of the ray */
-        splat(&k, tr * half, tr * (1.0f - half * half) * lost_scale);
-        tr *= half * half;
+        corners_at(j->pad, j->media, sx, sy, x, acc, &k);
+        step_media(&k, world_step, h / j->step, lost_scale, tr);
     }
     *tp = t;
-    *trp = tr;
 }
 
 /* Advances every ray of light m whose next step starts before t_begin + j->round_end.
@@ -403,21 +438,27 @@ static void advance(const march_job *j, light_march *m)
     const vsd_lbl_grid *g = j->g;
     const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
     const float t_end = m->t_begin + j->round_end;
-    int i, live = 0;
+    int i, q, live = 0;
     for (i = 0; i < m->rays.count; i++) {
-        float o[3], u[3], t0, t1, ws, t = m->ray_t ? m->ray_t[i] : NAN, tr = m->ray_tr ? m->ray_tr[i] : 1.0f;
+        float o[3], u[3], t0, t1, ws, t = m->ray_t ? m->ray_t[i] : NAN, tr[MEDIA_MAX];
+        for (q = 0; q < j->media; q++) tr[q] = m->ray_tr ? m->ray_tr[(size_t)j->media * i + q] : 1.0f;
         if (isinf(t)) continue;
         if (!ray_at(j, &m->rays, i, o, u, &t0, &t1, &ws)) {
             t = INFINITY;
         } else if (g->refract && !m->rays.point) {
-            march_bent(g, j->pad, o, u, t0, ws, lost_per_transmittance(j, ws), sx, sy, m->acc);
+            float lost_scale[MEDIA_MAX];
+            lost_per_transmittance(j, ws, lost_scale);
+            march_bent(g, j->pad, j->media, o, u, t0, ws, lost_scale, sx, sy, m->acc);
             t = INFINITY;
         } else {
             if (isnan(t)) t = t0;
-            march_straight(j, j->pad, o, u, &t, t1, t_end, ws, &tr, sx, sy, m->acc);
-            if (!(t < t1) || !(tr > LBL_T_MIN)) t = INFINITY;
+            march_straight(j, o, u, &t, t1, t_end, ws, tr, sx, sy, m->acc);
+            if (!(t < t1) || !any_alive(tr, j->media)) t = INFINITY;
         }
-        if (m->ray_t) m->ray_t[i] = t, m->ray_tr[i] = tr;
+        if (m->ray_t) {
+            m->ray_t[i] = t;
+            for (q = 0; q < j->media; q++) m->ray_tr[(size_t)j->media * i + q] = tr[q];
+        }
         live += !isinf(t);
     }
     m->done = live == 0;
@@ -444,7 +485,6 @@ static void transfer(const march_job *j, const light_march *m, float lo, float h
     const size_t sx = (size_t)g->res[0] + 2, sy = sx * ((size_t)g->res[1] + 2);
     const int point = m->index >= j->light_count, k = point ? m->index - j->light_count : m->index;
     const int count = point ? j->point_count : j->light_count;
-    float *out = point ? j->point_trans : j->trans;
     const int window = isfinite(lo) || isfinite(hi);   /* else every cell: no test */
     int32_t ci, cj, ck;
     for (ck = 0; ck < g->res[2]; ck++)
@@ -477,17 +517,22 @@ static void transfer(const march_job *j, const light_march *m, float lo, float h
                 size_t c = ((size_t)ck * g->res[1] + cj) * g->res[0] + ci;
                 int32_t rec = j->cell_record[c];
                 const float *a2;
-                float t, d, lost;
+                float t = 0.0f, d, lost = 0.0f;
+                int q;
                 if (rec < 0) continue;
                 if (window) {
                     d = cell_t(m, ci, cj, ck);
                     if (!(d >= lo && d < hi)) continue;
                 }
-                a2 = m->acc + ACC * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
-                t = a2[ACC_W] > 0.0f ? a2[ACC_WT] / a2[ACC_W] : 0.0f;
-                out[(size_t)rec * count + k] = t;
-                lost = point ? NAN : a2[ACC_LOST];
-                if (!point && j->lost) j->lost[(size_t)rec * count + k] = lost;
+                a2 = m->acc + (size_t)(ACC * j->media) * ((size_t)(ck + 1) * sy + (size_t)(cj + 1) * sx + (size_t)(ci + 1));
+                for (q = 0; q < j->media; q++, a2 += ACC) {
+                    const vsd_lbl_march_out *o = &j->out[q];
+                    t = a2[ACC_W] > 0.0f ? a2[ACC_WT] / a2[ACC_W] : 0.0f;
+                    (point ? o->point_trans : o->trans)[(size_t)rec * count + k] = t;
+                    lost = point ? NAN : a2[ACC_LOST];
+                    if (!point && o->lost) o->lost[(size_t)rec * count + k] = lost;
+                }
+                /* (an overlap marches one medium: vsd_lbl_march_lights) */
                 if (j->overlap && j->overlap->deposit) j->overlap->deposit(j->overlap->user, m->index, c, rec, t, lost);
             }
         }
@@ -525,13 +570,15 @@ static int light_begin(const march_job *j, int index, int rounds, light_march *m
     m->front = -INFINITY;
     ok = index < j->light_count ? rays_directional(j, index, &m->rays, &m->t_begin)
                                 : rays_point(j, index - j->light_count, &m->rays, &m->t_begin);
-    m->acc = calloc(ACC * cells, sizeof *m->acc);
+    m->acc = calloc((size_t)(ACC * j->media) * cells, sizeof *m->acc);
     if (!ok || !m->acc) return 0;
     if (rounds && m->rays.count > 0) {
-        m->ray_t = malloc(sizeof *m->ray_t * (size_t)m->rays.count);
-        m->ray_tr = malloc(sizeof *m->ray_tr * (size_t)m->rays.count);
+        const size_t n = (size_t)m->rays.count;
+        m->ray_t = malloc(sizeof *m->ray_t * n);
+        m->ray_tr = malloc(sizeof *m->ray_tr * n * (size_t)j->media);
         if (!m->ray_t || !m->ray_tr) return 0;
-        for (i = 0; i < m->rays.count; i++) m->ray_t[i] = NAN, m->ray_tr[i] = 1.0f;
+        for (i = 0; i < m->rays.count; i++) m->ray_t[i] = NAN;
+        for (size_t q = 0; q < n * (size_t)j->media; q++) m->ray_tr[q] = 1.0f;
     }
     return 1;
 }
@@ -576,7 +623,7 @@ static vsd_status march_rounds(march_job *j, int threads)
     const vsd_lbl_grid *g = j->g;
     const int total = j->light_count + j->point_count, history = j->overlap->history;
     const size_t cells = ((size_t)g->res[0] + 2) * ((size_t)g->res[1] + 2) * ((size_t)g->res[2] + 2);
-    const size_t per_light = ACC * cells * sizeof(float) + ((size_t)2 << 20);   /* + ray state, roughly */
+    const size_t per_light = (size_t)(ACC * j->media) * cells * sizeof(float) + ((size_t)2 << 20);   /* + ray state, roughly */
     int batch = (int)fmin((double)total, fmax(1.0, floor((double)VSD_LBL_OVERLAP_BYTES / (double)per_light)));
     int first, k, march_threads = vsd_cpu_thread_count(threads);
     vsd_status st = VSD_OK;
@@ -617,18 +664,20 @@ static vsd_status march_rounds(march_job *j, int threads)
 
 vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, const float *points,
                                 int point_count, float spacing, float step, const int32_t *cell_record, int threads,
-                                float *trans, float *lost, float *point_trans, vsd_lbl_overlap *overlap, char *err,
-                                size_t errlen)
+                                const vsd_lbl_march_out *out, vsd_lbl_overlap *overlap, char *err, size_t errlen)
 {
     march_job job;
-    vsd_padded_grid pad;
+    vsd_padded_grid pad[MEDIA_MAX];
     vsd_status st;
+    int m, media = g->sigma2 ? 2 : 1;
     if (!(spacing > 0.0f && spacing <= 1.0f) || !(step > 0.0f && step <= 1.0f))
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl marching: ray spacing %g and step %g must be in (0, 1] cells",
                         (double)spacing, (double)step);
     if (overlap && overlap->history < 1)
         return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl marching: a ray history of %d steps (at least 1)",
                         overlap->history);
+    if (overlap && media > 1)
+        return vsd_fail(VSD_ERR_INVALID, err, errlen, "lbl marching: internal: a ray history marches one medium");
     if (light_count + point_count <= 0 || (size_t)g->res[0] * g->res[1] * g->res[2] == 0) return VSD_OK;
     memset(&job, 0, sizeof job);
     job.g = g;
@@ -636,20 +685,24 @@ vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int 
     job.light_count = light_count;
     job.points = points;
     job.point_count = point_count;
-    job.point_trans = point_trans;
     job.spacing = spacing;
     job.step = step;
-    job.trans = trans;
-    job.lost = lost;
+    job.media = media;
+    job.out = out;
     job.cell_record = cell_record;
     job.overlap = overlap;
     job.round_end = INFINITY;
     job.st = VSD_OK;
-    if (!vsd_padded_grid_build(&pad, g->res, g->sigma)) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl light marching: no memory");
-    job.pad = &pad;
+    memset(pad, 0, sizeof pad);
+    for (m = 0; m < media; m++)
+        if (!vsd_padded_grid_build(&pad[m], g->res, m ? g->sigma2 : g->sigma)) {
+            while (m-- > 0) vsd_padded_grid_free(&pad[m]);
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl light marching: no memory");
+        }
+    job.pad = pad;
     st = overlap ? march_rounds(&job, threads)
                  : vsd_cpu_run_items(light_count + point_count, threads, whole_lights, &job, "lbl light marching");
-    vsd_padded_grid_free(&pad);
+    for (m = 0; m < media; m++) vsd_padded_grid_free(&pad[m]);
     if (st == VSD_ERR_NOMEM || job.st) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl light marching: no memory for the deposit grids");
     if (st) return vsd_fail(st, err, errlen, "lbl light marching cancelled");
     return VSD_OK;

@@ -32,6 +32,12 @@
 typedef struct vsd_lbl_grid {
     int32_t res[3];
     const float *sigma;      /* [res x*y*z] sigma_t per world unit at the cell centres */
+    /* NULL, or a second extinction marched along the same rays at once (delta-M's scaled
+     * one: the corners, leaps and ray setup done once for both; empty_d2 must know the
+     * cells where either has medium); a ray goes on while either T is worth it, each T
+     * stopping as it would alone, so each medium's result is what its own march gives, to
+     * the bit */
+    const float *sigma2;
     double to_grid[9];       /* world direction -> grid displacement per world unit (row-major) */
     /* refraction (medium.ior != 1), or NULL: the rays then bend by the n field, stepping in
      * world space between the grid's and the world's coordinates */
@@ -72,6 +78,13 @@ typedef struct vsd_lbl_overlap {
     int rounds;              /* out: rounds marched */
 } vsd_lbl_overlap;
 
+/* What a march gives for one medium (the fields as below). */
+typedef struct vsd_lbl_march_out {
+    float *trans;
+    float *lost;             /* or NULL */
+    float *point_trans;
+} vsd_lbl_march_out;
+
 /* lights: kernel layout (8 floats: world direction xyz toward the light, 0, weight rgb, 0);
  * points: the scene's point and spot lights (kernel/kernel_lights.h layout: world position
  * first), marched by rays from the position, without refraction (the scene refuses lights
@@ -82,12 +95,12 @@ typedef struct vsd_lbl_overlap {
  * light's irradiance, V a cell's world volume), each step's loss shared among the eight
  * cells around its middle by their part of its extinction — sigma T per world length
  * where the cell is thin, and exact in total: what a cell scatters is albedo E V lost,
- * however thick it is. threads: CPU threads (0 = all).
+ * however thick it is. out[0]: sigma's trans, lost and point_trans; out[1]: sigma2's, when
+ * the grid has it. threads: CPU threads (0 = all).
  * overlap: NULL marches each light whole on the threads, one after another (the same T up
- * to the order of the float sums). */
+ * to the order of the float sums); a ray history marches sigma alone (no sigma2). */
 vsd_status vsd_lbl_march_lights(const vsd_lbl_grid *g, const float *lights, int light_count, const float *points,
                                 int point_count, float spacing, float step, const int32_t *cell_record, int threads,
-                                float *trans, float *lost, float *point_trans, vsd_lbl_overlap *overlap, char *err,
-                                size_t errlen);
+                                const vsd_lbl_march_out *out, vsd_lbl_overlap *overlap, char *err, size_t errlen);
 
 #endif
