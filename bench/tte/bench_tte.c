@@ -37,6 +37,7 @@
 #include "vsd/render.h"
 #include "vsd/scene.h"
 #include "bench_camera.h"
+#include "bench_frames.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -232,23 +233,6 @@ typedef struct row {
     double cold, camera, lighting, frame, err_comb, err_vdir, err_vind;
 } row;
 
-/* the next frame of the scene's VDB sequence that exists on disk, 0 when none */
-static int next_frame(const vsd_scene *sc)
-{
-    int f;
-    for (f = sc->frames.start + 1; f <= sc->frames.start + 30; f++) {
-        char path[sizeof sc->volumes[0].file + 16];
-        const char *hash = strstr(sc->volumes[0].file, "####");
-        FILE *fp;
-        if (!hash) return 0;
-        snprintf(path, sizeof path, "%.*s%04d%s", (int)(hash - sc->volumes[0].file), sc->volumes[0].file, f, hash + 4);
-        if ((fp = fopen(path, "rb"))) {
-            fclose(fp);
-            return f;
-        }
-    }
-    return 0;
-}
 
 static void measure_method(const tte_opts *o, const char *scene, const char *method, const reference *ref, row *out)
 {
@@ -269,7 +253,7 @@ static void measure_method(const tte_opts *o, const char *scene, const char *met
         out->camera = render_timed(o, &sc, &r, sc.frames.start, &fb, &st);
         sc.environment.rotation_z += 0.5f;
         out->lighting = render_timed(o, &sc, &r, sc.frames.start, &fb, &st);
-        f2 = next_frame(&sc);
+        f2 = bench_next_frame(&sc, sc.frames.start);
         out->frame = f2 ? render_timed(o, &sc, &r, f2, &fb, &st) : NAN;
     } else {
         out->camera = out->lighting = -1;

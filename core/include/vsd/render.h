@@ -50,6 +50,10 @@ typedef struct vsd_render_stats {
     double device_pass_seconds;     /* of the render's seconds: inside device passes (kernels) */
     double device_download_seconds; /* of them: copying results back from the device */
     char method_info[512];       /* the method's own figures, "key=value ..." (crm: RBFs, fit) */
+    int relit;                   /* 1: the lighting stage ran (a new frame or a lighting change); 0: the
+                                    prepared lighting served (a view change, or the map's strength alone) */
+    float strength_scale;        /* the radiance passes' scale for a change of the map's strength alone
+                                    (nothing else lights the scene: no scene lights, no emission), 1 else */
     char warnings[512];          /* what in the input looks wrong but renders ("" = nothing) */
 } vsd_render_stats;
 

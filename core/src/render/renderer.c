@@ -10,6 +10,7 @@
 #include "kernel/kernel_lights.h"
 #include "device/cpu/cpu_tiles.h"
 #include "device/cuda/cuda_backend.h"
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,6 +46,8 @@ struct vsd_renderer {
     const vsd_env *ext_env;
     vsd_env_tables tables;
     char frame_key[KEY_LEN], lighting_key[KEY_LEN];
+    /* the map's strength the lighting was prepared with (strength_scales) */
+    float lit_strength;
     /* CUDA: opened on the first render that asks for it and kept (with its resident data)
      * for the renderer's life; cuda_error remembers why `auto` fell back to the CPU. */
     vsd_cuda *cuda;
@@ -329,8 +332,23 @@ static vsd_status load_env(vsd_renderer *r, char *err, size_t errlen)
     return VSD_OK;
 }
 
+/* Whether the image is linear in the map's strength alone: nothing else lights the scene
+ * (no scene lights, no emission), so every radiance pass scales with it, in every method
+ * (the lighting stages and the view are linear in the light; their adaptive choices and
+ * cut-offs are relative or the transmittance's). A change of the strength alone then keeps
+ * the prepared lighting and scales the image (render_on): an artist's most common world
+ * edit costs a view pass, not a lighting stage. */
+static int strength_scales(const vsd_scene *sc)
+{
+    if (sc->light_count > 0 || !(sc->environment.strength > 0.0f) || !isfinite(sc->environment.strength)) return 0;
+    for (int v = 0; v < sc->volume_count; v++)
+        if (sc->volumes[v].medium.emission_strength != 0.0f) return 0;
+    return 1;
+}
+
 /* The frame key: every volume's grids, density, ior and matrix. The lighting key adds
- * the map, the lights and every volume's material. Long scenes hash rather than list. */
+ * the map, the lights and every volume's material, and the map's strength unless the image
+ * scales with it (strength_scales). Long scenes hash rather than list. */
 static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key, uint64_t *volume_keys)
 {
     const vsd_scene *sc = &r->scene;
@@ -357,8 +375,10 @@ static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key
     float lights[VSD_KLIGHT_FLOATS * VSD_MAX_LIGHTS];
     int count = vsd_kscene_lights_setup(lights, sc);
     /* the lights by the hash of their kernel layout (every float of it defined) */
-    snprintf(lighting_key, KEY_LEN, "%.64s|%.3000s|%g|%g|%016llx|%d:%016llx", frame_key, r->env_key,
-             sc->environment.strength, sc->environment.rotation_z, lk, count,
+    char strength[32] = "scales";
+    if (!strength_scales(sc)) snprintf(strength, sizeof strength, "%g", sc->environment.strength);
+    snprintf(lighting_key, KEY_LEN, "%.64s|%.3000s|%s|%g|%016llx|%d:%016llx", frame_key, r->env_key, strength,
+             sc->environment.rotation_z, lk, count,
              (unsigned long long)XXH3_64bits(lights, (size_t)count * VSD_KLIGHT_FLOATS * sizeof *lights));
 }
 
@@ -430,17 +450,46 @@ vsd_status vsd_renderer_render(vsd_renderer *r, int frame, vsd_framebuffer **fbp
     return st;
 }
 
+/* What render_on decided for render_keyed: the stages to run (the frame's and the
+ * lighting's when their keys changed), and the clocks and device counters at its start. */
+typedef struct render_plan {
+    char frame_key[KEY_LEN], lighting_key[KEY_LEN];
+    int frame_changed, lighting_changed;
+    double t_loaded;
+    uint64_t uploaded0;
+    double passes0, downloads0;
+} render_plan;
+
+static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *ctx_in, const render_plan *sg,
+                               vsd_framebuffer **fbp, vsd_render_stats *stats, char *err, size_t errlen);
+
+/* Radiance passes times `scale` (Combined's colour, VolumeDir, VolumeInd, Emit; not alpha,
+ * transmittance or depth). */
+static void scale_radiance(vsd_framebuffer *fb, float scale)
+{
+    const size_t npix = (size_t)fb->width * fb->height;
+    const vsd_pass radiance[] = {VSD_PASS_COMBINED, VSD_PASS_VOLUME_DIR, VSD_PASS_VOLUME_IND, VSD_PASS_EMIT};
+    for (size_t k = 0; k < sizeof radiance / sizeof *radiance; k++) {
+        const int nc = vsd_pass_channels(radiance[k]);
+        float *v = fb->pass[radiance[k]];
+        for (size_t i = 0; i < npix; i++)
+            for (int c = 0; c < 3; c++) v[i * (size_t)nc + c] *= scale;
+    }
+}
+
 static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_framebuffer **fbp,
                             vsd_render_stats *stats, char *err, size_t errlen)
 {
     const vsd_scene *sc = &r->scene;
+    const float asked = sc->environment.strength;
+    float scale = 1.0f;
     vsd_frame_ctx ctx;
-    char frame_key[KEY_LEN], lighting_key[KEY_LEN];
-    double t0 = vsd_clock_seconds(), t1, t2;
-    uint64_t uploaded0 = cuda ? vsd_cuda_uploaded_bytes(cuda) : 0;
-    double passes0 = 0.0, downloads0 = 0.0;
-    if (cuda) vsd_cuda_seconds(cuda, &passes0, &downloads0);
+    render_plan sg;
+    double t0 = vsd_clock_seconds();
     vsd_status st;
+    memset(&sg, 0, sizeof sg);
+    sg.uploaded0 = cuda ? vsd_cuda_uploaded_bytes(cuda) : 0;
+    if (cuda) vsd_cuda_seconds(cuda, &sg.passes0, &sg.downloads0);
     memset(stats, 0, sizeof *stats);
     snprintf(stats->method, sizeof stats->method, "%s", r->method->name);
     snprintf(stats->device, sizeof stats->device, "%s", cuda ? "cuda" : "cpu");
@@ -451,8 +500,8 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     if ((st = vsd_method_check_volumes(r->method, sc, err, errlen))) return st;
 
     if ((st = load_volumes(r, frame, err, errlen)) || (st = load_env(r, err, errlen))) return st;
-    t1 = vsd_clock_seconds();
-    stats->load_seconds = t1 - t0;
+    sg.t_loaded = vsd_clock_seconds();
+    stats->load_seconds = sg.t_loaded - t0;
     /* values no real medium has (a corrupt file, or a grid in the wrong units) render, but
      * as opaque and with the trackers at their cap (docs/reliability.md): say so */
     {
@@ -472,6 +521,33 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     }
 
     memset(&ctx, 0, sizeof ctx);
+    make_keys(r, sg.frame_key, sg.lighting_key, ctx.volume_key);
+    sg.frame_changed = strcmp(sg.frame_key, r->frame_key) != 0;
+    sg.lighting_changed = sg.frame_changed || strcmp(sg.lighting_key, r->lighting_key) != 0;
+    if (!sg.lighting_changed && strength_scales(sc) && asked != r->lit_strength) {
+        /* only the strength changed, and the image scales with it (strength_scales; its key
+           says so, so the lighting was prepared with a strength > 0): the methods see the
+           strength they prepared with, and the passes are scaled after */
+        scale = asked / r->lit_strength;
+        r->scene.environment.strength = r->lit_strength;
+    }
+    st = render_keyed(r, cuda, &ctx, &sg, fbp, stats, err, errlen);
+    r->scene.environment.strength = asked;
+    stats->relit = sg.lighting_changed;
+    stats->strength_scale = scale;
+    if (st == VSD_OK && scale != 1.0f) scale_radiance(*fbp, scale);
+    return st;
+}
+
+/* render_on's stages, the keys decided: the methods' frame and lighting stages where their
+ * keys changed, then the view. */
+static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *ctx_in, const render_plan *sg,
+                               vsd_framebuffer **fbp, vsd_render_stats *stats, char *err, size_t errlen)
+{
+    const vsd_scene *sc = &r->scene;
+    vsd_frame_ctx ctx = *ctx_in;   /* (the volume keys make_keys gave) */
+    double t2;
+    vsd_status st = VSD_OK;
     ctx.scene = sc;
     ctx.density = r->volumes[0].density;
     ctx.emission = r->volumes[0].emission;
@@ -513,13 +589,11 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     vsd_kenv_setup(&ctx.kd.env, r->env, &r->tables, sc->environment.interpolation, sc->environment.strength,
                    sc->environment.rotation_z);
 
-    make_keys(r, frame_key, lighting_key, ctx.volume_key);
     {
         /* A stage's generation is new whenever its data may change; a new frame also
          * starts a new lighting generation before prepare_frame runs, so nothing a method
          * uploads while preparing the frame can match a key of the previous frame. */
-        int frame_changed = strcmp(frame_key, r->frame_key) != 0;
-        int lighting_changed = frame_changed || strcmp(lighting_key, r->lighting_key) != 0;
+        const int frame_changed = sg->frame_changed, lighting_changed = sg->lighting_changed;
         if (frame_changed) {
             r->frame_key[0] = r->lighting_key[0] = '\0';
             r->frame_gen = ++r->generation;
@@ -532,16 +606,20 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
         if (frame_changed) {
             if (r->method->prepare_frame && (st = r->method->prepare_frame(r->method_state, &ctx, err, errlen)))
                 return st;
-            snprintf(r->frame_key, KEY_LEN, "%s", frame_key);
+            snprintf(r->frame_key, KEY_LEN, "%s", sg->frame_key);
         }
         if (lighting_changed) {
+            /* a lighting stage that fails (cancelled by a newer edit) has freed the old
+               lighting: no key may match it until one succeeds */
+            r->lighting_key[0] = '\0';
             if (r->method->prepare_lighting && (st = r->method->prepare_lighting(r->method_state, &ctx, err, errlen)))
                 return st;
-            snprintf(r->lighting_key, KEY_LEN, "%s", lighting_key);
+            snprintf(r->lighting_key, KEY_LEN, "%s", sg->lighting_key);
+            r->lit_strength = sc->environment.strength;
         }
     }
     t2 = vsd_clock_seconds();
-    stats->prepare_seconds = t2 - t1;
+    stats->prepare_seconds = t2 - sg->t_loaded;
 
     if (!*fbp || (*fbp)->width != sc->film.width || (*fbp)->height != sc->film.height) {
         vsd_framebuffer_destroy(*fbp);
@@ -553,10 +631,10 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     stats->render_seconds = vsd_clock_seconds() - t2;
     if (cuda) {
         double passes, downloads;
-        stats->device_uploaded_bytes = vsd_cuda_uploaded_bytes(cuda) - uploaded0;
+        stats->device_uploaded_bytes = vsd_cuda_uploaded_bytes(cuda) - sg->uploaded0;
         vsd_cuda_seconds(cuda, &passes, &downloads);
-        stats->device_pass_seconds = passes - passes0;
-        stats->device_download_seconds = downloads - downloads0;
+        stats->device_pass_seconds = passes - sg->passes0;
+        stats->device_download_seconds = downloads - sg->downloads0;
     }
     return st;
 }
