@@ -72,6 +72,9 @@ VSD_DEVICE void vsd_march_walk_begin(vsd_march_walk *w, const vsd_kernel_data *k
     w->seg0 = w->seg1 = -VSD_INF;
     w->seg_empty = 0;
     w->skip = !kd->medium.has_emission && kd->density.brick_max != 0;
+    /* (read only when skip and the DDA started; set so a caller inlined whole is seen to
+       read nothing undefined) */
+    w->dda.t = w->dda.t_end = 0.0f;
     /* no emission: the density box is the whole extent, and a ray missing it is empty */
     if (w->skip && !vsd_dda_init(&w->dda, &kd->density, o, d, t0, t1)) w->k = 0x7fffffff;
 }

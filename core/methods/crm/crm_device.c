@@ -26,6 +26,7 @@ static size_t nodes(const vsd_kcrm *c) { return (size_t)c->node_res[0] * c->node
 static size_t light_tr_bytes(const vsd_kcrm *c) { return nodes(c) * (size_t)c->light_count * sizeof(float); }
 static size_t lights_bytes(const vsd_kcrm *c) { return (size_t)c->light_count * 8 * sizeof(float); }
 
+VSD_CPU_VIEW_SAMPLE
 static vsd_sample_result view_sample(const void *m, int x, int y, int s, int n)
 {
     return vsd_crm_pass_sample((const vsd_kcrm *)m, x, y, s, n);
@@ -151,6 +152,7 @@ vsd_status vsd_crm_part_device(const vsd_frame_ctx *part_ctx, const vsd_kcrm *h,
     return VSD_OK;
 }
 
+VSD_CPU_VIEW_SAMPLE
 static vsd_sample_result volumes_sample(const void *m, int x, int y, int s, int n)
 {
     return vsd_crm_volumes_sample((const vsd_kcrm_volumes *)m, x, y, s, n);

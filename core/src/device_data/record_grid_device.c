@@ -128,6 +128,7 @@ void vsd_record_grid_arrays(const vsd_krecord_grid *g, int view, int lights, vsd
     if (view || lights) visit(user, g->lights, (lc + (size_t)g->sub_count) * 8 * sizeof(float), "records.lights");
 }
 
+VSD_CPU_VIEW_SAMPLE
 static vsd_sample_result view_sample(const void *g, int x, int y, int s, int n)
 {
     return vsd_records_pass_sample((const vsd_krecord_grid *)g, x, y, s, n);
@@ -150,6 +151,7 @@ vsd_status vsd_record_grid_view_struct(const vsd_frame_ctx *ctx, const void *hos
     return vsd_record_grid_device(ctx, host, 1, dev, err, errlen);
 }
 
+VSD_CPU_VIEW_SAMPLE
 static vsd_sample_result volumes_sample(const void *m, int x, int y, int s, int n)
 {
     return vsd_records_volumes_sample((const vsd_krecord_grids *)m, x, y, s, n);
