@@ -327,8 +327,9 @@ def _step():
             first = sorted(state.get("bench_first", []))
             print("preview benchmark: a 1/N-resolution image first on %d of %d orbit steps%s" % (
                 len(first), len(fps), "; view change to it %.3f s median, %.3f max" % (
-                    first[len(first) // 2], first[-1]) if first else " (the full pass alone comes sooner: "
-                "Preview.first_pass_pays)"), flush=True)
+                    first[len(first) // 2], first[-1]) if first else " (none drawn before the full one: "
+                "skipped where it would not come sooner, Preview.first_pass_pays, or replaced before a redraw)"),
+                flush=True)
             check(all(p is True for _, p, _ in state["bench"]),
                   "every orbit step re-used the daemon's preparation (%s)" % [p for _, p, _ in state["bench"]])
             state.update(step=7, t0=time.monotonic(), change=0)
