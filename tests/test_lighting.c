@@ -13,6 +13,8 @@
 #include "src/lighting/env_healpix.h"
 #include "src/lighting/env_bright.h"
 #include "src/render/kernel_setup.h"
+#include "src/grids/record_grid.h"
+#include "kernel/kernel_record_grid.h"
 #include <stdlib.h>
 #include <string.h>
 #include <math.h>
@@ -376,8 +378,79 @@ done:
     vsd_env_destroy(u);
 }
 
+/* The per-view bake of the lights' term (vsd_record_grid_bake_view) against the view's own
+ * per-ray weights and radiance (vsd_records_light_weights, vsd_records_radiance), record by
+ * record, bit for bit: with sub-lights grouped by light (summed across the lights, each
+ * light's run in its order, short runs padded: here 3, 0, 8, 1 and 5 sub-lights) and not
+ * grouped (the same sub-lights shuffled). */
+static void test_bake_sub_lights(void)
+{
+    enum { L = 5, RECS = 300 };
+    static const int runs[L] = {3, 0, 8, 1, 5};
+    float lights[8 * (L + 17)], pos[4 * RECS], trans[RECS * L], out[3 * RECS];
+    vsd_kernel_data kd;
+    vsd_krecord_grid g;
+    unsigned long long seed = 7;
+    int k, q, n = 0, r, shuffled, bad = 0;
+    memset(&kd, 0, sizeof kd);
+    memset(&g, 0, sizeof g);
+    kd.medium.anisotropy = 0.6f;
+    kd.camera.cam_to_world.m[0] = kd.camera.cam_to_world.m[5] = kd.camera.cam_to_world.m[10] = 1.0f;
+    kd.camera.cam_to_world.m[3] = 0.3f, kd.camera.cam_to_world.m[7] = -4.0f, kd.camera.cam_to_world.m[11] = 1.0f;
+    for (k = 0; k < L; k++) {
+        float *l = lights + 8 * k;
+        vsd_f3 w = f3_normalize(f3(sinf(1.3f * k), cosf(0.7f * k + 0.2f), 0.4f - 0.2f * k));
+        l[0] = w.x, l[1] = w.y, l[2] = w.z, l[3] = 0.0f, l[4] = 1.0f + k, l[5] = 0.5f, l[6] = 0.25f * k, l[7] = 0.0f;
+    }
+    for (k = 0; k < L; k++)
+        for (q = 0; q < runs[k]; q++, n++) {
+            float *l = lights + 8 * (L + n);
+            vsd_f3 w = f3_normalize(f3(lights[8 * k] + 0.1f * q, lights[8 * k + 1] - 0.05f * q, lights[8 * k + 2] + 0.03f));
+            l[0] = w.x, l[1] = w.y, l[2] = w.z, l[3] = 0.0f;
+            l[4] = 0.1f * (q + 1), l[5] = 0.07f * (k + 1), l[6] = 0.3f / (q + 1), l[7] = (float)k;
+        }
+    for (r = 0; r < RECS; r++) {
+        for (q = 0; q < 3; q++) pos[4 * r + q] = 2.0f * (float)(test_urand(&seed) - 0.5);
+        pos[4 * r + 3] = 0.0f;
+        for (k = 0; k < L; k++) trans[r * L + k] = (float)test_urand(&seed);
+    }
+    g.kd = &kd;
+    g.kind = VSD_RECORDS_LIGHTS;
+    g.interp = VSD_RECORDS_TRILINEAR;
+    g.lights = lights;
+    g.light_count = L;
+    g.sub_count = n;
+    g.light_trans = trans;
+    g.record_pos = pos;
+    g.record_count = RECS;
+    for (shuffled = 0; shuffled < 2; shuffled++) {
+        if (shuffled)   /* the sub-lights out of their lights' order: the ungrouped sums */
+            for (q = 0; q < 8; q++) {
+                float t[8];
+                memcpy(t, lights + 8 * (L + q), sizeof t);
+                memcpy(lights + 8 * (L + q), lights + 8 * (L + n - 1 - q), sizeof t);
+                memcpy(lights + 8 * (L + n - 1 - q), t, sizeof t);
+            }
+        vsd_record_grid_bake_view(&g, pos, 2, out);
+        bad = 0;
+        for (r = 0; r < RECS; r++) {
+            float ph[VSD_RECORDS_PH_FLOATS];
+            vsd_f3 d = f3_normalize(f3(pos[4 * r] - 0.3f, pos[4 * r + 1] + 4.0f, pos[4 * r + 2] - 1.0f)), v;
+            vsd_records_light_weights(lights, L, n, d, kd.medium.anisotropy, ph);
+            v = vsd_records_radiance(&g, r, NULL, ph);
+            bad += memcmp(&v.x, out + 3 * r, sizeof(float)) || memcmp(&v.y, out + 3 * r + 1, sizeof(float)) ||
+                   memcmp(&v.z, out + 3 * r + 2, sizeof(float));
+        }
+        CHECK_MSG(bad == 0, "the bake (%s sub-lights) differs from the view's weights at %d of %d records",
+                  shuffled ? "shuffled" : "grouped", bad, RECS);
+        printf("bake with %d sub-lights %s (runs 3, 0, 8, 1, 5): the view's per-ray weights bit for bit at %d "
+               "records\n", n, shuffled ? "shuffled" : "grouped", RECS);
+    }
+}
+
 int main(void)
 {
+    test_bake_sub_lights();
     test_bright_split();
     test_healpix_average();
     test_sub_lights();

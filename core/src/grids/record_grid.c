@@ -171,19 +171,23 @@ static vsd_status build(const vsd_kvolume *v, const vsd_kvolume *const *others, 
 }
 
 /* The sub-lights as separate arrays: directions (vsd_hg_eval_many's input), colours and
- * the light each belongs to; pk the phases of one record's direction. */
+ * the light each belongs to; pk the phases of one record's direction. Where each light's
+ * sub-lights are one run, lights in order (`grouped`), they are laid out by rank instead:
+ * entry q * L + k is light k's q-th sub-light (L lights, `ranks` the most any has; a light
+ * with fewer is padded with its first direction and colour 0, added last: x + 0 = x). The
+ * sums over a light's run then go across the lights, L independent chains a vector wide,
+ * each light's in its run's order: the same bits as one light at a time, where its chain
+ * of dependent adds made the bake wait on every add (most of a small view's bake). */
 typedef struct sub_light_dirs {
     float *x, *y, *z, *r, *g, *b, *pk;
     int32_t *light;
-    int32_t n;
-    int32_t grouped;   /* each light's sub-lights one run, lights in order: sums in registers */
+    int32_t n;         /* entries: sub-lights, or ranks x lights when grouped */
+    int32_t grouped;
+    int32_t ranks;
 } sub_light_dirs;
 
-static int sub_light_dirs_make(const vsd_krecord_grid *g, sub_light_dirs *s)
+static int sub_light_dirs_alloc(sub_light_dirs *s, int32_t n)
 {
-    int32_t k, n = g->sub_count;
-    memset(s, 0, sizeof *s);
-    if (n <= 0) return 0;
     if (!(s->x = malloc(8 * sizeof(float) * (size_t)n))) return -1;
     s->y = s->x + n;
     s->z = s->y + n;
@@ -192,20 +196,52 @@ static int sub_light_dirs_make(const vsd_krecord_grid *g, sub_light_dirs *s)
     s->b = s->g + n;
     s->pk = s->b + n;
     s->light = (int32_t *)(s->pk + n);
-    s->grouped = 1;
-    for (k = 0; k < n; k++) {
-        const float *l = g->lights + 8 * ((size_t)g->light_count + k);
-        s->x[k] = l[0];
-        s->y[k] = l[1];
-        s->z[k] = l[2];
-        s->r[k] = l[4];
-        s->g[k] = l[5];
-        s->b[k] = l[6];
-        s->light[k] = (int32_t)l[7];
-        if (s->light[k] < 0 || s->light[k] >= g->light_count || (k > 0 && s->light[k] < s->light[k - 1]))
-            s->grouped = 0;
-    }
     s->n = n;
+    return 0;
+}
+
+static void sub_light_set(sub_light_dirs *s, int32_t i, const float *l, int weighted)
+{
+    s->x[i] = l[0];
+    s->y[i] = l[1];
+    s->z[i] = l[2];
+    s->r[i] = weighted ? l[4] : 0.0f;
+    s->g[i] = weighted ? l[5] : 0.0f;
+    s->b[i] = weighted ? l[6] : 0.0f;
+    s->light[i] = (int32_t)l[7];
+}
+
+static int sub_light_dirs_make(const vsd_krecord_grid *g, sub_light_dirs *s)
+{
+    const int32_t n = g->sub_count, nl = g->light_count;
+    const float *subs = g->lights + 8 * (size_t)nl;
+    int32_t k, first = 0, run = 0, q;
+    memset(s, 0, sizeof *s);
+    if (n <= 0) return 0;
+    s->grouped = nl > 0;
+    for (k = 0; k < n; k++) {
+        int32_t j = (int32_t)subs[8 * (size_t)k + 7], prev = k ? (int32_t)subs[8 * (size_t)(k - 1) + 7] : -1;
+        if (j < 0 || j >= nl || j < prev) s->grouped = 0;
+        run = j == prev ? run + 1 : 1;
+        if (run > s->ranks) s->ranks = run;
+    }
+    if (!s->grouped) {
+        if (sub_light_dirs_alloc(s, n)) return -1;
+        for (k = 0; k < n; k++) sub_light_set(s, k, subs + 8 * (size_t)k, 1);
+        return 0;
+    }
+    if (sub_light_dirs_alloc(s, s->ranks * nl)) return -1;
+    /* light k with no sub-light: its own direction at weight 0 (its sum stays 0) */
+    for (k = 0; k < nl; k++)
+        for (q = 0; q < s->ranks; q++) sub_light_set(s, q * nl + k, g->lights + 8 * (size_t)k, 0);
+    for (k = 0; k < n; k = first) {
+        const int32_t j = (int32_t)subs[8 * (size_t)k + 7];
+        for (first = k; first < n && (int32_t)subs[8 * (size_t)first + 7] == j; first++)
+            sub_light_set(s, (first - k) * nl + j, subs + 8 * (size_t)first, 1);
+        for (q = first - k; q < s->ranks; q++) {   /* the padding: its first direction, weight 0 */
+            sub_light_set(s, q * nl + j, subs + 8 * (size_t)k, 0);
+        }
+    }
     return 0;
 }
 
@@ -223,17 +259,17 @@ static void sub_light_weights(const vsd_krecord_grid *g, sub_light_dirs *s, vsd_
     for (k = 0; k < g->light_count; k++) ph[k] = ph[VSD_RECORDS_MAX_LIGHTS + k] = ph[2 * VSD_RECORDS_MAX_LIGHTS + k] = 0.0f;
     vsd_hg_eval_many(s->x, s->y, s->z, s->n, d, an, s->pk);
     if (s->grouped) {
-        for (k = 0; k < s->n;) {
-            int32_t j = s->light[k];
-            float sr = 0.0f, sg = 0.0f, sb = 0.0f;
-            for (; k < s->n && s->light[k] == j; k++) {
-                sr += s->pk[k] * s->r[k];
-                sg += s->pk[k] * s->g[k];
-                sb += s->pk[k] * s->b[k];
+        const int32_t nl = g->light_count;
+        float *restrict pr = ph, *restrict pg = ph + VSD_RECORDS_MAX_LIGHTS, *restrict pb = ph + 2 * VSD_RECORDS_MAX_LIGHTS;
+        int32_t q;
+        for (q = 0; q < s->ranks; q++) {
+            const float *restrict pk = s->pk + (size_t)q * nl, *restrict r = s->r + (size_t)q * nl,
+                                  *restrict gg = s->g + (size_t)q * nl, *restrict b = s->b + (size_t)q * nl;
+            for (k = 0; k < nl; k++) {
+                pr[k] += pk[k] * r[k];
+                pg[k] += pk[k] * gg[k];
+                pb[k] += pk[k] * b[k];
             }
-            ph[j] = sr;
-            ph[VSD_RECORDS_MAX_LIGHTS + j] = sg;
-            ph[2 * VSD_RECORDS_MAX_LIGHTS + j] = sb;
         }
         return;
     }
