@@ -39,6 +39,8 @@ typedef struct cst_options {
     int shadows;               /* SHADOWS_GRID or SHADOWS_RAYS */
     int shadow_grid;           /* record cells per axis (shadows = grid) */
     int interp;                /* VSD_RECORDS_NEAREST.. (shadows = grid) */
+    vsd_view_sampling view;    /* the adaptive view (shadows = grid) */
+    int view_bake;             /* the lights' term per record once per view (shadows = grid) */
 } cst_options;
 
 enum { SHADOWS_GRID = 0, SHADOWS_RAYS = 1 };
@@ -54,6 +56,9 @@ static const vsd_option_when cst_on_shadow_grid[] = {{"shadows", 0, 0, "grid"}, 
 /* The validity mask starts the paper's per-sample shadow-ray march; the grid's view pass
  * has its own empty-space skipping (cst_render). */
 static const vsd_option_when cst_on_shadow_rays[] = {{"shadows", 0, 0, "rays"}, {NULL, 0, 0, NULL}};
+/* the adaptive view's threshold: on the record grid's view, which samples sparsely */
+static const vsd_option_when cst_on_sparse_grid_view[] = {
+    {"shadows", 0, 0, "grid"}, {"view_spacing", 1, 1, NULL}, {NULL, 0, 0, NULL}};
 
 static const vsd_option_spec cst_option_rows[] = {
     {"lights", VSD_OPT_INT, 1, 65536, 64, NULL, "N: the map as N lights (the constellation)",
@@ -74,6 +79,13 @@ static const vsd_option_spec cst_option_rows[] = {
     {"validity_mask", VSD_OPT_BOOL, 0, 1, 1, NULL, "start each view ray at its first non-empty shell (§4.2)",
      offsetof(cst_options, validity_mask), 0, NULL, .when = cst_on_shadow_rays},
     VSD_OPTION_PIXEL_SAMPLES(cst_options),
+    /* the record grid's view is as smooth between pixels as lbl's and crm's (the same
+       deterministic march over trilinear fields); the rays' view keeps its validity mask */
+    VSD_OPTION_VIEW_SPACING_WHEN(cst_options, view.spacing, view.threshold, cst_on_shadow_grid, cst_on_sparse_grid_view),
+    {"view_bake", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "grid, CPU view: the lights' term per record once per view, phase at the camera-to-record direction, as lbl's "
+     "(false = the lights summed per record a ray crosses, phase at the ray's direction)",
+     offsetof(cst_options, view_bake), 0, NULL, .when = cst_on_shadow_grid},
     {"shadows", VSD_OPT_CHOICE, 0, 0, SHADOWS_GRID, shadows_names,
      "grid: each light's transmittance cached on a record grid per lighting change; rays: the paper's shadow rays "
      "per view sample", offsetof(cst_options, shadows), 0, NULL, NULL},
@@ -369,11 +381,22 @@ static vsd_status render_cached(cst_state *s, vsd_frame_ctx *ctx, vsd_framebuffe
                                 size_t errlen)
 {
     vsd_krecord_grid g;
+    float *view_baked = NULL;
+    vsd_status st;
     ctx->kd.lights = s->cc.lights;
     ctx->kd.light_count = s->cc.count;
     records_view(s, &ctx->kd, &g);
-    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, NULL, samples,
-                                  err, errlen);
+    if (g.kind == VSD_RECORDS_LIGHTS && s->opt.view_bake && !ctx->cuda) {
+        /* (an isotropic phase was baked once, per lighting: records_view's BAKED kind) */
+        if (!(view_baked = malloc(3 * sizeof *view_baked * (size_t)(g.record_count > 0 ? g.record_count : 1))))
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "constellation: no memory for %d view records", g.record_count);
+        vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, view_baked);
+        vsd_record_grid_use_baked(&g, view_baked);
+    }
+    st = vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, &s->opt.view,
+                                samples, err, errlen);
+    free(view_baked);
+    return st;
 }
 
 /* a part's record grid (src/method/method_parts.h) */
@@ -397,7 +420,7 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     int n2 = s->opt.pixel_samples * s->opt.pixel_samples;
     if (s->parts.count)
         return vsd_parts_render(&s->parts, view_part, ctx, fb, s->opt.pixel_samples, s->opt.slice,
-                                s->opt.early_termination, NULL, samples, err, errlen);
+                                s->opt.early_termination, &s->opt.view, samples, err, errlen);
     if (s->opt.shadows == SHADOWS_GRID) return render_cached(s, ctx, fb, samples, err, errlen);
     kernel_setup(s, ctx, &kc);
     if (ctx->cuda) {

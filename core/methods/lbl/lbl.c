@@ -1101,15 +1101,7 @@ static vsd_status view_grid(void *state, vsd_frame_ctx *ctx, vsd_krecord_grid *g
         } else {
             vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, s->view_baked);
         }
-        g.kind = VSD_RECORDS_BAKED;
-        g.records_log = g.interp == VSD_RECORDS_LOG_TRILINEAR;
-        g.records = s->view_baked;
-        g.stride = 3;
-        g.lights = NULL;
-        g.light_trans = NULL;
-        g.light_count = 0;
-        g.sub_count = 0;
-        g.local_count = 0;
+        vsd_record_grid_use_baked(&g, s->view_baked);
     }
     *g_out = g;
     return VSD_OK;

@@ -55,6 +55,7 @@ enum { PASS_LIGHTS = 2 };
 typedef struct shgrid_options {
     int grid, order, directions, probes, interp, form, pixel_samples, lights;
     double step, record_step, light_threshold, early_termination;
+    vsd_view_sampling view;
 } shgrid_options;
 
 /* in VSD_RECORDS_NEAREST.. and FORM_AUTO.. order */
@@ -124,6 +125,7 @@ static const vsd_option_spec shgrid_option_rows[] = {
      offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
     VSD_OPTION_PIXEL_SAMPLES(shgrid_options),
     VSD_OPTION_EARLY_TERMINATION(shgrid_options, "view ray"),
+    VSD_OPTION_VIEW_SPACING(shgrid_options, view.spacing, view.threshold),
     {"lights", VSD_OPT_INT, 0, VSD_RECORDS_MAX_LIGHTS, SHGRID_DEFAULT_LIGHTS, NULL,
      "bright texels taken out of the SH as exact lights (0 = the paper's pure SH form)",
      offsetof(shgrid_options, lights), 0, NULL, NULL},
@@ -421,9 +423,9 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
     vsd_krecord_grid g;
     if (s->parts.count)
         return vsd_parts_render(&s->parts, view_part, ctx, fb, s->opt.pixel_samples, s->opt.step,
-                                s->opt.early_termination, NULL, samples, err, errlen);
+                                s->opt.early_termination, &s->opt.view, samples, err, errlen);
     kernel_grid(s, &ctx->kd, s->kind, &g);
-    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, NULL, samples,
+    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, &s->opt.view, samples,
                                   err, errlen);
 }
 

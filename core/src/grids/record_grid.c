@@ -359,6 +359,19 @@ vsd_status vsd_record_grid_bake(const vsd_krecord_grid *g, float **out, char *er
     return VSD_OK;
 }
 
+void vsd_record_grid_use_baked(vsd_krecord_grid *g, const float *baked)
+{
+    g->kind = VSD_RECORDS_BAKED;
+    g->records_log = g->interp == VSD_RECORDS_LOG_TRILINEAR;
+    g->records = baked;
+    g->stride = 3;
+    g->lights = NULL;
+    g->light_trans = NULL;
+    g->light_count = 0;
+    g->sub_count = 0;
+    g->local_count = 0;
+}
+
 void vsd_record_grid_bake_view(const vsd_krecord_grid *g, const float *record_pos, int threads, float *out)
 {
     vsd_record_grid_bake_view_pair(g, record_pos, threads, out, NULL, NULL, NULL);

@@ -49,6 +49,9 @@ vsd_status vsd_record_grid_bake(const struct vsd_krecord_grid *g, float **out, c
  * grid's (4 floats per record); out: 3 floats per record, their logs when g->interp is
  * VSD_RECORDS_LOG_TRILINEAR (set the grid's records_log to read them). */
 void vsd_record_grid_bake_view(const struct vsd_krecord_grid *g, const float *record_pos, int threads, float *out);
+/* g read from `baked` (vsd_record_grid_bake_view's output, for g's interpolation) instead of
+ * its lights: the march then sums nothing per record it crosses. */
+void vsd_record_grid_use_baked(struct vsd_krecord_grid *g, const float *baked);
 /* The same, and with the same per-record phase weights (the bake's cost) the lights' term
  * of a second set of transmittances, light_trans2 and local_trans2 (g's layout), into out2
  * (3 floats per record, linear): lbl's delta-M forward light (lbl_delta_m.h). */

@@ -150,13 +150,18 @@ typedef struct vsd_view_sampling {
     double threshold;
 } vsd_view_sampling;
 #define VSD_OPTION_VIEW_SPACING(type, field_spacing, field_threshold) \
+    VSD_OPTION_VIEW_SPACING_WHEN(type, field_spacing, field_threshold, NULL, vsd_option_on_sparse_view)
+/* The same rows where the adaptive view serves one of a method's view modes: view_spacing
+ * applies when `when_spacing` holds, view_threshold when `when_threshold` does (those
+ * conditions and view_spacing != 1). */
+#define VSD_OPTION_VIEW_SPACING_WHEN(type, field_spacing, field_threshold, when_spacing, when_threshold) \
     {"view_spacing", VSD_OPT_INT, 0, 8, 0, NULL, \
      "CPU view: trace every n-th pixel first and interpolate between them where they agree (1 = trace all; " \
      "0 = from the film's resolution against the volume's: 2/3 of a voxel's footprint, at most 4)", \
-     offsetof(type, field_spacing), VSD_OPT_ZERO_AUTO, NULL, NULL}, \
+     offsetof(type, field_spacing), VSD_OPT_ZERO_AUTO, NULL, .when = when_spacing}, \
     {"view_threshold", VSD_OPT_NUMBER, 0, 1, 0.15, NULL, \
      "with view_spacing > 1: trace a block when its corner pixels differ by more than this (relative)", \
-     offsetof(type, field_threshold), 0, NULL, .when = vsd_option_on_sparse_view}
+     offsetof(type, field_threshold), 0, NULL, .when = when_threshold}
 /* view_threshold's rule: it decides nothing when every pixel is traced (view_spacing 1). */
 extern const vsd_option_when vsd_option_on_sparse_view[];
 int vsd_view_auto_spacing(const vsd_frame_ctx *ctx);
