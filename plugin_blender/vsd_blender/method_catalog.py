@@ -16,6 +16,7 @@
 # on PATH), when that preference changes, and by the Check Daemon button; a catalog that a
 # render thread's HELLO brings is applied by a timer.
 import json
+import struct
 import subprocess
 import zlib
 
@@ -336,10 +337,20 @@ def draw(layout, scene, method):
         line.prop(group, row["key"])
 
 
+def _float32(x):
+    return struct.unpack("<f", struct.pack("<f", x))[0]
+
+
 def _differs(row, value):
     d = row["default"]
     if row["type"] == "number":
-        return abs(float(value) - float(d)) > 1e-9 * max(1.0, abs(float(d)))
+        # Blender keeps a FloatProperty in single precision: an untouched 0.15 reads back as
+        # 0.15000000596, which is the default and must not be sent (it was, for every
+        # default whose float32 rounding exceeded 1e-9: view_threshold's)
+        try:
+            return _float32(float(value)) != _float32(float(d))
+        except OverflowError:   # beyond float32's range: no property holds it
+            return abs(float(value) - float(d)) > 1e-9 * max(1.0, abs(float(d)))
     if row["type"] == "bool":
         return bool(value) != bool(d)
     return value != d

@@ -152,6 +152,13 @@ scene.vsd_options.constellation.distance_map = False
 scene.vsd_options.constellation.lights_method = "kmeans"
 opts = mapping.render_block(scene.vsd)["options"]
 check(opts == {"lights": 16, "distance_map": False, "lights_method": "kmeans"}, "set options are sent: %s" % opts)
+# a number is kept in single precision: its untouched default is not sent, a change is
+scene.vsd_options.constellation.view_threshold = 0.3
+opts = mapping.render_block(scene.vsd)["options"]
+check(abs(opts.get("view_threshold", 0.0) - 0.3) < 1e-6, "a changed number is sent: %s" % opts)
+scene.vsd_options.constellation.view_threshold = 0.15
+check("view_threshold" not in mapping.render_block(scene.vsd)["options"],
+      "a number set back to its default (0.15, stored as 0.15000000596) is not sent")
 scene.vsd.options_json = '{"lights": 8}'
 check(mapping.render_block(scene.vsd)["options"]["lights"] == 8, "the JSON field overrides a row")
 scene.vsd.options_json = ""
