@@ -460,7 +460,7 @@ typedef struct render_plan {
     double passes0, downloads0;
 } render_plan;
 
-static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *ctx_in, const render_plan *sg,
+static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *ctx_in, const render_plan *plan,
                                vsd_framebuffer **fbp, vsd_render_stats *stats, char *err, size_t errlen);
 
 /* Radiance passes times `scale` (Combined's colour, VolumeDir, VolumeInd, Emit; not alpha,
@@ -484,12 +484,12 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     const float asked = sc->environment.strength;
     float scale = 1.0f;
     vsd_frame_ctx ctx;
-    render_plan sg;
+    render_plan plan;
     double t0 = vsd_clock_seconds();
     vsd_status st;
-    memset(&sg, 0, sizeof sg);
-    sg.uploaded0 = cuda ? vsd_cuda_uploaded_bytes(cuda) : 0;
-    if (cuda) vsd_cuda_seconds(cuda, &sg.passes0, &sg.downloads0);
+    memset(&plan, 0, sizeof plan);
+    plan.uploaded0 = cuda ? vsd_cuda_uploaded_bytes(cuda) : 0;
+    if (cuda) vsd_cuda_seconds(cuda, &plan.passes0, &plan.downloads0);
     memset(stats, 0, sizeof *stats);
     snprintf(stats->method, sizeof stats->method, "%s", r->method->name);
     snprintf(stats->device, sizeof stats->device, "%s", cuda ? "cuda" : "cpu");
@@ -500,8 +500,8 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     if ((st = vsd_method_check_volumes(r->method, sc, err, errlen))) return st;
 
     if ((st = load_volumes(r, frame, err, errlen)) || (st = load_env(r, err, errlen))) return st;
-    sg.t_loaded = vsd_clock_seconds();
-    stats->load_seconds = sg.t_loaded - t0;
+    plan.t_loaded = vsd_clock_seconds();
+    stats->load_seconds = plan.t_loaded - t0;
     /* values no real medium has (a corrupt file, or a grid in the wrong units) render, but
      * as opaque and with the trackers at their cap (docs/reliability.md): say so */
     {
@@ -521,19 +521,19 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     }
 
     memset(&ctx, 0, sizeof ctx);
-    make_keys(r, sg.frame_key, sg.lighting_key, ctx.volume_key);
-    sg.frame_changed = strcmp(sg.frame_key, r->frame_key) != 0;
-    sg.lighting_changed = sg.frame_changed || strcmp(sg.lighting_key, r->lighting_key) != 0;
-    if (!sg.lighting_changed && strength_scales(sc) && asked != r->lit_strength) {
+    make_keys(r, plan.frame_key, plan.lighting_key, ctx.volume_key);
+    plan.frame_changed = strcmp(plan.frame_key, r->frame_key) != 0;
+    plan.lighting_changed = plan.frame_changed || strcmp(plan.lighting_key, r->lighting_key) != 0;
+    if (!plan.lighting_changed && strength_scales(sc) && asked != r->lit_strength) {
         /* only the strength changed, and the image scales with it (strength_scales; its key
            says so, so the lighting was prepared with a strength > 0): the methods see the
            strength they prepared with, and the passes are scaled after */
         scale = asked / r->lit_strength;
         r->scene.environment.strength = r->lit_strength;
     }
-    st = render_keyed(r, cuda, &ctx, &sg, fbp, stats, err, errlen);
+    st = render_keyed(r, cuda, &ctx, &plan, fbp, stats, err, errlen);
     r->scene.environment.strength = asked;
-    stats->relit = sg.lighting_changed;
+    stats->relit = plan.lighting_changed;
     stats->strength_scale = scale;
     if (st == VSD_OK && scale != 1.0f) scale_radiance(*fbp, scale);
     return st;
@@ -541,7 +541,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
 
 /* render_on's stages, the keys decided: the methods' frame and lighting stages where their
  * keys changed, then the view. */
-static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *ctx_in, const render_plan *sg,
+static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *ctx_in, const render_plan *plan,
                                vsd_framebuffer **fbp, vsd_render_stats *stats, char *err, size_t errlen)
 {
     const vsd_scene *sc = &r->scene;
@@ -593,7 +593,7 @@ static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *c
         /* A stage's generation is new whenever its data may change; a new frame also
          * starts a new lighting generation before prepare_frame runs, so nothing a method
          * uploads while preparing the frame can match a key of the previous frame. */
-        const int frame_changed = sg->frame_changed, lighting_changed = sg->lighting_changed;
+        const int frame_changed = plan->frame_changed, lighting_changed = plan->lighting_changed;
         if (frame_changed) {
             r->frame_key[0] = r->lighting_key[0] = '\0';
             r->frame_gen = ++r->generation;
@@ -606,7 +606,7 @@ static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *c
         if (frame_changed) {
             if (r->method->prepare_frame && (st = r->method->prepare_frame(r->method_state, &ctx, err, errlen)))
                 return st;
-            snprintf(r->frame_key, KEY_LEN, "%s", sg->frame_key);
+            snprintf(r->frame_key, KEY_LEN, "%s", plan->frame_key);
         }
         if (lighting_changed) {
             /* a lighting stage that fails (cancelled by a newer edit) has freed the old
@@ -614,12 +614,12 @@ static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *c
             r->lighting_key[0] = '\0';
             if (r->method->prepare_lighting && (st = r->method->prepare_lighting(r->method_state, &ctx, err, errlen)))
                 return st;
-            snprintf(r->lighting_key, KEY_LEN, "%s", sg->lighting_key);
+            snprintf(r->lighting_key, KEY_LEN, "%s", plan->lighting_key);
             r->lit_strength = sc->environment.strength;
         }
     }
     t2 = vsd_clock_seconds();
-    stats->prepare_seconds = t2 - sg->t_loaded;
+    stats->prepare_seconds = t2 - plan->t_loaded;
 
     if (!*fbp || (*fbp)->width != sc->film.width || (*fbp)->height != sc->film.height) {
         vsd_framebuffer_destroy(*fbp);
@@ -631,10 +631,10 @@ static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *c
     stats->render_seconds = vsd_clock_seconds() - t2;
     if (cuda) {
         double passes, downloads;
-        stats->device_uploaded_bytes = vsd_cuda_uploaded_bytes(cuda) - sg->uploaded0;
+        stats->device_uploaded_bytes = vsd_cuda_uploaded_bytes(cuda) - plan->uploaded0;
         vsd_cuda_seconds(cuda, &passes, &downloads);
-        stats->device_pass_seconds = passes - sg->passes0;
-        stats->device_download_seconds = downloads - sg->downloads0;
+        stats->device_pass_seconds = passes - plan->passes0;
+        stats->device_download_seconds = downloads - plan->downloads0;
     }
     return st;
 }
