@@ -11,6 +11,8 @@
  *  (e) invalid inputs; then timings for 100 / 400 / 1000 RBFs at order 4. */
 #include "test_common.h"
 #include "methods/crm/crm_single.h"
+#include "methods/crm/crm_phase.h"
+#include <math.h>
 #include <stdlib.h>
 #include <time.h>
 
@@ -514,6 +516,30 @@ static void test_timing(const vsd_crm_od_table *t)
     }
 }
 
+/* crm_phase.h: delta-M's split f delta + (1 - f) p' keeps HG's bands below `bands` (f + (1 -
+ * f) chi'_l = g^l: the orders' scattering of the light they carry is HG's), leaves nothing
+ * of p' in band `bands` (f = g^bands is all of HG's there), and with bands 2 p' is HG(g /
+ * (1 + g)), the form the orders ran before band 2. */
+static void test_phase_bands(void)
+{
+    const double gs[] = {-0.4, 0.2, 0.6, 0.7, 0.9};
+    for (size_t i = 0; i < sizeof gs / sizeof gs[0]; i++)
+        for (int bands = 2; bands <= 3; bands++) {
+            const double g = gs[i], f = vsd_crm_delta_m_fraction(g, bands);
+            const vsd_crm_phase hg = vsd_crm_phase_hg(g), p = vsd_crm_phase_delta_m(g, bands);
+            CHECK_MSG(fabs(f - pow(g, bands)) < 1e-15, "g %g, %d bands: f %.17g, g^bands %.17g", g, bands, f,
+                      pow(g, bands));
+            for (int l = 0; l < CRM_PHASE_BANDS; l++)
+                CHECK_MSG(fabs(hg.chi[l] - pow(g, l)) < 1e-15, "HG g %g band %d: %.17g", g, l, hg.chi[l]);
+            for (int l = 0; l < bands; l++)
+                CHECK_MSG(fabs(f + (1.0 - f) * p.chi[l] - hg.chi[l]) < 1e-14,
+                          "g %g, %d bands: band %d of f delta + (1 - f) p' is %.17g, HG's %.17g", g, bands, l,
+                          f + (1.0 - f) * p.chi[l], hg.chi[l]);
+            CHECK_MSG(p.chi[bands] == 0.0, "g %g, %d bands: p' keeps %.3g in band %d", g, bands, p.chi[bands], bands);
+            if (bands == 2) CHECK(fabs(p.chi[1] - g / (1.0 + g)) < 1e-15);
+        }
+}
+
 int main(void)
 {
     vsd_crm_od_table *t = NULL;
@@ -523,6 +549,7 @@ int main(void)
         fprintf(stderr, "table: %s\n", err);
         return test_finish("test_crm_single");
     }
+    test_phase_bands();
     test_table(t);
     test_own_centre(t);
     test_pair(t);

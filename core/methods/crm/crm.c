@@ -62,6 +62,7 @@
 typedef struct crm_options {
     int rbf_count, fit_iterations, sh_order, cg_iterations, view_density, pixel_samples, delete_per_frame, insert_max;
     int coherent, multiple, single, directions, orders, order_directions, order_cell, sky, lights, delta_m;
+    int ms_bands;
     double node_spacing, step, early_termination, error_ratio, light_threshold;
     vsd_view_sampling view;
 } crm_options;
@@ -143,9 +144,14 @@ static const vsd_option_spec crm_option_rows[] = {
     {"order_cell", VSD_OPT_INT, 1, 8, 2, NULL, "multiple orders: source nodes per cell of the coarse grid",
      offsetof(crm_options, order_cell), 0, NULL, .when = crm_on_multiple_orders},
     {"delta_m", VSD_OPT_BOOL, 0, 1, 1, NULL,
-     "multiple orders with single grid: delta-M scaling of the phase (g > 0): the orders, which carry HG's bands 0-1, "
-     "take its forward peak as unscattered light (sigma_t (1 - a g^2), albedo a (1 - g^2) / (1 - a g^2), g / (1 + g))",
+     "multiple orders with single grid: delta-M scaling of the phase (g > 0): the orders, which carry HG's first "
+     "ms_bands bands, take its forward peak as unscattered light (f = g^ms_bands: sigma_t (1 - a f), albedo a (1 - f) "
+     "/ (1 - a f), band l of the phase (g^l - f) / (1 - f))",
      offsetof(crm_options, delta_m), 0, NULL, .when = crm_on_multiple_orders},
+    {"ms_bands", VSD_OPT_INT, 2, 3, 3, NULL,
+     "multiple orders (g != 0): SH bands the orders' source J carries and the view reads (2: bands 0-1, 3: bands 0-2; "
+     "delta-M then takes f = g^bands)",
+     offsetof(crm_options, ms_bands), 0, NULL, .when = crm_on_multiple_orders},
     {"view_density", VSD_OPT_CHOICE, 0, 0, CRM_VIEW_VOXELS, view_density_names,
      "density of the view march: voxels (the grid itself; nothing fitted), compensated (the paper's D~ + R: RBF fit "
      "plus 8-bit residual hash) or eq8 (the paper's eq. 8: transmittance from D~ alone, source from D~ + R)",
@@ -561,16 +567,23 @@ static double mean_albedo(const vsd_frame_ctx *ctx)
     return ((double)ctx->kd.medium.albedo.x + ctx->kd.medium.albedo.y + ctx->kd.medium.albedo.z) / 3.0;
 }
 
+/* The orders' source J: SH coefficients per channel (bands 0-1 or 0-2, `ms_bands`) */
+static int ms_coefficients(const crm_state *s)
+{
+    return s->opt.ms_bands * s->opt.ms_bands;
+}
+
 /* J_1 of the delta-M scaled problem for the orders (crm_orders.h): the nodes' single
  * scattering, sky and lights, with sigma_t (1 - a f), albedo (1 - f) / (1 - a f) times
  * `albedo` (the one the single scattering was lit with: the medium's, or a part's unit
- * albedo, which the orders turn into each node's) and HG g / (1 + g), f = g^2, a =
- * mean_albedo, into *out (a copy of the nodes). */
+ * albedo, which the orders turn into each node's) and the scaled phase (crm_phase.h), f =
+ * g^ms_bands, a = mean_albedo, into *out (a copy of the nodes). */
 static vsd_status delta_m_single(crm_state *s, vsd_frame_ctx *ctx, const double albedo[3], double g, int order,
                                  const double *grid_sh, const float *sky, float **out, char *err, size_t errlen)
 {
     size_t count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2] * CRM_NODE_FLOATS;
-    double f = g * g, shrink = 1.0 - mean_albedo(ctx) * f, scaled[3];
+    double f = vsd_crm_delta_m_fraction(g, s->opt.ms_bands), shrink = 1.0 - mean_albedo(ctx) * f, scaled[3];
+    const vsd_crm_phase phase = vsd_crm_phase_delta_m(g, s->opt.ms_bands);
     float scale = ctx->kd.density.scale;
     vsd_status st;
     int c;
@@ -579,12 +592,12 @@ static vsd_status delta_m_single(crm_state *s, vsd_frame_ctx *ctx, const double 
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the delta-M source of %zu nodes",
                         count / CRM_NODE_FLOATS);
     memcpy(*out, s->nodes.nodes, count * sizeof **out);
-    st = vsd_crm_node_single(&s->depths, scale * (float)shrink, scaled, g / (1.0 + g), order, grid_sh, sky, ctx->threads,
-                             *out, s->nodes.valid, err, errlen);
+    st = vsd_crm_node_single(&s->depths, scale * (float)shrink, scaled, &phase, order, grid_sh, sky, ctx->threads, *out,
+                             s->nodes.valid, err, errlen);
     if (!st && s->lights.count > 0) {
         /* the lights' transmittance through the scaled medium for this, then back */
         st = vsd_crm_lights_transmittance(&s->lights, scale * (float)shrink, err, errlen);
-        if (!st) vsd_crm_lights_bands(&s->lights, scaled, g / (1.0 + g), 1.0f, *out);
+        if (!st) vsd_crm_lights_bands(&s->lights, scaled, &phase, ms_coefficients(s), 1.0f, *out);
         if (!st) st = vsd_crm_lights_transmittance(&s->lights, scale, err, errlen);
     }
     return st;
@@ -593,22 +606,30 @@ static vsd_status delta_m_single(crm_state *s, vsd_frame_ctx *ctx, const double 
 /* What delta-M's orders leave out of J_ms (crm_orders.h): the scaled problem counts the
  * light its forward peak passes on as unscattered (J_1 of j1, through sigma_t'), where the
  * view's single scattering (J_1, through sigma_t) does not, so that light's next scattering
- * is J_ms's: the true phase on j1's light less J_1, bands 0-1 (J_ms's) per node into diff
- * (3 x CRM_MS_N floats per node; a part's, lit with unit albedo, times its node's). nodes:
- * J_1 with the lights' bands. */
+ * is J_ms's: the true phase on j1's light less J_1, in J_ms's bands (`ms_bands`) per node
+ * into diff (3 x CRM_MS_N floats per node, 0 past those bands; a part's, lit with unit
+ * albedo, times its node's). nodes: J_1 with the lights' bands. */
 static void delta_m_forward(const crm_state *s, const vsd_frame_ctx *ctx, const float *j1, double g, float *diff)
 {
     size_t count = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
-    double f = g * g, back = (1.0 - mean_albedo(ctx) * f) / (1.0 - f);
-    int c, l;
+    const vsd_crm_phase hg = vsd_crm_phase_hg(g), scaled_phase = vsd_crm_phase_delta_m(g, s->opt.ms_bands);
+    double f = vsd_crm_delta_m_fraction(g, s->opt.ms_bands), back = (1.0 - mean_albedo(ctx) * f) / (1.0 - f),
+           to_true[CRM_MS_N];
+    int c, l, n2 = ms_coefficients(s);
+    /* per coefficient: the scaled phase's band back to the true one (back: the albedo's) */
+    for (l = 0; l < CRM_MS_N; l++) {
+        int band = l == 0 ? 0 : l < 4 ? 1 : 2;
+        /* (bands 0-1: chi_1 / chi'_1 = 1 + g, in the form it always had) */
+        to_true[l] = band == 0 ? 1.0 : s->opt.ms_bands == 2 ? 1.0 + g : hg.chi[band] / scaled_phase.chi[band];
+    }
     for (i = 0; i < count; i++)
         for (c = 0; c < 3; c++)
             for (l = 0; l < CRM_MS_N; l++) {
                 const float *now = s->nodes.nodes + i * CRM_NODE_FLOATS + c * CRM_SS_N,
                             *scaled = j1 + i * CRM_NODE_FLOATS + c * CRM_SS_N;
-                double a = s->node_albedo ? s->node_albedo[3 * i + c] : 1.0,
-                       d = scaled[l] * back * (l ? 1.0 + g : 1.0) - now[l];
-                diff[(3 * i + c) * CRM_MS_N + l] = (s->nodes.valid[i] & CRM_NODE_SINGLE) ? (float)(a * d) : 0.0f;
+                double a = s->node_albedo ? s->node_albedo[3 * i + c] : 1.0, d = scaled[l] * back * to_true[l] - now[l];
+                diff[(3 * i + c) * CRM_MS_N + l] =
+                    l < n2 && (s->nodes.valid[i] & CRM_NODE_SINGLE) ? (float)(a * d) : 0.0f;
             }
 }
 
@@ -660,6 +681,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     int order = s->opt.sh_order, n2 = order * order, count = s->rbfs.count, c, q;
     double grid_sh[3 * 16], albedo[3], sigma = ctx->kd.density.scale * s->voxel_world, t0, w2i[9], to_node[9];
     double g = ctx->kd.medium.anisotropy;
+    const vsd_crm_phase hg = vsd_crm_phase_hg(g);
     /* lighting at the RBF centres: the paper's forms (its diffusion reads its single
      * scattering there whatever lights the nodes) */
     int centres = s->opt.single == SINGLE_SH || s->opt.multiple == MULTIPLE_RBF;
@@ -779,7 +801,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                                       s->opt.directions);
                 }
                 if (!st)
-                    st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, s->node_albedo ? unit : albedo, g,
+                    st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, s->node_albedo ? unit : albedo, &hg,
                                              order, grid_sh, sky, ctx->threads, s->nodes.nodes, s->nodes.valid, err,
                                              errlen);
                 if (!st && delta)
@@ -804,23 +826,23 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             /* the lights' single scattering is J_1 too: in its bands for the orders only */
             /* the lights' single scattering is J_1 too: in its bands for the orders only (in
              * j1's already, scaled, with delta-M) */
-            if (!st && !j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, 1.0f, s->nodes.nodes);
+            if (!st && !j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, &hg, ms_coefficients(s), 1.0f, s->nodes.nodes);
             if (!st && j1) {
                 if (!(forward = malloc(3 * CRM_MS_N * nodes * sizeof *forward))) {
                     st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the delta-M source of %zu nodes",
                                   nodes);
                 } else {
-                    vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, 1.0f, s->nodes.nodes);
+                    vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, &hg, ms_coefficients(s), 1.0f, s->nodes.nodes);
                     delta_m_forward(s, ctx, j1, g, forward);
-                    vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, -1.0f, s->nodes.nodes);
+                    vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, &hg, ms_coefficients(s), -1.0f, s->nodes.nodes);
                 }
             }
             if (!st)
                 st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, s->node_albedo ? unit : albedo,
-                                    s->node_albedo, g, j1, j1 != NULL, s->nodes.nodes, s->nodes.valid,
+                                    s->node_albedo, g, s->opt.ms_bands, j1, j1 != NULL, s->nodes.nodes, s->nodes.valid,
                                     s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
                                     &s->orders, err, errlen);
-            if (!j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, g, -1.0f, s->nodes.nodes);
+            if (!j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, &hg, ms_coefficients(s), -1.0f, s->nodes.nodes);
             for (i = 0; !st && forward && i < nodes; i++) {
                 float *ms = s->nodes.nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;
                 int c, l;

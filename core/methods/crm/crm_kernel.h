@@ -12,7 +12,7 @@
  *   eq8           the paper's eq. 8 literally: transmittance from D~ alone, the source from
  *                 D~ + R, so where R < 0 more light gets through (its "enlightenment").
  *   source        J~(x, w_o), precomputed per lighting change on a coarse node grid as SH
- *                 coefficients (order-4 single, order-2 multiple scattering, albedo and phase
+ *                 coefficients (order-4 single, order-3 multiple scattering, albedo and phase
  *                 already applied); per view, the node pass (the paper's volume pass,
  *                 vsd_crm_view_node) evaluates each node's SH toward the eye once, and the
  *                 march reads the 8 surrounding nodes' values trilinearly (corners cached
@@ -37,8 +37,9 @@
 #include "device/device_pass.h"
 
 enum { CRM_VIEW_VOXELS = 0, CRM_VIEW_COMPENSATED = 1, CRM_VIEW_EQ8 = 2 };
-/* SH coefficients per node: order-4 single scattering (16) and order-2 multiple (4), RGB */
-enum { CRM_SS_ORDER = 4, CRM_SS_N = 16, CRM_MS_N = 4, CRM_NODE_FLOATS = 3 * (CRM_SS_N + CRM_MS_N) };
+/* SH coefficients per node: order-4 single scattering (16) and order-3 multiple (9: bands
+ * 0-2; the orders fill bands 0-1 alone with `ms_bands` 2, the rest stays 0), RGB */
+enum { CRM_SS_ORDER = 4, CRM_SS_N = 16, CRM_MS_N = 9, CRM_NODE_FLOATS = 3 * (CRM_SS_N + CRM_MS_N) };
 enum { CRM_NODE_SINGLE = 1, CRM_NODE_MULTIPLE = 2 };
 enum { CRM_VIEW_FLOATS = 6 };
 /* below this a node's single scattering counts as zero in the log interpolation */
@@ -49,7 +50,7 @@ typedef struct VSD_ALIGN16 vsd_kcrm {
     const vsd_kernel_data *kd;
     const float *dtilde;           /* [nx*ny*nz] D~ per voxel (unscaled density); eq8 only, else NULL */
     const float *dfull;            /* [nx*ny*nz] D~ + R decoded per frame; NULL with CRM_VIEW_VOXELS */
-    const float *nodes;            /* [node count * CRM_NODE_FLOATS]: ss R,G,B (16 each), ms R,G,B (4 each) */
+    const float *nodes;            /* [node count * CRM_NODE_FLOATS]: ss R,G,B (16 each), ms R,G,B (9 each) */
     const uint8_t *node_valid;     /* [node count] CRM_NODE_SINGLE | CRM_NODE_MULTIPLE bits */
     /* [node count * CRM_VIEW_FLOATS], per view: each node's source toward the eye (log of the
      * single-scattering RGB, then the multiple-scattering RGB), written by the node pass */
@@ -151,9 +152,9 @@ VSD_DEVICE void vsd_crm_view_node(const vsd_kcrm *c, int i, int n, void *out)
         vsd_f3 p = vsd_affine_point(&c->node_to_world, f3((float)x, (float)yy, (float)z));
         w = f3_normalize(f3_sub(f3(m[3], m[7], m[11]), p));
     }
-    /* at least order 2: the multiple scattering's band 1 is read whatever the single
+    /* at least order 3: the multiple scattering's bands 1-2 are read whatever the single
      * scattering's order (y has room for 16) */
-    vsd_sh_eval_f(c->order > 2 ? c->order : 2, w, y);
+    vsd_sh_eval_f(c->order > 3 ? c->order : 3, w, y);
     vsd_crm_node_source(c, i, y, &ss, &ms);
     if (c->light_count > 0 && (c->node_valid[i] & CRM_NODE_SINGLE)) {
         /* the bright texels, outside the SH: light travels along -w_k and leaves toward w */

@@ -104,29 +104,32 @@ vsd_status vsd_crm_lights_transmittance(vsd_crm_lights *l, float scale, char *er
     return VSD_OK;
 }
 
-void vsd_crm_lights_bands(const vsd_crm_lights *l, const double albedo[3], double g, float sign, float *nodes)
+void vsd_crm_lights_bands(const vsd_crm_lights *l, const double albedo[3], const vsd_crm_phase *phase, int n2,
+                          float sign, float *nodes)
 {
     const vsd_crm_node_depths *c = &l->depths;
-    double y[VSD_CRM_MAX_LIGHTS * 12]; /* [k][ch][4]: albedo E_k times Y_00 and g Y_1m at -w_k, for every node */
+    /* [k][ch][q]: albedo E_k times chi_l Y_lm at -w_k, for every node */
+    double y[VSD_CRM_MAX_LIGHTS * 3 * 9];
     size_t i;
     int k, q, ch;
-    if (l->count == 0 || l->count > VSD_CRM_MAX_LIGHTS) return;
+    if (l->count == 0 || l->count > VSD_CRM_MAX_LIGHTS || n2 < 1 || n2 > 9) return;
     for (k = 0; k < l->count; k++) {
-        double w[3] = {-l->dirs[3 * k], -l->dirs[3 * k + 1], -l->dirs[3 * k + 2]}, b[4];
-        vsd_sh_eval(2, w, b);
+        double w[3] = {-l->dirs[3 * k], -l->dirs[3 * k + 1], -l->dirs[3 * k + 2]}, b[9];
+        vsd_sh_eval(n2 > 4 ? 3 : 2, w, b);
         for (ch = 0; ch < 3; ch++)
-            for (q = 0; q < 4; q++)
-                y[(k * 3 + ch) * 4 + q] = albedo[ch] * l->power[3 * k + ch] * (q == 0 ? b[0] : g * b[q]);
+            for (q = 0; q < n2; q++)
+                y[(k * 3 + ch) * n2 + q] =
+                    albedo[ch] * l->power[3 * k + ch] * (q == 0 ? b[0] : phase->chi[q < 4 ? 1 : 2] * b[q]);
     }
     for (i = 0; i < c->count; i++) {
         const float *t = l->tr + (size_t)c->which[i] * l->count;
         float *ss = nodes + (size_t)c->which[i] * CRM_NODE_FLOATS;
-        double add[3][4] = {{0}};
+        double add[3][9] = {{0}};
         for (k = 0; k < l->count; k++)
             for (ch = 0; ch < 3; ch++)
-                for (q = 0; q < 4; q++) add[ch][q] += t[k] * y[(k * 3 + ch) * 4 + q];
+                for (q = 0; q < n2; q++) add[ch][q] += t[k] * y[(k * 3 + ch) * n2 + q];
         for (ch = 0; ch < 3; ch++)
-            for (q = 0; q < 4; q++) ss[ch * CRM_SS_N + q] += sign * (float)add[ch][q];
+            for (q = 0; q < n2; q++) ss[ch * CRM_SS_N + q] += sign * (float)add[ch][q];
     }
 }
 

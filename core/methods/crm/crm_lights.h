@@ -12,7 +12,7 @@
  * grid as the sky's 108 directions are; the view's node pass adds
  *     sum_k albedo E_k T_k HG(-w_k . w_o)
  * with the exact phase to the SH term, which then carries only the smooth remainder of the
- * map. The successive orders read J_1's bands 0-1, so the lights' single scattering is put
+ * map. The successive orders read J_1's bands 0-2, so the lights' single scattering is put
  * into those bands for them (Funk-Hecke: band l of HG is g^l, coefficient (l, m) gains
  * albedo E_k T_k g^l Y_lm(-w_k)) and taken out again before the view reads the nodes. */
 #ifndef VSD_CRM_LIGHTS_H
@@ -21,6 +21,7 @@
 #include "vsd/env.h"
 #include "vsd/lighting.h"
 #include "vsd/status.h"
+#include "crm_phase.h"
 #include "crm_node_single.h"
 
 /* the most lights the option allows */
@@ -59,10 +60,11 @@ vsd_status vsd_crm_lights_march(vsd_crm_lights *l, const int32_t res[3], const d
 /* tr = exp(-scale od) for every node (0 where it has no density). */
 vsd_status vsd_crm_lights_transmittance(vsd_crm_lights *l, float scale, char *err, size_t errlen);
 
-/* Adds sign * the lights' single scattering (with `albedo` and HG g) to bands 0-1 of every
- * lit node's single-scattering SH (CRM_NODE_FLOATS layout): sign +1 before the successive
- * orders read J_1, -1 after. */
-void vsd_crm_lights_bands(const vsd_crm_lights *l, const double albedo[3], double g, float sign, float *nodes);
+/* Adds sign * the lights' single scattering (with `albedo` and the phase) to the first n2
+ * coefficients (4: bands 0-1, 9: bands 0-2) of every lit node's single-scattering SH
+ * (CRM_NODE_FLOATS layout): sign +1 before the successive orders read J_1, -1 after. */
+void vsd_crm_lights_bands(const vsd_crm_lights *l, const double albedo[3], const vsd_crm_phase *phase, int n2,
+                          float sign, float *nodes);
 
 /* The view's lights (kernel layout of crm_kernel.h: world direction xyz, 0, albedo E rgb,
  * 0), 8 * l->count floats. */

@@ -116,7 +116,8 @@ done:
     return st;
 }
 
-vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const double albedo[3], double g, int order,
+vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const double albedo[3],
+                               const vsd_crm_phase *phase, int order,
                                const double *env_sh, const float *sky, int threads, float *nodes, uint8_t *valid,
                                char *err, size_t errlen)
 {
@@ -128,7 +129,7 @@ vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const 
     if (c->count == 0) return VSD_OK;
     if (!(j = malloc(c->count * 3 * (size_t)n2 * sizeof *j)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the single scattering of %zu nodes", c->count);
-    if (!(st = vsd_crm_single_from_depths((int)c->count, c->od, scale, albedo, g, order, env_sh, sky, c->directions, threads,
+    if (!(st = vsd_crm_single_from_depths((int)c->count, c->od, scale, albedo, phase, order, env_sh, sky, c->directions, threads,
                                           j, err, errlen)))
         for (i = 0; i < c->count; i++) {
             float *ss = nodes + (size_t)c->which[i] * CRM_NODE_FLOATS;

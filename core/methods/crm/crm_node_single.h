@@ -16,6 +16,7 @@
 #define VSD_CRM_NODE_SINGLE_H
 #include <stdint.h>
 #include "vsd/status.h"
+#include "crm_phase.h"
 
 /* The transmittance half, kept between lighting changes: the optical depth of the node
  * grid's density (unscaled, world units) from every node with density toward `directions`
@@ -55,7 +56,8 @@ double *vsd_crm_healpix_directions(int directions);
  * (cleared elsewhere), for extinction sigma_t = scale * density; c's directions are the
  * HEALPix ones. env_sh: 3 * order^2; sky: NULL, or the map per HEALPix pixel of the
  * depths' directions (vsd_crm_single_from_depths). */
-vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const double albedo[3], double g, int order,
+vsd_status vsd_crm_node_single(const vsd_crm_node_depths *c, float scale, const double albedo[3],
+                               const vsd_crm_phase *phase, int order,
                                const double *env_sh, const float *sky, int threads, float *nodes, uint8_t *valid,
                                char *err, size_t errlen);
 

@@ -1,5 +1,6 @@
 #include "crm_orders.h"
 #include "crm_kernel.h"
+#include "crm_phase.h"
 #include "vsd/sh.h"
 #include "src/common/clock.h"
 #include <math.h>
@@ -9,13 +10,19 @@
 
 #define PI_D 3.14159265358979323846
 
-/* Most SH coefficients per channel of a source: order 2 (bands 0 and 1) */
-enum { NB_MAX = 4 };
+/* Most SH coefficients per channel of a source: order 3 (bands 0-2, `ms_bands` 3) */
+enum { NB_MAX = 9 };
+
+/* The band of SH coefficient q (q = l (l + 1) + m) */
+static int band_of(int q)
+{
+    return q == 0 ? 0 : q < 4 ? 1 : q < 9 ? 2 : 3;
+}
 
 typedef struct coarse_grid {
     int32_t res[3];
     size_t n;
-    int nb;             /* SH coefficients per channel of J: 1 (isotropic) or 4 (order 2) */
+    int nb;             /* SH coefficients per channel of J: 1 (isotropic), 4 or 9 (bands 0-1 or 0-2) */
     float *sigma;       /* [n] world units */
     float *j;           /* [n * 3 * nb] current order's source: SH of J(w_out), per channel */
     float *emit;        /* [n * 3] emission per unit length (world), or NULL */
@@ -23,7 +30,7 @@ typedef struct coarse_grid {
     float *next;        /* [n * 3 * nb] the next order */
     double to_cell[9];  /* world direction -> coarse-grid displacement per world unit */
     /* (sigma, sigma J toward one direction) per cell with a zero border (1 cell below, 2
-     * above per axis), rebuilt per order (and direction, when J has bands 0-1), so the
+     * above per axis), rebuilt per order (and direction, when J has bands above 0), so the
      * marches read 8 corners of 4 floats without bounds tests */
     float *pad;
     size_t sx, sy;
@@ -33,8 +40,8 @@ typedef struct order_job {
     const coarse_grid *g;
     const double *dirs;
     const float *y_in;  /* [m * nb] the SH basis at -w: the direction the light from w travels */
-    float weight[NB_MAX]; /* per coefficient: 4 pi g^l / m, l its band (Funk-Hecke: HG's band-l
-                             coefficient is g^l) */
+    float weight[NB_MAX]; /* per coefficient: 4 pi chi_l / m, l its band (Funk-Hecke: the phase's
+                             band-l coefficient; HG's is g^l) */
     int m;
     int d0, d1;         /* the directions this pass gathers (the pad holds J toward them) */
     double albedo[3];
@@ -182,7 +189,7 @@ static int pad_isotropic(const coarse_grid *g, source_kind kind)
 }
 
 /* One gather of every cell into g->next (zeroed first) from the source kind: where the pad
- * is isotropic one pad and one pass serve all directions; else (J's bands 0-1) one pad and
+ * is isotropic one pad and one pass serve all directions; else (J with bands above 0) one pad and
  * one pass per direction. Either way every coefficient of next is gathered (the emission
  * scattered once has a band 1 too: the phase gives it one). */
 static vsd_status gather(coarse_grid *g, order_job *job, vsd_tile_job *tiles, source_kind kind)
@@ -226,18 +233,19 @@ static double tail_factor(double r)
  * from above, as the faster part it lost fades), and a band 1 outliving band 0 would break
  * |b1| <= sqrt(3) b0 (bound_band1). Where prev has no band 1 the fit is undefined: g r0, the
  * rate of the band 1 the phase carries over, the low end, so an unknown band 1 is not
- * overestimated (a g < 0 flips its sign each order, as r < 0 does: the tail then shrinks it). */
-static double band1_ratio(const coarse_grid *g, const float *last, const float *prev, double r0, double anisotropy)
+ * overestimated (a g < 0 flips its sign each order, as r < 0 does: the tail then shrinks it).
+ * Band 2 (`ms_bands` 3) the same way with its own ratio, chi_2 r0 where undefined. */
+static double band_ratio(const coarse_grid *g, const float *last, const float *prev, double r0, double chi, int band)
 {
     double lp = 0.0, pp = 0.0, r;
     size_t q;
     int l;
     for (q = 0; q < 3 * g->n; q++)
-        for (l = 1; l < g->nb; l++) {
+        for (l = band * band; l < (band + 1) * (band + 1) && l < g->nb; l++) {
             lp += (double)last[q * g->nb + l] * prev[q * g->nb + l];
             pp += (double)prev[q * g->nb + l] * prev[q * g->nb + l];
         }
-    if (!(pp > 0.0)) return anisotropy * r0;
+    if (!(pp > 0.0)) return chi * r0;
     r = lp / pp;
     return r > r0 ? r0 : r < -r0 ? -r0 : r;
 }
@@ -246,30 +254,37 @@ static double band1_ratio(const coarse_grid *g, const float *last, const float *
  * tail factor times the last order (g->j; g->next holds the one before). Returns the share
  * of the tail in band 0 (stats->tail). */
 static double close_series(const coarse_grid *g, float *ms, double last_sum, double prev_sum, double tail_sum,
-                           double anisotropy)
+                           const vsd_crm_phase *phase)
 {
-    double r0 = last_sum / prev_sum, f[NB_MAX];
+    double r0 = last_sum / prev_sum, f[NB_MAX], fb[3] = {0.0, 0.0, 0.0};
     size_t q;
     int l;
     if (r0 > 0.95) r0 = 0.95;
     f[0] = tail_factor(r0);
-    for (l = 1; l < g->nb; l++) f[l] = tail_factor(band1_ratio(g, g->j, g->next, r0, anisotropy));
+    for (l = 1; l < 3 && l * l < g->nb; l++) fb[l] = tail_factor(band_ratio(g, g->j, g->next, r0, phase->chi[l], l));
+    for (l = 1; l < g->nb; l++) f[l] = fb[band_of(l)];
     for (q = 0; q < 3 * g->n; q++)
         for (l = 0; l < g->nb; l++) ms[q * g->nb + l] += (float)(f[l] * g->j[q * g->nb + l]);
     return tail_sum > 0.0 ? f[0] * last_sum / (tail_sum + f[0] * last_sum) : 0.0;
 }
 
-/* The order-2 SH of any non-negative function has |b1| <= sqrt(3) b0 (|Y_1| <= sqrt(3) Y00
- * everywhere; a single direction reaches it): scales band 1 (b[1..3]) into that bound, so
- * a band 0 of zero leaves no band 1, which the view would turn into light toward half the
- * directions (it clamps the SH's negative half to 0). The looser of the two bounds: the
- * SH's own non-negativity, |b1| <= b0 / sqrt(3), would cut a g 0.7 lobe's b1 (sqrt(3) g b0). */
-static void bound_band1(float *b)
+/* The SH of any non-negative function has |b_l| <= sqrt(2 l + 1) b0 per band (the norm of
+ * band l of a single direction, which reaches it): scales bands 1 (b[1..3]) and 2 (b[4..8],
+ * where nb is 9) into that bound, so a band 0 of zero leaves no higher band, which the view
+ * would turn into light toward half the directions (it clamps the SH's negative half to
+ * 0). The looser bound: the SH's own non-negativity, |b1| <= b0 / sqrt(3), would cut a g
+ * 0.7 lobe's b1 (sqrt(3) g b0). */
+static void bound_bands(float *b, int nb)
 {
-    double n = sqrt((double)b[1] * b[1] + (double)b[2] * b[2] + (double)b[3] * b[3]), cap = sqrt(3.0) * b[0];
-    int l;
-    if (n > cap)
-        for (l = 1; l < 4; l++) b[l] = cap > 0.0 ? (float)(b[l] * (cap / n)) : 0.0f;
+    int band, l;
+    for (band = 1; band * band < nb; band++) {
+        int lo = band * band, hi = (band + 1) * (band + 1);
+        double n = 0.0, cap = sqrt(2.0 * band + 1.0) * b[0];
+        for (l = lo; l < hi; l++) n += (double)b[l] * b[l];
+        n = sqrt(n);
+        if (n > cap)
+            for (l = lo; l < hi; l++) b[l] = cap > 0.0 ? (float)(b[l] * (cap / n)) : 0.0f;
+    }
 }
 
 /* J_ms less the emission scattered once (je, laid out as g->j), per cell and channel: band 0
@@ -284,20 +299,21 @@ static void subtract_emission(const coarse_grid *g, float *ms, const float *je)
         const float *e = je + q * g->nb;
         b[0] = b[0] > e[0] ? b[0] - e[0] : 0.0f;
         for (l = 1; l < g->nb; l++) b[l] -= e[l];
-        if (g->nb > 1) bound_band1(b);
+        if (g->nb > 1) bound_bands(b, g->nb);
     }
 }
 
-/* Delta-M (Wiscombe 1977) for the orders' truncated phase: HG with bands 0-1 kept is
- * scaled as f delta(forward) + (1 - f) HG(g'), f = g^2 (the first band dropped), g' = g /
- * (1 + g). The forward part is light that goes on unscattered, so the orders march
- * sigma_t' = sigma_t (1 - a f) and scatter a' = a (1 - f) / (1 - a f) with g' (a: the mean
- * of the albedo's channels, the extinction being one number). J_1 is the scaled problem's
- * already (its single scattering with sigma_t', a' and g': crm.c). Returns g'; job_albedo
- * gets a' (the uniform albedo's), g->albedo and g->sigma the cells'. */
-static double delta_m(coarse_grid *g, const double albedo[3], double anisotropy, double job_albedo[3])
+/* Delta-M (Wiscombe 1977) for the orders' truncated phase: HG with bands 0..B-1 kept is
+ * scaled as f delta(forward) + (1 - f) p', f = g^B (the first band dropped), p' with chi'_l
+ * = (g^l - f) / (1 - f) (crm_phase.h; B = 2: HG(g / (1 + g))). The forward part is light
+ * that goes on unscattered, so the orders march sigma_t' = sigma_t (1 - a f) and scatter a'
+ * = a (1 - f) / (1 - a f) with p' (a: the mean of the albedo's channels, the extinction
+ * being one number). J_1 is the scaled problem's already (its single scattering with
+ * sigma_t', a' and p': crm.c). job_albedo gets a' (the uniform albedo's), g->albedo and
+ * g->sigma the cells'. */
+static void delta_m(coarse_grid *g, const double albedo[3], double anisotropy, int bands, double job_albedo[3])
 {
-    double f = anisotropy * anisotropy, uniform = (albedo[0] + albedo[1] + albedo[2]) / 3.0;
+    double f = vsd_crm_delta_m_fraction(anisotropy, bands), uniform = (albedo[0] + albedo[1] + albedo[2]) / 3.0;
     size_t n;
     int c;
     for (c = 0; c < 3; c++) job_albedo[c] = albedo[c] * (1.0 - f) / (1.0 - uniform * f);
@@ -308,16 +324,18 @@ static double delta_m(coarse_grid *g, const double albedo[3], double anisotropy,
         if (a)
             for (c = 0; c < 3; c++) g->albedo[3 * n + c] = (float)(a[c] * (1.0 - f) / s);
     }
-    return anisotropy / (1.0 + anisotropy);
 }
 
 /* The scaled problem's sources (laid out as g->j) back to the true phase's, for the view:
- * the same radiance scattered with a g^l in place of a' g'^l. */
-static void delta_m_back(const coarse_grid *g, float *b, const double albedo[3], double anisotropy, double gs)
+ * the same radiance scattered with a g^l in place of a' chi'_l. */
+static void delta_m_back(const coarse_grid *g, float *b, const double albedo[3], double anisotropy, int bands,
+                         const vsd_crm_phase *scaled)
 {
-    double f = anisotropy * anisotropy;
+    double f = vsd_crm_delta_m_fraction(anisotropy, bands), to_true[NB_MAX];
+    const vsd_crm_phase hg = vsd_crm_phase_hg(anisotropy);
     size_t n;
     int c, l;
+    for (l = 0; l < g->nb; l++) to_true[l] = l ? hg.chi[band_of(l)] / scaled->chi[band_of(l)] : 1.0;
     for (n = 0; n < g->n; n++) {
         double mean;
         if (g->albedo) {
@@ -329,20 +347,21 @@ static void delta_m_back(const coarse_grid *g, float *b, const double albedo[3],
         }
         for (c = 0; c < 3; c++)
             for (l = 0; l < g->nb; l++)
-                b[(3 * n + c) * g->nb + l] *= (float)((1.0 - mean * f) / (1.0 - f) * (l ? anisotropy / gs : 1.0));
+                b[(3 * n + c) * g->nb + l] *= (float)((1.0 - mean * f) / (1.0 - f) * to_true[l]);
     }
 }
 
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
                           const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
-                          const float *j1, int delta, float *nodes, uint8_t *valid, int coarse, int directions,
+                          int bands, const float *j1, int delta, float *nodes, uint8_t *valid, int coarse, int directions,
                           int max_orders, double tolerance, int threads, vsd_crm_orders_stats *stats, char *err,
                           size_t errlen)
 {
     double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
     float *y_in = NULL;
     int nb, l;
-    double prev_sum = 0.0, last_sum = 0.0, tail_sum = 0.0, gs;
+    double prev_sum = 0.0, last_sum = 0.0, tail_sum = 0.0;
+    vsd_crm_phase phase; /* what the orders scatter with: HG, or delta-M's scaled phase */
     long nside = vsd_sh_healpix_nside(directions);
     float *ms = NULL, *je = NULL; /* je: the emission scattered once, per coarse cell */
     coarse_grid g;
@@ -355,14 +374,15 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     memset(&g, 0, sizeof g);
     if (!j1) j1 = nodes;
     if (!(anisotropy > 0.0)) delta = 0;
-    if (coarse < 1 || !nside || max_orders < 1 || !(tolerance >= 0.0))
+    if (coarse < 1 || !nside || max_orders < 1 || !(tolerance >= 0.0) || bands < 2 || bands > 3)
         return vsd_fail(VSD_ERR_INVALID, err, errlen,
-                        "crm orders: coarse %d, %d directions (12 nside^2), %d orders or tolerance %g out of range", coarse,
-                        directions, max_orders, tolerance);
+                        "crm orders: coarse %d, %d directions (12 nside^2), %d orders, tolerance %g or %d bands (2..3) "
+                        "out of range",
+                        coarse, directions, max_orders, tolerance, bands);
     for (a = 0; a < 3; a++) g.res[a] = (node_res[a] - 1 + coarse - 1) / coarse + 1;
     g.n = (size_t)g.res[0] * g.res[1] * g.res[2];
-    /* g = 0: every order's J is isotropic (band 0); else bands 0-1 carry the phase */
-    g.nb = nb = anisotropy != 0.0 ? NB_MAX : 1;
+    /* g = 0: every order's J is isotropic (band 0); else bands 0..bands-1 carry the phase */
+    g.nb = nb = anisotropy != 0.0 ? bands * bands : 1;
     for (a = 0; a < 9; a++) g.to_cell[a] = to_node[a] / coarse;
     g.sigma = calloc(g.n, sizeof *g.sigma);
     g.j = calloc(g.n * 3 * nb, sizeof *g.j);
@@ -385,7 +405,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     if ((st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) goto done;
     for (k = 0; k < directions; k++) {
         double back[3] = {-dirs[3 * k], -dirs[3 * k + 1], -dirs[3 * k + 2]}, y[NB_MAX];
-        if (nb > 1) vsd_sh_eval(2, back, y);
+        if (nb > 1) vsd_sh_eval(bands, back, y);
         else y[0] = Y00;
         for (l = 0; l < nb; l++) y_in[(size_t)k * nb + l] = (float)y[l];
     }
@@ -442,11 +462,12 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     }
     /* delta-M needs band 1 (g > 0): else the orders run the medium as it is */
     scaled = delta && nb > 1;
-    gs = scaled ? delta_m(&g, albedo, anisotropy, job.albedo) : anisotropy;
+    phase = scaled ? vsd_crm_phase_delta_m(anisotropy, bands) : vsd_crm_phase_hg(anisotropy);
+    if (scaled) delta_m(&g, albedo, anisotropy, bands, job.albedo);
     job.g = &g;
     job.dirs = dirs;
     job.y_in = y_in;
-    for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : gs) / directions);
+    for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : phase.chi[band_of(l)]) / directions);
     job.m = directions;
     if (!scaled)
         for (c = 0; c < 3; c++) job.albedo[c] = albedo[c];
@@ -486,11 +507,11 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     }
     /* close the series with each band's geometric tail from the last two orders */
     if (stats->orders >= 2 && prev_sum > 0.0)
-        stats->tail = close_series(&g, ms, last_sum, prev_sum, tail_sum, gs);
+        stats->tail = close_series(&g, ms, last_sum, prev_sum, tail_sum, &phase);
     if (je) subtract_emission(&g, ms, je);
     if (scaled) {
-        delta_m_back(&g, ms, albedo, anisotropy, gs);
-        if (je) delta_m_back(&g, je, albedo, anisotropy, gs);
+        delta_m_back(&g, ms, albedo, anisotropy, bands, &phase);
+        if (je) delta_m_back(&g, je, albedo, anisotropy, bands, &phase);
     }
     /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), each of
      * bands 0 (and 1)'s coefficients in turn: the emission scattered once onto the single

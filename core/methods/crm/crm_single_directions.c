@@ -13,7 +13,7 @@
 typedef struct sky_weights {
     int order, n2, m;
     float *w;                 /* [m * 3 * n2] */
-    double hg[16];            /* HG's zonal coefficients */
+    double hg[16];            /* the phase's zonal coefficients */
 } sky_weights;
 
 typedef struct depth_job {
@@ -81,7 +81,7 @@ static void run_project(void *arg, int l0, int y0, int l1, int y1)
 
 static vsd_status check_sky(int order, int directions, double g, char *err, size_t errlen)
 {
-    if (order < 1 || order > 4 || !vsd_sh_healpix_nside(directions) || !(fabs(g) < 1.0))
+    if (order < 1 || order > CRM_PHASE_BANDS || !vsd_sh_healpix_nside(directions) || !(fabs(g) < 1.0))
         return vsd_fail(VSD_ERR_INVALID, err, errlen,
                         "crm single scattering: order %d (1..4), %d directions (12 nside^2) or g %g out of range", order,
                         directions, g);
@@ -104,8 +104,8 @@ vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth
     return vsd_cpu_run_items(count, threads, run_depths, &job, "crm transmittance");
 }
 
-vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3], double g,
-                                      int order, const double *env_sh, const float *sky_radiance, int directions,
+vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3],
+                                      const vsd_crm_phase *phase, int order, const double *env_sh, const float *sky_radiance, int directions,
                                       int threads, double *j_ss, char *err, size_t errlen)
 {
     long nside = vsd_sh_healpix_nside(directions);
@@ -114,7 +114,7 @@ vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, c
     sky_weights sky;
     project_job job;
     vsd_status st;
-    if ((st = check_sky(order, directions, g, err, errlen))) return st;
+    if ((st = check_sky(order, directions, phase->chi[1], err, errlen))) return st;
     if (count == 0) return VSD_OK;
     dirs = malloc(sizeof(double) * 3 * (size_t)m);
     sky.w = malloc(sizeof(float) * 3 * (size_t)n2 * m);
@@ -138,7 +138,7 @@ vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, c
     sky.order = order;
     sky.n2 = n2;
     sky.m = m;
-    vsd_sh_hg_zh(order, g, sky.hg);
+    for (i = 0; i < order; i++) sky.hg[i] = sqrt((2 * i + 1) / (4.0 * PI_D)) * phase->chi[i];
     job.sky = &sky;
     job.od = od;
     job.scale = scale;

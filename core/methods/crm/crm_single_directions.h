@@ -16,6 +16,7 @@
 #ifndef VSD_CRM_SINGLE_DIRECTIONS_H
 #define VSD_CRM_SINGLE_DIRECTIONS_H
 #include "vsd/status.h"
+#include "crm_phase.h"
 #include "crm_rbf.h"
 
 /* optical_depth(user, p, w) is the optical depth (sigma included) from point p toward unit
@@ -25,14 +26,15 @@ typedef double (*vsd_crm_depth_fn)(const void *user, const double p[3], const do
  * (crm_node_single.h): od[p * directions + d], the optical depth from point p toward
  * direction d of dirs (unit, 3 doubles each: the HEALPix directions in RING order for the
  * sky, crm_lights.h's for the extracted lights) as optical_depth gives it; then the
- * projection of L_in exp(-scale od) with HG and the albedo, for any scale of the extinction. */
+ * projection of L_in exp(-scale od) with the phase (crm_phase.h: HG, or delta-M's scaled
+ * phase) and the albedo, for any scale of the extinction. */
 vsd_status vsd_crm_optical_depths(int count, const double *points, vsd_crm_depth_fn optical_depth, const void *user,
                                   const double *dirs, int directions, int threads, float *od, char *err, size_t errlen);
 /* sky: NULL = L_in from env_sh (the map's order-`order` SH, the paper's); else the map
  * averaged over each of the `directions` HEALPix pixels (src/lighting/env_healpix.h, 4
  * floats each), so a lamp or a small sun is shadowed where it is, not as its SH blur. */
-vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3], double g,
-                                      int order, const double *env_sh, const float *sky, int directions, int threads,
+vsd_status vsd_crm_single_from_depths(int count, const float *od, float scale, const double albedo[3],
+                                      const vsd_crm_phase *phase, int order, const double *env_sh, const float *sky, int directions, int threads,
                                       double *j_ss, char *err, size_t errlen);
 
 #endif

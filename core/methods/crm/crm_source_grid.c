@@ -59,7 +59,8 @@ vsd_status vsd_crm_source_grid_build(const vsd_crm_rbfs *rbfs, const double *j_s
                     wsum[node] += w;
                     for (c = 0; c < 3; c++) {
                         for (q = 0; q < ss_n2; q++) d[c * CRM_SS_N + q] += w * ss[c * ss_n2 + q];
-                        for (q = 0; q < CRM_MS_N; q++) d[3 * CRM_SS_N + c * CRM_MS_N + q] += w * ms[c * 4 + q];
+                        /* the paper's diffusion: order 2 (bands 0-1); band 2 stays 0 */
+                        for (q = 0; q < 4; q++) d[3 * CRM_SS_N + c * CRM_MS_N + q] += w * ms[c * 4 + q];
                     }
                 }
     }
