@@ -207,8 +207,12 @@ class Inputs(object):
 
 # RSS allowed per worker above idle + 1.1 x cache: measured 7 MiB per worker with the
 # methods whose prepared state the cache accounts (raymarch, reference, constellation;
-# docs/soak.md), taken x4 so that allocator noise cannot fail the check.
-PER_WORKER_MB = 32
+# docs/soak.md), taken x4 so that allocator noise cannot fail the check (32); plus 16 since
+# crm's orders carry SH bands 0-2 (2026-12-05): its lighting stage holds the delta-M J_1, a
+# copy of the nodes at 75 floats each (60 before), ~36 MiB on cloud128_interior, while it
+# runs, outside the cache's account (a soak run measured 195 MiB against the former bound
+# of 178.7 with 2 workers).
+PER_WORKER_MB = 48
 
 RETRY_CODES = ("busy", "cache_full", "missing_blob")
 
