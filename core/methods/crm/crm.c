@@ -31,6 +31,7 @@
 #include "crm_diffusion.h"
 #include "crm_source_grid.h"
 #include "crm_orders.h"
+#include "crm_phase.h"
 #include "crm_node_single.h"
 #include "crm_kernel.h"
 #include "crm_device.h"
@@ -618,7 +619,7 @@ static void delta_m_forward(const crm_state *s, const vsd_frame_ctx *ctx, const 
     int c, l, n2 = ms_coefficients(s);
     /* per coefficient: the scaled phase's band back to the true one (back: the albedo's) */
     for (l = 0; l < CRM_MS_N; l++) {
-        int band = l == 0 ? 0 : l < 4 ? 1 : 2;
+        int band = vsd_crm_sh_band(l);
         /* (bands 0-1: chi_1 / chi'_1 = 1 + g, in the form it always had) */
         to_true[l] = band == 0 ? 1.0 : s->opt.ms_bands == 2 ? 1.0 + g : hg.chi[band] / scaled_phase.chi[band];
     }

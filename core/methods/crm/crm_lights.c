@@ -119,7 +119,7 @@ void vsd_crm_lights_bands(const vsd_crm_lights *l, const double albedo[3], const
         for (ch = 0; ch < 3; ch++)
             for (q = 0; q < n2; q++)
                 y[(k * 3 + ch) * n2 + q] =
-                    albedo[ch] * l->power[3 * k + ch] * (q == 0 ? b[0] : phase->chi[q < 4 ? 1 : 2] * b[q]);
+                    albedo[ch] * l->power[3 * k + ch] * (q == 0 ? b[0] : phase->chi[vsd_crm_sh_band(q)] * b[q]);
     }
     for (i = 0; i < c->count; i++) {
         const float *t = l->tr + (size_t)c->which[i] * l->count;

@@ -13,11 +13,6 @@
 /* Most SH coefficients per channel of a source: order 3 (bands 0-2, `ms_bands` 3) */
 enum { NB_MAX = 9 };
 
-/* The band of SH coefficient q (q = l (l + 1) + m) */
-static int band_of(int q)
-{
-    return q == 0 ? 0 : q < 4 ? 1 : q < 9 ? 2 : 3;
-}
 
 typedef struct coarse_grid {
     int32_t res[3];
@@ -262,7 +257,7 @@ static double close_series(const coarse_grid *g, float *ms, double last_sum, dou
     if (r0 > 0.95) r0 = 0.95;
     f[0] = tail_factor(r0);
     for (l = 1; l < 3 && l * l < g->nb; l++) fb[l] = tail_factor(band_ratio(g, g->j, g->next, r0, phase->chi[l], l));
-    for (l = 1; l < g->nb; l++) f[l] = fb[band_of(l)];
+    for (l = 1; l < g->nb; l++) f[l] = fb[vsd_crm_sh_band(l)];
     for (q = 0; q < 3 * g->n; q++)
         for (l = 0; l < g->nb; l++) ms[q * g->nb + l] += (float)(f[l] * g->j[q * g->nb + l]);
     return tail_sum > 0.0 ? f[0] * last_sum / (tail_sum + f[0] * last_sum) : 0.0;
@@ -335,7 +330,7 @@ static void delta_m_back(const coarse_grid *g, float *b, const double albedo[3],
     const vsd_crm_phase hg = vsd_crm_phase_hg(anisotropy);
     size_t n;
     int c, l;
-    for (l = 0; l < g->nb; l++) to_true[l] = l ? hg.chi[band_of(l)] / scaled->chi[band_of(l)] : 1.0;
+    for (l = 0; l < g->nb; l++) to_true[l] = l ? hg.chi[vsd_crm_sh_band(l)] / scaled->chi[vsd_crm_sh_band(l)] : 1.0;
     for (n = 0; n < g->n; n++) {
         double mean;
         if (g->albedo) {
@@ -467,7 +462,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     job.g = &g;
     job.dirs = dirs;
     job.y_in = y_in;
-    for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : phase.chi[band_of(l)]) / directions);
+    for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : phase.chi[vsd_crm_sh_band(l)]) / directions);
     job.m = directions;
     if (!scaled)
         for (c = 0; c < 3; c++) job.albedo[c] = albedo[c];

@@ -12,6 +12,14 @@
 
 enum { CRM_PHASE_BANDS = 4 };
 
+/* The band l of SH coefficient q = l (l + 1) + m */
+static inline int vsd_crm_sh_band(int q)
+{
+    int l = 0;
+    while ((l + 1) * (l + 1) <= q) l++;
+    return l;
+}
+
 typedef struct vsd_crm_phase {
     double chi[CRM_PHASE_BANDS]; /* band l's coefficient: the convolution scales band l by it */
 } vsd_crm_phase;
