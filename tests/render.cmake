@@ -19,3 +19,5 @@ vsd_add_test(test_volumes SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_volumes.c LIB
 # 16384 spp on a smoke, a cloud and a fire, VolumeDir unchanged bit for bit, the errors.
 vsd_add_test(test_reference_cache SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_reference_cache.c LIBS vsd_test_render
              LABELS integration render slow TIMEOUT 900)
+# The half-resolution volume and the density levels of shgrid's records and constellation's shadow grid.
+vsd_add_test(test_density_levels SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_density_levels.c LIBS vsd_render LABELS unit render)

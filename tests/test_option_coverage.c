@@ -98,12 +98,20 @@ static const struct {
      "(docs/methods/constellation.md, \"Exactness of the accelerations\"): equality IS the check"},
     {"constellation", "distance_map", "false", "{\"shadows\":\"rays\"}",
      "as above, with the per-sample shadow rays and the view rays leaping"},
+    {"constellation", "shadow_density", "full", "",
+     "this scene's shadow cells are under a voxel (64 along its 40-voxel longest axis), where \"auto\" reads the "
+     "source voxels too (src/method/density_levels.h): equality IS the check that small volumes keep their image; "
+     "test_density_levels checks the levels, bench/crm/scale.py their effect on a large volume"},
     {"constellation", "validity_mask", "false", "",
      "the mask only skips shells before a ray's first non-empty sample (its rule sets shadows \"rays\", where "
      "it runs): bit-identical by design, only faster"},
     {"crm", "coherent", "false", "",
      "the default path (view_density voxels, single grid, multiple orders) fits nothing, so no fit option can "
      "change its image: equality IS the check that it fits nothing (issue 31)"},
+    {"shgrid", "record_density", "full", "",
+     "this scene's record cells are about a voxel (32 per axis over 32 x 32 x 40 voxels), where \"auto\" reads the "
+     "source voxels too (src/method/density_levels.h): equality IS the check that small volumes keep their image; "
+     "test_density_levels checks the levels, bench/crm/scale.py their effect on a large volume"},
     {"shgrid", "form", "product", "",
      "the default \"auto\" picks product for an anisotropic medium (this scene's 0.5): equality is the check "
      "that auto does (factored, the other form, must and does change the image)"},

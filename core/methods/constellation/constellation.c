@@ -22,6 +22,7 @@
 #include "kernel/kernel_record_grid.h"
 #include "src/grids/volume_groups.h"
 #include "src/method/method_parts.h"
+#include "src/method/density_levels.h"
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -39,6 +40,7 @@ typedef struct cst_options {
     int shadows;               /* SHADOWS_GRID or SHADOWS_RAYS */
     int shadow_grid;           /* record cells per axis (shadows = grid) */
     int interp;                /* VSD_RECORDS_NEAREST.. (shadows = grid) */
+    int shadow_density;        /* DENSITY_AUTO / DENSITY_FULL (shadows = grid) */
     vsd_view_sampling view;    /* the adaptive view (shadows = grid) */
     int view_bake;             /* the lights' term per record once per view (shadows = grid) */
 } cst_options;
@@ -50,6 +52,9 @@ static const char *const lights_method_names[] = {"median_cut", "kmeans", NULL};
 static const char *const shadows_names[] = {"grid", "rays", NULL};
 /* in VSD_RECORDS_NEAREST.. order */
 static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
+/* the density the cached shadows' rays read (src/method/density_levels.h) */
+enum { DENSITY_AUTO = 0, DENSITY_FULL = 1 };
+static const char *const density_names[] = {"auto", "full", NULL};
 
 /* The shadow grid's own settings mean nothing with the paper's shadow rays. */
 static const vsd_option_when cst_on_shadow_grid[] = {{"shadows", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
@@ -96,6 +101,10 @@ static const vsd_option_spec cst_option_rows[] = {
     {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, interp_names,
      "shadows = grid: record lookup, nearest cell, trilinear, or trilinear in log radiance",
      offsetof(cst_options, interp), 0, NULL, .when = cst_on_shadow_grid},
+    {"shadow_density", VSD_OPT_CHOICE, 0, 0, DENSITY_AUTO, density_names,
+     "shadows = grid: density the shadow rays read: auto (the coarsest 2x-reduced level whose voxel fits in a "
+     "cell and that keeps the data's detail) or full (the source voxels)",
+     offsetof(cst_options, shadow_density), 0, NULL, .when = cst_on_shadow_grid},
 };
 
 typedef struct cst_state {
@@ -106,6 +115,9 @@ typedef struct cst_state {
     /* shadows = grid: records over the density's box, each light's transmittance from
      * each record (per lighting change), or for an isotropic phase the baked RGB */
     vsd_record_grid rg;
+    /* the density the shadow grid's rays read, per volume; with a level above 0 the
+     * distance map and the dense field above are built from it */
+    vsd_density_levels levels;
     float *light_trans;         /* [rg.count * light_count] */
     float *baked;               /* [rg.count * 3], NULL when g != 0 */
     /* several volumes (shadows "grid"): a part per volume, its cached shadows marched
@@ -149,6 +161,7 @@ static vsd_status build_map(const vsd_frame_ctx *ctx, int emission, float thresh
 static void free_shadow_records(cst_state *s)
 {
     vsd_record_grid_free(&s->rg);
+    vsd_density_levels_free(&s->levels);
     free(s->light_trans);
     free(s->baked);
     s->light_trans = s->baked = NULL;
@@ -194,6 +207,31 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     vsd_distance_map_free(&s->dm_emission);
     vsd_dense_grid_free(&s->field);
     free_shadow_records(s);
+    /* probes 2: 8 density probes per cell besides the brick majorants */
+    if (s->opt.shadows == SHADOWS_GRID) {
+        const int self = ctx->part.active ? ctx->part.volume : 0;
+        const vsd_volume *shadow_vol;
+        if ((st = s->opt.shadow_grid > 0
+                      ? vsd_record_grid_build(&ctx->kd.density, s->opt.shadow_grid, 2, &s->rg, err, errlen)
+                      : vsd_record_grid_build_shaped(&ctx->kd.density, auto_shadow_cells(&ctx->kd.density), 2, &s->rg,
+                                                     err, errlen)))
+            return st;
+        /* the shadow rays read the density at the cells' resolution; in this mode the map
+           and the dense field serve only them (the view is the record grid's march) */
+        if (s->rg.count &&
+            (st = vsd_density_levels_build(&s->levels, ctx, vsd_record_cell_world(&s->rg.world_to_grid),
+                                           s->opt.shadow_density == DENSITY_FULL ? 0 : -1, err, errlen)))
+            return st;
+        shadow_vol = s->levels.level[self] > 0 ? s->levels.mip[self][s->levels.level[self] - 1] : NULL;
+        if (shadow_vol) {
+            if (s->opt.distance_map &&
+                (st = vsd_distance_map_build(shadow_vol, (float)s->opt.threshold, ctx->threads, &s->dm_density, err,
+                                             errlen)))
+                return st;
+            return vsd_dense_grid_build(shadow_vol, s->opt.distance_map ? &s->dm_density : NULL,
+                                        s->opt.distance_map ? (float)s->opt.threshold : 0.0f, &s->field, err, errlen);
+        }
+    }
     if (s->opt.distance_map) {
         st = build_map(ctx, 0, (float)s->opt.threshold, &s->dm_density, err, errlen);
         /* the emission map serves only the per-sample view leaps of shadows = rays */
@@ -201,13 +239,6 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
             st = build_map(ctx, 1, (float)s->opt.threshold, &s->dm_emission, err, errlen);
         if (st) return st;
     }
-    /* probes 2: 8 density probes per cell besides the brick majorants */
-    if (s->opt.shadows == SHADOWS_GRID &&
-        (st = s->opt.shadow_grid > 0
-                  ? vsd_record_grid_build(&ctx->kd.density, s->opt.shadow_grid, 2, &s->rg, err, errlen)
-                  : vsd_record_grid_build_shaped(&ctx->kd.density, auto_shadow_cells(&ctx->kd.density), 2, &s->rg,
-                                                 err, errlen)))
-        return st;
     return vsd_dense_grid_build(ctx->density, s->opt.distance_map ? &s->dm_density : NULL,
                                 s->opt.distance_map ? (float)s->opt.threshold : 0.0f, &s->field, err, errlen);
 }
@@ -345,6 +376,8 @@ static void shadow_tile(void *user, int x0, int y0, int x1, int y1)
 static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     vsd_kconstellation kc;
+    vsd_kernel_data coarse;
+    vsd_kobject coarse_objects[VSD_KMAX_VOLUMES];
     shadow_job job;
     vsd_tile_job tj;
     vsd_status st;
@@ -356,6 +389,11 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
     if (!s->light_trans)
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d x %d cached shadows", s->rg.count, s->cc.count);
     kernel_setup(s, ctx, &kc);
+    /* the rays read the density at the cells' resolution and step a voxel of it */
+    vsd_density_levels_kd(&s->levels, &ctx->kd, &coarse, coarse_objects);
+    if (s->opt.shadow_step <= 0)
+        coarse.march_step = kc.shadow_step = s->levels.step > 0 ? s->levels.step : 2.0f * vsd_kd_march_step(&coarse, 0.0);
+    kc.kd = &coarse;
     job.kc = &kc;
     job.rg = &s->rg;
     job.out = s->light_trans;
@@ -363,7 +401,7 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
     if ((st = vsd_cpu_run_tiles(&tj))) return vsd_fail(st, err, errlen, "cached shadows cancelled");
     /* a part: the other volumes' shadows on the same rays */
     if (ctx->part.active)
-        vsd_group_shadow_records(&ctx->kd, 1u << ctx->part.volume, s->rg.record_pos, s->rg.count, s->cc.lights,
+        vsd_group_shadow_records(&coarse, 1u << ctx->part.volume, s->rg.record_pos, s->rg.count, s->cc.lights,
                                  s->cc.count, NULL, 0, s->light_trans, NULL, NULL, ctx->threads);
     if (ctx->kd.medium.anisotropy == 0.0f) {
         vsd_krecord_grid g;
@@ -421,7 +459,14 @@ static vsd_status cst_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     if (s->parts.count)
         return vsd_parts_render(&s->parts, view_part, ctx, fb, s->opt.pixel_samples, s->opt.slice,
                                 s->opt.early_termination, &s->opt.view, samples, err, errlen);
-    if (s->opt.shadows == SHADOWS_GRID) return render_cached(s, ctx, fb, samples, err, errlen);
+    if (s->opt.shadows == SHADOWS_GRID) {
+        if (ctx->info && ctx->info_len)
+            snprintf(ctx->info, ctx->info_len,
+                     "shadow_cells=%dx%dx%d records=%d lights=%d density_level=%d density_level_seconds=%.3f",
+                     s->rg.res[0], s->rg.res[1], s->rg.res[2], s->rg.count, s->cc.count, s->levels.level[0],
+                     s->levels.seconds);
+        return render_cached(s, ctx, fb, samples, err, errlen);
+    }
     kernel_setup(s, ctx, &kc);
     if (ctx->cuda) {
         st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen);

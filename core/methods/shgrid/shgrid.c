@@ -17,7 +17,9 @@
  * default 3; 0 = keep every cell whose bricks are not empty), interpolation ("nearest" |
  * "trilinear" | "log", default "log" = trilinear in log radiance), form ("auto" | "factored" | "product", default auto =
  * factored for g = 0, product otherwise), step (view march, world units, default the
- * smallest voxel), record_step (record marches, default one voxel), pixel_samples (n x n
+ * smallest voxel), record_step (record marches, default one voxel), record_density ("auto":
+ * the coarsest density level that fits the cells and keeps the data's detail, or "full";
+ * src/method/density_levels.h), pixel_samples (n x n
  * rays per pixel, default 1), lights (K, default 32: extracted bright lights, an extension
  * beyond the paper, see shgrid_kernel.h; 0 = the paper's pure SH form), light_threshold
  * (default 3: texels brighter than this multiple of the map's mean luminance are
@@ -27,6 +29,7 @@
 #include "src/render/accum.h"
 #include "src/render/kernel_setup.h"
 #include "src/grids/record_grid.h"
+#include "src/method/density_levels.h"
 #include "src/grids/kvolume_boxes.h"
 #include "src/lighting/env_healpix.h"
 #include "device/cpu/cpu_tiles.h"
@@ -53,7 +56,7 @@ enum { FORM_AUTO, FORM_FACTORED, FORM_PRODUCT };
 enum { PASS_LIGHTS = 2 };
 
 typedef struct shgrid_options {
-    int grid, order, directions, probes, interp, form, pixel_samples, lights;
+    int grid, order, directions, probes, interp, form, pixel_samples, lights, record_density;
     double step, record_step, light_threshold, early_termination;
     vsd_view_sampling view;
 } shgrid_options;
@@ -61,6 +64,9 @@ typedef struct shgrid_options {
 /* in VSD_RECORDS_NEAREST.. and FORM_AUTO.. order */
 static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
 static const char *const form_names[] = {"auto", "factored", "product", NULL};
+/* the density the records' rays read (src/method/density_levels.h) */
+enum { DENSITY_AUTO = 0, DENSITY_FULL = 1 };
+static const char *const density_names[] = {"auto", "full", NULL};
 
 static const char *healpix_count_problem(double v)
 {
@@ -74,6 +80,7 @@ typedef struct shgrid_state {
     float *dirs, *basis, *dir_radiance;
     /* frame: the record grid */
     vsd_record_grid rg;
+    vsd_density_levels levels;   /* the density the records' rays read, per volume */
     float *trans;            /* [records * n2] SH of transmittance, when have_trans */
     int have_trans;
     float *rgb;              /* [records * 3 n2] SH of T*L (RGB kind) */
@@ -121,8 +128,13 @@ static const vsd_option_spec shgrid_option_rows[] = {
      offsetof(shgrid_options, form), 0, NULL, NULL},
     {"step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "view march step, world units (0 = the smallest voxel)",
      offsetof(shgrid_options, step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
-    {"record_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL, "record march step, world units (0 = half the smallest voxel)",
+    {"record_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL,
+     "record march step, world units (0 = a voxel, or a cell where the records read a coarser density)",
      offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
+    {"record_density", VSD_OPT_CHOICE, 0, 0, DENSITY_AUTO, density_names,
+     "density the records' rays read: auto (the coarsest 2x-reduced level whose voxel fits in a cell and that keeps "
+     "the data's detail) or full (the source voxels)",
+     offsetof(shgrid_options, record_density), 0, NULL, NULL},
     VSD_OPTION_PIXEL_SAMPLES(shgrid_options),
     VSD_OPTION_EARLY_TERMINATION(shgrid_options, "view ray"),
     VSD_OPTION_VIEW_SPACING(shgrid_options, view.spacing, view.threshold),
@@ -176,6 +188,7 @@ static vsd_status shgrid_create(void **state, const vsd_scene *scene, const void
 static void free_frame(shgrid_state *s)
 {
     vsd_record_grid_free(&s->rg);
+    vsd_density_levels_free(&s->levels);
     free(s->trans); free(s->rgb); free(s->light_trans); free(s->baked);
     s->trans = NULL; s->rgb = NULL; s->light_trans = NULL; s->baked = NULL;
     s->have_trans = 0;
@@ -208,7 +221,8 @@ static void kernel_grid(const shgrid_state *s, const vsd_kernel_data *kd, int ki
     g->interp = s->opt.interp;
     g->dir_count = (int32_t)s->dirs_count;
     g->record_count = s->rg.count;
-    g->record_step = (float)(s->opt.record_step > 0 ? s->opt.record_step : 2.0 * kd->density.step);
+    g->record_step = (float)(s->opt.record_step > 0 ? s->opt.record_step
+                             : s->levels.step > 0 ? s->levels.step : 2.0 * kd->density.step);
 }
 
 typedef struct record_job { const vsd_krecord_grid *g; float *out; int lights; } record_job;
@@ -233,13 +247,21 @@ static vsd_status run_records(shgrid_state *s, const vsd_frame_ctx *ctx, int kin
     record_job job;
     vsd_tile_job tj;
     vsd_status st;
+    vsd_kernel_data coarse;
+    vsd_kobject coarse_objects[VSD_KMAX_VOLUMES];
     if (s->rg.count == 0) return VSD_OK;
-    kernel_grid(s, &ctx->kd, kind == PASS_LIGHTS ? VSD_RECORDS_SH_SCALAR : kind, &g);
+    /* the rays read each volume at the records' resolution (src/method/density_levels.h) */
+    vsd_density_levels_kd(&s->levels, &ctx->kd, &coarse, coarse_objects);
+    kernel_grid(s, &coarse, kind == PASS_LIGHTS ? VSD_RECORDS_SH_SCALAR : kind, &g);
     job.g = &g;
     job.lights = kind == PASS_LIGHTS;
     job.out = job.lights ? s->light_trans : kind == VSD_RECORDS_SH_SCALAR ? s->trans : s->rgb;
-    /* the paper's per-frame GPU pass: one thread per record, results copied back */
-    if (ctx->cuda) return vsd_shgrid_device_records(ctx, &g, job.lights, job.out, err, errlen);
+    /* the paper's per-frame GPU pass: one thread per record, results copied back. Rays that
+       read a coarser density level run on the CPU threads (the device holds the source
+       voxels only; a device copy of the levels is future work), so both backends give the
+       same records */
+    if (ctx->cuda && !vsd_density_levels_any(&s->levels))
+        return vsd_shgrid_device_records(ctx, &g, job.lights, job.out, err, errlen);
     vsd_method_item_job(&tj, ctx, s->rg.count, record_tile, &job, job.lights ? "light transmittance" : "record grid");
     st = vsd_cpu_run_tiles(&tj);
     if (st == VSD_ERR_CANCELLED) return vsd_fail(st, err, errlen, "render cancelled");
@@ -278,6 +300,10 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
         vsd_parts_free(&s->parts, &vsd_method_shgrid);
     }
     if ((st = vsd_record_grid_build(v, s->opt.grid > 0 ? s->opt.grid : auto_grid(v), s->opt.probes, &s->rg, err, errlen)))
+        return st;
+    if (s->rg.count &&
+        (st = vsd_density_levels_build(&s->levels, ctx, vsd_record_cell_world(&s->rg.world_to_grid),
+                                       s->opt.record_density == DENSITY_FULL ? 0 : -1, err, errlen)))
         return st;
     s->trans = malloc(sizeof(float) * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
     s->rgb = malloc(sizeof(float) * 3 * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
@@ -425,6 +451,9 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
         return vsd_parts_render(&s->parts, view_part, ctx, fb, s->opt.pixel_samples, s->opt.step,
                                 s->opt.early_termination, &s->opt.view, samples, err, errlen);
     kernel_grid(s, &ctx->kd, s->kind, &g);
+    if (ctx->info && ctx->info_len)
+        snprintf(ctx->info, ctx->info_len, "cells=%dx%dx%d records=%d density_level=%d density_level_seconds=%.3f",
+                 s->rg.res[0], s->rg.res[1], s->rg.res[2], s->rg.count, s->levels.level[0], s->levels.seconds);
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, &s->opt.view, samples,
                                   err, errlen);
 }

@@ -176,5 +176,7 @@ vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n
 /* World-space march step: `option` when > 0, else half the smallest voxel of the density
  * grid (of the emission grid when there is no density). */
 float vsd_method_march_step(const vsd_frame_ctx *ctx, double option);
+/* The same for any kernel data (a method's own copy, e.g. at a coarser density level). */
+float vsd_kd_march_step(const vsd_kernel_data *kd, double option);
 
 #endif

@@ -100,15 +100,19 @@ vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n
     return st;
 }
 
-float vsd_method_march_step(const vsd_frame_ctx *ctx, double option)
+float vsd_kd_march_step(const vsd_kernel_data *kd, double option)
 {
-    float step = option > 0 ? (float)option
-               : (ctx->kd.density.step > 0 ? ctx->kd.density.step : ctx->kd.emission.step);
+    float step = option > 0 ? (float)option : (kd->density.step > 0 ? kd->density.step : kd->emission.step);
     /* several volumes: the finest of them sets the step, so none is undersampled */
-    for (int i = 1; option <= 0 && i < ctx->kd.volume_count; i++) {
-        const vsd_kobject *o = &ctx->kd.volumes[i];
+    for (int i = 1; option <= 0 && i < kd->volume_count; i++) {
+        const vsd_kobject *o = &kd->volumes[i];
         float s = o->density.step > 0 ? o->density.step : o->emission.step;
         if (s > 0 && (!(step > 0) || s < step)) step = s;
     }
     return step > 0 ? step : 0.01f;
+}
+
+float vsd_method_march_step(const vsd_frame_ctx *ctx, double option)
+{
+    return vsd_kd_march_step(&ctx->kd, option);
 }
