@@ -40,7 +40,7 @@ typedef struct cst_options {
     int shadows;               /* SHADOWS_GRID or SHADOWS_RAYS */
     int shadow_grid;           /* record cells per axis (shadows = grid) */
     int interp;                /* VSD_RECORDS_NEAREST.. (shadows = grid) */
-    int shadow_density;        /* DENSITY_AUTO / DENSITY_FULL (shadows = grid) */
+    int shadow_density;        /* VSD_DENSITY_AUTO / FULL (shadows = grid) */
     vsd_view_sampling view;    /* the adaptive view (shadows = grid) */
     int view_bake;             /* the lights' term per record once per view (shadows = grid) */
 } cst_options;
@@ -52,9 +52,6 @@ static const char *const lights_method_names[] = {"median_cut", "kmeans", NULL};
 static const char *const shadows_names[] = {"grid", "rays", NULL};
 /* in VSD_RECORDS_NEAREST.. order */
 static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
-/* the density the cached shadows' rays read (src/method/density_levels.h) */
-enum { DENSITY_AUTO = 0, DENSITY_FULL = 1 };
-static const char *const density_names[] = {"auto", "full", NULL};
 
 /* The shadow grid's own settings mean nothing with the paper's shadow rays. */
 static const vsd_option_when cst_on_shadow_grid[] = {{"shadows", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
@@ -101,7 +98,7 @@ static const vsd_option_spec cst_option_rows[] = {
     {"interpolation", VSD_OPT_CHOICE, 0, 0, VSD_RECORDS_LOG_TRILINEAR, interp_names,
      "shadows = grid: record lookup, nearest cell, trilinear, or trilinear in log radiance",
      offsetof(cst_options, interp), 0, NULL, .when = cst_on_shadow_grid},
-    {"shadow_density", VSD_OPT_CHOICE, 0, 0, DENSITY_AUTO, density_names,
+    {"shadow_density", VSD_OPT_CHOICE, 0, 0, VSD_DENSITY_AUTO, vsd_density_choice_names,
      "shadows = grid: density the shadow rays read: auto (the coarsest 2x-reduced level whose voxel fits in a "
      "cell and that keeps the data's detail) or full (the source voxels)",
      offsetof(cst_options, shadow_density), 0, NULL, .when = cst_on_shadow_grid},
@@ -150,11 +147,13 @@ static vsd_status cst_create(void **state, const vsd_scene *scene, const void *o
  * prepare_lighting. With shadows = grid, the record grid too. */
 /* The paper builds the map per frame on the GPU; so does vsd when the frame runs there
  * (the same map either way: tests/test_cuda.c). */
-static vsd_status build_map(const vsd_frame_ctx *ctx, int emission, float threshold, vsd_distance_map *dm, char *err,
-                            size_t errlen)
+/* The distance map of vol: on the device when it is one of the frame's own grids there
+ * (a density level lives on the host only). */
+static vsd_status build_map(const vsd_frame_ctx *ctx, const vsd_volume *vol, int emission, float threshold,
+                            vsd_distance_map *dm, char *err, size_t errlen)
 {
-    const vsd_volume *vol = emission ? ctx->emission : ctx->density;
-    if (ctx->cuda) return vsd_distance_map_build_device(ctx, vol, emission, threshold, dm, err, errlen);
+    if (ctx->cuda && vol == (emission ? ctx->emission : ctx->density))
+        return vsd_distance_map_build_device(ctx, vol, emission, threshold, dm, err, errlen);
     return vsd_distance_map_build(vol, threshold, ctx->threads, dm, err, errlen);
 }
 
@@ -192,6 +191,7 @@ static uint32_t cst_part_reads(const vsd_frame_ctx *ctx) { return 1u << ctx->par
 static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     cst_state *s = state;
+    const vsd_volume *shadow_vol = ctx->density;   /* what the map and the dense field copy */
     vsd_status st;
     if (!ctx->part.active && ctx->kd.volume_count > 1) {
         if (s->opt.shadows != SHADOWS_GRID)
@@ -210,36 +210,24 @@ static vsd_status cst_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     /* probes 2: 8 density probes per cell besides the brick majorants */
     if (s->opt.shadows == SHADOWS_GRID) {
         const int self = ctx->part.active ? ctx->part.volume : 0;
-        const vsd_volume *shadow_vol;
         if ((st = s->opt.shadow_grid > 0
                       ? vsd_record_grid_build(&ctx->kd.density, s->opt.shadow_grid, 2, &s->rg, err, errlen)
                       : vsd_record_grid_build_shaped(&ctx->kd.density, auto_shadow_cells(&ctx->kd.density), 2, &s->rg,
-                                                     err, errlen)))
+                                                     err, errlen)) ||
+            (st = vsd_density_levels_for_grid(&s->levels, ctx, &s->rg, s->opt.shadow_density, err, errlen)))
             return st;
         /* the shadow rays read the density at the cells' resolution; in this mode the map
            and the dense field serve only them (the view is the record grid's march) */
-        if (s->rg.count &&
-            (st = vsd_density_levels_build(&s->levels, ctx, vsd_record_cell_world(&s->rg.world_to_grid),
-                                           s->opt.shadow_density == DENSITY_FULL ? 0 : -1, err, errlen)))
-            return st;
-        shadow_vol = s->levels.level[self] > 0 ? s->levels.mip[self][s->levels.level[self] - 1] : NULL;
-        if (shadow_vol) {
-            if (s->opt.distance_map &&
-                (st = vsd_distance_map_build(shadow_vol, (float)s->opt.threshold, ctx->threads, &s->dm_density, err,
-                                             errlen)))
-                return st;
-            return vsd_dense_grid_build(shadow_vol, s->opt.distance_map ? &s->dm_density : NULL,
-                                        s->opt.distance_map ? (float)s->opt.threshold : 0.0f, &s->field, err, errlen);
-        }
+        if (s->levels.level[self] > 0) shadow_vol = s->levels.mip[self][s->levels.level[self] - 1];
     }
     if (s->opt.distance_map) {
-        st = build_map(ctx, 0, (float)s->opt.threshold, &s->dm_density, err, errlen);
+        st = build_map(ctx, shadow_vol, 0, (float)s->opt.threshold, &s->dm_density, err, errlen);
         /* the emission map serves only the per-sample view leaps of shadows = rays */
         if (!st && ctx->emission && s->opt.shadows == SHADOWS_RAYS)
-            st = build_map(ctx, 1, (float)s->opt.threshold, &s->dm_emission, err, errlen);
+            st = build_map(ctx, ctx->emission, 1, (float)s->opt.threshold, &s->dm_emission, err, errlen);
         if (st) return st;
     }
-    return vsd_dense_grid_build(ctx->density, s->opt.distance_map ? &s->dm_density : NULL,
+    return vsd_dense_grid_build(shadow_vol, s->opt.distance_map ? &s->dm_density : NULL,
                                 s->opt.distance_map ? (float)s->opt.threshold : 0.0f, &s->field, err, errlen);
 }
 
@@ -389,7 +377,8 @@ static vsd_status light_shadow_records(cst_state *s, vsd_frame_ctx *ctx, char *e
     if (!s->light_trans)
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d x %d cached shadows", s->rg.count, s->cc.count);
     kernel_setup(s, ctx, &kc);
-    /* the rays read the density at the cells' resolution and step a voxel of it */
+    /* the rays read the density at the cells' resolution: a voxel apart, or a cell where
+       they read a coarser level (density_levels.h) */
     vsd_density_levels_kd(&s->levels, &ctx->kd, &coarse, coarse_objects);
     if (s->opt.shadow_step <= 0)
         coarse.march_step = kc.shadow_step = s->levels.step > 0 ? s->levels.step : 2.0f * vsd_kd_march_step(&coarse, 0.0);

@@ -64,9 +64,6 @@ typedef struct shgrid_options {
 /* in VSD_RECORDS_NEAREST.. and FORM_AUTO.. order */
 static const char *const interp_names[] = {"nearest", "trilinear", "log", NULL};
 static const char *const form_names[] = {"auto", "factored", "product", NULL};
-/* the density the records' rays read (src/method/density_levels.h) */
-enum { DENSITY_AUTO = 0, DENSITY_FULL = 1 };
-static const char *const density_names[] = {"auto", "full", NULL};
 
 static const char *healpix_count_problem(double v)
 {
@@ -131,7 +128,7 @@ static const vsd_option_spec shgrid_option_rows[] = {
     {"record_step", VSD_OPT_NUMBER, 0, 1e30, 0, NULL,
      "record march step, world units (0 = a voxel, or a cell where the records read a coarser density)",
      offsetof(shgrid_options, record_step), VSD_OPT_ZERO_AUTO | VSD_OPT_LENGTH, NULL, NULL},
-    {"record_density", VSD_OPT_CHOICE, 0, 0, DENSITY_AUTO, density_names,
+    {"record_density", VSD_OPT_CHOICE, 0, 0, VSD_DENSITY_AUTO, vsd_density_choice_names,
      "density the records' rays read: auto (the coarsest 2x-reduced level whose voxel fits in a cell and that keeps "
      "the data's detail) or full (the source voxels)",
      offsetof(shgrid_options, record_density), 0, NULL, NULL},
@@ -301,10 +298,7 @@ static vsd_status shgrid_prepare_frame(void *state, vsd_frame_ctx *ctx, char *er
     }
     if ((st = vsd_record_grid_build(v, s->opt.grid > 0 ? s->opt.grid : auto_grid(v), s->opt.probes, &s->rg, err, errlen)))
         return st;
-    if (s->rg.count &&
-        (st = vsd_density_levels_build(&s->levels, ctx, vsd_record_cell_world(&s->rg.world_to_grid),
-                                       s->opt.record_density == DENSITY_FULL ? 0 : -1, err, errlen)))
-        return st;
+    if ((st = vsd_density_levels_for_grid(&s->levels, ctx, &s->rg, s->opt.record_density, err, errlen))) return st;
     s->trans = malloc(sizeof(float) * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
     s->rgb = malloc(sizeof(float) * 3 * (size_t)n2 * (size_t)(s->rg.count ? s->rg.count : 1));
     if (!s->trans || !s->rgb) {

@@ -36,6 +36,18 @@ static int cell_nonempty(const vsd_kvolume *v, const double lo[3], const double 
     return 0;
 }
 
+double vsd_record_grid_cell_world(const vsd_record_grid *g)
+{
+    double thinnest = INFINITY;
+    int a;
+    for (a = 0; a < 3; a++) {
+        const float *r = g->world_to_grid.m + 4 * a;
+        double n = sqrt((double)r[0] * r[0] + (double)r[1] * r[1] + (double)r[2] * r[2]);
+        if (n > 0 && 1.0 / n < thinnest) thinnest = 1.0 / n;
+    }
+    return thinnest;
+}
+
 void vsd_record_grid_free(vsd_record_grid *g)
 {
     free(g->cell_record);

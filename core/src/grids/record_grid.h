@@ -33,6 +33,9 @@ vsd_status vsd_record_grid_build_over(const vsd_kvolume *v, const vsd_kvolume *c
 vsd_status vsd_record_grid_build_shaped(const vsd_kvolume *v, int cells, int probes, vsd_record_grid *g, char *err,
                                         size_t errlen);
 void vsd_record_grid_free(vsd_record_grid *g);
+/* The thinnest slab of a cell in world units (row a of world_to_grid is scaled by 1 / the
+ * cell's extent along grid axis a); infinite for an empty grid. */
+double vsd_record_grid_cell_world(const vsd_record_grid *g);
 
 /* Isotropic phase: every record's in-scattered RGB (the SH term and the lights' term of
  * g, whose kind must not be BAKED), evaluated once with the view pass's own function;

@@ -3,20 +3,9 @@
 #include "src/volume/volume_mip.h"
 #include "vsd/clock.h"
 #include <math.h>
-#include <stdio.h>
 #include <string.h>
 
-double vsd_record_cell_world(const vsd_affine *world_to_grid)
-{
-    double thinnest = INFINITY;
-    int a;
-    for (a = 0; a < 3; a++) {
-        const float *r = world_to_grid->m + 4 * a;
-        double n = sqrt((double)r[0] * r[0] + (double)r[1] * r[1] + (double)r[2] * r[2]);
-        if (n > 0 && 1.0 / n < thinnest) thinnest = 1.0 / n;
-    }
-    return thinnest;
-}
+const char *const vsd_density_choice_names[] = {"auto", "full", NULL};
 
 void vsd_density_levels_free(vsd_density_levels *d)
 {
@@ -64,11 +53,20 @@ vsd_status vsd_density_levels_build(vsd_density_levels *d, const vsd_frame_ctx *
                 break;
             }
         }
-        d->level[i] = l - 1 < want ? l - 1 : want;
+        d->level[i] = l - 1;   /* the last level kept (the loop ends past `want` or at a loss) */
         if (d->level[i] > 0 && level_option < 0) d->step = (float)cell_world;
     }
     d->seconds = vsd_clock_seconds() - t0;
     return VSD_OK;
+}
+
+vsd_status vsd_density_levels_for_grid(vsd_density_levels *d, const vsd_frame_ctx *ctx, const vsd_record_grid *g,
+                                       int choice, char *err, size_t errlen)
+{
+    vsd_density_levels_free(d);
+    if (g->count == 0) return VSD_OK;
+    return vsd_density_levels_build(d, ctx, vsd_record_grid_cell_world(g), choice == VSD_DENSITY_FULL ? 0 : -1, err,
+                                    errlen);
 }
 
 int vsd_density_levels_any(const vsd_density_levels *d)

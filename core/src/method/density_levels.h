@@ -29,9 +29,15 @@
 #ifndef VSD_DENSITY_LEVELS_H
 #define VSD_DENSITY_LEVELS_H
 #include "src/method/method.h"
+#include "src/grids/record_grid.h"
 
 #define VSD_DENSITY_MAX_LEVEL 4
 #define VSD_DENSITY_MAX_LOSS 0.0025
+
+/* The methods' option (shgrid's record_density, constellation's shadow_density): "auto"
+ * (the rule above) or "full" (the source voxels), in this order. */
+enum { VSD_DENSITY_AUTO = 0, VSD_DENSITY_FULL = 1 };
+extern const char *const vsd_density_choice_names[];
 
 typedef struct vsd_density_levels {
     vsd_volume *mip[VSD_KMAX_VOLUMES][VSD_DENSITY_MAX_LEVEL];   /* [i][L - 1]: level L of volume i */
@@ -41,15 +47,15 @@ typedef struct vsd_density_levels {
     double seconds;                                              /* wall time of the build */
 } vsd_density_levels;
 
-/* The thinnest slab of a record grid's cell in world units, from its world_to_grid map
- * (row a scaled by 1/cell extent along grid axis a). */
-double vsd_record_cell_world(const vsd_affine *world_to_grid);
-
 /* Build the levels of every volume of ctx (its kd.volumes, or kd.density alone) for cells
  * of smallest world extent cell_world; level_option -1 = the rule above, k >= 0 = level k
  * for every volume (clamped to VSD_DENSITY_MAX_LEVEL). Frees what d held before. */
 vsd_status vsd_density_levels_build(vsd_density_levels *d, const vsd_frame_ctx *ctx, double cell_world,
                                     int level_option, char *err, size_t errlen);
+/* The same for the cells of record grid g, with the option's choice (VSD_DENSITY_AUTO /
+ * FULL); nothing for an empty grid. */
+vsd_status vsd_density_levels_for_grid(vsd_density_levels *d, const vsd_frame_ctx *ctx, const vsd_record_grid *g,
+                                       int choice, char *err, size_t errlen);
 /* 1 when some volume reads a level above 0. */
 int vsd_density_levels_any(const vsd_density_levels *d);
 /* *out = *kd with each volume's density (kd->density and kd->volumes[i].density) at its
