@@ -178,14 +178,19 @@ typedef struct lbl_state {
     float *sigma;                 /* [cells] sigma_t per world unit */
     float *collide;               /* [cells] collision probability per lattice step */
     float *empty_d2;              /* [cells] squared distance to the medium (lbl_march.h) */
-    float *keep;                  /* [cells] what the lattice keeps of each birth (lbl_escape.h), or NULL */
+    /* [cells] what the lattice keeps of each birth (lbl_escape.h) through the cells' own
+     * medium, or NULL: made by the first lighting that reads it (with delta-M and no
+     * emission none does). dm_keep: the same through delta-M's scaled medium, kept across
+     * lighting changes that leave the scaling as it was (dm_keep_for: its f and mean albedo). */
+    float *keep, *dm_keep;
+    double dm_keep_for[2];
     /* [3][cells] a part's: each cell's albedo, the scattering share of its group's summed
      * extinction (several volumes of different albedo in its cells), or NULL */
     float *albedo_cells;
     vsd_lbl_readout readout;      /* the phase's cone weights (readout "phase") */
     /* the medium the lattice solves (lighting stage): the cells' own, or with delta-M the
      * scaled problem's (lbl_delta_m.h), whose arrays are dm_* */
-    const float *lat_sigma, *lat_collide, *lat_albedo_cells;
+    const float *lat_sigma, *lat_collide, *lat_albedo_cells, *lat_keep;
     float lat_albedo[3];
     float *dm_sigma, *dm_collide, *dm_albedo_cells;
     vsd_lbl_readout readout_dm;   /* the scaled phase's cone shares (delta-M) */
@@ -277,7 +282,7 @@ static void free_lighting(lbl_state *s)
     free(s->dm_sigma), free(s->dm_collide), free(s->dm_albedo_cells);
     free(s->fwd_trans), free(s->fwd_local);
     s->dm_sigma = s->dm_collide = s->dm_albedo_cells = s->fwd_trans = s->fwd_local = NULL;
-    s->lat_sigma = s->lat_collide = s->lat_albedo_cells = NULL;
+    s->lat_sigma = s->lat_collide = s->lat_albedo_cells = s->lat_keep = NULL;
 }
 
 static void free_frame(lbl_state *s)
@@ -288,8 +293,9 @@ static void free_frame(lbl_state *s)
     free(s->collide);
     free(s->empty_d2);
     free(s->keep);
+    free(s->dm_keep);
     free(s->albedo_cells);
-    s->sigma = s->collide = s->empty_d2 = s->keep = s->albedo_cells = NULL;
+    s->sigma = s->collide = s->empty_d2 = s->keep = s->dm_keep = s->albedo_cells = NULL;
     free_lighting(s);
 }
 
@@ -388,11 +394,6 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     if (!(s->empty_d2 = malloc(n * sizeof *s->empty_d2)) ||
         !vsd_lbl_empty_distance(s->rg.res, s->sigma, s->rg.cell_record, ctx->threads, s->empty_d2))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the distance map of %zu cells", n);
-    if (s->opt.escape &&
-        (!(s->keep = malloc(n * sizeof *s->keep)) ||
-         !vsd_lbl_escape_keep(s->rg.res, s->sigma, s->cell_world,
-                              s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL, s->keep)))
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the surface escape of %zu cells", n);
     return VSD_OK;
 }
 
@@ -783,6 +784,19 @@ static int one_phase(const vsd_frame_ctx *ctx)
     return 1;
 }
 
+/* *keep (allocated on first use) = the surface escape's keep through sigma (lbl_escape.h). */
+static vsd_status escape_keep(const lbl_state *s, const float *sigma, float **keep, char *err, size_t errlen)
+{
+    const size_t n = cell_count(s);
+    if ((!*keep && !(*keep = malloc(n * sizeof **keep))) ||
+        !vsd_lbl_escape_keep(s->rg.res, sigma, s->cell_world, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL,
+                             *keep)) {
+        free(*keep), *keep = NULL;
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the surface escape of %zu cells", n);
+    }
+    return VSD_OK;
+}
+
 /* The medium the lattice solves: the cells' own, or with delta-M (lbl_delta_m.h) the scaled
  * problem's, with the forward light's arrays. */
 static vsd_status lattice_medium(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
@@ -795,8 +809,11 @@ static vsd_status lattice_medium(lbl_state *s, const vsd_frame_ctx *ctx, char *e
     s->lat_albedo_cells = s->albedo_cells;
     memcpy(s->lat_albedo, albedo, sizeof albedo);
     if (!s->opt.delta_m || s->opt.lattice_phase != LBL_PHASE_HG || s->opt.readout != LBL_READOUT_PHASE ||
-        !s->source_dirs || !(g > 0.0f) || s->opt.history > 0 || !one_phase(ctx))
-        return VSD_OK;
+        !s->source_dirs || !(g > 0.0f) || s->opt.history > 0 || !one_phase(ctx)) {
+        vsd_status st = s->opt.escape && !s->keep ? escape_keep(s, s->sigma, &s->keep, err, errlen) : VSD_OK;
+        s->lat_keep = s->keep;
+        return st;
+    }
     s->dm_sigma = malloc(n * sizeof *s->dm_sigma);
     s->dm_collide = malloc(n * sizeof *s->dm_collide);
     s->dm_albedo_cells = s->albedo_cells ? malloc(3 * n * sizeof *s->dm_albedo_cells) : NULL;
@@ -809,6 +826,19 @@ static vsd_status lattice_medium(lbl_state *s, const vsd_frame_ctx *ctx, char *e
     s->lat_sigma = s->dm_sigma;
     s->lat_collide = s->dm_collide;
     s->lat_albedo_cells = s->dm_albedo_cells;
+    if (s->opt.escape) {
+        /* A birth near the surface escapes through the medium the lattice solves: the
+         * scaled one, about half as thick at g 0.7 (the forward peak goes on unscattered).
+         * With the true medium's escape the lattice kept too much of it: cloud256's rims
+         * were bright (docs/methods/lbl.md, "The escape through the scaled medium"). */
+        const double key[2] = {(double)g * g, (albedo[0] + albedo[1] + albedo[2]) / 3.0};
+        if (!s->dm_keep || memcmp(key, s->dm_keep_for, sizeof key)) {
+            vsd_status st = escape_keep(s, s->dm_sigma, &s->dm_keep, err, errlen);
+            if (st) return st;
+            memcpy(s->dm_keep_for, key, sizeof key);
+        }
+        s->lat_keep = s->dm_keep;
+    }
     vsd_lbl_readout_build(&s->readout_dm, g / (1.0f + g));
     return VSD_OK;
 }
@@ -955,8 +985,8 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
     vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
     vsd_lbl_lattice_set_cell_shape(&s->lattice, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
-    vsd_lbl_lattice_set_keep(&s->lattice, s->keep);
     if ((st = lattice_medium(s, ctx, err, errlen))) return st;
+    vsd_lbl_lattice_set_keep(&s->lattice, s->lat_keep);
     vsd_lbl_lattice_set_albedo_cells(&s->lattice, s->lat_albedo_cells);
     if (s->opt.lattice_phase == LBL_PHASE_HG && s->source_dirs) {
         /* the lattice's phase and the first scattering's cone shares: delta-M's g / (1 + g) */
@@ -1034,6 +1064,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, &layout, err, errlen))) return st;
         vsd_lbl_lattice_set_cell_light(&s->lattice_e, s->opt.cell_light);
         vsd_lbl_lattice_set_cell_shape(&s->lattice_e, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
+        if (s->opt.escape && !s->keep && (st = escape_keep(s, s->sigma, &s->keep, err, errlen))) return st;
         vsd_lbl_lattice_set_keep(&s->lattice_e, s->keep);
         if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
                                   s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))

@@ -10,7 +10,8 @@
  * extinction). What the scaled problem calls unscattered but the true one scattered forward,
  * E (T' - T) per light and record, is read toward the eye with the true phase into
  * VolumeInd, and the lattice's light is read with the true phase too. VolumeDir stays the
- * true single scattering (the records' T).
+ * true single scattering (the records' T). The surface escape (lbl_escape.h) of the scaled
+ * lattice is the scaled medium's: a birth near the surface leaves through sigma (1 - a f).
  *
  * With RGB albedo the extinction's scale takes the channels' mean a (one march serves the
  * three), as crm's delta-M does; the albedo's scale is then per channel. */
