@@ -784,17 +784,28 @@ static int one_phase(const vsd_frame_ctx *ctx)
     return 1;
 }
 
+/* The cells' shape the lattice and the escape take: the boxes they are, or NULL = cubes. */
+static const double *lattice_cell_shape(const lbl_state *s)
+{
+    return s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL;
+}
+
 /* *keep (allocated on first use) = the surface escape's keep through sigma (lbl_escape.h). */
 static vsd_status escape_keep(const lbl_state *s, const float *sigma, float **keep, char *err, size_t errlen)
 {
     const size_t n = cell_count(s);
     if ((!*keep && !(*keep = malloc(n * sizeof **keep))) ||
-        !vsd_lbl_escape_keep(s->rg.res, sigma, s->cell_world, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL,
-                             *keep)) {
+        !vsd_lbl_escape_keep(s->rg.res, sigma, s->cell_world, lattice_cell_shape(s), *keep)) {
         free(*keep), *keep = NULL;
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the surface escape of %zu cells", n);
     }
     return VSD_OK;
+}
+
+/* s->keep, the escape through the cells' own medium, made when first read (surface_escape on). */
+static vsd_status own_keep(lbl_state *s, char *err, size_t errlen)
+{
+    return s->opt.escape && !s->keep ? escape_keep(s, s->sigma, &s->keep, err, errlen) : VSD_OK;
 }
 
 /* The medium the lattice solves: the cells' own, or with delta-M (lbl_delta_m.h) the scaled
@@ -810,7 +821,7 @@ static vsd_status lattice_medium(lbl_state *s, const vsd_frame_ctx *ctx, char *e
     memcpy(s->lat_albedo, albedo, sizeof albedo);
     if (!s->opt.delta_m || s->opt.lattice_phase != LBL_PHASE_HG || s->opt.readout != LBL_READOUT_PHASE ||
         !s->source_dirs || !(g > 0.0f) || s->opt.history > 0 || !one_phase(ctx)) {
-        vsd_status st = s->opt.escape && !s->keep ? escape_keep(s, s->sigma, &s->keep, err, errlen) : VSD_OK;
+        vsd_status st = own_keep(s, err, errlen);
         s->lat_keep = s->keep;
         return st;
     }
@@ -984,7 +995,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     /* the lattice first: with a ray history it steps while the rays march */
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
     vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
-    vsd_lbl_lattice_set_cell_shape(&s->lattice, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
+    vsd_lbl_lattice_set_cell_shape(&s->lattice, lattice_cell_shape(s));
     if ((st = lattice_medium(s, ctx, err, errlen))) return st;
     vsd_lbl_lattice_set_keep(&s->lattice, s->lat_keep);
     vsd_lbl_lattice_set_albedo_cells(&s->lattice, s->lat_albedo_cells);
@@ -1063,8 +1074,8 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         vsd_lbl_diffusion_stats stats_e;
         if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, &layout, err, errlen))) return st;
         vsd_lbl_lattice_set_cell_light(&s->lattice_e, s->opt.cell_light);
-        vsd_lbl_lattice_set_cell_shape(&s->lattice_e, s->opt.cell_shape == LBL_SHAPE_BOXES ? s->cell_shape : NULL);
-        if (s->opt.escape && !s->keep && (st = escape_keep(s, s->sigma, &s->keep, err, errlen))) return st;
+        vsd_lbl_lattice_set_cell_shape(&s->lattice_e, lattice_cell_shape(s));
+        if ((st = own_keep(s, err, errlen))) return st;
         vsd_lbl_lattice_set_keep(&s->lattice_e, s->keep);
         if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
                                   s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))
