@@ -50,7 +50,8 @@
 /* the backlit ball (part 7), 2 x 1024 spp: VolumeInd 0.0806 with the phase (noise of the mean
  * 0.0196, 3x 0.059), 1.041 with the paper's isotropic lattice (its mean 4.5x too dark). It
  * was 0.1135 while delta-M's lattice let light escape its surface as the unscaled medium
- * would (lbl_escape.h, docs/methods/lbl.md "The escape through the scaled medium"), which this fails. */
+ * would (lbl_escape.h, docs/methods/lbl.md "The escape through the scaled medium"), which
+ * this fails. */
 #define TOL_READOUT 0.10
 
 /* scale of the pass-scaled control per pass (Combined, VolumeDir, VolumeInd) */

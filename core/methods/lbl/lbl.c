@@ -180,10 +180,11 @@ typedef struct lbl_state {
     float *empty_d2;              /* [cells] squared distance to the medium (lbl_march.h) */
     /* [cells] what the lattice keeps of each birth (lbl_escape.h) through the cells' own
      * medium, or NULL: made by the first lighting that reads it (with delta-M and no
-     * emission none does). dm_keep: the same through delta-M's scaled medium, kept across
-     * lighting changes that leave the scaling as it was (dm_keep_for: its f and mean albedo). */
-    float *keep, *dm_keep;
-    double dm_keep_for[2];
+     * emission none does). dm_keep: the same through delta-M's scaled medium, made again
+     * only when that medium (dm_sigma) differs from dm_keep_sigma, the one it was made for:
+     * a map rotation keeps it; an albedo or anisotropy edit, of this volume or of another
+     * whose medium its cells mix (albedo_cells), makes it again. */
+    float *keep, *dm_keep, *dm_keep_sigma;
     /* [3][cells] a part's: each cell's albedo, the scattering share of its group's summed
      * extinction (several volumes of different albedo in its cells), or NULL */
     float *albedo_cells;
@@ -294,8 +295,9 @@ static void free_frame(lbl_state *s)
     free(s->empty_d2);
     free(s->keep);
     free(s->dm_keep);
+    free(s->dm_keep_sigma);
     free(s->albedo_cells);
-    s->sigma = s->collide = s->empty_d2 = s->keep = s->dm_keep = s->albedo_cells = NULL;
+    s->sigma = s->collide = s->empty_d2 = s->keep = s->dm_keep = s->dm_keep_sigma = s->albedo_cells = NULL;
     free_lighting(s);
 }
 
@@ -842,11 +844,15 @@ static vsd_status lattice_medium(lbl_state *s, const vsd_frame_ctx *ctx, char *e
          * scaled one, about half as thick at g 0.7 (the forward peak goes on unscattered).
          * With the true medium's escape the lattice kept too much of it: cloud256's rims
          * were bright (docs/methods/lbl.md, "The escape through the scaled medium"). */
-        const double key[2] = {(double)g * g, (albedo[0] + albedo[1] + albedo[2]) / 3.0};
-        if (!s->dm_keep || memcmp(key, s->dm_keep_for, sizeof key)) {
+        if (!s->dm_keep || memcmp(s->dm_keep_sigma, s->dm_sigma, n * sizeof *s->dm_sigma)) {
             vsd_status st = escape_keep(s, s->dm_sigma, &s->dm_keep, err, errlen);
-            if (st) return st;
-            memcpy(s->dm_keep_for, key, sizeof key);
+            if (!st && !s->dm_keep_sigma && !(s->dm_keep_sigma = malloc(n * sizeof *s->dm_keep_sigma)))
+                st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for delta-M's medium of %zu cells", n);
+            if (st) {
+                free(s->dm_keep), s->dm_keep = NULL;
+                return st;
+            }
+            memcpy(s->dm_keep_sigma, s->dm_sigma, n * sizeof *s->dm_sigma);
         }
         s->lat_keep = s->dm_keep;
     }
