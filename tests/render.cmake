@@ -13,7 +13,7 @@ vsd_add_test(test_adaptive_view SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_adaptiv
 # (summed density; scatterer + absorber = the mixture's albedo; emission adds), the
 # transmittance product of volumes in a row, per-volume frame offsets and caches, errors.
 vsd_add_test(test_volumes SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_volumes.c LIBS vsd_test_render
-             LABELS integration render TIMEOUT 900)
+             LABELS integration render TIMEOUT 1500)
 # `reference` with a fast method's light as a control variate (issue 33, render.options.cache):
 # the closed-form phase mean, the P1 fit of lbl's cones, no bias against plain reference at
 # 16384 spp on a smoke, a cloud and a fire, VolumeDir unchanged bit for bit, the errors.

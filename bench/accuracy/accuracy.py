@@ -1,5 +1,6 @@
 #!/usr/bin/python3
 """bench/accuracy/accuracy.py VSD OUTDIR [--methods crm,lbl] [--scenes a,b] [--width 160 --height 90]
+                            [--set KEY=VALUE ...] [--label TEXT]
 
 Issue 31 item 3: the multiple-scattering methods against `reference` on the project's
 scenes and on scenes of other character made here from ../shared/data:
@@ -34,6 +35,8 @@ ap.add_argument("--scenes", default="")
 ap.add_argument("--width", type=int, default=160)
 ap.add_argument("--height", type=int, default=90)
 ap.add_argument("--set", action="append", default=[], help="KEY=VALUE for the methods' renders")
+ap.add_argument("--label", default="", help="added to the method's name in the table and its image's file name "
+                "(e.g. the --set it ran with), so runs with other options keep their images")
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
 
@@ -148,12 +151,13 @@ for name in names:
     d = compare(halves[0], halves[1])
     noise = "%d (%.1f / %.1f%%)" % (spp, 50 * d.get("Combined", float("nan")), 50 * d.get("VolumeInd", float("nan")))
     for m in methods:
-        img = os.path.join(a.out, "%s_%s.exr" % (name, m))
+        label = m + (", " + a.label if a.label else "")
+        img = os.path.join(a.out, "%s_%s%s.exr" % (name, m, "_" + re.sub(r"[^A-Za-z0-9]+", "_", a.label) if a.label else ""))
         secs = render(path, frame, film, img, ["--method", m] + extra)
         e = compare(img, ref)
         c, dr, ind = (100 * e.get(p, float("nan")) for p in ("Combined", "VolumeDir", "VolumeInd"))
         bound = 6.0 if kind == "smoke" else 10.0
         ok = "Combined %s, VolumeInd %s" % ("ok" if c <= bound else "**over %g%%**" % bound,
                                             "ok" if ind <= 12.0 else "**over 12%**")
-        print("| %s | %s | %s | %s | %.1f | %.2f%% | %.2f%% | %.2f%% | %s |" % (name, kind, noise, m, secs, c, dr, ind, ok),
+        print("| %s | %s | %s | %s | %.1f | %.2f%% | %.2f%% | %.2f%% | %s |" % (name, kind, noise, label, secs, c, dr, ind, ok),
               flush=True)

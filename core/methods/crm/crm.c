@@ -62,7 +62,7 @@
 
 typedef struct crm_options {
     int rbf_count, fit_iterations, sh_order, cg_iterations, view_density, pixel_samples, delete_per_frame, insert_max;
-    int coherent, multiple, single, directions, orders, order_directions, order_cell, sky, lights, delta_m;
+    int coherent, multiple, single, directions, orders, order_directions, order_cell, order_fine, sky, lights, delta_m;
     int ms_bands;
     double node_spacing, step, early_termination, error_ratio, light_threshold;
     vsd_view_sampling view;
@@ -144,6 +144,10 @@ static const vsd_option_spec crm_option_rows[] = {
      offsetof(crm_options, order_directions), 0, healpix_count_problem, .when = crm_on_multiple_orders},
     {"order_cell", VSD_OPT_INT, 1, 8, 2, NULL, "multiple orders: source nodes per cell of the coarse grid",
      offsetof(crm_options, order_cell), 0, NULL, .when = crm_on_multiple_orders},
+    {"order_fine", VSD_OPT_INT, 0, 64, 1, NULL,
+     "multiple orders: how many of the first orders run on the nodes themselves before the rest go on to the coarse "
+     "grid of order_cell (the first orders carry the medium's detail; the later ones are smooth)",
+     offsetof(crm_options, order_fine), 0, NULL, .when = crm_on_multiple_orders},
     {"delta_m", VSD_OPT_BOOL, 0, 1, 1, NULL,
      "multiple orders with single grid: delta-M scaling of the phase (g > 0): the orders, which carry HG's first "
      "ms_bands bands, take its forward peak as unscattered light (f = g^ms_bands: sigma_t (1 - a f), albedo a (1 - f) "
@@ -841,7 +845,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             if (!st)
                 st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, s->node_albedo ? unit : albedo,
                                     s->node_albedo, g, s->opt.ms_bands, j1, j1 != NULL, s->nodes.nodes, s->nodes.valid,
-                                    s->opt.order_cell, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
+                                    s->opt.order_cell, s->opt.order_fine, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
                                     &s->orders, err, errlen);
             if (!j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, &hg, ms_coefficients(s), -1.0f, s->nodes.nodes);
             for (i = 0; !st && forward && i < nodes; i++) {
@@ -883,11 +887,11 @@ static void crm_info(const crm_state *s, vsd_frame_ctx *ctx)
     snprintf(ctx->info, ctx->info_len,
              "rbfs=%d fit_rel_error=%.5g fit_seconds=%.3f fit_evaluations=%d fit_cached=%d fits_run=%lld "
              "hash_stored=%zu hash_bytes=%zu hash_seconds=%.3f single_seconds=%.3f transmittance_seconds=%.3f transmittance_marches=%lld cg_iterations=%d "
-             "diffusion_seconds=%.3f orders=%d orders_tail=%.3f orders_seconds=%.3f nodes=%dx%dx%d node_seconds=%.3f "
+             "diffusion_seconds=%.3f orders=%d orders_fine=%d orders_tail=%.3f orders_seconds=%.3f nodes=%dx%dx%d node_seconds=%.3f "
              "lights=%d light_fraction=%.3f light_marches=%lld",
              s->rbfs.count, s->fit.rel_error, s->fit.seconds, s->fit.evaluations, s->fit_cached, s->fits_run,
              hs.stored, hs.bytes, hs.build_seconds, s->single_seconds, s->transmittance_seconds, s->transmittance_marches, s->diffusion.iterations, s->diffusion.seconds,
-             s->orders.orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds,
+             s->orders.orders, s->orders.fine_orders, s->orders.tail, s->orders.seconds, s->nodes.res[0], s->nodes.res[1], s->nodes.res[2], s->nodes.seconds,
              s->lights.count, s->lights.fraction, s->lights.marches);
 }
 

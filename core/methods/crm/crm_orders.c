@@ -346,55 +346,194 @@ static void delta_m_back(const coarse_grid *g, float *b, const double albedo[3],
     }
 }
 
+/* A grid of cells `coarse` points of a finer grid (fine_res) apart per axis: res, to_cell and
+ * the arrays; emission and albedo only where has_emit / has_albedo. */
+static int grid_alloc(coarse_grid *g, const int32_t fine_res[3], const double to_fine[9], int coarse, int nb,
+                      int has_emit, int has_albedo)
+{
+    int a;
+    memset(g, 0, sizeof *g);
+    for (a = 0; a < 3; a++) g->res[a] = (fine_res[a] - 1 + coarse - 1) / coarse + 1;
+    g->n = (size_t)g->res[0] * g->res[1] * g->res[2];
+    g->nb = nb;
+    for (a = 0; a < 9; a++) g->to_cell[a] = to_fine[a] / coarse;
+    g->sigma = calloc(g->n, sizeof *g->sigma);
+    g->j = calloc(g->n * 3 * nb, sizeof *g->j);
+    g->next = calloc(g->n * 3 * nb, sizeof *g->next);
+    g->emit = has_emit ? calloc(g->n * 3, sizeof *g->emit) : NULL;
+    g->albedo = has_albedo ? calloc(g->n * 3, sizeof *g->albedo) : NULL;
+    g->sx = (size_t)g->res[0] + 3;
+    g->sy = g->sx * ((size_t)g->res[1] + 3);
+    g->pad = calloc(4 * g->sy * ((size_t)g->res[2] + 3), sizeof *g->pad);
+    return g->sigma && g->j && g->next && g->pad && (!has_emit || g->emit) && (!has_albedo || g->albedo) &&
+           g->n <= 0x7fffffff;
+}
+
+static void grid_free(coarse_grid *g)
+{
+    free(g->sigma);
+    free(g->j);
+    free(g->next);
+    free(g->emit);
+    free(g->albedo);
+    free(g->pad);
+}
+
+/* g's cells from the points of a finer grid (fine_res; sigma, and emit, albedo, j laid out as
+ * g's, emit and albedo NULL where g has none), `coarse` points per cell: mean sigma, J
+ * weighted by sigma (J is per unit extinction, so empty points must not dilute it), the
+ * albedo weighted by sigma (it scatters sigma_s = albedo sigma), the mean emission. The means
+ * are tent-weighted around the cell, whose centre is point `coarse` * its index (weight
+ * 1 - |offset| / coarse per axis): the transpose of the trilinear interpolation that brings
+ * J back, so neither moves the light. (A box of the points nearest each cell, as before,
+ * centred the cell's inputs half a point below where the marches and the interpolation put
+ * it: VolumeInd shifted by about one node spacing, docs/methods/crm.md.) With coarse 1 it
+ * is a copy. wsum: g->n doubles of scratch. */
+static void restrict_grid(coarse_grid *g, const int32_t fine_res[3], int coarse, const float *sigma,
+                          const float *emit, const float *albedo, const float *j, double *wsum)
+{
+    const int nb = g->nb;
+    size_t fine = (size_t)fine_res[0] * fine_res[1] * fine_res[2], i;
+    int a, c;
+    memset(wsum, 0, sizeof *wsum * g->n);
+    for (i = 0; i < fine; i++) {
+        int32_t q[3] = {(int32_t)(i % fine_res[0]), (int32_t)((i / fine_res[0]) % fine_res[1]),
+                        (int32_t)(i / ((size_t)fine_res[0] * fine_res[1]))}, lo[3], cx, cy, cz;
+        double s = sigma[i];
+        for (a = 0; a < 3; a++) lo[a] = q[a] / coarse;
+        for (cz = lo[2]; cz <= lo[2] + 1; cz++)
+            for (cy = lo[1]; cy <= lo[1] + 1; cy++)
+                for (cx = lo[0]; cx <= lo[0] + 1; cx++) {
+                    double w = (1.0 - fabs((double)(q[0] - cx * coarse)) / coarse) *
+                               (1.0 - fabs((double)(q[1] - cy * coarse)) / coarse) *
+                               (1.0 - fabs((double)(q[2] - cz * coarse)) / coarse);
+                    size_t n;
+                    if (!(w > 0.0) || cx >= g->res[0] || cy >= g->res[1] || cz >= g->res[2]) continue;
+                    n = ((size_t)cz * g->res[1] + (size_t)cy) * g->res[0] + (size_t)cx;
+                    g->sigma[n] += (float)(w * s);
+                    wsum[n] += w;
+                    if (g->emit)
+                        for (c = 0; c < 3; c++) g->emit[3 * n + c] += (float)(w * emit[3 * i + c]);
+                    if (g->albedo)
+                        for (c = 0; c < 3; c++) g->albedo[3 * n + c] += (float)(w * s * albedo[3 * i + c]);
+                    if (s > 0.0)
+                        for (c = 0; c < 3 * nb; c++) g->j[3 * nb * n + c] += (float)(w * s * j[3 * nb * i + c]);
+                }
+    }
+    for (i = 0; i < g->n; i++) {
+        for (c = 0; c < 3 * nb; c++) g->j[3 * nb * i + c] = g->sigma[i] > 0.0f ? g->j[3 * nb * i + c] / g->sigma[i] : 0.0f;
+        if (g->albedo)
+            for (c = 0; c < 3; c++) g->albedo[3 * i + c] = g->sigma[i] > 0.0f ? g->albedo[3 * i + c] / g->sigma[i] : 0.0f;
+        g->sigma[i] = wsum[i] > 0.0 ? (float)(g->sigma[i] / wsum[i]) : 0.0f;
+        if (g->emit)
+            for (c = 0; c < 3; c++) g->emit[3 * i + c] = wsum[i] > 0.0 ? (float)(g->emit[3 * i + c] / wsum[i]) : 0.0f;
+    }
+}
+
+/* Where the series stands: the band-0 sums of the last two orders (each cell weighted by the
+ * nodes it spans, so sums on the two grids compare) and of all so far. */
+typedef struct series {
+    double prev_sum, last_sum, tail_sum, cell_nodes;
+    int orders, converged;
+} series;
+
+/* The band-0 sum of v (laid out as g->j) in the series' units. */
+static double band0_sum(const coarse_grid *g, const float *v, double cell_nodes)
+{
+    double sum = 0.0;
+    size_t q;
+    for (q = 0; q < 3 * g->n; q++) sum += v[q * g->nb];
+    return sum * cell_nodes;
+}
+
+/* Orders on g, each gathered from g->j into ms, until `until` orders in all or one adds less
+ * than `tolerance` of the sum; g->j then holds the last order, g->next the one before. */
+static vsd_status follow_orders(coarse_grid *g, order_job *job, vsd_tile_job *tiles, float *ms, series *s, int until,
+                                double tolerance)
+{
+    vsd_status st = VSD_OK;
+    job->g = g;
+    tiles->width = (int)g->n;
+    while (!st && s->orders < until && !s->converged) {
+        double sum;
+        size_t i;
+        float *swap;
+        if ((st = gather(g, job, tiles, s->orders == 0 ? SOURCE_J_EMISSION : SOURCE_J))) break;
+        for (i = 0; i < 3 * (size_t)g->nb * g->n; i++) ms[i] += g->next[i];
+        sum = band0_sum(g, g->next, s->cell_nodes);
+        s->prev_sum = s->last_sum;
+        s->last_sum = sum;
+        s->orders++;
+        swap = g->j;
+        g->j = g->next;
+        g->next = swap;
+        if (s->orders > 1 && sum <= tolerance * (s->tail_sum += sum, s->tail_sum)) s->converged = 1;
+        if (s->orders == 1) s->tail_sum = sum;
+    }
+    return st;
+}
+
+/* Adds band l of v (laid out as g's J, g `coarse` fine nodes per cell) to the fine nodes'
+ * coefficient l at `offset` of each node's floats, trilinearly and sigma-weighted as the
+ * marches read J, where the node has medium (and marks it valid with set_valid). */
+static void to_fine_nodes(coarse_grid *g, const int32_t node_res[3], int coarse, const float *sigma_t, const float *v,
+                          int l, float *nodes, int offset, int stride, uint8_t *valid, uint8_t set_valid)
+{
+    size_t fine = (size_t)node_res[0] * node_res[1] * node_res[2], i;
+    int c;
+    fill_pad_coefficient(g, v, l);
+    for (i = 0; i < fine; i++) {
+        float *out = nodes + i * CRM_NODE_FLOATS + offset, smp[4];
+        if (!(sigma_t[i] > 0.0f) || !fine_sample(g, node_res, coarse, i, smp)) continue;
+        for (c = 0; c < 3; c++) out[c * stride + l] += smp[1 + c] / smp[0];
+        valid[i] |= set_valid;
+    }
+}
+
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
                           const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
-                          int bands, const float *j1, int delta, float *nodes, uint8_t *valid, int coarse, int directions,
-                          int max_orders, double tolerance, int threads, vsd_crm_orders_stats *stats, char *err,
-                          size_t errlen)
+                          int bands, const float *j1, int delta, float *nodes, uint8_t *valid, int coarse,
+                          int fine_orders, int directions, int max_orders, double tolerance, int threads,
+                          vsd_crm_orders_stats *stats, char *err, size_t errlen)
 {
     double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
-    float *y_in = NULL;
+    float *y_in = NULL, *j_nodes = NULL;
     int nb, l;
-    double prev_sum = 0.0, last_sum = 0.0, tail_sum = 0.0;
     vsd_crm_phase phase; /* what the orders scatter with: HG, or delta-M's scaled phase */
     long nside = vsd_sh_healpix_nside(directions);
-    float *ms = NULL, *je = NULL; /* je: the emission scattered once, per coarse cell */
-    coarse_grid g;
+    /* a: the grid the orders start on (the nodes themselves for the first fine_orders, else
+     * the coarse grid); b: the coarse grid the rest go on to, where a is the nodes */
+    float *ms_a = NULL, *ms_b = NULL, *je = NULL; /* je: the emission scattered once, on a */
+    coarse_grid ga, gb;
+    int coarse_a = fine_orders > 0 ? 1 : coarse, two_grids;
     order_job job;
+    series ser;
     vsd_tile_job tiles;
     size_t fine = (size_t)node_res[0] * node_res[1] * node_res[2], i;
     vsd_status st = VSD_OK;
-    int a, k, c, scaled;
+    int k, c, scaled;
     memset(stats, 0, sizeof *stats);
-    memset(&g, 0, sizeof g);
+    memset(&ga, 0, sizeof ga);
+    memset(&gb, 0, sizeof gb);
+    memset(&ser, 0, sizeof ser);
     if (!j1) j1 = nodes;
     if (!(anisotropy > 0.0)) delta = 0;
-    if (coarse < 1 || !nside || max_orders < 1 || !(tolerance >= 0.0) || bands < 2 || bands > 3)
+    if (coarse < 1 || fine_orders < 0 || !nside || max_orders < 1 || !(tolerance >= 0.0) || bands < 2 || bands > 3)
         return vsd_fail(VSD_ERR_INVALID, err, errlen,
-                        "crm orders: coarse %d, %d directions (12 nside^2), %d orders, tolerance %g or %d bands (2..3) "
-                        "out of range",
-                        coarse, directions, max_orders, tolerance, bands);
-    for (a = 0; a < 3; a++) g.res[a] = (node_res[a] - 1 + coarse - 1) / coarse + 1;
-    g.n = (size_t)g.res[0] * g.res[1] * g.res[2];
+                        "crm orders: coarse %d, %d fine orders, %d directions (12 nside^2), %d orders, tolerance %g or "
+                        "%d bands (2..3) out of range",
+                        coarse, fine_orders, directions, max_orders, tolerance, bands);
     /* g = 0: every order's J is isotropic (band 0); else bands 0..bands-1 carry the phase */
-    g.nb = nb = anisotropy != 0.0 ? bands * bands : 1;
-    for (a = 0; a < 9; a++) g.to_cell[a] = to_node[a] / coarse;
-    g.sigma = calloc(g.n, sizeof *g.sigma);
-    g.j = calloc(g.n * 3 * nb, sizeof *g.j);
-    g.next = calloc(g.n * 3 * nb, sizeof *g.next);
-    g.emit = emission ? calloc(g.n * 3, sizeof *g.emit) : NULL;
-    g.albedo = node_albedo ? calloc(g.n * 3, sizeof *g.albedo) : NULL;
-    g.sx = (size_t)g.res[0] + 3;
-    g.sy = g.sx * ((size_t)g.res[1] + 3);
-    g.pad = calloc(4 * g.sy * ((size_t)g.res[2] + 3), sizeof *g.pad);
-    ms = calloc(g.n * 3 * nb, sizeof *ms);
-    je = emission ? calloc(g.n * 3 * nb, sizeof *je) : NULL;
-    wsum = calloc(g.n, sizeof *wsum);
+    nb = anisotropy != 0.0 ? bands * bands : 1;
+    two_grids = coarse_a < coarse && fine_orders < max_orders;
     dirs = malloc(sizeof *dirs * 3 * (size_t)directions);
     y_in = malloc(sizeof *y_in * (size_t)nb * (size_t)directions);
-    if (!g.sigma || !g.j || !g.next || !g.pad || !ms || !wsum || !dirs || !y_in || (emission && (!g.emit || !je)) ||
-        (node_albedo && !g.albedo)) {
-        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", g.res[0], g.res[1], g.res[2]);
+    j_nodes = calloc(fine * 3 * nb, sizeof *j_nodes);
+    if (!dirs || !y_in || !j_nodes || !grid_alloc(&ga, node_res, to_node, coarse_a, nb, emission != NULL, node_albedo != NULL) ||
+        !(wsum = calloc(ga.n, sizeof *wsum)) || !(ms_a = calloc(ga.n * 3 * nb, sizeof *ms_a)) ||
+        (emission && !(je = calloc(ga.n * 3 * nb, sizeof *je)))) {
+        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid (or over 2^31 cells)",
+                      ga.res[0], ga.res[1], ga.res[2]);
         goto done;
     }
     if ((st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) goto done;
@@ -404,62 +543,23 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         else y[0] = Y00;
         for (l = 0; l < nb; l++) y_in[(size_t)k * nb + l] = (float)y[l];
     }
-    /* coarse cells: mean sigma of their fine nodes, J_1 weighted by sigma (J is per unit
-     * extinction, so empty nodes must not dilute it); with per-node albedos the cell's is
-     * sigma-weighted too (it scatters sigma_s = albedo sigma), and J_1, which the single
-     * scattering gave with `albedo`, is rescaled to the node's: the first scattering of
-     * the mixture there. The means are tent-weighted around the cell, whose centre is fine
-     * node `coarse` * its index (weight 1 - |offset| / coarse per axis): the transpose of
-     * the trilinear interpolation that brings J_ms back, so neither moves the light. (A box
-     * of the nodes nearest each cell, as before, centred the cell's inputs half a fine node
-     * below where the marches and the interpolation put it: VolumeInd shifted by about one
-     * node spacing, docs/methods/crm.md.) */
-    for (i = 0; i < fine; i++) {
-        int32_t q[3] = {(int32_t)(i % node_res[0]), (int32_t)((i / node_res[0]) % node_res[1]),
-                        (int32_t)(i / ((size_t)node_res[0] * node_res[1]))}, lo[3], cx, cy, cz;
-        double s = sigma_t[i];
-        for (a = 0; a < 3; a++) lo[a] = q[a] / coarse;
-        for (cz = lo[2]; cz <= lo[2] + 1; cz++)
-            for (cy = lo[1]; cy <= lo[1] + 1; cy++)
-                for (cx = lo[0]; cx <= lo[0] + 1; cx++) {
-                    double w = (1.0 - fabs((double)(q[0] - cx * coarse)) / coarse) *
-                               (1.0 - fabs((double)(q[1] - cy * coarse)) / coarse) *
-                               (1.0 - fabs((double)(q[2] - cz * coarse)) / coarse);
-                    size_t n;
-                    if (!(w > 0.0) || cx >= g.res[0] || cy >= g.res[1] || cz >= g.res[2]) continue;
-                    n = ((size_t)cz * g.res[1] + (size_t)cy) * g.res[0] + (size_t)cx;
-                    g.sigma[n] += (float)(w * s);
-                    wsum[n] += w;
-                    if (emission)
-                        for (c = 0; c < 3; c++) g.emit[3 * n + c] += (float)(w * emission[3 * i + c]);
-                    if (g.albedo)
-                        for (c = 0; c < 3; c++) g.albedo[3 * n + c] += (float)(w * s * node_albedo[3 * i + c]);
-                    if (valid[i] & CRM_NODE_SINGLE)
-                        for (c = 0; c < 3; c++) {
-                            double to_node = !node_albedo ? 1.0 : albedo[c] > 0.0 ? node_albedo[3 * i + c] / albedo[c] : 0.0;
-                            for (l = 0; l < nb; l++)
-                                g.j[(3 * n + c) * nb + l] +=
-                                    (float)(w * s * to_node * j1[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
-                        }
-                }
-    }
-    for (i = 0; i < g.n; i++) {
-        for (c = 0; c < 3 * nb; c++) g.j[3 * nb * i + c] = g.sigma[i] > 0.0f ? g.j[3 * nb * i + c] / g.sigma[i] : 0.0f;
-        if (g.albedo)
-            for (c = 0; c < 3; c++) g.albedo[3 * i + c] = g.sigma[i] > 0.0f ? g.albedo[3 * i + c] / g.sigma[i] : 0.0f;
-        g.sigma[i] = wsum[i] > 0.0 ? (float)(g.sigma[i] / wsum[i]) : 0.0f;
-        if (g.emit)
-            for (c = 0; c < 3; c++) g.emit[3 * i + c] = wsum[i] > 0.0 ? (float)(g.emit[3 * i + c] / wsum[i]) : 0.0f;
-    }
-    if (g.n > 0x7fffffff) {
-        st = vsd_fail(VSD_ERR_INVALID, err, errlen, "crm orders: %zu cells", g.n);
-        goto done;
-    }
+    /* J_1 per node laid out as the grids' J: with per-node albedos, J_1, which the single
+     * scattering gave with `albedo`, is rescaled to the node's (the first scattering of the
+     * mixture there) */
+    for (i = 0; i < fine; i++)
+        if (valid[i] & CRM_NODE_SINGLE)
+            for (c = 0; c < 3; c++) {
+                double to_node_albedo = !node_albedo ? 1.0 : albedo[c] > 0.0 ? node_albedo[3 * i + c] / albedo[c] : 0.0;
+                for (l = 0; l < nb; l++)
+                    j_nodes[(3 * i + c) * nb + l] = (float)(to_node_albedo * j1[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
+            }
+    restrict_grid(&ga, node_res, coarse_a, sigma_t, emission, node_albedo, j_nodes, wsum);
+    free(j_nodes);
+    j_nodes = NULL;
     /* delta-M needs band 1 (g > 0): else the orders run the medium as it is */
     scaled = delta && nb > 1;
     phase = scaled ? vsd_crm_phase_delta_m(anisotropy, bands) : vsd_crm_phase_hg(anisotropy);
-    if (scaled) delta_m(&g, albedo, anisotropy, bands, job.albedo);
-    job.g = &g;
+    if (scaled) delta_m(&ga, albedo, anisotropy, bands, job.albedo);
     job.dirs = dirs;
     job.y_in = y_in;
     for (l = 0; l < nb; l++) job.weight[l] = (float)(4.0 * PI_D * (l == 0 ? 1.0 : phase.chi[vsd_crm_sh_band(l)]) / directions);
@@ -467,49 +567,57 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     if (!scaled)
         for (c = 0; c < 3; c++) job.albedo[c] = albedo[c];
     memset(&tiles, 0, sizeof tiles);
-    tiles.width = (int)g.n;
     tiles.height = 1;
     tiles.threads = threads;
     tiles.fn = run_order;
     tiles.user = &job;
     tiles.stage = "crm multiple scattering";
-    if (g.emit) {
+    job.g = &ga;
+    tiles.width = (int)ga.n;
+    if (ga.emit) {
         /* The emission scattered once: one gather with the emission alone as the source.
          * It is in J_2 (the first order gathers sigma J_1 + emission), but Cycles counts it
          * as direct light (docs/design-notes.md, "Passes"): it is taken out of J_ms below
          * and written into the single-scattering bands 0 (and 1, with the phase on the
          * orders), so the view puts it in VolumeDir. */
-        if ((st = gather(&g, &job, &tiles, SOURCE_EMISSION))) goto done;
-        memcpy(je, g.next, sizeof(float) * 3 * nb * g.n);
+        if ((st = gather(&ga, &job, &tiles, SOURCE_EMISSION))) goto done;
+        memcpy(je, ga.next, sizeof(float) * 3 * nb * ga.n);
     }
-    for (k = 0; k < max_orders; k++) {
-        double sum = 0.0;
-        if ((st = gather(&g, &job, &tiles, k == 0 ? SOURCE_J_EMISSION : SOURCE_J))) goto done;
-        for (i = 0; i < 3 * nb * g.n; i++) {
-            ms[i] += g.next[i];
-            if (i % nb == 0) sum += g.next[i];   /* band 0: the order's light */
+    ser.cell_nodes = (double)coarse_a * coarse_a * coarse_a;
+    if ((st = follow_orders(&ga, &job, &tiles, ms_a, &ser, two_grids ? fine_orders : max_orders, tolerance))) goto done;
+    stats->fine_orders = coarse_a == 1 ? ser.orders : 0;
+    if (two_grids && !ser.converged) {
+        /* The later orders are smooth (each a sum over many paths): on to the coarse grid,
+         * from the nodes' (delta-M scaled) medium and the last order's J there. The series'
+         * sums go on in the coarse grid's terms, so the last order is summed again there. */
+        double last_on_a = ser.last_sum;
+        free(wsum);
+        if (!grid_alloc(&gb, ga.res, to_node, coarse, nb, 0, ga.albedo != NULL) || !(wsum = calloc(gb.n, sizeof *wsum)) ||
+            !(ms_b = calloc(gb.n * 3 * nb, sizeof *ms_b))) {
+            st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", gb.res[0],
+                          gb.res[1], gb.res[2]);
+            goto done;
         }
-        prev_sum = last_sum;
-        last_sum = sum;
-        stats->orders = k + 1;
-        {
-            float *swap = g.j;
-            g.j = g.next;
-            g.next = swap;
-        }
-        if (k > 0 && sum <= tolerance * (tail_sum += sum, tail_sum)) break;
-        if (k == 0) tail_sum = sum;
+        restrict_grid(&gb, ga.res, coarse, ga.sigma, NULL, ga.albedo, ga.j, wsum);
+        ser.cell_nodes = (double)coarse * coarse * coarse;
+        ser.last_sum = band0_sum(&gb, gb.j, ser.cell_nodes);
+        if (last_on_a > 0.0) ser.tail_sum *= ser.last_sum / last_on_a;
+        if ((st = follow_orders(&gb, &job, &tiles, ms_b, &ser, max_orders, tolerance))) goto done;
     }
-    /* close the series with each band's geometric tail from the last two orders */
-    if (stats->orders >= 2 && prev_sum > 0.0)
-        stats->tail = close_series(&g, ms, last_sum, prev_sum, tail_sum, &phase);
-    if (je) subtract_emission(&g, ms, je);
+    stats->orders = ser.orders;
+    /* close the series with each band's geometric tail from the last two orders (on the
+     * grid the last order ran on; after the switch, the one before is the nodes' last,
+     * carried over in gb.next) */
+    if (ser.orders >= 2 && ser.prev_sum > 0.0)
+        stats->tail = close_series(ms_b ? &gb : &ga, ms_b ? ms_b : ms_a, ser.last_sum, ser.prev_sum, ser.tail_sum, &phase);
+    if (je) subtract_emission(&ga, ms_a, je);
     if (scaled) {
-        delta_m_back(&g, ms, albedo, anisotropy, bands, &phase);
-        if (je) delta_m_back(&g, je, albedo, anisotropy, bands, &phase);
+        delta_m_back(&ga, ms_a, albedo, anisotropy, bands, &phase);
+        if (je) delta_m_back(&ga, je, albedo, anisotropy, bands, &phase);
+        if (ms_b) delta_m_back(&gb, ms_b, albedo, anisotropy, bands, &phase);
     }
     /* back to the fine nodes, trilinearly (sigma-weighted, as the marches read J), each of
-     * bands 0 (and 1)'s coefficients in turn: the emission scattered once onto the single
+     * the bands' coefficients in turn: the emission scattered once onto the single
      * scattering, J_ms onto the multiple */
     for (i = 0; i < fine; i++) {
         memset(nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N, 0, sizeof(float) * 3 * CRM_MS_N);
@@ -517,35 +625,21 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         else valid[i] &= (uint8_t)~CRM_NODE_MULTIPLE;
     }
     for (l = 0; l < nb; l++) {
-        if (je) {
-            fill_pad_coefficient(&g, je, l);
-            for (i = 0; i < fine; i++) {
-                float *ss = nodes + i * CRM_NODE_FLOATS, smp[4];
-                if (!(sigma_t[i] > 0.0f) || !fine_sample(&g, node_res, coarse, i, smp)) continue;
-                for (c = 0; c < 3; c++) ss[c * CRM_SS_N + l] += smp[1 + c] / smp[0];
-                valid[i] |= CRM_NODE_SINGLE;
-            }
-        }
-        fill_pad_coefficient(&g, ms, l);
-        for (i = 0; i < fine; i++) {
-            float *out = nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N, smp[4];
-            if (!(sigma_t[i] > 0.0f) || !fine_sample(&g, node_res, coarse, i, smp)) continue;
-            for (c = 0; c < 3; c++) out[c * CRM_MS_N + l] = smp[1 + c] / smp[0];
-        }
+        if (je) to_fine_nodes(&ga, node_res, coarse_a, sigma_t, je, l, nodes, 0, CRM_SS_N, valid, CRM_NODE_SINGLE);
+        to_fine_nodes(&ga, node_res, coarse_a, sigma_t, ms_a, l, nodes, 3 * CRM_SS_N, CRM_MS_N, valid, 0);
+        if (ms_b) to_fine_nodes(&gb, node_res, coarse, sigma_t, ms_b, l, nodes, 3 * CRM_SS_N, CRM_MS_N, valid, 0);
     }
-    for (a = 0; a < 3; a++) stats->res[a] = g.res[a];
+    for (k = 0; k < 3; k++) stats->res[k] = ms_b ? gb.res[k] : ga.res[k];
 done:
-    free(g.sigma);
-    free(g.j);
-    free(g.next);
-    free(g.emit);
-    free(g.albedo);
-    free(g.pad);
-    free(ms);
+    grid_free(&ga);
+    grid_free(&gb);
+    free(ms_a);
+    free(ms_b);
     free(je);
     free(wsum);
     free(dirs);
     free(y_in);
+    free(j_nodes);
     stats->seconds = vsd_clock_seconds() - t0;
     return st;
 }

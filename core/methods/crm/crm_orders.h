@@ -5,8 +5,10 @@
  * Why: diffusion (the paper's, and one on this grid with a vacuum boundary that was tried
  * and dropped) assumes many scattering events; at our smoke's albedo (0.85)
  * and thickness they give a third of the reference's VolumeInd (docs/methods/crm.md). Here
- * the scattered light is followed order by order, as a path tracer would, on a grid a few
- * voxels apart (multiple scattering is smooth):
+ * the scattered light is followed order by order, as a path tracer would: the first
+ * `fine_orders` on the nodes themselves (J_1 holds the shadows' edges and the medium's
+ * detail, which the first gather carries into J_2), the rest on a grid `coarse` nodes apart
+ * (each later order is a sum over more paths, and smooth):
  *     J_1       the single-scattering source's bands 0-2 (`ms_bands` 3; 0-1 with 2; band 0
  *               alone when g = 0)
  *     L_k(x,w)  = integral over s of tau(x, x + s w) sigma_t(x + s w) J_k(x + s w, -w) ds
@@ -37,6 +39,7 @@
 
 typedef struct vsd_crm_orders_stats {
     int orders;          /* orders computed (k = 2 .. orders + 1) */
+    int fine_orders;     /* of which on the nodes themselves (fine_orders, or coarse 1) */
     double tail;         /* fraction of J_ms that came from the geometric tail */
     int32_t res[3];      /* coarse grid */
     double seconds;
@@ -52,7 +55,9 @@ typedef struct vsd_crm_orders_stats {
  * NULL; albedo: the medium's, with which the single scattering (J_1) was computed;
  * node_albedo: NULL, or per fine node 3 floats, the albedo the orders scatter with there
  * (several overlapping volumes: sigma_s / sigma_t of their mixture); coarse: fine nodes per
- * coarse cell (>= 1); directions: HEALPix count (12 nside^2).
+ * coarse cell (>= 1); fine_orders: how many of the first orders run on the nodes themselves
+ * before the rest go on to the coarse grid (0: all on the coarse grid); directions: HEALPix
+ * count (12 nside^2).
  * j1: the nodes (CRM_NODE_FLOATS layout) J_1's bands are read from, or NULL: `nodes`.
  * delta: delta-M scaling of the phase for g > 0 (crm_orders.c, delta_m): the orders run the
  * scaled problem (f = g^bands: sigma_t (1 - a f), a (1 - f) / (1 - a f), the phase's band l
@@ -60,8 +65,8 @@ typedef struct vsd_crm_orders_stats {
  * back to the true phase for the view. */
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
                           const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
-                          int bands, const float *j1, int delta, float *nodes, uint8_t *valid, int coarse, int directions,
-                          int max_orders, double tolerance, int threads, vsd_crm_orders_stats *stats, char *err,
+                          int bands, const float *j1, int delta, float *nodes, uint8_t *valid, int coarse,
+                          int fine_orders, int directions, int max_orders, double tolerance, int threads, vsd_crm_orders_stats *stats, char *err,
                           size_t errlen);
 
 #endif
