@@ -211,8 +211,13 @@ class Inputs(object):
 # crm's orders carry SH bands 0-2 (2026-12-05): its lighting stage holds the delta-M J_1, a
 # copy of the nodes at 75 floats each (60 before), ~36 MiB on cloud128_interior, while it
 # runs, outside the cache's account (a soak run measured 195 MiB against the former bound
-# of 178.7 with 2 workers).
-PER_WORKER_MB = 48
+# of 178.7 with 2 workers); plus 32 since crm's first order runs on its nodes (`order_fine`,
+# 2026-12-06): the lighting stage then holds that order's grid at the nodes' resolution
+# (sigma, J and the next order in bands 0-2, the pad, the orders' sum: ~0.45 KB a node, up
+# to ~50 MiB on cloud128_interior's 120 k nodes, where the coarse grid held an eighth) while
+# it runs, outside the cache's account (the CI soak measured 226.2 MiB against the 210.8 of
+# 48 per worker: 56 per worker needed; 80 keeps the former margin).
+PER_WORKER_MB = 80
 
 RETRY_CODES = ("busy", "cache_full", "missing_blob")
 
