@@ -388,14 +388,15 @@ static void grid_free(coarse_grid *g)
  * J back, so neither moves the light. (A box of the points nearest each cell, as before,
  * centred the cell's inputs half a point below where the marches and the interpolation put
  * it: VolumeInd shifted by about one node spacing, docs/methods/crm.md.) With coarse 1 it
- * is a copy. wsum: g->n doubles of scratch. */
-static void restrict_grid(coarse_grid *g, const int32_t fine_res[3], int coarse, const float *sigma,
-                          const float *emit, const float *albedo, const float *j, double *wsum)
+ * is a copy. Returns 0 where its scratch (a double per cell) cannot be had. */
+static int restrict_grid(coarse_grid *g, const int32_t fine_res[3], int coarse, const float *sigma,
+                         const float *emit, const float *albedo, const float *j)
 {
     const int nb = g->nb;
     size_t fine = (size_t)fine_res[0] * fine_res[1] * fine_res[2], i;
     int a, c;
-    memset(wsum, 0, sizeof *wsum * g->n);
+    double *wsum = calloc(g->n, sizeof *wsum);
+    if (!wsum) return 0;
     for (i = 0; i < fine; i++) {
         int32_t q[3] = {(int32_t)(i % fine_res[0]), (int32_t)((i / fine_res[0]) % fine_res[1]),
                         (int32_t)(i / ((size_t)fine_res[0] * fine_res[1]))}, lo[3], cx, cy, cz;
@@ -428,6 +429,8 @@ static void restrict_grid(coarse_grid *g, const int32_t fine_res[3], int coarse,
         if (g->emit)
             for (c = 0; c < 3; c++) g->emit[3 * i + c] = wsum[i] > 0.0 ? (float)(g->emit[3 * i + c] / wsum[i]) : 0.0f;
     }
+    free(wsum);
+    return 1;
 }
 
 /* Where the series stands: the band-0 sums of the last two orders (each cell weighted by the
@@ -496,7 +499,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
                           int fine_orders, int directions, int max_orders, double tolerance, int threads,
                           vsd_crm_orders_stats *stats, char *err, size_t errlen)
 {
-    double t0 = vsd_clock_seconds(), *dirs = NULL, *wsum = NULL;
+    double t0 = vsd_clock_seconds(), *dirs = NULL;
     float *y_in = NULL, *j_nodes = NULL;
     int nb, l;
     vsd_crm_phase phase; /* what the orders scatter with: HG, or delta-M's scaled phase */
@@ -530,7 +533,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     y_in = malloc(sizeof *y_in * (size_t)nb * (size_t)directions);
     j_nodes = calloc(fine * 3 * nb, sizeof *j_nodes);
     if (!dirs || !y_in || !j_nodes || !grid_alloc(&ga, node_res, to_node, coarse_a, nb, emission != NULL, node_albedo != NULL) ||
-        !(wsum = calloc(ga.n, sizeof *wsum)) || !(ms_a = calloc(ga.n * 3 * nb, sizeof *ms_a)) ||
+        !(ms_a = calloc(ga.n * 3 * nb, sizeof *ms_a)) ||
         (emission && !(je = calloc(ga.n * 3 * nb, sizeof *je)))) {
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid (or over 2^31 cells)",
                       ga.res[0], ga.res[1], ga.res[2]);
@@ -553,7 +556,10 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
                 for (l = 0; l < nb; l++)
                     j_nodes[(3 * i + c) * nb + l] = (float)(to_node_albedo * j1[i * CRM_NODE_FLOATS + c * CRM_SS_N + l]);
             }
-    restrict_grid(&ga, node_res, coarse_a, sigma_t, emission, node_albedo, j_nodes, wsum);
+    if (!restrict_grid(&ga, node_res, coarse_a, sigma_t, emission, node_albedo, j_nodes)) {
+        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory to restrict onto %zu cells", ga.n);
+        goto done;
+    }
     free(j_nodes);
     j_nodes = NULL;
     /* delta-M needs band 1 (g > 0): else the orders run the medium as it is */
@@ -591,14 +597,16 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
          * from the nodes' (delta-M scaled) medium and the last order's J there. The series'
          * sums go on in the coarse grid's terms, so the last order is summed again there. */
         double last_on_a = ser.last_sum;
-        free(wsum);
-        if (!grid_alloc(&gb, ga.res, to_node, coarse, nb, 0, ga.albedo != NULL) || !(wsum = calloc(gb.n, sizeof *wsum)) ||
+        if (!grid_alloc(&gb, ga.res, to_node, coarse, nb, 0, ga.albedo != NULL) ||
             !(ms_b = calloc(gb.n * 3 * nb, sizeof *ms_b))) {
             st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid", gb.res[0],
                           gb.res[1], gb.res[2]);
             goto done;
         }
-        restrict_grid(&gb, ga.res, coarse, ga.sigma, NULL, ga.albedo, ga.j, wsum);
+        if (!restrict_grid(&gb, ga.res, coarse, ga.sigma, NULL, ga.albedo, ga.j)) {
+            st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory to restrict onto %zu cells", gb.n);
+            goto done;
+        }
         ser.cell_nodes = (double)coarse * coarse * coarse;
         ser.last_sum = band0_sum(&gb, gb.j, ser.cell_nodes);
         if (last_on_a > 0.0) ser.tail_sum *= ser.last_sum / last_on_a;
@@ -636,7 +644,6 @@ done:
     free(ms_a);
     free(ms_b);
     free(je);
-    free(wsum);
     free(dirs);
     free(y_in);
     free(j_nodes);
