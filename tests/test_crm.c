@@ -85,8 +85,11 @@
  * would put the default further from it than order_fine 0 is. On smoke64 the first order
  * closes a third of the coarse grid's VolumeInd error; on the thin plume, 13.0 -> 9.6%
  * (docs/methods/crm.md "The first order on the nodes"). */
-#define ORDER_FINE 1
+#define ORDER_FINE 3
+#define ORDER_FINE_TEXT "3"
 #define TOL_ORDER_FINE 0.95
+#define TOL_SWEEP_REF 0.01
+#define TOL_SWEEP_MARCH 0.02
 /* The ball at 32x32, 2 x 2048 spp: noise of the mean Combined 0.0028, VolumeDir 0.0058,
  * VolumeInd 0.0061; crm Combined 0.0060, VolumeDir 0.0155, VolumeInd 0.0192 (totals
  * VolumeDir 0.999, VolumeInd 1.000; before the orders' coarse cells were centred 0.0277 /
@@ -238,45 +241,56 @@ static void test_real_data_and_cache(void)
     }
 
     /* ---- 2c. the first orders on the nodes themselves (order_fine, crm_orders.c): the
-     * default runs ORDER_FINE of them there and the rest on the coarse grid; all of them on
-     * the coarse grid (order_fine 0, the default until 2026-12-06) must be further from the
-     * reference's VolumeInd, and an order_fine of at least `orders` is order_cell 1 (every
-     * order on the nodes) bit for bit. */
+     * default runs ORDER_FINE of them there, by sweeps, and the rest on the coarse grid; all
+     * of them on the coarse grid (order_fine 0, the default until 2026-12-06) must be
+     * further from the reference's VolumeInd, and an order_fine of at least `orders` is
+     * order_cell 1 (every order on the nodes) bit for bit.
+     * 2d. the sweeps (crm_sweep.h) against marches over the same orders: as near the
+     * reference, and near the marches' image. */
     {
-        const char *ov[][7] = {
+        const char *ov[][8] = {
             {"frames.start=24", "frames.end=24", "film.width=96", "film.height=54", "render.method=crm", CRM_AREA,
-             "render.options.order_fine=0"},
+             "render.options.order_fine=0", "render.options.gather=march"},
             {"frames.start=24", "frames.end=24", "film.width=96", "film.height=54", "render.method=crm", CRM_AREA,
-             "render.options.order_cell=1"},
+             "render.options.order_cell=1", "render.options.gather=march"},
             {"frames.start=24", "frames.end=24", "film.width=96", "film.height=54", "render.method=crm", CRM_AREA,
-             "render.options.order_fine=24"}};
-        vsd_framebuffer *fb[3] = {NULL, NULL, NULL};
+             "render.options.order_fine=24", "render.options.gather=march"},
+            {"frames.start=24", "frames.end=24", "film.width=96", "film.height=54", "render.method=crm", CRM_AREA,
+             "render.options.gather=march", "render.options.order_fine=" ORDER_FINE_TEXT}};
+        vsd_framebuffer *fb[4] = {NULL, NULL, NULL, NULL};
         int v;
-        for (v = 0; v < 3; v++) {
+        for (v = 0; v < 4; v++) {
             vsd_scene sc;
-            if (test_load_scene(SMOKE, ov[v], 7, &sc)) fb[v] = test_render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
+            if (test_load_scene(SMOKE, ov[v], 8, &sc)) fb[v] = test_render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
             CHECK(fb[v] != NULL);
         }
         CHECK_NEAR(test_info(&s0, "orders_fine"), ORDER_FINE, 0);
-        if (fb[0] && fb[1] && fb[2]) {
+        if (fb[0] && fb[1] && fb[2] && fb[3]) {
             /* against the reference (noise of the mean ~0.02 here, so this only may not get
              * worse) and, free of noise, against every order on the nodes: the answer the
              * coarse grid approximates */
             double e_default = mvr_error(crm, &refs, VSD_PASS_VOLUME_IND), e_coarse = mvr_error(fb[0], &refs, VSD_PASS_VOLUME_IND),
                    e_nodes = mvr_error(fb[1], &refs, VSD_PASS_VOLUME_IND), d_default = test_rel_err(crm, fb[1], VSD_PASS_VOLUME_IND),
-                   d_coarse = test_rel_err(fb[0], fb[1], VSD_PASS_VOLUME_IND), same = test_max_rel_diff(fb[1], fb[2], VSD_PASS_COMBINED);
+                   d_coarse = test_rel_err(fb[0], fb[1], VSD_PASS_VOLUME_IND), same = test_max_rel_diff(fb[1], fb[2], VSD_PASS_COMBINED),
+                   e_march = mvr_error(fb[3], &refs, VSD_PASS_VOLUME_IND), d_march = test_rel_err(crm, fb[3], VSD_PASS_VOLUME_IND);
             printf("[2c] VolumeInd against the reference: order_fine %d (default) %.4f, 0 %.4f, every order on the nodes "
                    "%.4f; against every order on the nodes: default %.4f, order_fine 0 %.4f; order_fine 24 against "
                    "order_cell 1: max rel. diff %.3g\n",
                    ORDER_FINE, e_default, e_coarse, e_nodes, d_default, d_coarse, same);
+            printf("[2d] sweeps against marches (order_fine %d): VolumeInd against the reference %.4f / %.4f, between "
+                   "them %.4f\n", ORDER_FINE, e_default, e_march, d_march);
             CHECK_MSG(e_default <= e_coarse, "order_fine %d: VolumeInd %.4f, worse than order_fine 0's %.4f", ORDER_FINE,
                       e_default, e_coarse);
             CHECK_MSG(d_default < TOL_ORDER_FINE * d_coarse,
                       "order_fine %d is %.4f from every order on the nodes, not below %.2f x order_fine 0's %.4f", ORDER_FINE,
                       d_default, TOL_ORDER_FINE, d_coarse);
             CHECK_MSG(same == 0.0, "order_fine 24 is not order_cell 1 (max rel. diff %.3g)", same);
+            CHECK_MSG(e_default <= e_march + TOL_SWEEP_REF, "sweeps: VolumeInd %.4f, above the marches' %.4f + %.3f",
+                      e_default, e_march, TOL_SWEEP_REF);
+            CHECK_MSG(d_march < TOL_SWEEP_MARCH, "sweeps are %.4f from the marches' VolumeInd (bound %.3f)", d_march,
+                      TOL_SWEEP_MARCH);
         }
-        for (v = 0; v < 3; v++) vsd_framebuffer_destroy(fb[v]);
+        for (v = 0; v < 4; v++) vsd_framebuffer_destroy(fb[v]);
     }
 
     /* ---- 3. the default path fitted nothing and hashed nothing, and wrote no cache file;

@@ -16,6 +16,7 @@ static void *worker(void *arg)
 {
     pool_state *ps = arg;
     const vsd_tile_job *job = ps->job;
+    const int range_x = job->height == 1 && job->item_range > 0 ? job->item_range : VSD_TILE_SIZE;
     for (;;) {
         int t, tx, ty, finished;
         if (job->cancel && *job->cancel) break;
@@ -25,8 +26,8 @@ static void *worker(void *arg)
         tx = t % ps->tiles_x;
         ty = t / ps->tiles_x;
         {
-            int x0 = tx * VSD_TILE_SIZE, y0 = ty * VSD_TILE_SIZE, x, y;
-            int x1 = x0 + VSD_TILE_SIZE, y1 = y0 + VSD_TILE_SIZE;
+            int x0 = tx * range_x, y0 = ty * VSD_TILE_SIZE, x, y;
+            int x1 = x0 + range_x, y1 = y0 + VSD_TILE_SIZE;
             if (x1 > job->width) x1 = job->width;
             if (y1 > job->height) y1 = job->height;
             /* An image tile runs pixel by pixel with the cancel flag checked between
@@ -74,7 +75,8 @@ vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job)
     int n = vsd_cpu_thread_count(job->threads), i;
     pthread_t *th;
     ps.job = job;
-    ps.tiles_x = (job->width + VSD_TILE_SIZE - 1) / VSD_TILE_SIZE;
+    int range_x = job->height == 1 && job->item_range > 0 ? job->item_range : VSD_TILE_SIZE;
+    ps.tiles_x = (job->width + range_x - 1) / range_x;
     ps.tiles_total = ps.tiles_x * ((job->height + VSD_TILE_SIZE - 1) / VSD_TILE_SIZE);
     ps.stride = job->spread ? spread_stride(ps.tiles_total) : 1;
     if (job->progress) job->progress(job->progress_user, job->stage, job->progress_base);
@@ -94,7 +96,7 @@ vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job)
     return VSD_OK;
 }
 
-vsd_status vsd_cpu_run_items(int count, int threads, vsd_tile_fn fn, void *user, const char *stage)
+static vsd_status run_list(int count, int range, int threads, vsd_tile_fn fn, void *user, const char *stage)
 {
     vsd_tile_job job;
     memset(&job, 0, sizeof job);
@@ -104,5 +106,16 @@ vsd_status vsd_cpu_run_items(int count, int threads, vsd_tile_fn fn, void *user,
     job.fn = fn;
     job.user = user;
     job.stage = stage;
+    job.item_range = range;
     return vsd_cpu_run_tiles(&job);
+}
+
+vsd_status vsd_cpu_run_items(int count, int threads, vsd_tile_fn fn, void *user, const char *stage)
+{
+    return run_list(count, VSD_TILE_SIZE, threads, fn, user, stage);
+}
+
+vsd_status vsd_cpu_run_each(int count, int threads, vsd_tile_fn fn, void *user, const char *stage)
+{
+    return run_list(count, 1, threads, fn, user, stage);
 }

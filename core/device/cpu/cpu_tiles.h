@@ -24,6 +24,7 @@ typedef struct vsd_tile_job {
     float progress_base, progress_span; /* fraction reported = base + span * done/total */
     volatile int *cancel;        /* may be 0 */
     int spread;                  /* hand the tiles out scattered over the image (below) */
+    int item_range;              /* item lists (height 1): items per call (0 = VSD_TILE_SIZE) */
 } vsd_tile_job;
 
 /* Runs every tile; VSD_ERR_CANCELLED when *cancel became non-zero (seen within one pixel of
@@ -39,6 +40,10 @@ vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job);
 /* fn over items [0, count) in ranges, as the x range of a count x 1 image (no progress,
  * no cancel): the form the lighting stages of the methods use. */
 vsd_status vsd_cpu_run_items(int count, int threads, vsd_tile_fn fn, void *user, const char *stage);
+
+/* fn over items [0, count) one item per call: for lists of a few large items (crm's sweep
+ * per direction), which ranges of VSD_TILE_SIZE would hand to one thread. */
+vsd_status vsd_cpu_run_each(int count, int threads, vsd_tile_fn fn, void *user, const char *stage);
 
 /* The thread count a request for `threads` (0 = all) resolves to: vsd_cpu_thread_count,
  * src/common/cpu_count.h (shared with the EXR writer). */

@@ -63,7 +63,7 @@
 typedef struct crm_options {
     int rbf_count, fit_iterations, sh_order, cg_iterations, view_density, pixel_samples, delete_per_frame, insert_max;
     int coherent, multiple, single, directions, orders, order_directions, order_cell, order_fine, sky, lights, delta_m;
-    int ms_bands;
+    int ms_bands, gather;
     double node_spacing, step, early_termination, error_ratio, light_threshold;
     vsd_view_sampling view;
 } crm_options;
@@ -83,6 +83,8 @@ static const char *healpix_count_problem(double v)
     return vsd_sh_healpix_nside((long)v) ? NULL : "is not a HEALPix pixel count 12 nside^2 (12, 48, 108, 192, 300, ...)";
 }
 static const char *const multiple_names[] = {"orders", "rbf", NULL};
+enum { GATHER_MARCH, GATHER_SWEEP };
+static const char *const gather_names[] = {"march", "sweep", NULL};
 
 /* Options of one form of single or multiple scattering mean nothing under another. */
 static const vsd_option_when crm_on_single_grid[] = {{"single", 0, 0, "grid"}, {NULL, 0, 0, NULL}};
@@ -144,10 +146,14 @@ static const vsd_option_spec crm_option_rows[] = {
      offsetof(crm_options, order_directions), 0, healpix_count_problem, .when = crm_on_multiple_orders},
     {"order_cell", VSD_OPT_INT, 1, 8, 2, NULL, "multiple orders: source nodes per cell of the coarse grid",
      offsetof(crm_options, order_cell), 0, NULL, .when = crm_on_multiple_orders},
-    {"order_fine", VSD_OPT_INT, 0, 64, 1, NULL,
+    {"order_fine", VSD_OPT_INT, 0, 64, 3, NULL,
      "multiple orders: how many of the first orders run on the nodes themselves before the rest go on to the coarse "
      "grid of order_cell (the first orders carry the medium's detail; the later ones are smooth)",
      offsetof(crm_options, order_fine), 0, NULL, .when = crm_on_multiple_orders},
+    {"gather", VSD_OPT_CHOICE, 0, 0, GATHER_SWEEP, gather_names,
+     "multiple orders: how each order gathers the light toward every cell: sweep (one pass over the cells per "
+     "direction, each cell's light from its upstream neighbours) or march (from every cell toward every direction)",
+     offsetof(crm_options, gather), 0, NULL, .when = crm_on_multiple_orders},
     {"delta_m", VSD_OPT_BOOL, 0, 1, 1, NULL,
      "multiple orders with single grid: delta-M scaling of the phase (g > 0): the orders, which carry HG's first "
      "ms_bands bands, take its forward peak as unscattered light (f = g^ms_bands: sigma_t (1 - a f), albedo a (1 - f) "
@@ -845,7 +851,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             if (!st)
                 st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, s->node_albedo ? unit : albedo,
                                     s->node_albedo, g, s->opt.ms_bands, j1, j1 != NULL, s->nodes.nodes, s->nodes.valid,
-                                    s->opt.order_cell, s->opt.order_fine, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
+                                    s->opt.order_cell, s->opt.order_fine, s->opt.gather == GATHER_SWEEP, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
                                     &s->orders, err, errlen);
             if (!j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, &hg, ms_coefficients(s), -1.0f, s->nodes.nodes);
             for (i = 0; !st && forward && i < nodes; i++) {

@@ -1,6 +1,7 @@
 #include "crm_orders.h"
 #include "crm_kernel.h"
 #include "crm_phase.h"
+#include "crm_sweep.h"
 #include "vsd/sh.h"
 #include "src/common/clock.h"
 #include <math.h>
@@ -12,6 +13,8 @@
 
 /* Most SH coefficients per channel of a source: order 3 (bands 0-2, `ms_bands` 3) */
 enum { NB_MAX = 9 };
+/* Most directions swept at once (one per thread): each holds two grids of 3 floats */
+enum { SWEEP_BATCH_MAX = 8 };
 
 
 typedef struct coarse_grid {
@@ -40,6 +43,12 @@ typedef struct order_job {
     int m;
     int d0, d1;         /* the directions this pass gathers (the pad holds J toward them) */
     double albedo[3];
+    /* the first sweep_orders orders (those on the nodes) gather by sweeps (crm_sweep.h)
+     * instead of marches: `batch` directions at a time, each with its scattered source
+     * (sigma J toward it) and radiance (3 floats per node); source[0] alone where that is
+     * the same toward every direction */
+    int sweep_orders, batch, shared_source;
+    float *source[SWEEP_BATCH_MAX], *radiance[SWEEP_BATCH_MAX];
 } order_job;
 
 /* What a march reads as its source per unit length: sigma J (the orders after the first),
@@ -59,23 +68,60 @@ static float *pad_cell(const coarse_grid *g, size_t n)
     return g->pad + 4 * ((k + 1) * g->sy + (j + 1) * g->sx + (i + 1));
 }
 
-/* The pad for marches that gather along directions whose light travels along -w: sigma J
- * evaluated there (y: the SH basis at -w, nb values; J's truncated SH rings below zero at
- * a cell, radiance does not), plus the emission where kind says. */
-static void fill_pad(coarse_grid *g, source_kind kind, const float *y)
+/* Cell n's light scattered per unit length toward a direction whose light travels along
+ * -w: sigma J evaluated there (y: the SH basis at -w, nb values; J's truncated SH rings
+ * below zero at a cell, radiance does not); none for the emission alone. */
+static void cell_scatter(const coarse_grid *g, source_kind kind, const float *y, size_t n, float out[3])
 {
     const int nb = g->nb;
     int c, l;
+    for (c = 0; c < 3; c++) {
+        float v = 0.0f;
+        if (kind != SOURCE_EMISSION)
+            for (l = 0; l < nb; l++) v += g->j[(3 * n + c) * nb + l] * y[l];
+        out[c] = g->sigma[n] * (v > 0.0f ? v : 0.0f);
+    }
+}
+
+/* The emission the source kind reads (per cell 3 floats), or NULL. */
+static const float *kind_emission(const coarse_grid *g, source_kind kind)
+{
+    return kind != SOURCE_J ? g->emit : NULL;
+}
+
+/* Cell n's source per unit length: cell_scatter plus the emission where kind says. */
+static void cell_source(const coarse_grid *g, source_kind kind, const float *y, size_t n, float out[3])
+{
+    const float *emit = kind_emission(g, kind);
+    int c;
+    cell_scatter(g, kind, y, n, out);
+    if (emit)
+        for (c = 0; c < 3; c++) out[c] += emit[3 * n + c];
+}
+
+/* The pad for marches toward one direction (or every one, where the source is isotropic):
+ * sigma and cell_source per cell. */
+static void fill_pad(coarse_grid *g, source_kind kind, const float *y)
+{
     for (size_t n = 0; n < g->n; n++) {
         float *p = pad_cell(g, n);
         p[0] = g->sigma[n];
-        for (c = 0; c < 3; c++) {
-            float v = 0.0f;
-            if (kind != SOURCE_EMISSION)
-                for (l = 0; l < nb; l++) v += g->j[(3 * n + c) * nb + l] * y[l];
-            p[1 + c] = g->sigma[n] * (v > 0.0f ? v : 0.0f) + (kind != SOURCE_J && g->emit ? g->emit[3 * n + c] : 0.0f);
-        }
+        cell_source(g, kind, y, n, p + 1);
     }
+}
+
+/* World direction w in g's cells: v, of length 1, and the world length of one cell's
+ * length along it (0 where the transform has no length that way). */
+static double cell_direction(const coarse_grid *g, const double *w, double v[3])
+{
+    double len;
+    int ax;
+    for (ax = 0; ax < 3; ax++)
+        v[ax] = g->to_cell[3 * ax] * w[0] + g->to_cell[3 * ax + 1] * w[1] + g->to_cell[3 * ax + 2] * w[2];
+    len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(len > 0.0)) return 0.0;
+    for (ax = 0; ax < 3; ax++) v[ax] /= len;
+    return 1.0 / len;
 }
 
 /* The pad with (sigma, sigma times coefficient l of v's SH, RGB; v laid out as g->j) per
@@ -126,17 +172,11 @@ static void run_order(void *arg, int n0, int y0, int n1, int y1)
         for (d = job->d0; d < job->d1; d++) {
             const double *w = job->dirs + 3 * (size_t)d;
             const float *y = job->y_in + (size_t)d * nb;
-            double v[3], len;
-            int ax;
-            /* the world direction in the grid (the volume's transform); a cell step is 1/len long */
-            for (ax = 0; ax < 3; ax++)
-                v[ax] = g->to_cell[3 * ax] * w[0] + g->to_cell[3 * ax + 1] * w[1] + g->to_cell[3 * ax + 2] * w[2];
-            len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-            if (!(len > 0.0)) continue;
-            for (ax = 0; ax < 3; ax++) v[ax] /= len;
+            double v[3], step = cell_direction(g, w, v);
+            if (!(step > 0.0)) continue;
             /* one cell per step, sampled at the step's middle, until the grid or the light ends */
             {
-                float ux = (float)v[0], uy = (float)v[1], uz = (float)v[2], inv = (float)(1.0 / len), t = 1.0f, s;
+                float ux = (float)v[0], uy = (float)v[1], uz = (float)v[2], inv = (float)step, t = 1.0f, s;
                 float px = (float)x0, py = (float)y0, pz = (float)z0, sum[3] = {0.0f, 0.0f, 0.0f};
                 for (s = 0.5f; t > 1e-3f; s += 1.0f) {
                     float x = px + s * ux, yy = py + s * uy, z = pz + s * uz, smp[4], *src = smp + 1, a;
@@ -183,15 +223,89 @@ static int pad_isotropic(const coarse_grid *g, source_kind kind)
     return g->nb == 1 || kind == SOURCE_EMISSION;
 }
 
+/* Directions [d0 + t0, d0 + t1) of a sweep batch (vsd_cpu_run_each: one per call), each
+ * swept into its radiance grid. */
+typedef struct sweep_batch {
+    const order_job *job;
+    source_kind kind;
+    int d0;
+} sweep_batch;
+
+static void sweep_directions(void *arg, int t0, int y0, int t1, int y1)
+{
+    const sweep_batch *b = arg;
+    const order_job *job = b->job;
+    const coarse_grid *g = job->g;
+    int t;
+    (void)y0;
+    (void)y1;
+    for (t = t0; t < t1; t++) {
+        int d = b->d0 + t;
+        double v[3], step = cell_direction(g, job->dirs + 3 * (size_t)d, v);
+        float *source = job->shared_source ? job->source[0] : job->source[t];
+        size_t n;
+        if (!job->shared_source)
+            for (n = 0; n < g->n; n++) cell_scatter(g, b->kind, job->y_in + (size_t)d * g->nb, n, source + 3 * n);
+        if (step > 0.0) vsd_crm_sweep(g->res, g->sigma, source, kind_emission(g, b->kind), v, step, job->radiance[t]);
+        else memset(job->radiance[t], 0, sizeof(float) * 3 * g->n);
+    }
+}
+
+/* Cells [n0, n1): the batch's radiance scattered toward every w_out, as run_order does. */
+static void sweep_accumulate(void *arg, int n0, int y0, int n1, int y1)
+{
+    const sweep_batch *b = arg;
+    const order_job *job = b->job;
+    const coarse_grid *g = job->g;
+    const int nb = g->nb, count = b->d0 + job->batch <= job->m ? job->batch : job->m - b->d0;
+    size_t n;
+    (void)y0;
+    (void)y1;
+    for (n = (size_t)n0; n < (size_t)n1; n++) {
+        int c, t, l;
+        if (!(g->sigma[n] > 0.0f)) continue;
+        for (c = 0; c < 3; c++) {
+            double acc[NB_MAX] = {0.0}, albedo = g->albedo ? g->albedo[3 * n + c] : job->albedo[c];
+            for (t = 0; t < count; t++) {
+                const float *y = job->y_in + (size_t)(b->d0 + t) * nb;
+                double light = job->radiance[t][3 * n + c];
+                for (l = 0; l < nb; l++) acc[l] += light * y[l] * job->weight[l];
+            }
+            for (l = 0; l < nb; l++) g->next[(3 * n + c) * nb + l] += (float)(albedo * acc[l]);
+        }
+    }
+}
+
+/* One gather by sweeps: `batch` directions swept at once (a thread each), then every cell
+ * takes their light. */
+static vsd_status gather_sweep(order_job *job, const vsd_tile_job *tiles, source_kind kind)
+{
+    sweep_batch b;
+    vsd_status st = VSD_OK;
+    const coarse_grid *g = job->g;
+    b.job = job;
+    b.kind = kind;
+    job->shared_source = pad_isotropic(g, kind);
+    if (job->shared_source)
+        for (size_t n = 0; n < g->n; n++) cell_scatter(g, kind, job->y_in, n, job->source[0] + 3 * n);
+    for (b.d0 = 0; b.d0 < job->m && !st; b.d0 += job->batch) {
+        int count = b.d0 + job->batch <= job->m ? job->batch : job->m - b.d0;
+        st = vsd_cpu_run_each(count, tiles->threads, sweep_directions, &b, tiles->stage);
+        if (!st) st = vsd_cpu_run_items((int)g->n, tiles->threads, sweep_accumulate, &b, tiles->stage);
+    }
+    return st;
+}
+
 /* One gather of every cell into g->next (zeroed first) from the source kind: where the pad
  * is isotropic one pad and one pass serve all directions; else (J with bands above 0) one pad and
  * one pass per direction. Either way every coefficient of next is gathered (the emission
  * scattered once has a band 1 too: the phase gives it one). */
-static vsd_status gather(coarse_grid *g, order_job *job, vsd_tile_job *tiles, source_kind kind)
+static vsd_status gather(coarse_grid *g, order_job *job, vsd_tile_job *tiles, source_kind kind, int sweep)
 {
     vsd_status st = VSD_OK;
     int d;
     memset(g->next, 0, sizeof(float) * 3 * (size_t)g->nb * g->n);
+    if (sweep) return gather_sweep(job, tiles, kind);
     if (pad_isotropic(g, kind)) {
         fill_pad(g, kind, job->y_in);
         job->d0 = 0;
@@ -461,7 +575,8 @@ static vsd_status follow_orders(coarse_grid *g, order_job *job, vsd_tile_job *ti
         double sum;
         size_t i;
         float *swap;
-        if ((st = gather(g, job, tiles, s->orders == 0 ? SOURCE_J_EMISSION : SOURCE_J))) break;
+        if ((st = gather(g, job, tiles, s->orders == 0 ? SOURCE_J_EMISSION : SOURCE_J, s->orders < job->sweep_orders)))
+            break;
         for (i = 0; i < 3 * (size_t)g->nb * g->n; i++) ms[i] += g->next[i];
         sum = band0_sum(g, g->next, s->cell_nodes);
         s->prev_sum = s->last_sum;
@@ -496,7 +611,7 @@ static void to_fine_nodes(coarse_grid *g, const int32_t node_res[3], int coarse,
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
                           const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
                           int bands, const float *j1, int delta, float *nodes, uint8_t *valid, int coarse,
-                          int fine_orders, int directions, int max_orders, double tolerance, int threads,
+                          int fine_orders, int sweep, int directions, int max_orders, double tolerance, int threads,
                           vsd_crm_orders_stats *stats, char *err, size_t errlen)
 {
     double t0 = vsd_clock_seconds(), *dirs = NULL;
@@ -519,6 +634,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
     memset(&ga, 0, sizeof ga);
     memset(&gb, 0, sizeof gb);
     memset(&ser, 0, sizeof ser);
+    memset(&job, 0, sizeof job);
     if (!j1) j1 = nodes;
     if (!(anisotropy > 0.0)) delta = 0;
     if (coarse < 1 || fine_orders < 0 || !nside || max_orders < 1 || !(tolerance >= 0.0) || bands < 2 || bands > 3)
@@ -538,6 +654,19 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory for a %dx%dx%d grid (or over 2^31 cells)",
                       ga.res[0], ga.res[1], ga.res[2]);
         goto done;
+    }
+    if (sweep && fine_orders > 0) {
+        /* the sweeps' grids, for the orders on the nodes */
+        job.sweep_orders = fine_orders;
+        job.batch = vsd_cpu_thread_count(threads);
+        if (job.batch > SWEEP_BATCH_MAX) job.batch = SWEEP_BATCH_MAX;
+        if (job.batch > directions) job.batch = directions;
+        for (k = 0; k < job.batch; k++)
+            if (!(job.source[k] = malloc(sizeof(float) * 3 * ga.n)) || !(job.radiance[k] = malloc(sizeof(float) * 3 * ga.n))) {
+                st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm orders: no memory to sweep %d directions over %zu cells",
+                              job.batch, ga.n);
+                goto done;
+            }
     }
     if ((st = vsd_sh_healpix_dirs(nside, dirs, err, errlen))) goto done;
     for (k = 0; k < directions; k++) {
@@ -586,7 +715,7 @@ vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], co
          * as direct light (docs/design-notes.md, "Passes"): it is taken out of J_ms below
          * and written into the single-scattering bands 0 (and 1, with the phase on the
          * orders), so the view puts it in VolumeDir. */
-        if ((st = gather(&ga, &job, &tiles, SOURCE_EMISSION))) goto done;
+        if ((st = gather(&ga, &job, &tiles, SOURCE_EMISSION, job.sweep_orders > 0))) goto done;
         memcpy(je, ga.next, sizeof(float) * 3 * nb * ga.n);
     }
     ser.cell_nodes = (double)coarse_a * coarse_a * coarse_a;
@@ -647,6 +776,10 @@ done:
     free(dirs);
     free(y_in);
     free(j_nodes);
+    for (k = 0; k < SWEEP_BATCH_MAX; k++) {
+        free(job.source[k]);
+        free(job.radiance[k]);
+    }
     stats->seconds = vsd_clock_seconds() - t0;
     return st;
 }

@@ -16,7 +16,12 @@
  *                     p(w_o . -w), kept as order-3 SH: by Funk-Hecke, band l of HG is g^l,
  *                     so coefficient (l, m) gains g^l Y_lm(-w) L_k(x, w) (delta-M's
  *                     scaled phase: chi'_l, crm_phase.h)
- * each march stepping one cell with sigma_t and sigma J taken trilinearly, J evaluated at
+ * L_k toward each direction taken on the nodes by one sweep over them (crm_sweep.h: each
+ * node's light from its upstream neighbours'; 0.24 s an order on smoke128 against 1.1 s
+ * marched), on the coarse grid by marches (sweeps there made the dense cumulus' VolumeInd
+ * 22% off: the cells are twice as thick and its 20 orders compound each one's error), or
+ * everywhere by marches (`sweep` 0): each march stepping one cell with sigma_t and sigma
+ * J taken trilinearly, J evaluated at
  * the cells toward -w (negative values of the truncated SH clamped to 0: with bands above 0
  * one gather pass per direction, so every pass reads 4 floats per cell as the isotropic
  * one does; the emission alone, isotropic, takes one pass), stopping where the
@@ -56,7 +61,9 @@ typedef struct vsd_crm_orders_stats {
  * node_albedo: NULL, or per fine node 3 floats, the albedo the orders scatter with there
  * (several overlapping volumes: sigma_s / sigma_t of their mixture); coarse: fine nodes per
  * coarse cell (>= 1); fine_orders: how many of the first orders run on the nodes themselves
- * before the rest go on to the coarse grid (0: all on the coarse grid); directions: HEALPix
+ * before the rest go on to the coarse grid (0: all on the coarse grid); sweep: each gather
+ * by one sweep per direction over the cells (crm_sweep.h) instead of a march from every
+ * cell toward every direction; directions: HEALPix
  * count (12 nside^2).
  * j1: the nodes (CRM_NODE_FLOATS layout) J_1's bands are read from, or NULL: `nodes`.
  * delta: delta-M scaling of the phase for g > 0 (crm_orders.c, delta_m): the orders run the
@@ -66,7 +73,8 @@ typedef struct vsd_crm_orders_stats {
 vsd_status vsd_crm_orders(const int32_t node_res[3], const double to_node[9], const float *sigma_t,
                           const float *emission, const double albedo[3], const float *node_albedo, double anisotropy,
                           int bands, const float *j1, int delta, float *nodes, uint8_t *valid, int coarse,
-                          int fine_orders, int directions, int max_orders, double tolerance, int threads, vsd_crm_orders_stats *stats, char *err,
+                          int fine_orders, int sweep, int directions, int max_orders, double tolerance, int threads,
+                          vsd_crm_orders_stats *stats, char *err,
                           size_t errlen);
 
 #endif
