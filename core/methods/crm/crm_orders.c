@@ -251,7 +251,10 @@ static void sweep_directions(void *arg, int t0, int y0, int t1, int y1)
     }
 }
 
-/* Cells [n0, n1): the batch's radiance scattered toward every w_out, as run_order does. */
+/* Cells [n0, n1): the batch's radiance scattered toward every w_out, as run_order does. One
+ * direction at a time into next, in the directions' order: the batch is as large as the
+ * thread count, and sums in batches would make the image's last bits depend on it (the CPU
+ * backend's promise: the same image whatever the threads, cpu_tiles.h). */
 static void sweep_accumulate(void *arg, int n0, int y0, int n1, int y1)
 {
     const sweep_batch *b = arg;
@@ -265,13 +268,12 @@ static void sweep_accumulate(void *arg, int n0, int y0, int n1, int y1)
         int c, t, l;
         if (!(g->sigma[n] > 0.0f)) continue;
         for (c = 0; c < 3; c++) {
-            double acc[NB_MAX] = {0.0}, albedo = g->albedo ? g->albedo[3 * n + c] : job->albedo[c];
+            double albedo = g->albedo ? g->albedo[3 * n + c] : job->albedo[c];
             for (t = 0; t < count; t++) {
                 const float *y = job->y_in + (size_t)(b->d0 + t) * nb;
-                double light = job->radiance[t][3 * n + c];
-                for (l = 0; l < nb; l++) acc[l] += light * y[l] * job->weight[l];
+                double light = albedo * job->radiance[t][3 * n + c];
+                for (l = 0; l < nb; l++) g->next[(3 * n + c) * nb + l] += (float)(light * y[l] * job->weight[l]);
             }
-            for (l = 0; l < nb; l++) g->next[(3 * n + c) * nb + l] += (float)(albedo * acc[l]);
         }
     }
 }
