@@ -7,6 +7,7 @@
 
 typedef struct pool_state {
     const vsd_tile_job *job;
+    int range_x;        /* columns per tile: VSD_TILE_SIZE, or an item list's item_range */
     int tiles_x, tiles_total, stride;
     atomic_int next, done;
     pthread_mutex_t lock;
@@ -16,7 +17,7 @@ static void *worker(void *arg)
 {
     pool_state *ps = arg;
     const vsd_tile_job *job = ps->job;
-    const int range_x = job->height == 1 && job->item_range > 0 ? job->item_range : VSD_TILE_SIZE;
+    const int range_x = ps->range_x;
     for (;;) {
         int t, tx, ty, finished;
         if (job->cancel && *job->cancel) break;
@@ -75,8 +76,8 @@ vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job)
     int n = vsd_cpu_thread_count(job->threads), i;
     pthread_t *th;
     ps.job = job;
-    int range_x = job->height == 1 && job->item_range > 0 ? job->item_range : VSD_TILE_SIZE;
-    ps.tiles_x = (job->width + range_x - 1) / range_x;
+    ps.range_x = job->height == 1 && job->item_range > 0 ? job->item_range : VSD_TILE_SIZE;
+    ps.tiles_x = (job->width + ps.range_x - 1) / ps.range_x;
     ps.tiles_total = ps.tiles_x * ((job->height + VSD_TILE_SIZE - 1) / VSD_TILE_SIZE);
     ps.stride = job->spread ? spread_stride(ps.tiles_total) : 1;
     if (job->progress) job->progress(job->progress_user, job->stage, job->progress_base);

@@ -851,8 +851,8 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             if (!st)
                 st = vsd_crm_orders(s->node_res, to_node, sigma_t, emission, s->node_albedo ? unit : albedo,
                                     s->node_albedo, g, s->opt.ms_bands, j1, j1 != NULL, s->nodes.nodes, s->nodes.valid,
-                                    s->opt.order_cell, s->opt.order_fine, s->opt.gather == GATHER_SWEEP, s->opt.order_directions, s->opt.orders, 0.01, ctx->threads,
-                                    &s->orders, err, errlen);
+                                    s->opt.order_cell, s->opt.order_fine, s->opt.gather == GATHER_SWEEP,
+                                    s->opt.order_directions, s->opt.orders, 0.01, ctx->threads, &s->orders, err, errlen);
             if (!j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, &hg, ms_coefficients(s), -1.0f, s->nodes.nodes);
             for (i = 0; !st && forward && i < nodes; i++) {
                 float *ms = s->nodes.nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N;

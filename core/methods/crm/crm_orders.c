@@ -224,11 +224,11 @@ static int pad_isotropic(const coarse_grid *g, source_kind kind)
 }
 
 /* Directions [d0 + t0, d0 + t1) of a sweep batch (vsd_cpu_run_each: one per call), each
- * swept into its radiance grid. */
+ * swept into its radiance grid; the batch holds directions d0 .. d0 + count - 1. */
 typedef struct sweep_batch {
     const order_job *job;
     source_kind kind;
-    int d0;
+    int d0, count;
 } sweep_batch;
 
 static void sweep_directions(void *arg, int t0, int y0, int t1, int y1)
@@ -260,7 +260,7 @@ static void sweep_accumulate(void *arg, int n0, int y0, int n1, int y1)
     const sweep_batch *b = arg;
     const order_job *job = b->job;
     const coarse_grid *g = job->g;
-    const int nb = g->nb, count = b->d0 + job->batch <= job->m ? job->batch : job->m - b->d0;
+    const int nb = g->nb;
     size_t n;
     (void)y0;
     (void)y1;
@@ -269,7 +269,7 @@ static void sweep_accumulate(void *arg, int n0, int y0, int n1, int y1)
         if (!(g->sigma[n] > 0.0f)) continue;
         for (c = 0; c < 3; c++) {
             double albedo = g->albedo ? g->albedo[3 * n + c] : job->albedo[c];
-            for (t = 0; t < count; t++) {
+            for (t = 0; t < b->count; t++) {
                 const float *y = job->y_in + (size_t)(b->d0 + t) * nb;
                 double light = albedo * job->radiance[t][3 * n + c];
                 for (l = 0; l < nb; l++) g->next[(3 * n + c) * nb + l] += (float)(light * y[l] * job->weight[l]);
@@ -291,16 +291,17 @@ static vsd_status gather_sweep(order_job *job, const vsd_tile_job *tiles, source
     if (job->shared_source)
         for (size_t n = 0; n < g->n; n++) cell_scatter(g, kind, job->y_in, n, job->source[0] + 3 * n);
     for (b.d0 = 0; b.d0 < job->m && !st; b.d0 += job->batch) {
-        int count = b.d0 + job->batch <= job->m ? job->batch : job->m - b.d0;
-        st = vsd_cpu_run_each(count, tiles->threads, sweep_directions, &b, tiles->stage);
+        b.count = b.d0 + job->batch <= job->m ? job->batch : job->m - b.d0;
+        st = vsd_cpu_run_each(b.count, tiles->threads, sweep_directions, &b, tiles->stage);
         if (!st) st = vsd_cpu_run_items((int)g->n, tiles->threads, sweep_accumulate, &b, tiles->stage);
     }
     return st;
 }
 
-/* One gather of every cell into g->next (zeroed first) from the source kind: where the pad
- * is isotropic one pad and one pass serve all directions; else (J with bands above 0) one pad and
- * one pass per direction. Either way every coefficient of next is gathered (the emission
+/* One gather of every cell into g->next (zeroed first) from the source kind: by sweeps
+ * where `sweep` says (gather_sweep); else by marches: where the pad is isotropic one pad
+ * and one pass serve all directions; else (J with bands above 0) one pad and one pass per
+ * direction. Either way every coefficient of next is gathered (the emission
  * scattered once has a band 1 too: the phase gives it one). */
 static vsd_status gather(coarse_grid *g, order_job *job, vsd_tile_job *tiles, source_kind kind, int sweep)
 {

@@ -87,35 +87,49 @@ static void emit_step(float s0, const float sj0[3], const float *e0, float s1, c
     }
 }
 
+/* What the step from cell (ib, ic) of a plane reads on the upstream plane `up`: extinction,
+ * sigma J, emission (where given) and arriving light, mixed by the step's bilinear weights
+ * over the corners inside the grid (all 0 past its far face). */
+typedef struct upstream {
+    float sigma, scatter[3], emission[3], light[3];
+} upstream;
+
+static upstream upstream_mix(const sweep_step *s, const int32_t res[3], const size_t stride[3], int up, int ib,
+                             int ic, const float *sigma, const float *scatter, const float *emission,
+                             const float *radiance)
+{
+    upstream u = {0.0f, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};
+    int q, c;
+    if (up < 0 || up >= res[s->a]) return u;
+    for (q = 0; q < 4; q++) {
+        int jb = ib + s->ob + (q & 1), jc = ic + s->oc + (q >> 1);
+        size_t m;
+        if (jb < 0 || jb >= res[s->b] || jc < 0 || jc >= res[s->c] || !(s->w[q] > 0.0f)) continue;
+        m = up * stride[s->a] + jc * stride[s->c] + jb * stride[s->b];
+        u.sigma += s->w[q] * sigma[m];
+        for (c = 0; c < 3; c++) {
+            u.scatter[c] += s->w[q] * scatter[3 * m + c];
+            if (emission) u.emission[c] += s->w[q] * emission[3 * m + c];
+            u.light[c] += s->w[q] * radiance[3 * m + c];
+        }
+    }
+    return u;
+}
+
 void vsd_crm_sweep(const int32_t res[3], const float *sigma, const float *scatter, const float *emission,
                    const double v[3], double world_per_cell, float *radiance)
 {
     const sweep_step s = step_of(v, world_per_cell);
     const size_t stride[3] = {1, (size_t)res[0], (size_t)res[0] * (size_t)res[1]};
-    int ia, ib, ic, p, q, c;
+    int ia, ib, ic, p;
     for (p = 0; p < res[s.a]; p++) {
         ia = s.da > 0 ? res[s.a] - 1 - p : p;
         for (ic = 0; ic < res[s.c]; ic++)
             for (ib = 0; ib < res[s.b]; ib++) {
                 size_t n = ia * stride[s.a] + ic * stride[s.c] + ib * stride[s.b];
-                int up = ia + s.da;
-                float su = 0.0f, srcu[3] = {0.0f, 0.0f, 0.0f}, eu[3] = {0.0f, 0.0f, 0.0f}, lu[3] = {0.0f, 0.0f, 0.0f};
-                float *out = radiance + 3 * n;
-                if (up >= 0 && up < res[s.a])
-                    for (q = 0; q < 4; q++) {
-                        int jb = ib + s.ob + (q & 1), jc = ic + s.oc + (q >> 1);
-                        size_t m;
-                        if (jb < 0 || jb >= res[s.b] || jc < 0 || jc >= res[s.c] || !(s.w[q] > 0.0f)) continue;
-                        m = up * stride[s.a] + jc * stride[s.c] + jb * stride[s.b];
-                        su += s.w[q] * sigma[m];
-                        for (c = 0; c < 3; c++) {
-                            srcu[c] += s.w[q] * scatter[3 * m + c];
-                            if (emission) eu[c] += s.w[q] * emission[3 * m + c];
-                            lu[c] += s.w[q] * radiance[3 * m + c];
-                        }
-                    }
-                emit_step(sigma[n], scatter + 3 * n, emission ? emission + 3 * n : NULL, su, srcu, eu, lu, s.length,
-                          out);
+                upstream u = upstream_mix(&s, res, stride, ia + s.da, ib, ic, sigma, scatter, emission, radiance);
+                emit_step(sigma[n], scatter + 3 * n, emission ? emission + 3 * n : NULL, u.sigma, u.scatter,
+                          u.emission, u.light, s.length, radiance + 3 * n);
             }
     }
 }
