@@ -36,7 +36,8 @@ typedef struct adaptive_view {
     double *anchors;           /* [nya * nxa * VSD_ACC_N] sums over the n x n strata */
     double floor;              /* 5% of the brightest anchor's per-sample radiance */
     double threshold;
-    atomic_int traced_blocks, blocks;
+    unsigned char *traced;     /* [width * height]: 1 where the film's pixel was traced (fill_blocks) */
+    atomic_int rays;          /* pixels traced between the anchors */
 } adaptive_view;
 
 /* pixel coordinate of anchor i along an axis of `len` pixels */
@@ -88,44 +89,166 @@ static int needs_tracing(const adaptive_view *a, const double *const c[4])
     return (hi - lo) * inv > a->threshold;
 }
 
-/* Block (bi, bj): the pixels from anchor (bi, bj) up to, not including, the next anchors,
- * except on the last block of a row or column, which ends on the image's last pixel. */
-static void block_fn(void *user, int bi0, int bj0, int bi1, int bj1)
+/* A block's lattice of pixels, (s + 1)^2 at most, while it is refined: a flagged block is
+ * not traced whole at once but halved: the midpoints of its edges and its centre are
+ * traced, and each part is decided again on its own four corners, down to single pixels
+ * (4 -> 2 -> 1; 3 -> 1 and 2; the last block of a row or column is as long as the film
+ * leaves it). Along a silhouette or a shadow's edge only the parts the edge crosses are
+ * traced pixel by pixel; the others interpolate over half the spacing, which is no coarser
+ * than the block's own interpolation they would have had with agreeing anchors. Points on
+ * the block's far edges belong to the next blocks, which a tile fills first (it goes from
+ * its last block back to its first): what they traced is read from the film, and only what
+ * they interpolated (or what lies in another tile) is traced here, for this block's parts
+ * alone. */
+#define SIDE_MAX (VSD_VIEW_SPACING_MAX + 1)
+enum { POINT_UNKNOWN, POINT_INTERPOLATED, POINT_TRACED };
+typedef struct block_lattice {
+    int x0, y0, side;   /* film pixel of point (0, 0); points per row */
+    int reuse_x, reuse_y;   /* the far column (x = x0 + side - 1) / row is the next block's, done already */
+    int far_y;              /* the far row's j */
+    double v[SIDE_MAX * SIDE_MAX][VSD_ACC_N];
+    unsigned char state[SIDE_MAX * SIDE_MAX];
+    int rays;           /* pixels traced here */
+} block_lattice;
+
+static double *lattice_point(block_lattice *b, int i, int j) { return b->v[j * b->side + i]; }
+
+static void trace_point(const adaptive_view *a, block_lattice *b, int i, int j)
 {
-    adaptive_view *a = user;
+    const int k = j * b->side + i, w = a->acc->width;
+    const size_t film = (size_t)(b->y0 + j) * w + (b->x0 + i);
+    if (b->state[k] == POINT_TRACED) return;
+    b->state[k] = POINT_TRACED;
+    if (((b->reuse_x && i == b->side - 1) || (b->reuse_y && j == b->far_y)) && a->traced[film]) {
+        memcpy(b->v[k], a->acc->v + film * VSD_ACC_N, sizeof b->v[k]);
+        return;
+    }
+    memset(b->v[k], 0, sizeof b->v[k]);
+    trace_pixel(a, b->x0 + i, b->y0 + j, b->v[k]);
+    b->rays++;
+}
+
+/* The w x h rectangle of points from (i0, j0), its four corners traced. */
+static void refine(const adaptive_view *a, block_lattice *b, int i0, int j0, int w, int h)
+{
+    const double *c[4] = {lattice_point(b, i0, j0), lattice_point(b, i0 + w, j0), lattice_point(b, i0, j0 + h),
+                          lattice_point(b, i0 + w, j0 + h)};
+    const int hx = w / 2, hy = h / 2;   /* where the halves meet (0: not split along that axis) */
+    int i, j, q;
+    if (w < 2 && h < 2) return;   /* no points between the corners */
+    if (!needs_tracing(a, c)) {
+        for (j = j0; j <= j0 + h; j++)
+            for (i = i0; i <= i0 + w; i++) {
+                const int k = j * b->side + i;
+                const double u = w ? (double)(i - i0) / w : 0.0, v = h ? (double)(j - j0) / h : 0.0;
+                if (b->state[k] != POINT_UNKNOWN) continue;
+                for (q = 0; q < VSD_ACC_N; q++)
+                    b->v[k][q] = (1 - v) * ((1 - u) * c[0][q] + u * c[1][q]) + v * ((1 - u) * c[2][q] + u * c[3][q]);
+                b->state[k] = POINT_INTERPOLATED;
+            }
+        return;
+    }
+    if (w >= 2) {
+        trace_point(a, b, i0 + hx, j0);
+        trace_point(a, b, i0 + hx, j0 + h);
+    }
+    if (h >= 2) {
+        trace_point(a, b, i0, j0 + hy);
+        trace_point(a, b, i0 + w, j0 + hy);
+    }
+    if (w >= 2 && h >= 2) {
+        trace_point(a, b, i0 + hx, j0 + hy);
+        refine(a, b, i0, j0, hx, hy);
+        refine(a, b, i0 + hx, j0, w - hx, hy);
+        refine(a, b, i0, j0 + hy, hx, h - hy);
+        refine(a, b, i0 + hx, j0 + hy, w - hx, h - hy);
+    } else if (w >= 2) {
+        refine(a, b, i0, j0, hx, h);
+        refine(a, b, i0 + hx, j0, w - hx, h);
+    } else {
+        refine(a, b, i0, j0, w, hy);
+        refine(a, b, i0, j0 + hy, w, h - hy);
+    }
+}
+
+/* Blocks [bi0, bi1) x [bj0, bj1), one thread's. Block (bi, bj): the pixels from anchor
+ * (bi, bj) up to, not including, the next anchors, except on the last block of a row or
+ * column, which ends on the image's last pixel. */
+static void fill_blocks(adaptive_view *a, int bi0, int bj0, int bi1, int bj1)
+{
     const int w = a->acc->width, h = a->acc->height;
-    int bi, bj;
-    for (bj = bj0; bj < bj1; bj++)
-        for (bi = bi0; bi < bi1; bi++) {
+    block_lattice b;
+    int bi, bj, rays = 0;
+    /* from the tile's last block back, so the blocks that own this one's far edges are done */
+    for (bj = bj1 - 1; bj >= bj0; bj--)
+        for (bi = bi1 - 1; bi >= bi0; bi--) {
             int i1 = bi + 1 < a->nxa ? bi + 1 : bi, j1 = bj + 1 < a->nya ? bj + 1 : bj;
             int xa = anchor_pos(bi, a->s, w), xb = anchor_pos(i1, a->s, w);
             int ya = anchor_pos(bj, a->s, h), yb = anchor_pos(j1, a->s, h);
             int xe = i1 == a->nxa - 1 ? xb + 1 : xb, ye = j1 == a->nya - 1 ? yb + 1 : yb;
+            const int bw = xb - xa, bh = yb - ya;
+            int x, y;
             const double *c[4] = {a->anchors + ((size_t)bj * a->nxa + bi) * VSD_ACC_N,
                                   a->anchors + ((size_t)bj * a->nxa + i1) * VSD_ACC_N,
                                   a->anchors + ((size_t)j1 * a->nxa + bi) * VSD_ACC_N,
                                   a->anchors + ((size_t)j1 * a->nxa + i1) * VSD_ACC_N};
-            int trace = needs_tracing(a, c), x, y, q;
             if (xe == xa) xe = xa + 1;   /* a one-pixel-wide image */
             if (ye == ya) ye = ya + 1;
-            atomic_fetch_add(&a->blocks, 1);
-            if (trace) atomic_fetch_add(&a->traced_blocks, 1);
-            for (y = ya; y < ye; y++)
-                for (x = xa; x < xe; x++) {
-                    double *p = a->acc->v + ((size_t)y * w + x) * VSD_ACC_N;
-                    double u = xb > xa ? (double)(x - xa) / (xb - xa) : 0.0;
-                    double v = yb > ya ? (double)(y - ya) / (yb - ya) : 0.0;
-                    if ((x == xa || x == xb) && (y == ya || y == yb)) {
-                        /* an anchor: its own rays */
-                        memcpy(p, c[(x == xb && xb != xa) + 2 * (y == yb && yb != ya)], VSD_ACC_N * sizeof *p);
-                    } else if (trace) {
-                        trace_pixel(a, x, y, p);
-                    } else {
+            if (!needs_tracing(a, c)) {
+                /* most blocks: straight into the film, as refine() would interpolate them */
+                for (y = ya; y < ye; y++)
+                    for (x = xa; x < xe; x++) {
+                        double *p = a->acc->v + ((size_t)y * w + x) * VSD_ACC_N;
+                        const int corner = (x == xa || x == xb) && (y == ya || y == yb);
+                        const double u = bw ? (double)(x - xa) / bw : 0.0, v = bh ? (double)(y - ya) / bh : 0.0;
+                        int q;
+                        a->traced[(size_t)y * w + x] = (unsigned char)corner;
+                        if (corner) {
+                            memcpy(p, c[(x == xb && xb != xa) + 2 * (y == yb && yb != ya)], VSD_ACC_N * sizeof *p);
+                            continue;
+                        }
                         for (q = 0; q < VSD_ACC_N; q++)
                             p[q] = (1 - v) * ((1 - u) * c[0][q] + u * c[1][q]) + v * ((1 - u) * c[2][q] + u * c[3][q]);
                     }
+                continue;
+            }
+            b.x0 = xa, b.y0 = ya, b.side = bw + 1, b.rays = 0, b.far_y = bh;
+            b.reuse_x = xe == xb && bi + 1 < bi1;
+            b.reuse_y = ye == yb && bj + 1 < bj1;
+            memset(b.state, POINT_UNKNOWN, (size_t)(bw + 1) * (bh + 1));
+            /* the corners: the anchors' own rays */
+            memcpy(lattice_point(&b, 0, 0), c[0], sizeof b.v[0]);
+            memcpy(lattice_point(&b, bw, 0), c[1], sizeof b.v[0]);
+            memcpy(lattice_point(&b, 0, bh), c[2], sizeof b.v[0]);
+            memcpy(lattice_point(&b, bw, bh), c[3], sizeof b.v[0]);
+            b.state[0] = b.state[bw] = b.state[bh * b.side] = b.state[bh * b.side + bw] = POINT_TRACED;
+            refine(a, &b, 0, 0, bw, bh);
+            rays += b.rays;
+            for (y = ya; y < ye; y++)
+                for (x = xa; x < xe; x++) {
+                    memcpy(a->acc->v + ((size_t)y * w + x) * VSD_ACC_N, lattice_point(&b, x - xa, y - ya),
+                           sizeof b.v[0]);
+                    a->traced[(size_t)y * w + x] = b.state[(y - ya) * b.side + (x - xa)] == POINT_TRACED;
                 }
         }
+    atomic_fetch_add(&a->rays, rays);
+}
+
+/* Tiles of BLOCK_TILE x BLOCK_TILE blocks, items [t0, t1) of a list, each on one thread:
+ * within a tile the blocks that own a block's far edges are filled before it. */
+#define BLOCK_TILE 16
+static void block_tiles_fn(void *user, int t0, int unused0, int t1, int unused1)
+{
+    adaptive_view *a = user;
+    const int bx = a->nxa > 1 ? a->nxa - 1 : 1, by = a->nya > 1 ? a->nya - 1 : 1;
+    const int tiles_x = (bx + BLOCK_TILE - 1) / BLOCK_TILE;
+    int t;
+    (void)unused0, (void)unused1;
+    for (t = t0; t < t1; t++) {
+        const int bi0 = (t % tiles_x) * BLOCK_TILE, bj0 = (t / tiles_x) * BLOCK_TILE;
+        fill_blocks(a, bi0, bj0, bi0 + BLOCK_TILE < bx ? bi0 + BLOCK_TILE : bx,
+                    bj0 + BLOCK_TILE < by ? bj0 + BLOCK_TILE : by);
+    }
 }
 
 int vsd_view_auto_spacing(const vsd_frame_ctx *ctx)
@@ -172,8 +295,13 @@ vsd_status vsd_adaptive_view(vsd_frame_ctx *ctx, vsd_accum *acc, int n, const vs
     a.nxa = (acc->width - 1 + a.s - 1) / a.s + 1;
     a.nya = (acc->height - 1 + a.s - 1) / a.s + 1;
     count = (size_t)a.nxa * a.nya;
-    if (!(a.anchors = calloc(count * VSD_ACC_N, sizeof *a.anchors)))
+    a.anchors = calloc(count * VSD_ACC_N, sizeof *a.anchors);
+    a.traced = calloc((size_t)acc->width * acc->height, 1);
+    if (!a.anchors || !a.traced) {
+        free(a.anchors);
+        free(a.traced);
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %zu view anchors", count);
+    }
     vsd_method_item_job(&job, ctx, a.nxa, anchor_fn, &a, pass->stage);
     job.width = a.nxa;
     job.height = a.nya;
@@ -187,16 +315,20 @@ vsd_status vsd_adaptive_view(vsd_frame_ctx *ctx, vsd_accum *acc, int n, const vs
                                 (a.transparent ? 0.0 : p[VSD_ACC_BG + q]));
     }
     a.floor = 0.05 * top / (double)(n * n);
-    vsd_method_item_job(&job, ctx, 1, block_fn, &a, pass->stage);
-    job.width = a.nxa > 1 ? a.nxa - 1 : 1;
-    job.height = a.nya > 1 ? a.nya - 1 : 1;
+    {
+        const int bx = a.nxa > 1 ? a.nxa - 1 : 1, by = a.nya > 1 ? a.nya - 1 : 1;
+        vsd_method_item_job(&job, ctx, ((bx + BLOCK_TILE - 1) / BLOCK_TILE) * ((by + BLOCK_TILE - 1) / BLOCK_TILE),
+                            block_tiles_fn, &a, pass->stage);
+    }
+    job.item_range = 1;
     job.progress_base = 0.3f;
     job.progress_span = 0.7f;
     st = vsd_cpu_run_tiles(&job);
     if (traced_permille)
-        *traced_permille = a.blocks > 0 ? (int)(1000.0 * a.traced_blocks / a.blocks + 0.5) : 0;
+        *traced_permille = (int)(1000.0 * ((double)count + a.rays) / ((double)acc->width * acc->height) + 0.5);
 done:
     free(a.anchors);
+    free(a.traced);
     if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
     return st;
 }

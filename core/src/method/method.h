@@ -145,6 +145,7 @@ vsd_status vsd_method_render_stratified(vsd_frame_ctx *ctx, vsd_framebuffer *fb,
  * every pixel; 0 picks s from the film's resolution against the volume's
  * (vsd_view_auto_spacing: 1 where a voxel covers under 3 pixels). CPU only: a device pass
  * traces every pixel. */
+#define VSD_VIEW_SPACING_MAX 8   /* view_spacing's largest value */
 typedef struct vsd_view_sampling {
     int spacing;
     double threshold;
@@ -155,7 +156,7 @@ typedef struct vsd_view_sampling {
  * applies when `when_spacing` holds, view_threshold when `when_threshold` does (those
  * conditions and view_spacing != 1). */
 #define VSD_OPTION_VIEW_SPACING_WHEN(type, field_spacing, field_threshold, when_spacing, when_threshold) \
-    {"view_spacing", VSD_OPT_INT, 0, 8, 0, NULL, \
+    {"view_spacing", VSD_OPT_INT, 0, VSD_VIEW_SPACING_MAX, 0, NULL, \
      "CPU view: trace every n-th pixel first and interpolate between them where they agree (1 = trace all; " \
      "0 = from the film's resolution against the volume's: 2/3 of a voxel's footprint, at most 4)", \
      offsetof(type, field_spacing), VSD_OPT_ZERO_AUTO, NULL, .when = when_spacing}, \
@@ -166,7 +167,7 @@ typedef struct vsd_view_sampling {
 extern const vsd_option_when vsd_option_on_sparse_view[];
 int vsd_view_auto_spacing(const vsd_frame_ctx *ctx);
 /* The same as vsd_method_render_stratified with adaptive sampling vs (NULL = every pixel);
- * ctx->info gets " view_traced=<fraction of blocks traced>" appended when it applies. A pass
+ * ctx->info gets " view_traced=<pixels traced per pixel of the film>" appended when it applies. A pass
  * with no device entry (several volumes, so far) runs on the CPU threads even when the frame
  * has a device. */
 vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n, const vsd_view_sampling *vs,

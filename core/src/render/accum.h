@@ -30,7 +30,7 @@ vsd_status vsd_accum_init(vsd_accum *a, vsd_accum_store *store, int threads, int
 void vsd_accum_free(vsd_accum *a);
 void vsd_accum_add(vsd_accum *a, int x, int y, const vsd_sample_result *r);
 /* The adaptive view (adaptive_view.c): acc filled for vs->spacing > 1 on the CPU threads;
- * *traced_permille = the share of blocks traced ray by ray. */
+ * *traced_permille = the pixels traced (anchors included) per thousand pixels of the film. */
 struct vsd_frame_ctx;
 struct vsd_view_sampling;
 struct vsd_device_pass;
