@@ -47,7 +47,8 @@ static const method_setting settings[] = {
     {"raymarch", "render.options.lights=64", "render.options.pixel_samples=1", 0, 0},
     /* the lights' term per ray on both sides, as lbl's below */
     {"constellation", "render.options={\"lights\":64,\"view_bake\":false}", "render.options.pixel_samples=1", 0, 0},
-    {"shgrid", NULL, "render.options.pixel_samples=1", 0, 0},
+    /* shgrid's CPU view bakes its records toward the camera too (anisotropic phase) */
+    {"shgrid", "render.options.view_bake=false", "render.options.pixel_samples=1", 0, 0},
     /* crm's frame and lighting stages run on the CPU either way; its view on the device */
     {"crm", "render.options.rbf_count=200", "render.options.pixel_samples=1", 0, 0},
     /* so do lbl's (march, lattice, surface escape); its view on the device (issue 14). The

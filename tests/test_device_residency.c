@@ -171,7 +171,7 @@ static const method_tuning tunings[] = {
     {"reference", NULL, 1, 0},
     /* the lights' term per ray on both sides, as lbl's below */
     {"constellation", "{\"lights\":16,\"view_bake\":false}", 0, 0},
-    {"shgrid", "{\"grid\":16,\"lights\":8,\"pixel_samples\":1}", 0, 0},
+    {"shgrid", "{\"grid\":16,\"lights\":8,\"pixel_samples\":1,\"view_bake\":false}", 0, 0},
     /* nodes 4 voxels apart, 6 orders, 48 and 12 directions: every stage of the default path
      * (nodes, single scattering, lights, delta-M's orders, the device view) at a tenth of its
      * lighting time (fire96 4.5 -> 0.3 s a lighting change: this test's 400 s were crm's).

@@ -56,7 +56,7 @@ enum { FORM_AUTO, FORM_FACTORED, FORM_PRODUCT };
 enum { PASS_LIGHTS = 2 };
 
 typedef struct shgrid_options {
-    int grid, order, directions, probes, interp, form, pixel_samples, lights, record_density;
+    int grid, order, directions, probes, interp, form, pixel_samples, lights, record_density, view_bake;
     double step, record_step, light_threshold, early_termination;
     vsd_view_sampling view;
 } shgrid_options;
@@ -135,6 +135,11 @@ static const vsd_option_spec shgrid_option_rows[] = {
     VSD_OPTION_PIXEL_SAMPLES(shgrid_options),
     VSD_OPTION_EARLY_TERMINATION(shgrid_options, "view ray"),
     VSD_OPTION_VIEW_SPACING(shgrid_options, view.spacing, view.threshold),
+    {"view_bake", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "CPU view with an anisotropic phase: the SH records and the lights' term toward the camera once per view and "
+     "record, the phase at the camera-to-record direction, as lbl's and constellation's (false = evaluated per record "
+     "a ray crosses, the phase at the ray's direction)",
+     offsetof(shgrid_options, view_bake), 0, NULL, NULL},
     {"lights", VSD_OPT_INT, 0, VSD_RECORDS_MAX_LIGHTS, SHGRID_DEFAULT_LIGHTS, NULL,
      "bright texels taken out of the SH as exact lights (0 = the paper's pure SH form)",
      offsetof(shgrid_options, lights), 0, NULL, NULL},
@@ -448,6 +453,21 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
     if (ctx->info && ctx->info_len)
         snprintf(ctx->info, ctx->info_len, "cells=%dx%dx%d records=%d density_level=%d density_level_seconds=%.3f",
                  s->rg.res[0], s->rg.res[1], s->rg.res[2], s->rg.count, s->levels.level[0], s->levels.seconds);
+    if (g.kind == VSD_RECORDS_SH_RGB && s->opt.view_bake && !ctx->cuda) {
+        /* Why: a view ray evaluated each record it crossed, an order-n SH dot product per
+           colour and the lights' phase per corner, most of the camera change on smoke128
+           (g = 0.2); once per record and view it is 3 floats a corner (docs/methods/shgrid.md).
+           (An isotropic phase was baked once per lighting: the BAKED kind.) */
+        float *baked = malloc(3 * sizeof *baked * (size_t)(g.record_count > 0 ? g.record_count : 1));
+        vsd_status st;
+        if (!baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "shgrid: no memory for %d view records", g.record_count);
+        vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, baked);
+        vsd_record_grid_use_baked(&g, baked);
+        st = vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, &s->opt.view,
+                                    samples, err, errlen);
+        free(baked);
+        return st;
+    }
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, &s->opt.view, samples,
                                   err, errlen);
 }

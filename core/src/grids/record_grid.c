@@ -294,13 +294,27 @@ static void sub_light_weights(const vsd_krecord_grid *g, sub_light_dirs *s, vsd_
     }
 }
 
+/* The SH records' weights toward the viewer along d (RGB kind): out(d) = sum_lm g^l f_lm
+ * y_lm(d), HG's convolution as the view's per-ray weights (kernel_record_grid.h). */
+static void sh_view_weights(const vsd_krecord_grid *g, vsd_f3 d, float *w)
+{
+    float gl = 1.0f;
+    int32_t l, m;
+    vsd_sh_eval_f(g->order, d, w);
+    for (l = 0; l < g->order; l++) {
+        for (m = -l; m <= l; m++) w[l * (l + 1) + m] *= gl;
+        gl *= g->kd->medium.anisotropy;
+    }
+}
+
 /* Records [r0, r1)'s radiance into out (3 floats each): with the phase at a fixed
  * direction (cam NULL: g = 0, any direction does), or at the direction from the camera to
  * the record. */
 static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const vsd_kcamera *cam, int32_t r0,
                        int32_t r1, float *out, const vsd_krecord_grid *g2, float *out2)
 {
-    float ph[VSD_RECORDS_PH_FLOATS];
+    float ph[VSD_RECORDS_PH_FLOATS], w[VSD_SH_MAX_COEFFS];
+    const int sh_rgb = g->kind == VSD_RECORDS_SH_RGB;
     vsd_f3 eye = f3s(0.0f), forward = f3(0.0f, 0.0f, 1.0f);
     sub_light_dirs subs = {0};
     /* (without memory for them, the scalar loop of vsd_records_light_weights) */
@@ -311,8 +325,10 @@ static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const
         eye = f3(m[3], m[7], m[11]);
         forward = f3_scale(f3_normalize(f3(m[2], m[6], m[10])), -1.0f);   /* the camera looks down -Z */
     }
-    if (!cam || cam->orthographic)
+    if (!cam || cam->orthographic) {
         vsd_records_light_weights(g->lights, g->light_count, g->sub_count, forward, cam ? g->kd->medium.anisotropy : 0.0f, ph);
+        if (sh_rgb) sh_view_weights(g, forward, w);
+    }
     for (r = r0; r < r1; r++) {
         vsd_f3 v;
         if (cam && !cam->orthographic) {
@@ -320,8 +336,9 @@ static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const
             vsd_f3 d = f3_normalize(f3_sub(f3(p[0], p[1], p[2]), eye));
             if (per_record_subs) sub_light_weights(g, &subs, d, g->kd->medium.anisotropy, ph);
             else vsd_records_light_weights(g->lights, g->light_count, g->sub_count, d, g->kd->medium.anisotropy, ph);
+            if (sh_rgb) sh_view_weights(g, d, w);
         }
-        v = vsd_records_radiance(g, r, NULL, ph);
+        v = vsd_records_radiance(g, r, sh_rgb ? w : NULL, ph);
         if (g2) {
             vsd_f3 v2 = vsd_records_radiance(g2, r, NULL, ph);
             out2[3 * (size_t)r] = v2.x;
