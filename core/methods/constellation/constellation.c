@@ -408,22 +408,15 @@ static vsd_status render_cached(cst_state *s, vsd_frame_ctx *ctx, vsd_framebuffe
                                 size_t errlen)
 {
     vsd_krecord_grid g;
-    float *view_baked = NULL;
-    vsd_status st;
     ctx->kd.lights = s->cc.lights;
     ctx->kd.light_count = s->cc.count;
     records_view(s, &ctx->kd, &g);
-    if (g.kind == VSD_RECORDS_LIGHTS && s->opt.view_bake && !ctx->cuda) {
+    if (g.kind == VSD_RECORDS_LIGHTS && s->opt.view_bake && !ctx->cuda)
         /* (an isotropic phase was baked once, per lighting: records_view's BAKED kind) */
-        if (!(view_baked = malloc(3 * sizeof *view_baked * (size_t)(g.record_count > 0 ? g.record_count : 1))))
-            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "constellation: no memory for %d view records", g.record_count);
-        vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, view_baked);
-        vsd_record_grid_use_baked(&g, view_baked);
-    }
-    st = vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, &s->opt.view,
-                                samples, err, errlen);
-    free(view_baked);
-    return st;
+        return vsd_record_grid_render_baked(ctx, fb, &g, s->rg.record_pos, s->opt.pixel_samples, s->opt.slice,
+                                            s->opt.early_termination, &s->opt.view, samples, err, errlen);
+    return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, &s->opt.view,
+                                  samples, err, errlen);
 }
 
 /* a part's record grid (src/method/method_parts.h) */

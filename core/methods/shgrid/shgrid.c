@@ -453,21 +453,13 @@ static vsd_status shgrid_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer
     if (ctx->info && ctx->info_len)
         snprintf(ctx->info, ctx->info_len, "cells=%dx%dx%d records=%d density_level=%d density_level_seconds=%.3f",
                  s->rg.res[0], s->rg.res[1], s->rg.res[2], s->rg.count, s->levels.level[0], s->levels.seconds);
-    if (g.kind == VSD_RECORDS_SH_RGB && s->opt.view_bake && !ctx->cuda) {
+    if (g.kind == VSD_RECORDS_SH_RGB && s->opt.view_bake && !ctx->cuda)
         /* Why: a view ray evaluated each record it crossed, an order-n SH dot product per
            colour and the lights' phase per corner, most of the camera change on smoke128
            (g = 0.2); once per record and view it is 3 floats a corner (docs/methods/shgrid.md).
            (An isotropic phase was baked once per lighting: the BAKED kind.) */
-        float *baked = malloc(3 * sizeof *baked * (size_t)(g.record_count > 0 ? g.record_count : 1));
-        vsd_status st;
-        if (!baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "shgrid: no memory for %d view records", g.record_count);
-        vsd_record_grid_bake_view(&g, s->rg.record_pos, ctx->threads, baked);
-        vsd_record_grid_use_baked(&g, baked);
-        st = vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, &s->opt.view,
-                                    samples, err, errlen);
-        free(baked);
-        return st;
-    }
+        return vsd_record_grid_render_baked(ctx, fb, &g, s->rg.record_pos, s->opt.pixel_samples, s->opt.step,
+                                            s->opt.early_termination, &s->opt.view, samples, err, errlen);
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.step, s->opt.early_termination, &s->opt.view, samples,
                                   err, errlen);
 }

@@ -445,6 +445,21 @@ vsd_status vsd_record_grid_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const
                                   err, errlen);
 }
 
+vsd_status vsd_record_grid_render_baked(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *g,
+                                        const float *record_pos, int n, double step, double stop,
+                                        const vsd_view_sampling *vs, int *samples, char *err, size_t errlen)
+{
+    vsd_krecord_grid b = *g;
+    float *baked = malloc(3 * sizeof *baked * (size_t)(g->record_count > 0 ? g->record_count : 1));
+    vsd_status st;
+    if (!baked) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %d view records", (int)g->record_count);
+    vsd_record_grid_bake_view(g, record_pos, ctx->threads, baked);
+    vsd_record_grid_use_baked(&b, baked);
+    st = vsd_record_grid_render(ctx, fb, &b, n, step, stop, vs, samples, err, errlen);
+    free(baked);
+    return st;
+}
+
 vsd_status vsd_record_grids_render(vsd_frame_ctx *ctx, vsd_framebuffer *fb, const vsd_krecord_grid *grids, int count,
                                    int n, double step, double stop, const vsd_view_sampling *vs, int *samples, char *err,
                                    size_t errlen)

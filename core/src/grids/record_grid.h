@@ -77,6 +77,13 @@ struct vsd_view_sampling;
 vsd_status vsd_record_grid_render(struct vsd_frame_ctx *ctx, struct vsd_framebuffer *fb, const struct vsd_krecord_grid *g,
                                   int n, double step, double stop, const struct vsd_view_sampling *vs, int *samples,
                                   char *err, size_t errlen);
+/* The same with g's records baked toward this view's camera first (vsd_record_grid_bake_view
+ * into a buffer of its own, then vsd_record_grid_use_baked on a copy of g): the CPU view of
+ * shgrid's and constellation's `view_bake`. record_pos: the grid's record positions. */
+vsd_status vsd_record_grid_render_baked(struct vsd_frame_ctx *ctx, struct vsd_framebuffer *fb,
+                                        const struct vsd_krecord_grid *g, const float *record_pos, int n, double step,
+                                        double stop, const struct vsd_view_sampling *vs, int *samples, char *err,
+                                        size_t errlen);
 
 /* The same view over several volumes (kernel_record_grids.h): grids[i] lights ctx's
  * volume i; count must be ctx->kd.volume_count. */
