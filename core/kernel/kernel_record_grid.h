@@ -138,8 +138,23 @@ VSD_DEVICE void vsd_records_light_weights(const float *lights, int32_t count, in
     }
 }
 
+/* The RGB kind's SH weights toward a viewer looking along d: the records' T L convolved
+ * with HG(g) and evaluated at d, out(d) = sum_lm g^l f_lm y_lm(d). Per ray in the view
+ * below, per record and view in the CPU's bake (record_grid.c). */
+VSD_DEVICE void vsd_records_sh_view_weights(int32_t order, float g, vsd_f3 d, float *w)
+{
+    float gl = 1.0f;
+    int32_t l, m;
+    vsd_sh_eval_f(order, d, w);
+    for (l = 0; l < order; l++) {
+        for (m = -l; m <= l; m++) w[l * (l + 1) + m] *= gl;
+        gl *= g;
+    }
+}
+
 /* In-scattered radiance per unit sigma_s from record rec; w: per-ray SH weights (RGB
- * kind), ph: the lights' per-ray weights (vsd_records_light_weights). */
+ * kind, vsd_records_sh_view_weights), ph: the lights' per-ray weights
+ * (vsd_records_light_weights). */
 VSD_DEVICE vsd_f3 vsd_records_radiance(const vsd_krecord_grid *g, int32_t rec, const float *w, const float *ph)
 {
     const float *r = g->kind == VSD_RECORDS_LIGHTS ? 0 : g->records + (size_t)rec * g->stride;
@@ -307,16 +322,7 @@ VSD_DEVICE vsd_sample_result vsd_records_pixel(const vsd_krecord_grid *g, int32_
     vsd_march_begin(&acc);
     vsd_camera_ray(&kd->camera, px, py, jx, jy, &o, &d);
     vsd_records_light_weights(g->lights, g->light_count, g->sub_count, d, kd->medium.anisotropy, ph);
-    if (g->kind == VSD_RECORDS_SH_RGB) {
-        /* convolution with HG toward the viewer: out(d) = sum_lm g^l f_lm y_lm(d) */
-        float gl = 1.0f;
-        int32_t l, m;
-        vsd_sh_eval_f(g->order, d, w);
-        for (l = 0; l < g->order; l++) {
-            for (m = -l; m <= l; m++) w[l * (l + 1) + m] *= gl;
-            gl *= kd->medium.anisotropy;
-        }
-    }
+    if (g->kind == VSD_RECORDS_SH_RGB) vsd_records_sh_view_weights(g->order, kd->medium.anisotropy, d, w);
     if (vsd_march_extent(kd, o, d, &t0, &t1)) {
         vsd_march_walk walk;
         float tm, hs;

@@ -43,15 +43,7 @@ VSD_DEVICE void vsd_records_march_volumes(const vsd_krecord_grids *gs, vsd_march
         corners[i].key[0] = corners[i].key[1] = corners[i].key[2] = 0;
         if (walk->lo[i] >= VSD_INF || !((sources >> i) & 1u)) continue;   /* missed, or not a source */
         vsd_records_light_weights(g->lights, g->light_count, g->sub_count, d, an, ph[i]);
-        if (g->kind == VSD_RECORDS_SH_RGB) {
-            float gl = 1.0f;
-            int32_t l, m;
-            vsd_sh_eval_f(g->order, d, w[i]);
-            for (l = 0; l < g->order; l++) {
-                for (m = -l; m <= l; m++) w[i][l * (l + 1) + m] *= gl;
-                gl *= an;
-            }
-        }
+        if (g->kind == VSD_RECORDS_SH_RGB) vsd_records_sh_view_weights(g->order, an, d, w[i]);
     }
     while (vsd_volumes_view_step(walk, kd, acc, o, d, &p, &mid, &sigma, &absorbed, sig)) {
         vsd_f3 single = f3s(0.0f), multiple = f3s(0.0f);

@@ -294,19 +294,6 @@ static void sub_light_weights(const vsd_krecord_grid *g, sub_light_dirs *s, vsd_
     }
 }
 
-/* The SH records' weights toward the viewer along d (RGB kind): out(d) = sum_lm g^l f_lm
- * y_lm(d), HG's convolution as the view's per-ray weights (kernel_record_grid.h). */
-static void sh_view_weights(const vsd_krecord_grid *g, vsd_f3 d, float *w)
-{
-    float gl = 1.0f;
-    int32_t l, m;
-    vsd_sh_eval_f(g->order, d, w);
-    for (l = 0; l < g->order; l++) {
-        for (m = -l; m <= l; m++) w[l * (l + 1) + m] *= gl;
-        gl *= g->kd->medium.anisotropy;
-    }
-}
-
 /* Records [r0, r1)'s radiance into out (3 floats each): with the phase at a fixed
  * direction (cam NULL: g = 0, any direction does), or at the direction from the camera to
  * the record. */
@@ -327,7 +314,7 @@ static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const
     }
     if (!cam || cam->orthographic) {
         vsd_records_light_weights(g->lights, g->light_count, g->sub_count, forward, cam ? g->kd->medium.anisotropy : 0.0f, ph);
-        if (sh_rgb) sh_view_weights(g, forward, w);
+        if (sh_rgb) vsd_records_sh_view_weights(g->order, g->kd->medium.anisotropy, forward, w);
     }
     for (r = r0; r < r1; r++) {
         vsd_f3 v;
@@ -336,7 +323,7 @@ static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const
             vsd_f3 d = f3_normalize(f3_sub(f3(p[0], p[1], p[2]), eye));
             if (per_record_subs) sub_light_weights(g, &subs, d, g->kd->medium.anisotropy, ph);
             else vsd_records_light_weights(g->lights, g->light_count, g->sub_count, d, g->kd->medium.anisotropy, ph);
-            if (sh_rgb) sh_view_weights(g, d, w);
+            if (sh_rgb) vsd_records_sh_view_weights(g->order, g->kd->medium.anisotropy, d, w);
         }
         v = vsd_records_radiance(g, r, sh_rgb ? w : NULL, ph);
         if (g2) {

@@ -33,6 +33,7 @@ typedef struct adaptive_view {
     vsd_accum *acc;
     int n, s, transparent;
     int nxa, nya;              /* anchors per row and column */
+    int bx, by, tiles_x;       /* blocks per row and column (at least 1); tiles of blocks per row */
     double *anchors;           /* [nya * nxa * VSD_ACC_N] sums over the n x n strata */
     double floor;              /* 5% of the brightest anchor's per-sample radiance */
     double threshold;
@@ -89,6 +90,14 @@ static int needs_tracing(const adaptive_view *a, const double *const c[4])
     return (hi - lo) * inv > a->threshold;
 }
 
+/* The bilinear mix at (u, v) of the four corners' sums c[4] (c[1] along u, c[2] along v). */
+static void bilinear(const double *const c[4], double u, double v, double *out)
+{
+    int q;
+    for (q = 0; q < VSD_ACC_N; q++)
+        out[q] = (1 - v) * ((1 - u) * c[0][q] + u * c[1][q]) + v * ((1 - u) * c[2][q] + u * c[3][q]);
+}
+
 /* A block's lattice of pixels, (s + 1)^2 at most, while it is refined: a flagged block is
  * not traced whole at once but halved: the midpoints of its edges and its centre are
  * traced, and each part is decided again on its own four corners, down to single pixels
@@ -134,16 +143,14 @@ static void refine(const adaptive_view *a, block_lattice *b, int i0, int j0, int
     const double *c[4] = {lattice_point(b, i0, j0), lattice_point(b, i0 + w, j0), lattice_point(b, i0, j0 + h),
                           lattice_point(b, i0 + w, j0 + h)};
     const int hx = w / 2, hy = h / 2;   /* where the halves meet (0: not split along that axis) */
-    int i, j, q;
+    int i, j;
     if (w < 2 && h < 2) return;   /* no points between the corners */
     if (!needs_tracing(a, c)) {
         for (j = j0; j <= j0 + h; j++)
             for (i = i0; i <= i0 + w; i++) {
                 const int k = j * b->side + i;
-                const double u = w ? (double)(i - i0) / w : 0.0, v = h ? (double)(j - j0) / h : 0.0;
                 if (b->state[k] != POINT_UNKNOWN) continue;
-                for (q = 0; q < VSD_ACC_N; q++)
-                    b->v[k][q] = (1 - v) * ((1 - u) * c[0][q] + u * c[1][q]) + v * ((1 - u) * c[2][q] + u * c[3][q]);
+                bilinear(c, w ? (double)(i - i0) / w : 0.0, h ? (double)(j - j0) / h : 0.0, b->v[k]);
                 b->state[k] = POINT_INTERPOLATED;
             }
         return;
@@ -200,15 +207,11 @@ static void fill_blocks(adaptive_view *a, int bi0, int bj0, int bi1, int bj1)
                     for (x = xa; x < xe; x++) {
                         double *p = a->acc->v + ((size_t)y * w + x) * VSD_ACC_N;
                         const int corner = (x == xa || x == xb) && (y == ya || y == yb);
-                        const double u = bw ? (double)(x - xa) / bw : 0.0, v = bh ? (double)(y - ya) / bh : 0.0;
-                        int q;
                         a->traced[(size_t)y * w + x] = (unsigned char)corner;
-                        if (corner) {
+                        if (corner)
                             memcpy(p, c[(x == xb && xb != xa) + 2 * (y == yb && yb != ya)], VSD_ACC_N * sizeof *p);
-                            continue;
-                        }
-                        for (q = 0; q < VSD_ACC_N; q++)
-                            p[q] = (1 - v) * ((1 - u) * c[0][q] + u * c[1][q]) + v * ((1 - u) * c[2][q] + u * c[3][q]);
+                        else
+                            bilinear(c, bw ? (double)(x - xa) / bw : 0.0, bh ? (double)(y - ya) / bh : 0.0, p);
                     }
                 continue;
             }
@@ -240,14 +243,12 @@ static void fill_blocks(adaptive_view *a, int bi0, int bj0, int bi1, int bj1)
 static void block_tiles_fn(void *user, int t0, int unused0, int t1, int unused1)
 {
     adaptive_view *a = user;
-    const int bx = a->nxa > 1 ? a->nxa - 1 : 1, by = a->nya > 1 ? a->nya - 1 : 1;
-    const int tiles_x = (bx + BLOCK_TILE - 1) / BLOCK_TILE;
     int t;
     (void)unused0, (void)unused1;
     for (t = t0; t < t1; t++) {
-        const int bi0 = (t % tiles_x) * BLOCK_TILE, bj0 = (t / tiles_x) * BLOCK_TILE;
-        fill_blocks(a, bi0, bj0, bi0 + BLOCK_TILE < bx ? bi0 + BLOCK_TILE : bx,
-                    bj0 + BLOCK_TILE < by ? bj0 + BLOCK_TILE : by);
+        const int bi0 = (t % a->tiles_x) * BLOCK_TILE, bj0 = (t / a->tiles_x) * BLOCK_TILE;
+        fill_blocks(a, bi0, bj0, bi0 + BLOCK_TILE < a->bx ? bi0 + BLOCK_TILE : a->bx,
+                    bj0 + BLOCK_TILE < a->by ? bj0 + BLOCK_TILE : a->by);
     }
 }
 
@@ -294,13 +295,17 @@ vsd_status vsd_adaptive_view(vsd_frame_ctx *ctx, vsd_accum *acc, int n, const vs
     a.transparent = ctx->scene->film.transparent;
     a.nxa = (acc->width - 1 + a.s - 1) / a.s + 1;
     a.nya = (acc->height - 1 + a.s - 1) / a.s + 1;
+    a.bx = a.nxa > 1 ? a.nxa - 1 : 1;
+    a.by = a.nya > 1 ? a.nya - 1 : 1;
+    a.tiles_x = (a.bx + BLOCK_TILE - 1) / BLOCK_TILE;
     count = (size_t)a.nxa * a.nya;
     a.anchors = calloc(count * VSD_ACC_N, sizeof *a.anchors);
     a.traced = calloc((size_t)acc->width * acc->height, 1);
     if (!a.anchors || !a.traced) {
         free(a.anchors);
         free(a.traced);
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %zu view anchors", count);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for %zu view anchors and a %dx%d traced map", count,
+                        acc->width, acc->height);
     }
     vsd_method_item_job(&job, ctx, a.nxa, anchor_fn, &a, pass->stage);
     job.width = a.nxa;
@@ -315,11 +320,8 @@ vsd_status vsd_adaptive_view(vsd_frame_ctx *ctx, vsd_accum *acc, int n, const vs
                                 (a.transparent ? 0.0 : p[VSD_ACC_BG + q]));
     }
     a.floor = 0.05 * top / (double)(n * n);
-    {
-        const int bx = a.nxa > 1 ? a.nxa - 1 : 1, by = a.nya > 1 ? a.nya - 1 : 1;
-        vsd_method_item_job(&job, ctx, ((bx + BLOCK_TILE - 1) / BLOCK_TILE) * ((by + BLOCK_TILE - 1) / BLOCK_TILE),
-                            block_tiles_fn, &a, pass->stage);
-    }
+    vsd_method_item_job(&job, ctx, a.tiles_x * ((a.by + BLOCK_TILE - 1) / BLOCK_TILE), block_tiles_fn, &a,
+                        pass->stage);
     job.item_range = 1;
     job.progress_base = 0.3f;
     job.progress_span = 0.7f;
