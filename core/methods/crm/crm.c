@@ -31,6 +31,7 @@
 #include "crm_diffusion.h"
 #include "crm_source_grid.h"
 #include "crm_orders.h"
+#include "crm_sky.h"
 #include "crm_phase.h"
 #include "crm_node_single.h"
 #include "crm_kernel.h"
@@ -62,7 +63,7 @@
 
 typedef struct crm_options {
     int rbf_count, fit_iterations, sh_order, cg_iterations, view_density, pixel_samples, delete_per_frame, insert_max;
-    int coherent, multiple, single, directions, orders, order_directions, order_cell, order_fine, sky, lights, delta_m;
+    int coherent, multiple, single, directions, orders, order_directions, order_cell, order_fine, sky, sky_view, lights, delta_m;
     int ms_bands, gather;
     double node_spacing, step, early_termination, error_ratio, light_threshold;
     vsd_view_sampling view;
@@ -74,6 +75,8 @@ typedef struct crm_options {
 static const char *const view_density_names[] = {"voxels", "compensated", "eq8", NULL}; /* CRM_VIEW_* */
 static const char *const sky_names[] = {"pixels", "sh", NULL};
 enum { SKY_PIXELS, SKY_SH };
+static const char *const sky_view_names[] = {"sh", "sum", NULL};
+enum { SKY_VIEW_SH, SKY_VIEW_SUM };
 enum { MULTIPLE_ORDERS, MULTIPLE_RBF };
 enum { SINGLE_GRID, SINGLE_SH };
 static const char *const single_names[] = {"grid", "sh", NULL};
@@ -120,9 +123,14 @@ static const vsd_option_spec crm_option_rows[] = {
      "centres, ZH table + exp*)",
      offsetof(crm_options, single), 0, NULL, NULL},
     {"sky", VSD_OPT_CHOICE, 0, 0, SKY_SH, sky_names,
-     "single grid: the light arriving from each direction, the map averaged per HEALPix pixel (a lamp or a small sun "
-     "shadowed where it is) or the map's order-n SH (the paper's L_in)",
+     "single grid: the light arriving from each direction in the nodes' SH single scattering (the orders' J_1, and "
+     "the view's with sky_view \"sh\"), the map averaged per HEALPix pixel (a lamp or a small sun shadowed where it "
+     "is) or the map's order-n SH (the paper's L_in)",
      offsetof(crm_options, sky), 0, NULL, .when = crm_on_single_grid},
+    {"sky_view", VSD_OPT_CHOICE, 0, 0, SKY_VIEW_SUM, sky_view_names,
+     "single grid: the sky's single scattering toward the eye from the nodes' order-4 SH convolved with HG (the "
+     "paper's), or summed per view over the HEALPix pixels with HG averaged over each (crm_sky.h)",
+     offsetof(crm_options, sky_view), 0, NULL, .when = crm_on_single_grid},
     {"lights", VSD_OPT_INT, 0, VSD_CRM_MAX_LIGHTS, CRM_DEFAULT_LIGHTS, NULL,
      "single grid: the map's bright texels taken out of the SH sky as this many exact directional lights, each "
      "with its own transmittance per node (0 = none: the whole map through the SH)",
@@ -204,6 +212,7 @@ typedef struct crm_state {
                                      lighting and medium edits (crm_node_single.h) */
     vsd_crm_lights lights;        /* the bright texels as lights, their transmittance per node */
     float *view_lights;           /* [8 * lights.count] for the view (crm_kernel.h) */
+    vsd_crm_sky sky;              /* sky_view "sum": the sky's pixels and transmittance for the view */
     double *sky_dirs;             /* [3 * opt.directions] the sky's HEALPix directions */
     float light_g;
     /* lighting (§5.3-5.4) */
@@ -704,7 +713,10 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     free(s->j_ms);
     s->j_ss = s->j_ms = NULL;
     vsd_crm_source_grid_free(&s->nodes);
-    if (!s->node_density || (centres && count == 0)) return VSD_OK; /* an empty grid */
+    if (!s->node_density || (centres && count == 0)) { /* an empty grid */
+        vsd_crm_sky_free(&s->sky);
+        return VSD_OK;
+    }
     /* world directions into index space (the volume's transform), and into the node grid */
     for (c = 0; c < 3; c++)
         for (q = 0; q < 3; q++) {
@@ -749,7 +761,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         return st;
     if (s->opt.multiple == MULTIPLE_ORDERS || s->opt.single == SINGLE_GRID) {
         size_t nodes = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
-        float *sigma_t, *part_emission = NULL, *unit_single = NULL, *j1 = NULL, *forward = NULL;
+        float *sigma_t, *part_emission = NULL, *unit_single = NULL, *j1 = NULL, *forward = NULL, *sky_sh = NULL;
         /* delta-M for the orders (crm_orders.h) needs the scaled problem's single
          * scattering, which only the node grid's marches give */
         int delta = s->opt.delta_m && g > 0.0 && s->opt.multiple == MULTIPLE_ORDERS && s->opt.single == SINGLE_GRID &&
@@ -815,6 +827,16 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                     st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, s->node_albedo ? unit : albedo, &hg,
                                              order, grid_sh, sky, ctx->threads, s->nodes.nodes, s->nodes.valid, err,
                                              errlen);
+                if (!st && s->opt.sky_view == SKY_VIEW_SUM) {
+                    /* the orders read the sky's SH as J_1; the view sums the sky itself, so
+                     * this part of the nodes' SH is taken out again after the orders */
+                    if (!(sky_sh = malloc(nodes * 3 * CRM_SS_N * sizeof *sky_sh)))
+                        st = vsd_fail(VSD_ERR_NOMEM, err, errlen,
+                                      "crm: no memory for the sky's single scattering of %zu nodes", nodes);
+                    for (i = 0; !st && i < nodes; i++)
+                        memcpy(sky_sh + i * 3 * CRM_SS_N, s->nodes.nodes + i * CRM_NODE_FLOATS,
+                               3 * CRM_SS_N * sizeof *sky_sh);
+                }
                 if (!st && delta)
                     st = delta_m_single(s, ctx, s->node_albedo ? unit : albedo, g, order, grid_sh, sky, &j1, err,
                                         errlen);
@@ -865,6 +887,19 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             if (emission != part_emission) free(emission);
         }
         if (!st && unit_single) own_albedo_single(s, unit_single, albedo);
+        if (!st && sky_sh) {
+            /* the sky's SH out (lit with the part's unit albedo, then its own), its sum in */
+            for (i = 0; i < nodes; i++)
+                for (c = 0; c < 3; c++) {
+                    float a = s->node_albedo ? (float)albedo[c] : 1.0f;
+                    for (q = 0; q < CRM_SS_N; q++)
+                        s->nodes.nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + q] -= a * sky_sh[(i * 3 + c) * CRM_SS_N + q];
+                }
+            st = vsd_crm_sky_update(&s->sky, &s->depths, s->transmittance_marches, ctx->kd.density.scale, grid_env,
+                                    &ctx->kd.env, albedo, g, err, errlen);
+        }
+        /* the SH carries the sky (sky_view "sh", or the paper's single scattering) */
+        if (!sky_sh || st) vsd_crm_sky_free(&s->sky);
         /* the view's lights carry the volume's own albedo and phase, as its single
          * scattering does */
         free(s->view_lights);
@@ -878,6 +913,7 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         }
         free(part_emission);
         free(unit_single);
+        free(sky_sh);
         free(sigma_t);
         free(j1);
     }
@@ -922,6 +958,14 @@ static vsd_status view_struct(crm_state *s, vsd_frame_ctx *ctx, vsd_kcrm *kc, in
         kc->light_tr = s->lights.tr;
         kc->lights = s->view_lights;
         kc->light_g = s->light_g;
+    }
+    if (s->sky.count > 0 && s->sky.tr) {
+        kc->sky_count = s->sky.count;
+        kc->sky_rows = (int32_t)s->sky.rows;
+        kc->sky_tr = s->sky.tr;
+        kc->sky_row = s->sky.row;
+        kc->sky = s->sky.pixels;
+        kc->sky_phase = s->sky.phase;
     }
     if (s->nodes.nodes) {
         size_t count = (size_t)kc->node_res[0] * kc->node_res[1] * kc->node_res[2];
@@ -1018,6 +1062,7 @@ static void crm_destroy(void *state)
     free(s->view_lights);
     free(s->sky_dirs);
     vsd_crm_lights_free(&s->lights);
+    vsd_crm_sky_free(&s->sky);
     vsd_crm_source_grid_free(&s->nodes);
     vsd_parts_free(&s->parts, &vsd_method_crm);
     free(s);

@@ -7,14 +7,18 @@
 /* crm's resident slots (cuda_backend.h) */
 VSD_DEVICE_SLOT(crm_dtilde, "crm reduced density");
 VSD_DEVICE_SLOT(crm_dfull, "crm full density");
-/* The nodes, their validity, this view's node values and the extracted lights (their
- * transmittance per node, their directions and powers): set 0 for one volume, set i for
- * part i of several (crm_parts.h), each part's in slots of its own. */
+/* The nodes, their validity, this view's node values, the extracted lights (their
+ * transmittance per node, their directions and powers) and the sky summed per view (its
+ * transmittance rows, each node's row, its pixels, the cap-averaged phase; crm_sky.h): set
+ * 0 for one volume, set i for part i of several (crm_parts.h), each part's in slots of its
+ * own. */
 #define NODE_SLOTS(p)                                                                                      \
     {{p " nodes", VSD_CUDA_METHOD_SLOT}, {p " node validity", VSD_CUDA_METHOD_SLOT},                         \
      {p " view nodes", VSD_CUDA_METHOD_SLOT}, {p " light transmittance", VSD_CUDA_METHOD_SLOT},              \
-     {p " lights", VSD_CUDA_METHOD_SLOT}}
-static const vsd_cuda_slot_desc node_slots[VSD_KMAX_VOLUMES][5] = {
+     {p " lights", VSD_CUDA_METHOD_SLOT}, {p " sky transmittance", VSD_CUDA_METHOD_SLOT},                    \
+     {p " sky rows", VSD_CUDA_METHOD_SLOT}, {p " sky", VSD_CUDA_METHOD_SLOT},                                \
+     {p " sky phase", VSD_CUDA_METHOD_SLOT}}
+static const vsd_cuda_slot_desc node_slots[VSD_KMAX_VOLUMES][9] = {
     NODE_SLOTS("crm"),         NODE_SLOTS("crm part 1"),  NODE_SLOTS("crm part 2"),  NODE_SLOTS("crm part 3"),
     NODE_SLOTS("crm part 4"),  NODE_SLOTS("crm part 5"),  NODE_SLOTS("crm part 6"),  NODE_SLOTS("crm part 7"),
     NODE_SLOTS("crm part 8"),  NODE_SLOTS("crm part 9"),  NODE_SLOTS("crm part 10"), NODE_SLOTS("crm part 11"),
@@ -25,6 +29,8 @@ static size_t voxels(const vsd_kcrm *c) { return (size_t)c->dims[0] * c->dims[1]
 static size_t nodes(const vsd_kcrm *c) { return (size_t)c->node_res[0] * c->node_res[1] * c->node_res[2]; }
 static size_t light_tr_bytes(const vsd_kcrm *c) { return nodes(c) * (size_t)c->light_count * sizeof(float); }
 static size_t lights_bytes(const vsd_kcrm *c) { return (size_t)c->light_count * 8 * sizeof(float); }
+static size_t sky_tr_bytes(const vsd_kcrm *c) { return (size_t)c->sky_rows * (size_t)c->sky_count * sizeof(float); }
+static size_t sky_bytes(const vsd_kcrm *c) { return (size_t)c->sky_count * 8 * sizeof(float); }
 
 VSD_CPU_VIEW_SAMPLE
 static vsd_sample_result view_sample(const void *m, int x, int y, int s, int n)
@@ -59,6 +65,12 @@ static void node_arrays(const void *m, vsd_pass_args a, vsd_pass_array_visit vis
         visit(user, c->light_tr, light_tr_bytes(c), "crm.light_tr");
         visit(user, c->lights, lights_bytes(c), "crm.lights");
     }
+    if (c->sky_count > 0) {
+        visit(user, c->sky_tr, sky_tr_bytes(c), "crm.sky_tr");
+        visit(user, c->sky_row, nodes(c) * sizeof(int32_t), "crm.sky_row");
+        visit(user, c->sky, sky_bytes(c), "crm.sky");
+        visit(user, c->sky_phase, CRM_SKY_PHASE_N * sizeof(float), "crm.sky_phase");
+    }
 }
 
 VSD_CUDA_ENTRY_DECL(vsd_cuda_crm_view_nodes);
@@ -67,7 +79,9 @@ static const vsd_device_pass crm_node_pass = {
     VSD_CUDA_ENTRY(vsd_cuda_crm_view_nodes),
 };
 
-/* The node pass on the CPU threads, into the host struct's view_nodes. */
+/* The node pass on the CPU threads, into the host struct's view_nodes; cloned for AVX2
+ * as the view is (the sky's sum over its pixels, crm_sky.h, is most of it). */
+VSD_CPU_VIEW_SAMPLE
 static void node_tile(void *user, int i0, int y0, int i1, int y1)
 {
     int i;
@@ -114,6 +128,21 @@ static vsd_status nodes_to_device(const vsd_frame_ctx *ctx, const vsd_kcrm *h, i
         if ((st = vsd_device_array(ctx, &sl[4], ctx->lighting_gen, h->lights, lights_bytes(h), &p, err, errlen)))
             return st;
         d->lights = p;
+    }
+    if (h->sky_count > 0) {
+        if ((st = vsd_device_array(ctx, &sl[5], ctx->lighting_gen, h->sky_tr, sky_tr_bytes(h), &p, err, errlen)))
+            return st;
+        d->sky_tr = p;
+        if ((st = vsd_device_array(ctx, &sl[6], ctx->lighting_gen, h->sky_row, nodes(h) * sizeof(int32_t), &p, err,
+                                   errlen)))
+            return st;
+        d->sky_row = p;
+        if ((st = vsd_device_array(ctx, &sl[7], ctx->lighting_gen, h->sky, sky_bytes(h), &p, err, errlen))) return st;
+        d->sky = p;
+        if ((st = vsd_device_array(ctx, &sl[8], ctx->lighting_gen, h->sky_phase, CRM_SKY_PHASE_N * sizeof(float), &p,
+                                   err, errlen)))
+            return st;
+        d->sky_phase = p;
     }
     if ((st = vsd_device_scratch(ctx, &sl[2], bytes, 0, &view, err, errlen))) return st;
     d->view_nodes = view;

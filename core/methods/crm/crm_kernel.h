@@ -42,6 +42,8 @@ enum { CRM_VIEW_VOXELS = 0, CRM_VIEW_COMPENSATED = 1, CRM_VIEW_EQ8 = 2 };
 enum { CRM_SS_ORDER = 4, CRM_SS_N = 16, CRM_MS_N = 9, CRM_NODE_FLOATS = 3 * (CRM_SS_N + CRM_MS_N) };
 enum { CRM_NODE_SINGLE = 1, CRM_NODE_MULTIPLE = 2 };
 enum { CRM_VIEW_FLOATS = 6 };
+/* entries of crm_sky.h's cap-averaged phase table, uniform in the cosine from -1 to 1 */
+enum { CRM_SKY_PHASE_N = 2048 };
 /* below this a node's single scattering counts as zero in the log interpolation */
 #define CRM_LOG_FLOOR 1e-12f
 #define CRM_LOG_ZERO (-27.0f) /* log(2e-12): a blend of floors only */
@@ -67,6 +69,14 @@ typedef struct VSD_ALIGN16 vsd_kcrm {
     const float *lights;           /* [light_count * 8] world direction xyz, 0, albedo * E rgb, 0 */
     int32_t light_count;
     float light_g;                 /* HG's g of the single scattering */
+    /* the sky's remainder summed per view over its HEALPix pixels (crm_sky.h, `sky_view:
+     * "sum"`), sky_count 0 = it is in the nodes' SH */
+    const float *sky_tr;           /* [sky_rows * sky_count] T from each node with density toward each pixel */
+    const int32_t *sky_row;        /* [node count] the node's row of sky_tr, -1 none */
+    const float *sky;              /* [sky_count * 8] pixel centre xyz, 0, albedo L Omega rgb, 0 */
+    const float *sky_phase;        /* [CRM_SKY_PHASE_N] HG over a pixel's cap against the cosine, -1 to 1 */
+    int32_t sky_count;
+    int32_t sky_rows;
 } vsd_kcrm;
 
 /* Trilinear weights of the 8 voxels around crm-space point q (voxel centres at +0.5) and
@@ -126,6 +136,19 @@ VSD_DEVICE void vsd_crm_node_source(const vsd_kcrm *c, int32_t node, const float
     *ms = f3(m[0], m[1], m[2]);
 }
 
+/* The cap-averaged phase at cos mu between a pixel's light and the eye (crm_sky.h's table,
+ * linear between its entries). */
+VSD_DEVICE float vsd_crm_sky_phase(const float *table, float mu)
+{
+    float x = (0.5f * mu + 0.5f) * (float)(CRM_SKY_PHASE_N - 1), f;
+    int32_t i;
+    x = x > 0.0f ? x : 0.0f;
+    i = (int32_t)x;
+    if (i >= CRM_SKY_PHASE_N - 1) return table[CRM_SKY_PHASE_N - 1];
+    f = x - (float)i;
+    return table[i] + f * (table[i + 1] - table[i]);
+}
+
 /* The paper's volume pass (§5.5), on the nodes: each node's source radiance toward the eye
  * for this view, the SH evaluated once per node and view instead of once per ray and cell.
  * The direction is the node's own toward the camera (the camera's backward axis when
@@ -167,6 +190,22 @@ VSD_DEVICE void vsd_crm_view_node(const vsd_kcrm *c, int i, int n, void *out)
             f = t[k] * vsd_hg_eval(-(w.x * l[0] + w.y * l[1] + w.z * l[2]), c->light_g);
             ss = f3(ss.x + f * l[4], ss.y + f * l[5], ss.z + f * l[6]);
         }
+    }
+    if (c->sky_count > 0 && c->sky_row[i] >= 0) {
+        /* the sky's remainder, pixel by pixel: light from w_j leaves toward w */
+        const float *t = c->sky_tr + (size_t)c->sky_row[i] * c->sky_count;
+        float r = 0.0f, gg = 0.0f, b = 0.0f;
+        int32_t j;
+        for (j = 0; j < c->sky_count; j++) {
+            const float *l = c->sky + 8 * (size_t)j;
+            float f;
+            if (!(t[j] > 0.0f)) continue; /* exp underflows deep in a cloud: most pixels there */
+            f = t[j] * vsd_crm_sky_phase(c->sky_phase, -(w.x * l[0] + w.y * l[1] + w.z * l[2]));
+            r += f * l[4];
+            gg += f * l[5];
+            b += f * l[6];
+        }
+        ss = f3(ss.x + r, ss.y + gg, ss.z + b);
     }
     /* single scattering falls exponentially into the medium: the view blends its log (the
      * weighted geometric mean), as shgrid's records do */
