@@ -761,7 +761,9 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         return st;
     if (s->opt.multiple == MULTIPLE_ORDERS || s->opt.single == SINGLE_GRID) {
         size_t nodes = (size_t)s->node_res[0] * s->node_res[1] * s->node_res[2], i;
-        float *sigma_t, *part_emission = NULL, *unit_single = NULL, *j1 = NULL, *forward = NULL, *sky_sh = NULL;
+        float *sigma_t, *part_emission = NULL, *lit_single = NULL, *j1 = NULL, *forward = NULL, *pixel_sky = NULL;
+        /* the view sums the sky's remainder over its pixels (crm_sky.h) */
+        int sum_sky = s->opt.single == SINGLE_GRID && s->opt.sky_view == SKY_VIEW_SUM;
         /* delta-M for the orders (crm_orders.h) needs the scaled problem's single
          * scattering, which only the node grid's marches give */
         int delta = s->opt.delta_m && g > 0.0 && s->opt.multiple == MULTIPLE_ORDERS && s->opt.single == SINGLE_GRID &&
@@ -814,49 +816,42 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                 marched |= lights_marched;
             }
             s->transmittance_seconds = marched ? vsd_clock_seconds() - t0 : 0.0;
+            if (!st && (s->opt.sky == SKY_PIXELS || sum_sky)) {
+                /* the map per HEALPix pixel of the transmittance's directions: the SH single
+                 * scattering's L_in with `sky: "pixels"`, the view's sum with `sky_view: "sum"` */
+                pixel_sky = malloc(4 * (size_t)s->opt.directions * sizeof *pixel_sky);
+                if (!pixel_sky ||
+                    !vsd_env_healpix_radiance(grid_env, &ctx->kd.env, vsd_sh_healpix_nside(s->opt.directions), pixel_sky))
+                    st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the sky of %d directions",
+                                  s->opt.directions);
+            }
             {
-                float *sky = NULL;
-                if (!st && s->opt.sky == SKY_PIXELS) {
-                    /* the map per HEALPix pixel of the transmittance's directions */
-                    sky = malloc(4 * (size_t)s->opt.directions * sizeof *sky);
-                    if (!sky || !vsd_env_healpix_radiance(grid_env, &ctx->kd.env, vsd_sh_healpix_nside(s->opt.directions), sky))
-                        st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the sky of %d directions",
-                                      s->opt.directions);
-                }
+                const float *sky = s->opt.sky == SKY_PIXELS ? pixel_sky : NULL;
                 if (!st)
                     st = vsd_crm_node_single(&s->depths, ctx->kd.density.scale, s->node_albedo ? unit : albedo, &hg,
                                              order, grid_sh, sky, ctx->threads, s->nodes.nodes, s->nodes.valid, err,
                                              errlen);
-                if (!st && s->opt.sky_view == SKY_VIEW_SUM) {
-                    /* the orders read the sky's SH as J_1; the view sums the sky itself, so
-                     * this part of the nodes' SH is taken out again after the orders */
-                    if (!(sky_sh = malloc(nodes * 3 * CRM_SS_N * sizeof *sky_sh)))
-                        st = vsd_fail(VSD_ERR_NOMEM, err, errlen,
-                                      "crm: no memory for the sky's single scattering of %zu nodes", nodes);
-                    for (i = 0; !st && i < nodes; i++)
-                        memcpy(sky_sh + i * 3 * CRM_SS_N, s->nodes.nodes + i * CRM_NODE_FLOATS,
-                               3 * CRM_SS_N * sizeof *sky_sh);
-                }
                 if (!st && delta)
                     st = delta_m_single(s, ctx, s->node_albedo ? unit : albedo, g, order, grid_sh, sky, &j1, err,
                                         errlen);
-                free(sky);
             }
-            if (!st && s->node_albedo) {
-                /* the unit-albedo single scattering, for own_albedo_single after the orders */
-                if (!(unit_single = malloc(nodes * 3 * CRM_SS_N * sizeof *unit_single)))
+            if (!st && (s->node_albedo || sum_sky)) {
+                /* the nodes' SH single scattering as the map lit it, kept for after the orders
+                 * (which read it as J_1): a part's unit-albedo light, which its own albedo
+                 * scales then (own_albedo_single), or the sky the view sums itself, taken
+                 * out of the nodes then */
+                if (!(lit_single = malloc(nodes * 3 * CRM_SS_N * sizeof *lit_single)))
                     st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the single scattering of %zu nodes",
                                   nodes);
                 for (i = 0; !st && i < nodes; i++)
-                    memcpy(unit_single + i * 3 * CRM_SS_N, s->nodes.nodes + i * CRM_NODE_FLOATS,
-                           3 * CRM_SS_N * sizeof *unit_single);
+                    memcpy(lit_single + i * 3 * CRM_SS_N, s->nodes.nodes + i * CRM_NODE_FLOATS,
+                           3 * CRM_SS_N * sizeof *lit_single);
             }
             s->single_seconds = vsd_clock_seconds() - t0;
         }
         if (!st && s->opt.multiple == MULTIPLE_ORDERS) {
             float *emission = part_emission;
             if (!s->node_albedo && ctx->kd.medium.has_emission) st = node_emission(s, ctx, &emission, err, errlen);
-            /* the lights' single scattering is J_1 too: in its bands for the orders only */
             /* the lights' single scattering is J_1 too: in its bands for the orders only (in
              * j1's already, scaled, with delta-M) */
             if (!st && !j1) vsd_crm_lights_bands(&s->lights, s->node_albedo ? unit : albedo, &hg, ms_coefficients(s), 1.0f, s->nodes.nodes);
@@ -886,20 +881,19 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             free(forward);
             if (emission != part_emission) free(emission);
         }
-        if (!st && unit_single) own_albedo_single(s, unit_single, albedo);
-        if (!st && sky_sh) {
-            /* the sky's SH out (lit with the part's unit albedo, then its own), its sum in */
+        if (!st && lit_single && sum_sky) {
+            /* the sky's remainder out of the nodes' SH (a part's at unit albedo: its own
+             * albedo would scale it only for this to take it out), its sum over the pixels in */
             for (i = 0; i < nodes; i++)
-                for (c = 0; c < 3; c++) {
-                    float a = s->node_albedo ? (float)albedo[c] : 1.0f;
-                    for (q = 0; q < CRM_SS_N; q++)
-                        s->nodes.nodes[i * CRM_NODE_FLOATS + c * CRM_SS_N + q] -= a * sky_sh[(i * 3 + c) * CRM_SS_N + q];
-                }
-            st = vsd_crm_sky_update(&s->sky, &s->depths, s->transmittance_marches, ctx->kd.density.scale, grid_env,
-                                    &ctx->kd.env, albedo, g, err, errlen);
+                for (q = 0; q < 3 * CRM_SS_N; q++)
+                    s->nodes.nodes[i * CRM_NODE_FLOATS + q] -= lit_single[i * 3 * CRM_SS_N + q];
+            st = vsd_crm_sky_update(&s->sky, &s->depths, s->transmittance_marches, ctx->kd.density.scale, pixel_sky,
+                                    albedo, g, err, errlen);
+        } else if (!st && lit_single) {
+            own_albedo_single(s, lit_single, albedo);
         }
         /* the SH carries the sky (sky_view "sh", or the paper's single scattering) */
-        if (!sky_sh || st) vsd_crm_sky_free(&s->sky);
+        if (!sum_sky || st) vsd_crm_sky_free(&s->sky);
         /* the view's lights carry the volume's own albedo and phase, as its single
          * scattering does */
         free(s->view_lights);
@@ -912,8 +906,8 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
                 vsd_crm_lights_view(&s->lights, albedo, s->view_lights);
         }
         free(part_emission);
-        free(unit_single);
-        free(sky_sh);
+        free(lit_single);
+        free(pixel_sky);
         free(sigma_t);
         free(j1);
     }

@@ -149,6 +149,23 @@ VSD_DEVICE float vsd_crm_sky_phase(const float *table, float mu)
     return table[i] + f * (table[i + 1] - table[i]);
 }
 
+/* acc plus the single scattering toward w of `count` directional lights: light k (8 floats:
+ * world direction toward it xyz, 0, albedo E rgb, 0) travels along -w_k, its transmittance
+ * t[k] at the node, scattered by HG at g, or with `phase_table` by crm_sky.h's HG averaged
+ * over a pixel's cap. */
+VSD_DEVICE vsd_f3 vsd_crm_add_directional(vsd_f3 acc, const float *t, const float *lights, int32_t count, vsd_f3 w,
+                                          float g, const float *phase_table)
+{
+    int32_t k;
+    for (k = 0; k < count; k++) {
+        const float *l = lights + 8 * (size_t)k;
+        float mu = -(w.x * l[0] + w.y * l[1] + w.z * l[2]);
+        float f = t[k] * (phase_table ? vsd_crm_sky_phase(phase_table, mu) : vsd_hg_eval(mu, g));
+        acc = f3(acc.x + f * l[4], acc.y + f * l[5], acc.z + f * l[6]);
+    }
+    return acc;
+}
+
 /* The paper's volume pass (§5.5), on the nodes: each node's source radiance toward the eye
  * for this view, the SH evaluated once per node and view instead of once per ray and cell.
  * The direction is the node's own toward the camera (the camera's backward axis when
@@ -179,34 +196,14 @@ VSD_DEVICE void vsd_crm_view_node(const vsd_kcrm *c, int i, int n, void *out)
      * scattering's order (y has room for 16) */
     vsd_sh_eval_f(c->order > 3 ? c->order : 3, w, y);
     vsd_crm_node_source(c, i, y, &ss, &ms);
-    if (c->light_count > 0 && (c->node_valid[i] & CRM_NODE_SINGLE)) {
-        /* the bright texels, outside the SH: light travels along -w_k and leaves toward w */
-        const float *t = c->light_tr + (size_t)i * c->light_count;
-        int32_t k;
-        for (k = 0; k < c->light_count; k++) {
-            const float *l = c->lights + 8 * (size_t)k;
-            float f;
-            if (!(t[k] > 0.0f)) continue;
-            f = t[k] * vsd_hg_eval(-(w.x * l[0] + w.y * l[1] + w.z * l[2]), c->light_g);
-            ss = f3(ss.x + f * l[4], ss.y + f * l[5], ss.z + f * l[6]);
-        }
-    }
-    if (c->sky_count > 0 && c->sky_row[i] >= 0) {
-        /* the sky's remainder, pixel by pixel: light from w_j leaves toward w */
-        const float *t = c->sky_tr + (size_t)c->sky_row[i] * c->sky_count;
-        float r = 0.0f, gg = 0.0f, b = 0.0f;
-        int32_t j;
-        for (j = 0; j < c->sky_count; j++) {
-            const float *l = c->sky + 8 * (size_t)j;
-            float f;
-            if (!(t[j] > 0.0f)) continue; /* exp underflows deep in a cloud: most pixels there */
-            f = t[j] * vsd_crm_sky_phase(c->sky_phase, -(w.x * l[0] + w.y * l[1] + w.z * l[2]));
-            r += f * l[4];
-            gg += f * l[5];
-            b += f * l[6];
-        }
-        ss = f3(ss.x + r, ss.y + gg, ss.z + b);
-    }
+    /* the bright texels, outside the SH, with the exact phase; the rest of the sky, pixel by
+     * pixel, with the phase averaged over each pixel (crm_sky.h) */
+    if (c->light_count > 0 && (c->node_valid[i] & CRM_NODE_SINGLE))
+        ss = vsd_crm_add_directional(ss, c->light_tr + (size_t)i * c->light_count, c->lights, c->light_count, w,
+                                     c->light_g, NULL);
+    if (c->sky_count > 0 && c->sky_row[i] >= 0)
+        ss = vsd_crm_add_directional(ss, c->sky_tr + (size_t)c->sky_row[i] * c->sky_count, c->sky, c->sky_count, w,
+                                     0.0f, c->sky_phase);
     /* single scattering falls exponentially into the medium: the view blends its log (the
      * weighted geometric mean), as shgrid's records do */
     o[0] = logf(ss.x > CRM_LOG_FLOOR ? ss.x : CRM_LOG_FLOOR);

@@ -1,14 +1,16 @@
 #include "crm_sky.h"
-#include "src/lighting/env_healpix.h"
 #include "kernel/kernel_phase.h"
-#include "vsd/sh.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define PI 3.14159265358979323846
 
-void vsd_crm_sky_phase_table(double g, double omega, float *table)
+/* HG averaged over a cap of solid angle `omega` around a direction at angle acos(mu) from
+ * the outgoing one, for CRM_SKY_PHASE_N values of mu from -1 to 1 (uniform: the cap's
+ * average is smooth on the scale of its 20 degrees, so a step of 0.001 in mu resolves it,
+ * and the lookup needs no square root). */
+static void phase_table(double g, double omega, float *table)
 {
     /* a cap of half-angle alpha has solid angle 2 pi (1 - cos alpha); its directions are
      * sampled at equal areas (uniform in cos beta, midpoints) and equal azimuths, half of
@@ -30,40 +32,17 @@ void vsd_crm_sky_phase_table(double g, double omega, float *table)
     }
 }
 
-vsd_status vsd_crm_sky_update(vsd_crm_sky *sky, const vsd_crm_node_depths *depths, long long marches, float scale,
-                              const vsd_env *env,
-                              const vsd_kenv *ke, const double albedo[3], double g, char *err, size_t errlen)
+/* exp(-scale od) per node with density and pixel, and each node's row (-1 without density),
+ * unless they were made from the same march at the same scale: a map rotation or strength,
+ * an albedo or phase edit keep them. */
+static vsd_status transmittance_rows(vsd_crm_sky *sky, const vsd_crm_node_depths *depths, long long marches,
+                                     float scale, char *err, size_t errlen)
 {
-    int n = depths->directions, j, c;
     size_t nodes = (size_t)depths->res[0] * depths->res[1] * depths->res[2], i;
-    double omega = 4.0 * PI / (n > 0 ? n : 1);
-    float *radiance;
-    if (n <= 0 || !depths->dirs) return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: crm sky without directions");
-    if (sky->count != n) {
-        free(sky->pixels);
-        sky->count = 0;
-        if (!(sky->pixels = malloc(8 * (size_t)n * sizeof *sky->pixels)))
-            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the sky of %d directions", n);
-        sky->count = n;
-        sky->phase_ready = 0;
-    }
-    if (!(radiance = malloc(4 * (size_t)n * sizeof *radiance)) ||
-        !vsd_env_healpix_radiance(env, ke, vsd_sh_healpix_nside(n), radiance)) {
-        free(radiance);
-        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the sky of %d directions", n);
-    }
-    for (j = 0; j < n; j++) {
-        for (c = 0; c < 3; c++) {
-            sky->pixels[8 * j + c] = (float)depths->dirs[3 * j + c];
-            sky->pixels[8 * j + 4 + c] = (float)(albedo[c] * radiance[4 * j + c] * omega);
-        }
-        sky->pixels[8 * j + 3] = sky->pixels[8 * j + 7] = 0.0f;
-    }
-    free(radiance);
-    /* a map rotation or strength, an albedo or phase edit: the same transmittance */
+    int n = depths->directions, j;
     if (sky->tr && sky->row_nodes == nodes && sky->rows == depths->count && sky->tr_marches == marches &&
         sky->tr_scale == scale)
-        goto phase;
+        return VSD_OK;
     if (sky->row_nodes != nodes || sky->rows != depths->count) {
         free(sky->row);
         free(sky->tr);
@@ -85,9 +64,34 @@ vsd_status vsd_crm_sky_update(vsd_crm_sky *sky, const vsd_crm_node_depths *depth
     }
     sky->tr_marches = marches;
     sky->tr_scale = scale;
-phase:
+    return VSD_OK;
+}
+
+vsd_status vsd_crm_sky_update(vsd_crm_sky *sky, const vsd_crm_node_depths *depths, long long marches, float scale,
+                              const float *radiance, const double albedo[3], double g, char *err, size_t errlen)
+{
+    int n = depths->directions, j, c;
+    double omega = 4.0 * PI / (n > 0 ? n : 1);
+    vsd_status st;
+    if (n <= 0 || !depths->dirs) return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "internal: crm sky without directions");
+    if (sky->count != n) {
+        free(sky->pixels);
+        sky->count = 0;
+        if (!(sky->pixels = malloc(8 * (size_t)n * sizeof *sky->pixels)))
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the sky of %d directions", n);
+        sky->count = n;
+        sky->phase_ready = 0;
+    }
+    for (j = 0; j < n; j++) {
+        for (c = 0; c < 3; c++) {
+            sky->pixels[8 * j + c] = (float)depths->dirs[3 * j + c];
+            sky->pixels[8 * j + 4 + c] = (float)(albedo[c] * radiance[4 * j + c] * omega);
+        }
+        sky->pixels[8 * j + 3] = sky->pixels[8 * j + 7] = 0.0f;
+    }
+    if ((st = transmittance_rows(sky, depths, marches, scale, err, errlen))) return st;
     if (!sky->phase_ready || sky->phase_g != g) {
-        vsd_crm_sky_phase_table(g, omega, sky->phase);
+        phase_table(g, omega, sky->phase);
         sky->phase_g = g;
         sky->phase_ready = 1;
     }

@@ -18,9 +18,7 @@
 #ifndef VSD_CRM_SKY_H
 #define VSD_CRM_SKY_H
 #include <stdint.h>
-#include "vsd/env.h"
 #include "vsd/status.h"
-#include "kernel/kernel_types.h"
 #include "crm_node_single.h"
 #include "crm_kernel.h" /* CRM_SKY_PHASE_N, read by vsd_crm_sky_phase */
 
@@ -38,19 +36,13 @@ typedef struct vsd_crm_sky {
     float phase[CRM_SKY_PHASE_N];
 } vsd_crm_sky;
 
-/* Sets the pixels' directions (the depths' HEALPix ones) and albedo L Omega from `env`
- * (the sky's remainder; `ke` its strength and rotation), the transmittance rows from the
- * depths at `scale` unless they were made from the same march (`marches`: the caller's
- * count of the depths' marches) at the same scale, and the phase table when g changed. */
+/* Sets the pixels' directions (the depths' HEALPix ones) and albedo L Omega from
+ * `radiance` (4 floats per pixel: the sky's remainder averaged over it, world frame,
+ * src/lighting/env_healpix.h), the transmittance rows from the depths at `scale` unless they
+ * were made from the same march (`marches`: the caller's count of the depths' marches) at
+ * the same scale, and the phase table when g changed. */
 vsd_status vsd_crm_sky_update(vsd_crm_sky *sky, const vsd_crm_node_depths *depths, long long marches, float scale,
-                              const vsd_env *env,
-                              const vsd_kenv *ke, const double albedo[3], double g, char *err, size_t errlen);
-
-/* HG averaged over a cap of solid angle `omega` around a direction at angle acos(mu) from
- * the outgoing one, for CRM_SKY_PHASE_N values of mu from -1 to 1 (uniform: the cap's
- * average is smooth on the scale of its 20 degrees, so a step of 0.001 in mu resolves it,
- * and the lookup needs no square root). */
-void vsd_crm_sky_phase_table(double g, double omega, float *table);
+                              const float *radiance, const double albedo[3], double g, char *err, size_t errlen);
 
 void vsd_crm_sky_free(vsd_crm_sky *sky);
 
