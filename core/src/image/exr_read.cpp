@@ -22,6 +22,13 @@ namespace {
 // --max-size); a larger data window is taken as corrupt.
 constexpr int64_t VSD_EXR_MAX_PIXELS = int64_t(1) << 28;
 
+// A data window's sides each reach 2^32 from int32 corners, so their product can overflow
+// int64 (found by tests/fuzz/fuzz_env): the area is bounded by a division, not a product.
+static bool window_fits(int64_t w, int64_t h)
+{
+    return w > 0 && h > 0 && w <= VSD_EXR_MAX_PIXELS && h <= VSD_EXR_MAX_PIXELS / w;
+}
+
 // OpenEXR allocates each header attribute at the size its length field states before
 // reading it, so a corrupt length in a 1 KB file asked for 1.9 GB (found by
 // tests/fuzz/fuzz_env). Walk the header(s) first: after the magic and version, attributes
@@ -72,7 +79,7 @@ vsd_status check_exr_headers(const char *path, char *err, size_t errlen)
                     box[k] = int32_t(uint32_t(v[4 * k]) | uint32_t(v[4 * k + 1]) << 8 |
                                      uint32_t(v[4 * k + 2]) << 16 | uint32_t(v[4 * k + 3]) << 24);
                 const int64_t w = ok ? int64_t(box[2]) - box[0] + 1 : 0, h = ok ? int64_t(box[3]) - box[1] + 1 : 0;
-                ok = ok && w > 0 && h > 0 && w * h <= VSD_EXR_MAX_PIXELS;
+                ok = ok && window_fits(w, h);
             } else {
                 ok = ok && std::fseek(f, len, SEEK_CUR) == 0;
             }
@@ -156,7 +163,7 @@ vsd_status read_all(const char *path, vsd_exr_image **out, char *err, size_t err
     // The planes are sized from the header's data window: a corrupt window in a 1 KB file
     // asked for 18 GB (found by tests/fuzz/fuzz_env), and its width can overflow an int.
     const int64_t w = int64_t(dw.max.x) - dw.min.x + 1, h = int64_t(dw.max.y) - dw.min.y + 1;
-    if (w <= 0 || h <= 0 || w * h > VSD_EXR_MAX_PIXELS)
+    if (!window_fits(w, h))
         return vsd_fail(VSD_ERR_FORMAT, err, errlen,
                         "EXR '%s' is corrupt: data window of %lld x %lld pixels", path, (long long)w,
                         (long long)h);
