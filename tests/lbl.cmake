@@ -10,3 +10,6 @@ vsd_add_test(test_refraction SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_refraction
 # The scene's lights (sun, point, spot): reference's single scattering against a quadrature
 # for each type, lbl against reference, a moved light, the errors.
 vsd_add_test(test_lights SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_lights.c LIBS vsd_test_render LABELS integration render lbl)
+# lbl's first flight along 98 directions: the homogeneous medium's fluence, energy against
+# the box's geometry, births with a direction, the escape at a face against the half-space.
+vsd_add_test(test_lbl_first_flight SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_lbl_first_flight.c LABELS unit lbl)

@@ -9,7 +9,9 @@
  *                     scene's suns among them, and its point and spot lights; the
  *                     marching pass (§III-B, lbl_march.h): each light's transmittance at
  *                     every cell (rays from a point light's position); the first-scattered
- *                     light deposited per cell; the diffusion pass (§III-C, lbl_lattice.h)
+ *                     light deposited per cell; beyond the paper its first flight to the
+ *                     next collision along 98 directions (lbl_first_flight.h), what collides
+ *                     there born again as the lattice's source; the diffusion pass (§III-C, lbl_lattice.h)
  *                     to convergence, warm-started from the last solve; beyond the paper
  *                     the lattice scatters with the medium's phase over its six
  *                     directions' cones, the deposit included (lbl_readout.h);
@@ -41,6 +43,7 @@
 #include "lbl_escape.h"
 #include "lbl_exchange.h"
 #include "lbl_delta_m.h"
+#include "lbl_first_flight.h"
 #include "src/lighting/radiance_cache.h"
 #include "device/cpu/cpu_tiles.h"
 #include "src/grids/volume_groups.h"
@@ -58,7 +61,7 @@
 static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape, escape, exchange, delta_m;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape, escape, exchange, delta_m, first_flight;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -154,6 +157,11 @@ static const vsd_option_spec lbl_option_rows[] = {
      "diffusion, with cell_light \"path\": what is born near the medium's surface loses at once the light that "
      "leaves it in every outward direction beyond what the six axes carry out (lbl_escape.h)",
      offsetof(lbl_options, escape), 0, NULL, .when = lbl_on_cell_path},
+    {"first_flight", VSD_OPT_BOOL, 0, 1, 1, NULL,
+     "diffusion, with cell_light \"path\": the light the marching pass deposits (and the emission) travels to its next "
+     "collision along 98 directions, not the six axes; the lattice diffuses what collides after it "
+     "(lbl_first_flight.h)",
+     offsetof(lbl_options, first_flight), 0, NULL, .when = lbl_on_cell_path},
     {"readout", VSD_OPT_CHOICE, 0, 0, LBL_READOUT_PHASE, lbl_readout_names,
      "view: the diffused light toward the eye, the paper's isotropic fluence / 4pi, or the phase function over the "
      "lattice's six directions (D3Q6 global lattice; lbl_readout.h)",
@@ -227,9 +235,13 @@ typedef struct lbl_state {
     float *exchange_irr;
     float dir_shares[VSD_RECORDS_MAX_LIGHTS][6];  /* each directional light's light_shares */
     float *fluence;               /* [3][cells] */
+    /* with first_flight (lbl_first_flight.h), [6][3][cells]: the first flight's photons' path
+     * per cone, of the lattice's births (ff_paths, the lattice then diffusing what collides
+     * after it) and of the emission alone (ff_paths_e, in place of its albedo-0 lattice) */
+    float *ff_paths, *ff_paths_e;
     float *ms;                    /* [records * 3] VolumeInd source per unit sigma_s */
     /* with emission: the emission alone (source_e), its fluence before any scattering
-       (fluence_e, a lattice solve with albedo 0) and that fluence per record (emission_once, the
+       (fluence_e, its first flight, or without it a lattice solve with albedo 0) and that fluence per record (emission_once, the
        emission scattered once toward the camera: VolumeDir, as Cycles counts it) */
     float *source_e, *fluence_e, *emission_once;
     vsd_lbl_lattice lattice_e;    /* the warm start of the emission's solve */
@@ -237,6 +249,7 @@ typedef struct lbl_state {
     vsd_lbl_lattice lattice;      /* kept between lighting changes: the warm start */
     vsd_lbl_diffusion_stats diffusion;
     double march_seconds;         /* with a ray history, the lattice's steps meanwhile too */
+    double flight_seconds;        /* the first flight's sweeps (births and emission) */
     int history_rounds, history_steps; /* the overlap's rounds, and the lattice steps during them */
     int emission_steps;           /* lattice steps of the emission's solve (0: no emission) */
     vsd_refraction_field refraction; /* medium.ior != 1: the view rays bend (lbl_kernel.h) */
@@ -271,6 +284,8 @@ static void free_lighting(lbl_state *s)
     free(s->ms6);
     free(s->ms_view);
     s->ms6 = s->ms_view = NULL;
+    free(s->ff_paths), free(s->ff_paths_e);
+    s->ff_paths = s->ff_paths_e = NULL;
     free(s->source_e);
     free(s->fluence_e);
     free(s->emission_once);
@@ -632,8 +647,12 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
         for (a = 0; a < 3; a++) {
             float m[6], me[6] = {0};
             vsd_lbl_lattice_node_means(&s->lattice, s->lat_collide, s->lat_albedo, s->source, a, c, m);
-            if (s->fluence_e && s->lattice_e.f)
+            if (s->fluence_e && s->ff_paths_e)
+                for (i = 0; i < 6; i++) me[i] = s->ff_paths_e[((size_t)i * 3 + a) * n + c];
+            else if (s->fluence_e && s->lattice_e.f)
                 vsd_lbl_lattice_node_means(&s->lattice_e, s->collide, no_scattering, s->source_e, a, c, me);
+            if (s->ff_paths)
+                for (i = 0; i < 6; i++) m[i] += s->ff_paths[((size_t)i * 3 + a) * n + c];
             for (i = 0; i < 6; i++) {
                 double f = (double)m[i] - me[i];
                 s->ms6[18 * (size_t)rec + 3 * i + a] = (float)(f > 0.0 ? f * k : 0.0);
@@ -743,6 +762,15 @@ static void mix_albedo_cells(lbl_state *s, const vsd_frame_ctx *ctx)
             }
 }
 
+/* The first flight's photons summed over the cones (0 without it). */
+static double first_flight_fluence(const float *paths, size_t n, int a, size_t c)
+{
+    double sum = 0.0;
+    int i;
+    for (i = 0; paths && i < 6; i++) sum += paths[((size_t)i * 3 + a) * n + c];
+    return sum;
+}
+
 /* The records' diffused light from the lattice's steady state: VolumeInd's source per unit
  * sigma_s, phi / 4pi, phi = the cell's photons / lambda^2 (less the emission's unscattered
  * fluence, VolumeDir's emission_once), and with readout "phase" the populations (ms6). */
@@ -757,6 +785,7 @@ static vsd_status records_from_fluence(lbl_state *s, const vsd_frame_ctx *ctx, c
         if (rec < 0) continue;
         for (a = 0; a < 3; a++) {
             double k = 1.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D), phi = s->fluence[(size_t)a * n + c];
+            phi += first_flight_fluence(s->ff_paths, n, a, c);
             if (s->fluence_e) {
                 double phi_e = s->fluence_e[(size_t)a * n + c];
                 s->emission_once[3 * (size_t)rec + a] = (float)(phi_e * k);
@@ -922,6 +951,68 @@ static void march_grid(const lbl_state *s, vsd_lbl_grid *grid)
     for (a = 0; a < 12; a++) grid->grid_to_world.m[a] = (float)s->g2w[a];
 }
 
+/* first_flight where its rows' `when` holds: the global D3Q6 lattice, the path in the cell. */
+static int first_flight_on(const lbl_state *s, const vsd_lbl_layout *layout)
+{
+    return s->opt.first_flight && layout->block_steps == 0 && !layout->d3q18 && s->opt.cell_light == VSD_LBL_CELL_PATH;
+}
+
+/* The first flight of source (lbl_first_flight.h) through sigma: *paths (allocated), and
+ * the collisions after it born again into births (the source's layout; NULL = not kept). */
+static vsd_status fly(const lbl_state *s, const float *sigma, const float *source, int per_direction,
+                      const float *albedo_cells, const float albedo[3], float **paths, float *births,
+                      const vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    const size_t n = cell_count(s);
+    vsd_lbl_first_flight in;
+    float *scratch = births ? NULL : malloc((per_direction ? 18 : 3) * n * sizeof *scratch);
+    vsd_status st;
+    if ((!births && !scratch) || !(*paths = malloc(18 * n * sizeof **paths))) {
+        free(scratch);
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the first flight of %zu cells", n);
+    }
+    memset(&in, 0, sizeof in);
+    memcpy(in.res, s->rg.res, sizeof in.res);
+    in.sigma = sigma;
+    in.cell_world = s->cell_world;
+    in.shape = lattice_cell_shape(s);
+    in.source = source;
+    in.per_direction = per_direction;
+    in.albedo_cells = albedo_cells;
+    memcpy(in.albedo, albedo, sizeof in.albedo);
+    in.forward = s->lattice.forward, in.backward = s->lattice.backward, in.side = s->lattice.side;
+    st = vsd_lbl_first_flight_run(&in, ctx->threads, births ? births : scratch, *paths, err, errlen);
+    free(scratch);
+    return st;
+}
+
+/* The lattice's births (the deposit and the emission) flown to their next collision: the
+ * lattice's source becomes those collisions born again. */
+static vsd_status fly_births(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    float *births = malloc(source_floats(s) * sizeof *births);
+    vsd_status st;
+    if (!births) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the first flight");
+    st = fly(s, s->lat_sigma, s->source, s->source_dirs, s->lat_albedo_cells, s->lat_albedo, &s->ff_paths, births,
+             ctx, err, errlen);
+    if (!st) memcpy(s->source, births, source_floats(s) * sizeof *births);
+    free(births);
+    return st;
+}
+
+/* The emission's light before any scattering, through the true medium: its first flight
+ * (in place of the albedo-0 lattice). */
+static vsd_status fly_emission(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
+{
+    const size_t n = cell_count(s);
+    size_t c;
+    int a;
+    vsd_status st = fly(s, s->sigma, s->source_e, 0, NULL, no_scattering, &s->ff_paths_e, NULL, ctx, err, errlen);
+    for (a = 0; a < 3 && !st; a++)
+        for (c = 0; c < n; c++) s->fluence_e[(size_t)a * n + c] = (float)first_flight_fluence(s->ff_paths_e, n, a, c);
+    return st;
+}
+
 static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     lbl_state *s = state;
@@ -1066,13 +1157,20 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         s->history_steps = oc.steps;
     }
     s->march_seconds = vsd_clock_seconds() - t0;
+    t0 = vsd_clock_seconds();
+    if (first_flight_on(s, &layout) && (st = fly_births(s, ctx, err, errlen))) return st;
+    s->flight_seconds = vsd_clock_seconds() - t0;
     /* diffusion pass to the steady state, from the last solve's state (or the overlap's) */
     if ((st = vsd_lbl_diffuse(&s->lattice, s->lat_collide, albedo, s->source, s->opt.tolerance,
                               s->opt.max_steps - s->history_steps > 8 ? s->opt.max_steps - s->history_steps : 8,
                               ctx->threads, s->fluence, &s->diffusion, err, errlen)))
         return st;
     s->diffusion.steps += s->history_steps;   /* all the lattice's steps of this solve */
-    if (s->source_e) {
+    if (s->source_e && first_flight_on(s, &layout)) {
+        t0 = vsd_clock_seconds();
+        if ((st = fly_emission(s, ctx, err, errlen))) return st;
+        s->flight_seconds += vsd_clock_seconds() - t0;
+    } else if (s->source_e) {
         /* The emission's fluence before any scattering: the same lattice without scattering
          * (albedo 0), fed by the emission alone. Scattered toward the camera it is light
          * that scattered once: VolumeDir, as Cycles counts it (docs/design-notes.md,
@@ -1364,10 +1462,10 @@ static vsd_status lbl_render(void *state, vsd_frame_ctx *ctx, vsd_framebuffer *f
     if ((st = view_grid(s, ctx, &g, err, errlen))) return st;
     if (ctx->info && ctx->info_len)
         snprintf(ctx->info, ctx->info_len,
-                 "cells=%dx%dx%d records=%d lights=%d march_seconds=%.3f diffusion_steps=%d diffusion_converged=%d "
+                 "cells=%dx%dx%d records=%d lights=%d march_seconds=%.3f first_flight_seconds=%.3f diffusion_steps=%d diffusion_converged=%d "
                  "diffusion_change=%.3g diffusion_seconds=%.3f emission_steps=%d history_rounds=%d history_steps=%d",
                  s->rg.res[0], s->rg.res[1], s->rg.res[2], (int)s->rg.count, s->dir_count + s->local_count, s->march_seconds,
-                 s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds,
+                 s->flight_seconds, s->diffusion.steps, s->diffusion.converged, s->diffusion.change, s->diffusion.seconds,
                  s->emission_steps, s->history_rounds, s->history_steps);
     if (s->refraction.k.ng) return render_bent(s, ctx, fb, &g, samples, err, errlen);
     return vsd_record_grid_render(ctx, fb, &g, s->opt.pixel_samples, s->opt.slice, s->opt.early_termination, &s->opt.view, samples,

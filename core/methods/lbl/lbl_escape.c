@@ -1,65 +1,24 @@
 #include "lbl_escape.h"
-#include "src/common/fibonacci_sphere.h"
+#include "lbl_directions.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* the lattice vectors with components in [-2, 2] whose components share no factor (98: the
- * 26 neighbours and the knight's moves between them), so each direction once */
-enum { REACH = 2, VECTORS = 98, FIB = 16384 };
-
-static int gcd(int a, int b) { return b ? gcd(b, a % b) : a; }
-
-/* the vectors, and their world lengths in cube-equivalent cells */
-static void lattice_vectors(const double *shape, int d[VECTORS][3], double len[VECTORS])
-{
-    int k = 0, x, y, z;
-    for (z = -REACH; z <= REACH; z++)
-        for (y = -REACH; y <= REACH; y++)
-            for (x = -REACH; x <= REACH; x++) {
-                double w[3];
-                if (gcd(gcd(abs(x), abs(y)), abs(z)) != 1) continue;
-                d[k][0] = x, d[k][1] = y, d[k][2] = z;
-                w[0] = x * (shape ? shape[0] : 1.0), w[1] = y * (shape ? shape[1] : 1.0), w[2] = z * (shape ? shape[2] : 1.0);
-                len[k++] = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-            }
-}
-
-/* each vector's share of the sphere: the Fibonacci points nearest it in world directions */
-static void solid_angles(const int d[VECTORS][3], const double len[VECTORS], const double *shape, double share[VECTORS])
-{
-    int k, v;
-    memset(share, 0, sizeof(double) * VECTORS);
-    for (k = 0; k < FIB; k++) {
-        double p[3], best = -2.0;
-        int arg = 0;
-        vsd_fibonacci_point(k, FIB, p);
-        for (v = 0; v < VECTORS; v++) {
-            double c = 0.0;
-            int a;
-            for (a = 0; a < 3; a++) c += p[a] * d[v][a] * (shape ? shape[a] : 1.0);
-            c /= len[v];
-            if (c > best) best = c, arg = v;
-        }
-        share[arg] += 1.0 / FIB;
-    }
-}
-
 int vsd_lbl_escape_keep(const int32_t res[3], const float *sigma, double cell_world, const double *shape, float *keep)
 {
     const size_t n = (size_t)res[0] * res[1] * res[2];
-    int d[VECTORS][3], v;
-    double len[VECTORS], share[VECTORS];
+    vsd_lbl_directions dirs;
+    const int(*d)[3] = dirs.d;
+    int v;
     float *tau = malloc(n * sizeof *tau), *sphere = calloc(n, sizeof *sphere), *axes = calloc(n, sizeof *axes);
     size_t c;
     if (!tau || !sphere || !axes) {
         free(tau), free(sphere), free(axes);
         return 0;
     }
-    lattice_vectors(shape, d, len);
-    solid_angles(d, len, shape, share);
-    for (v = 0; v < VECTORS; v++) {
-        const double step = len[v] * cell_world;
+    vsd_lbl_directions_make(shape, &dirs);
+    for (v = 0; v < VSD_LBL_VECTORS; v++) {
+        const double step = dirs.len[v] * cell_world;
         const int axis = abs(d[v][0]) + abs(d[v][1]) + abs(d[v][2]) == 1;
         int32_t i, x, y, z;
         /* cell c + d before cell c: each coordinate runs against d's sign */
@@ -86,7 +45,7 @@ int vsd_lbl_escape_keep(const int32_t res[3], const float *sigma, double cell_wo
                         tau[here] = tau[next] + (float)(0.5 * ((double)sigma[here] + sigma[next]) * step);
                     }
                     t = expf(-tau[here]);
-                    sphere[here] += (float)share[v] * t;
+                    sphere[here] += (float)dirs.share[v] * t;
                     if (axis) axes[here] += t * (1.0f / 6.0f);
                 }
         }

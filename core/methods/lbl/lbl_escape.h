@@ -11,7 +11,7 @@
  * (lbl_lattice.h, vsd_lbl_lattice_set_keep).
  *
  * P from the 98 lattice vectors with components in [-2, 2] and no common factor, each
- * weighted by the solid angle of the directions nearest it (16384 Fibonacci points), T along
+ * weighted by the solid angle of the directions nearest it (lbl_directions.h), T along
  * each from a sweep over the cells (optical depth from cell centre to cell centre with sigma
  * averaged, half a step to the box). (The 26 neighbours alone measured 0.12 against the
  * half-space's 0.21 at a face of thin cells: the sideways directions' cells straddle the
