@@ -958,19 +958,15 @@ static int first_flight_on(const lbl_state *s, const vsd_lbl_layout *layout)
 }
 
 /* The first flight of source (lbl_first_flight.h) through sigma: *paths (allocated), and
- * the collisions after it born again into births (the source's layout; NULL = not kept). */
+ * the collisions after it born again into births (NULL = not wanted; may be the source). */
 static vsd_status fly(const lbl_state *s, const float *sigma, const float *source, int per_direction,
                       const float *albedo_cells, const float albedo[3], float **paths, float *births,
                       const vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     const size_t n = cell_count(s);
     vsd_lbl_first_flight in;
-    float *scratch = births ? NULL : malloc((per_direction ? 18 : 3) * n * sizeof *scratch);
-    vsd_status st;
-    if ((!births && !scratch) || !(*paths = malloc(18 * n * sizeof **paths))) {
-        free(scratch);
+    if (!(*paths = malloc(18 * n * sizeof **paths)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the first flight of %zu cells", n);
-    }
     memset(&in, 0, sizeof in);
     memcpy(in.res, s->rg.res, sizeof in.res);
     in.sigma = sigma;
@@ -981,23 +977,15 @@ static vsd_status fly(const lbl_state *s, const float *sigma, const float *sourc
     in.albedo_cells = albedo_cells;
     memcpy(in.albedo, albedo, sizeof in.albedo);
     in.forward = s->lattice.forward, in.backward = s->lattice.backward, in.side = s->lattice.side;
-    st = vsd_lbl_first_flight_run(&in, ctx->threads, births ? births : scratch, *paths, err, errlen);
-    free(scratch);
-    return st;
+    return vsd_lbl_first_flight_run(&in, ctx->threads, births, *paths, err, errlen);
 }
 
 /* The lattice's births (the deposit and the emission) flown to their next collision: the
- * lattice's source becomes those collisions born again. */
+ * lattice's source becomes, in place, those collisions born again. */
 static vsd_status fly_births(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
-    float *births = malloc(source_floats(s) * sizeof *births);
-    vsd_status st;
-    if (!births) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the first flight");
-    st = fly(s, s->lat_sigma, s->source, s->source_dirs, s->lat_albedo_cells, s->lat_albedo, &s->ff_paths, births,
-             ctx, err, errlen);
-    if (!st) memcpy(s->source, births, source_floats(s) * sizeof *births);
-    free(births);
-    return st;
+    return fly(s, s->lat_sigma, s->source, s->source_dirs, s->lat_albedo_cells, s->lat_albedo, &s->ff_paths, s->source,
+               ctx, err, errlen);
 }
 
 /* The emission's light before any scattering, through the true medium: its first flight

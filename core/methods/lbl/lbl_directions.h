@@ -11,6 +11,7 @@
  * largest world component, split evenly where two or three tie). */
 #ifndef VSD_LBL_DIRECTIONS_H
 #define VSD_LBL_DIRECTIONS_H
+#include <stdint.h>
 
 enum { VSD_LBL_VECTORS = 98 };
 
@@ -23,5 +24,15 @@ typedef struct vsd_lbl_directions {
 
 /* shape: each axis's cell edge over the cube-equivalent edge, or NULL for cubes. */
 void vsd_lbl_directions_make(const double *shape, vsd_lbl_directions *dirs);
+
+/* The order of a sweep that visits cell c - d before cell c (light moving along d): each
+ * coordinate starts at the box's far side from d's sign and steps with it. A sweep that
+ * needs c + d first (toward the outside along d) passes -d. Loop with
+ * `for (z = start[2]; z >= 0 && z < res[2]; z += step[2])`, and the same for y and x. */
+static inline void vsd_lbl_sweep_order(const int32_t res[3], const int d[3], int32_t start[3], int32_t step[3])
+{
+    int a;
+    for (a = 0; a < 3; a++) start[a] = d[a] < 0 ? res[a] - 1 : 0, step[a] = d[a] < 0 ? -1 : 1;
+}
 
 #endif

@@ -20,12 +20,13 @@ int vsd_lbl_escape_keep(const int32_t res[3], const float *sigma, double cell_wo
     for (v = 0; v < VSD_LBL_VECTORS; v++) {
         const double step = dirs.len[v] * cell_world;
         const int axis = abs(d[v][0]) + abs(d[v][1]) + abs(d[v][2]) == 1;
-        int32_t i, x, y, z;
-        /* cell c + d before cell c: each coordinate runs against d's sign */
-        for (i = 0; i < res[2]; i++) {
-            z = d[v][2] > 0 ? res[2] - 1 - i : i;
-            for (y = d[v][1] > 0 ? res[1] - 1 : 0; d[v][1] > 0 ? y >= 0 : y < res[1]; y += d[v][1] > 0 ? -1 : 1)
-                for (x = d[v][0] > 0 ? res[0] - 1 : 0; d[v][0] > 0 ? x >= 0 : x < res[0]; x += d[v][0] > 0 ? -1 : 1) {
+        const int out[3] = {-d[v][0], -d[v][1], -d[v][2]};
+        int32_t start[3], dir[3], x, y, z;
+        /* cell c + d before cell c */
+        vsd_lbl_sweep_order(res, out, start, dir);
+        for (z = start[2]; z >= 0 && z < res[2]; z += dir[2]) {
+            for (y = start[1]; y >= 0 && y < res[1]; y += dir[1])
+                for (x = start[0]; x >= 0 && x < res[0]; x += dir[0]) {
                     const int32_t nx = x + d[v][0], ny = y + d[v][1], nz = z + d[v][2];
                     const size_t here = ((size_t)z * res[1] + y) * res[0] + x;
                     float t;

@@ -11,12 +11,13 @@ enum { CONES = 6, CH = 3 };
 typedef struct flight_job {
     const vsd_lbl_first_flight *in;
     vsd_lbl_directions dirs;
-    /* each vector's share of a birth: its solid angle over 4pi, or for births with a
-     * direction, the part of each cone's births it carries (its solid angle in the cone over
-     * the cone's) */
+    /* each vector's share of a birth: for births with a direction, the part of each cone's
+     * births it carries (its solid angle in the cone over the cone's); for isotropic births,
+     * held as cone 0 (the one source array), its solid angle over 4pi */
     double birth[VSD_LBL_VECTORS][CONES];
     size_t cells;
-    float *hit;               /* [6][3][cells] collisions after the first flight, per arrival cone */
+    float *hit;               /* [6][3][cells] collisions after the first flight, per arrival cone
+                                 (NULL when no births are asked for) */
     float *paths;
     int failed;
 } flight_job;
@@ -61,19 +62,17 @@ static void sweep(const flight_job *j, int v, int i, float *pout)
     const float len = (float)j->dirs.len[v], step = (float)(j->dirs.len[v] * in->cell_world),
                 w = (float)j->dirs.cone[v][i], wl = w * len;
     const size_t src_stride = (size_t)CH * n; /* between one cone's births and the next's */
-    float *hit = j->hit + (size_t)i * CH * n, *paths = j->paths + (size_t)i * CH * n;
+    float *hit = j->hit ? j->hit + (size_t)i * CH * n : NULL, *paths = j->paths + (size_t)i * CH * n;
     vector_births vb;
-    int32_t k, x, y, z;
+    int32_t start[3], dir[3], x, y, z;
     int ch, b;
-    /* cell c - d before cell c: each coordinate runs with d's sign */
-    const int32_t x0 = d[0] < 0 ? res[0] - 1 : 0, xs = d[0] < 0 ? -1 : 1;
-    const int32_t y0 = d[1] < 0 ? res[1] - 1 : 0, ys = d[1] < 0 ? -1 : 1;
     const ptrdiff_t back = ((ptrdiff_t)d[2] * res[1] + d[1]) * res[0] + d[0];
     vector_births_of(j, v, &vb);
-    for (k = 0; k < res[2]; k++) {
-        z = d[2] < 0 ? res[2] - 1 - k : k;
-        for (y = y0; y >= 0 && y < res[1]; y += ys)
-            for (x = x0; x >= 0 && x < res[0]; x += xs) {
+    /* cell c - d before cell c */
+    vsd_lbl_sweep_order(res, d, start, dir);
+    for (z = start[2]; z >= 0 && z < res[2]; z += dir[2]) {
+        for (y = start[1]; y >= 0 && y < res[1]; y += dir[1])
+            for (x = start[0]; x >= 0 && x < res[0]; x += dir[0]) {
                 const int32_t ux = x - d[0], uy = y - d[1], uz = z - d[2];
                 const size_t here = ((size_t)z * res[1] + y) * res[0] + x;
                 const int inside = ux >= 0 && uy >= 0 && uz >= 0 && ux < res[0] && uy < res[1] && uz < res[2];
@@ -100,8 +99,8 @@ static void sweep(const flight_job *j, int v, int i, float *pout)
                 segment(in->sigma[here] * step, &tr, &e, &h);
                 for (ch = 0; ch < CH; ch++) {
                     pout[(size_t)ch * n + here] = p_in[ch] * tr + s[ch] * e;
-                    hit[(size_t)ch * n + here] += w * (p_in[ch] * (1.0f - tr) + s[ch] * (1.0f - e));
                     paths[(size_t)ch * n + here] += wl * (p_in[ch] * e + s[ch] * h);
+                    if (hit) hit[(size_t)ch * n + here] += w * (p_in[ch] * (1.0f - tr) + s[ch] * (1.0f - e));
                 }
             }
     }
@@ -177,13 +176,14 @@ vsd_status vsd_lbl_first_flight_run(const vsd_lbl_first_flight *in, int threads,
         for (i = 0; i < CONES; i++)
             j.birth[v][i] = !in->per_direction ? (i == 0 ? j.dirs.share[v] : 0.0)
                                                : j.dirs.share[v] * j.dirs.cone[v][i] / cone_share[i];
-    if (!(j.hit = calloc((size_t)CONES * CH * j.cells, sizeof *j.hit)))
+    if (births && !(j.hit = calloc((size_t)CONES * CH * j.cells, sizeof *j.hit)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the first flight of %zu cells", j.cells);
     memset(paths, 0, (size_t)CONES * CH * j.cells * sizeof *paths);
     st = vsd_cpu_run_each(CONES, threads, flight_cones, &j, "lbl first flight");
     r.j = &j;
     r.births = births;
-    if (!st && !j.failed) st = vsd_cpu_run_items(in->res[2], threads, rebirth_slices, &r, "lbl first flight");
+    /* after every sweep has read the source: births may overwrite it */
+    if (births && !st && !j.failed) st = vsd_cpu_run_items(in->res[2], threads, rebirth_slices, &r, "lbl first flight");
     free(j.hit);
     if (j.failed) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the first flight of %zu cells", j.cells);
     if (st) return vsd_fail(st, err, errlen, "lbl: the first flight's threads failed");

@@ -40,7 +40,8 @@ typedef struct vsd_lbl_first_flight {
     float forward, backward, side; /* a collision's cone shares (per_direction only) */
 } vsd_lbl_first_flight;
 
-/* births: the collisions after the first flight born again, in the source's layout; paths:
+/* births: the collisions after the first flight born again, in the source's layout (may be
+ * in->source itself: written once every sweep has read it; NULL = the paths alone); paths:
  * [6][3][cells] the first flight's photons' path per cone (+x, -x, +y, -y, +z, -z), in
  * cube-equivalent cells, the units of vsd_lbl_lattice_node_means. */
 vsd_status vsd_lbl_first_flight_run(const vsd_lbl_first_flight *in, int threads, float *births, float *paths,
