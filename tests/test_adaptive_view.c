@@ -11,7 +11,12 @@
  *   3. odd sizes (1x1, 5x3, 7x1, 1x6, 9x9) with spacing 4 forced render every pixel: anchors
  *      exact, every value finite, alpha in [0, 1] (at these sizes a forced spacing can miss
  *      the ball between anchors: that is what the automatic spacing prevents);
- *   4. the automatic spacing is 1 at the low resolutions the other tests use (96x54). */
+ *   4. the automatic spacing is 1 at the low resolutions the other tests use (96x54);
+ *   5. a kept renderer's view after another view is a fresh renderer's bit for bit, every
+ *      pass, adaptive (spacing 4) and traced (spacing 1), the ball growing and shrinking on
+ *      the film: neither the film nor the view's sums are cleared between views (the
+ *      adaptive view writes every pixel and reads back only the sums it wrote), so a stale
+ *      pixel or sum would show here. */
 #include "test_common.h"
 #include "test_render_util.h"
 #include <math.h>
@@ -140,6 +145,45 @@ static void test_auto_low_res(void)
     vsd_framebuffer_destroy(fb);
 }
 
+/* the ball from the test scene's camera, or closer and from the side (its silhouette
+ * elsewhere on the film) */
+static int ball_view(int near, const char *spacing, vsd_scene *sc)
+{
+    const char *ov[] = {"render.method=lbl", "film.width=160", "film.height=120", spacing,
+                        "camera.position=[-3,-2.5,1.4]", "camera.ortho_scale=1.2"};
+    return test_parse_scene(test_ball_json, ov, near ? 6 : 4, sc);
+}
+
+static void test_kept_renderer(const vsd_volume *vol)
+{
+    static const char *const spacings[] = {"render.options.view_spacing=4", "render.options.view_spacing=1"};
+    size_t k;
+    int order;
+    for (k = 0; k < 2; k++)
+        for (order = 0; order < 2; order++) {
+            vsd_scene first, second;
+            vsd_renderer *r;
+            vsd_framebuffer *kept = NULL, *fresh = NULL;
+            char err[256] = "";
+            if (!ball_view(order, spacings[k], &first) || !ball_view(!order, spacings[k], &second)) continue;
+            fresh = test_render_fresh(&second, NULL, vol, NULL, 1, NULL);
+            if ((r = test_make_renderer(&first, NULL))) {
+                vsd_renderer_use_volume(r, 0, vol, NULL, NULL);
+                if (test_render(r, 1, &kept, NULL)) {
+                    CHECK_MSG(vsd_renderer_set_scene(r, &second, err, sizeof err) == VSD_OK, "set_scene: %s", err);
+                    test_render(r, 1, &kept, NULL);
+                }
+                vsd_renderer_destroy(r);
+            }
+            printf("[5] %s, the ball %s: the kept renderer's second view %s the fresh one's\n", spacings[k],
+                   order ? "shrinking" : "growing", kept && fresh && test_identical(kept, fresh) ? "is" : "is NOT");
+            CHECK_MSG(kept && fresh && test_identical(kept, fresh), "%s: a kept renderer's view differs from a fresh one's",
+                      spacings[k]);
+            vsd_framebuffer_destroy(kept);
+            vsd_framebuffer_destroy(fresh);
+        }
+}
+
 int main(void)
 {
     vsd_volume *vol = test_ball_volume();
@@ -148,6 +192,7 @@ int main(void)
         test_ball(vol, "shgrid");
         test_ball(vol, "constellation");
         test_odd_sizes(vol);
+        test_kept_renderer(vol);
     }
     vsd_volume_destroy(vol);
     test_auto_low_res();

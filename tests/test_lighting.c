@@ -378,6 +378,29 @@ done:
     vsd_env_destroy(u);
 }
 
+/* g: a lights-only record grid of recs records at random positions in a cube of side
+ * `extent` about the origin, each light's transmittance random in [0, 1). */
+static void random_lights_grid(vsd_krecord_grid *g, const vsd_kernel_data *kd, const float *lights, int light_count,
+                               int sub_count, float *pos, float *trans, int recs, float extent, unsigned long long *seed)
+{
+    int r, q, k;
+    for (r = 0; r < recs; r++) {
+        for (q = 0; q < 3; q++) pos[4 * r + q] = extent * (float)(test_urand(seed) - 0.5);
+        pos[4 * r + 3] = 0.0f;
+        for (k = 0; k < light_count; k++) trans[r * light_count + k] = (float)test_urand(seed);
+    }
+    memset(g, 0, sizeof *g);
+    g->kd = kd;
+    g->kind = VSD_RECORDS_LIGHTS;
+    g->interp = VSD_RECORDS_TRILINEAR;
+    g->lights = lights;
+    g->light_count = light_count;
+    g->sub_count = sub_count;
+    g->light_trans = trans;
+    g->record_pos = pos;
+    g->record_count = recs;
+}
+
 /* The per-view bake of the lights' term (vsd_record_grid_bake_view) against the view's own
  * per-ray weights and radiance (vsd_records_light_weights, vsd_records_radiance), record by
  * record, bit for bit: with sub-lights grouped by light (summed across the lights, each
@@ -393,7 +416,6 @@ static void test_bake_sub_lights(void)
     unsigned long long seed = 7;
     int k, q, n = 0, r, shuffled, bad = 0;
     memset(&kd, 0, sizeof kd);
-    memset(&g, 0, sizeof g);
     kd.medium.anisotropy = 0.6f;
     kd.camera.cam_to_world.m[0] = kd.camera.cam_to_world.m[5] = kd.camera.cam_to_world.m[10] = 1.0f;
     kd.camera.cam_to_world.m[3] = 0.3f, kd.camera.cam_to_world.m[7] = -4.0f, kd.camera.cam_to_world.m[11] = 1.0f;
@@ -409,20 +431,7 @@ static void test_bake_sub_lights(void)
             l[0] = w.x, l[1] = w.y, l[2] = w.z, l[3] = 0.0f;
             l[4] = 0.1f * (q + 1), l[5] = 0.07f * (k + 1), l[6] = 0.3f / (q + 1), l[7] = (float)k;
         }
-    for (r = 0; r < RECS; r++) {
-        for (q = 0; q < 3; q++) pos[4 * r + q] = 2.0f * (float)(test_urand(&seed) - 0.5);
-        pos[4 * r + 3] = 0.0f;
-        for (k = 0; k < L; k++) trans[r * L + k] = (float)test_urand(&seed);
-    }
-    g.kd = &kd;
-    g.kind = VSD_RECORDS_LIGHTS;
-    g.interp = VSD_RECORDS_TRILINEAR;
-    g.lights = lights;
-    g.light_count = L;
-    g.sub_count = n;
-    g.light_trans = trans;
-    g.record_pos = pos;
-    g.record_count = RECS;
+    random_lights_grid(&g, &kd, lights, L, n, pos, trans, RECS, 2.0f, &seed);
     for (shuffled = 0; shuffled < 2; shuffled++) {
         if (shuffled)   /* the sub-lights out of their lights' order: the ungrouped sums */
             for (q = 0; q < 8; q++) {
@@ -448,8 +457,81 @@ static void test_bake_sub_lights(void)
     }
 }
 
+/* The perspective bake's phase table (record_grid_bake.c): with a camera whose film the
+ * records outnumber, their weights come from a table over the camera's tangent plane, mixed
+ * bilinearly: within 3e-4 of each record's own weights (g 0.7, a light shining toward the
+ * camera through the middle of the film, sub-lights), bit for bit where the direction falls
+ * outside the film and its margin; and some records do differ (the table was used). */
+static void test_bake_phase_table(void)
+{
+    enum { L = 6, SUBS = 4, RECS = 24000 };
+    static float lights[8 * L * (1 + SUBS)], pos[4 * RECS], trans[RECS * L], out[3 * RECS];
+    vsd_kernel_data kd;
+    vsd_krecord_grid g;
+    unsigned long long seed = 11;
+    const float *m;
+    int k, q, r, inside = 0, outside = 0, differ = 0, outside_exact = 1;
+    double worst = 0.0;
+    memset(&kd, 0, sizeof kd);
+    kd.medium.anisotropy = 0.7f;
+    /* eye at (0, -4, 0) looking along +y, up +z: columns right, up, -forward */
+    kd.camera.cam_to_world.m[0] = 1.0f, kd.camera.cam_to_world.m[9] = 1.0f, kd.camera.cam_to_world.m[6] = -1.0f;
+    kd.camera.cam_to_world.m[7] = -4.0f;
+    kd.camera.tan_half_fov = 0.36f;
+    kd.camera.width = 160, kd.camera.height = 90;
+    m = kd.camera.cam_to_world.m;
+    for (k = 0; k < L; k++) {
+        /* light 0 travels toward the camera (forward scattering into the eye), the others around */
+        vsd_f3 w = k == 0 ? f3(0.02f, -1.0f, 0.01f) : f3_normalize(f3(sinf(1.3f * k), cosf(0.7f * k + 0.2f), 0.4f - 0.2f * k));
+        float *l = lights + 8 * k;
+        w = f3_normalize(w);
+        l[0] = w.x, l[1] = w.y, l[2] = w.z, l[3] = 0.0f, l[4] = 1.0f + k, l[5] = 0.5f, l[6] = 0.25f * k, l[7] = 0.0f;
+        for (q = 0; q < SUBS; q++) {
+            float *sl = lights + 8 * (L + k * SUBS + q);
+            vsd_f3 v = f3_normalize(f3(w.x + 0.04f * q, w.y - 0.03f * q, w.z + 0.02f));
+            sl[0] = v.x, sl[1] = v.y, sl[2] = v.z, sl[3] = 0.0f;
+            sl[4] = 0.1f * (q + 1), sl[5] = 0.07f * (k + 1), sl[6] = 0.3f / (q + 1), sl[7] = (float)k;
+        }
+    }
+    random_lights_grid(&g, &kd, lights, L, L * SUBS, pos, trans, RECS, 3.0f, &seed);
+    vsd_record_grid_bake_view(&g, pos, 2, out);
+    for (r = 0; r < RECS; r++) {
+        float ph[VSD_RECORDS_PH_FLOATS];
+        const vsd_f3 d = f3_normalize(f3(pos[4 * r] - m[3], pos[4 * r + 1] - m[7], pos[4 * r + 2] - m[11]));
+        const float a = fabsf(d.x / d.y), b = fabsf(d.z / d.y);
+        /* beyond the table: the film's half-extents (0.36 across, 0.2025 up) and its margin (1.15, the
+         * last node up to one step further) */
+        const int beyond = a > 0.36f * 1.3f || b > 0.2025f * 1.3f;
+        vsd_f3 v;
+        int c, same;
+        vsd_records_light_weights(lights, L, L * SUBS, d, kd.medium.anisotropy, ph);
+        v = vsd_records_radiance(&g, r, NULL, ph);
+        same = !memcmp(&v.x, out + 3 * r, sizeof(float)) && !memcmp(&v.y, out + 3 * r + 1, sizeof(float)) &&
+               !memcmp(&v.z, out + 3 * r + 2, sizeof(float));
+        differ += !same;
+        if (beyond) {
+            outside++;
+            outside_exact &= same;
+            continue;
+        }
+        inside++;
+        for (c = 0; c < 3; c++) {
+            const double e = (&v.x)[c], t = out[3 * r + c];
+            worst = fmax(worst, fabs(t - e) / fmax(fabs(e), 1e-6));
+        }
+    }
+    printf("bake's phase table: %d records inside the film, worst relative difference %.2e; %d beyond it, %s; "
+           "%d differ in all\n", inside, worst, outside, outside_exact ? "bit for bit" : "NOT bit for bit", differ);
+    CHECK_MSG(inside > 1000 && outside > 1000, "the records should fall on both sides of the table (%d, %d)", inside,
+              outside);
+    CHECK_MSG(differ > 0, "no record differs from its own weights: the table was not used");
+    CHECK_MSG(worst < 3e-4, "the table's weights differ from the records' own by %.2e", worst);
+    CHECK_MSG(outside_exact, "a record beyond the table did not take its own weights");
+}
+
 int main(void)
 {
+    test_bake_phase_table();
     test_bake_sub_lights();
     test_bright_split();
     test_healpix_average();

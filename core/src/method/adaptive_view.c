@@ -30,7 +30,9 @@
 typedef struct adaptive_view {
     const vsd_device_pass *pass;
     const void *kernel;
-    vsd_accum *acc;
+    vsd_accum *acc;            /* sums of the traced pixels only (read back only where traced[] says) */
+    vsd_framebuffer *fb;       /* every pixel resolved here, traced or interpolated */
+    double inv;                /* 1 / the strata per pixel */
     int n, s, transparent;
     int nxa, nya;              /* anchors per row and column */
     int bx, by, tiles_x;       /* blocks per row and column (at least 1); tiles of blocks per row */
@@ -205,13 +207,18 @@ static void fill_blocks(adaptive_view *a, int bi0, int bj0, int bi1, int bj1)
                 /* most blocks: straight into the film, as refine() would interpolate them */
                 for (y = ya; y < ye; y++)
                     for (x = xa; x < xe; x++) {
-                        double *p = a->acc->v + ((size_t)y * w + x) * VSD_ACC_N;
+                        const size_t film = (size_t)y * w + x;
                         const int corner = (x == xa || x == xb) && (y == ya || y == yb);
-                        a->traced[(size_t)y * w + x] = (unsigned char)corner;
-                        if (corner)
-                            memcpy(p, c[(x == xb && xb != xa) + 2 * (y == yb && yb != ya)], VSD_ACC_N * sizeof *p);
-                        else
-                            bilinear(c, bw ? (double)(x - xa) / bw : 0.0, bh ? (double)(y - ya) / bh : 0.0, p);
+                        double mix[VSD_ACC_N];
+                        const double *p = mix;
+                        a->traced[film] = (unsigned char)corner;
+                        if (corner) {
+                            p = c[(x == xb && xb != xa) + 2 * (y == yb && yb != ya)];
+                            memcpy(a->acc->v + film * VSD_ACC_N, p, VSD_ACC_N * sizeof *p);
+                        } else {
+                            bilinear(c, bw ? (double)(x - xa) / bw : 0.0, bh ? (double)(y - ya) / bh : 0.0, mix);
+                        }
+                        vsd_accum_resolve_pixel(p, a->inv, a->transparent, a->fb, film);
                     }
                 continue;
             }
@@ -229,9 +236,13 @@ static void fill_blocks(adaptive_view *a, int bi0, int bj0, int bi1, int bj1)
             rays += b.rays;
             for (y = ya; y < ye; y++)
                 for (x = xa; x < xe; x++) {
-                    memcpy(a->acc->v + ((size_t)y * w + x) * VSD_ACC_N, lattice_point(&b, x - xa, y - ya),
-                           sizeof b.v[0]);
-                    a->traced[(size_t)y * w + x] = b.state[(y - ya) * b.side + (x - xa)] == POINT_TRACED;
+                    const size_t film = (size_t)y * w + x;
+                    const double *p = lattice_point(&b, x - xa, y - ya);
+                    const int traced = b.state[(y - ya) * b.side + (x - xa)] == POINT_TRACED;
+                    /* the sums kept only where a later block may read them back (trace_point) */
+                    if (traced) memcpy(a->acc->v + film * VSD_ACC_N, p, sizeof b.v[0]);
+                    a->traced[film] = (unsigned char)traced;
+                    vsd_accum_resolve_pixel(p, a->inv, a->transparent, a->fb, film);
                 }
         }
     atomic_fetch_add(&a->rays, rays);
@@ -276,7 +287,7 @@ int vsd_view_auto_spacing(const vsd_frame_ctx *ctx)
     return s < 1.0 ? 1 : s > 4.0 ? 4 : (int)s;
 }
 
-vsd_status vsd_adaptive_view(vsd_frame_ctx *ctx, vsd_accum *acc, int n, const vsd_view_sampling *vs,
+vsd_status vsd_adaptive_view(vsd_frame_ctx *ctx, vsd_accum *acc, vsd_framebuffer *fb, int n, const vsd_view_sampling *vs,
                              const vsd_device_pass *pass, const void *kernel, int *traced_permille, char *err,
                              size_t errlen)
 {
@@ -289,7 +300,9 @@ vsd_status vsd_adaptive_view(vsd_frame_ctx *ctx, vsd_accum *acc, int n, const vs
     a.pass = pass;
     a.kernel = kernel;
     a.acc = acc;
+    a.fb = fb;
     a.n = n;
+    a.inv = 1.0 / (double)(n * n);
     a.s = vs->spacing;
     a.threshold = vs->threshold;
     a.transparent = ctx->scene->film.transparent;

@@ -69,20 +69,30 @@ vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n
     vsd_tile_job job;
     /* vs with an automatic spacing resolved (1 = trace every pixel) */
     vsd_view_sampling eff = {1, vs ? vs->threshold : 0.0};
-    vsd_status st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen);
+    const int device = ctx->cuda && pass->cuda;
+    vsd_status st;
     if (vs) eff.spacing = vs->spacing ? vs->spacing : vsd_view_auto_spacing(ctx);
-    if (st) return st;
-    if (ctx->cuda && pass->cuda) {
-        st = stratified_device(ctx, &acc, n, pass, to_device, kernel, err, errlen);
-    } else if (eff.spacing > 1) {
+    if (!device && eff.spacing > 1) {
+        /* the adaptive view resolves the film itself and reads back only the sums it wrote */
         int permille = 0;
-        st = vsd_adaptive_view(ctx, &acc, n, &eff, pass, kernel, &permille, err, errlen);
+        if ((st = vsd_accum_borrow(&acc, ctx->accum_store, fb->width, fb->height, err, errlen))) return st;
+        st = vsd_adaptive_view(ctx, &acc, fb, n, &eff, pass, kernel, &permille, err, errlen);
         if (ctx->info && ctx->info_len) {
             size_t used = strlen(ctx->info);
             if (used < ctx->info_len)
                 snprintf(ctx->info + used, ctx->info_len - used, "%sview_spacing=%d view_traced=%.3f", used ? " " : "",
                          eff.spacing, permille / 1000.0);
         }
+        vsd_accum_free(&acc);
+        /* a view stopped half way leaves no pixels of the last one (the film is not cleared
+         * before a render: renderer.c) */
+        if (st) vsd_framebuffer_clear(fb);
+        *samples = n * n;
+        return st;
+    }
+    if ((st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen))) return st;
+    if (device) {
+        st = stratified_device(ctx, &acc, n, pass, to_device, kernel, err, errlen);
     } else {
         sp.pass = pass;
         sp.kernel = kernel;

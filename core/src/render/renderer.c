@@ -626,7 +626,10 @@ static vsd_status render_keyed(vsd_renderer *r, vsd_cuda *cuda, vsd_frame_ctx *c
         *fbp = NULL;
         if ((st = vsd_framebuffer_create(sc->film.width, sc->film.height, fbp, err, errlen))) return st;
     }
-    vsd_framebuffer_clear(*fbp);
+    /* not cleared: every method's render writes every pixel of every pass (the sums'
+     * resolve, or the adaptive view pixel by pixel), and a kept film of 1280x720 is 63 MB
+     * to clear on one thread (test_adaptive_view [5]: a kept renderer's view is a fresh
+     * one's bit for bit) */
     st = r->method->render(r->method_state, &ctx, *fbp, &stats->samples, err, errlen);
     stats->render_seconds = vsd_clock_seconds() - t2;
     if (cuda) {
