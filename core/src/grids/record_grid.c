@@ -2,9 +2,7 @@
  * shadows use the same cells. */
 #include "record_grid.h"
 #include "kvolume_boxes.h"
-#include "record_phase.h"
 #include "vsd/volume.h"
-#include "device/cpu/cpu_tiles.h"
 #include "kernel/kernel_volume.h"
 #include "kernel/kernel_record_grid.h"
 #include "kernel/kernel_record_grids.h"

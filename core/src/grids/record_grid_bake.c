@@ -122,6 +122,16 @@ static void sub_light_weights(const vsd_krecord_grid *g, sub_light_dirs *s, vsd_
     }
 }
 
+/* The camera's eye and unit axes in world space (it looks down its -Z). */
+static void camera_frame(const vsd_kcamera *cam, vsd_f3 *eye, vsd_f3 *right, vsd_f3 *up, vsd_f3 *forward)
+{
+    const float *m = cam->cam_to_world.m;
+    *eye = f3(m[3], m[7], m[11]);
+    *right = f3_normalize(f3(m[0], m[4], m[8]));
+    *up = f3_normalize(f3(m[1], m[5], m[9]));
+    *forward = f3_scale(f3_normalize(f3(m[2], m[6], m[10])), -1.0f);
+}
+
 /* The lights' phase weights of one direction d: with sub-lights their sums per light
  * (subs, allocated by the caller), else the lights' own. */
 static void weights_toward(const vsd_krecord_grid *g, sub_light_dirs *subs, int use_subs, vsd_f3 d, float *ph)
@@ -178,9 +188,9 @@ static void phase_table_rows(void *user, int j0, int unused0, int j1, int unused
 static int phase_table_make(const vsd_krecord_grid *g, int use_subs, int threads, phase_table *t)
 {
     const vsd_kcamera *cam = &g->kd->camera;
-    const float *m = cam->cam_to_world.m;
     const int maxdim = cam->width > cam->height ? cam->width : cam->height;
     float ha, hb;
+    vsd_f3 eye;
     memset(t, 0, sizeof *t);
     if (cam->orthographic || !(cam->tan_half_fov > 0.0f) || maxdim <= 0 || g->light_count <= 0) return 0;
     ha = PHASE_TABLE_MARGIN * cam->tan_half_fov * (float)cam->width / (float)maxdim;
@@ -190,9 +200,7 @@ static int phase_table_make(const vsd_krecord_grid *g, int use_subs, int threads
     t->nb = (int)ceilf(2.0f * hb / t->step) + 1;
     if ((size_t)g->record_count < 8 * (size_t)t->na * t->nb) return 0;
     t->a0 = -ha, t->b0 = -hb;
-    t->right = f3_normalize(f3(m[0], m[4], m[8]));
-    t->up = f3_normalize(f3(m[1], m[5], m[9]));
-    t->fwd = f3_normalize(f3_scale(f3(m[2], m[6], m[10]), -1.0f));   /* the camera looks down -Z */
+    camera_frame(cam, &eye, &t->right, &t->up, &t->fwd);
     t->lights = g->light_count;
     t->g = g;
     t->use_subs = use_subs;
@@ -251,9 +259,8 @@ static void bake_range(const vsd_krecord_grid *g, const float *record_pos, const
     int per_record_subs = cam && !cam->orthographic && sub_light_dirs_make(g, &subs) == 0 && subs.n > 0;
     int32_t r;
     if (cam) {
-        const float *m = cam->cam_to_world.m;
-        eye = f3(m[3], m[7], m[11]);
-        forward = f3_scale(f3_normalize(f3(m[2], m[6], m[10])), -1.0f);   /* the camera looks down -Z */
+        vsd_f3 right, up;
+        camera_frame(cam, &eye, &right, &up, &forward);
     }
     if (!cam || cam->orthographic) {
         vsd_records_light_weights(g->lights, g->light_count, g->sub_count, forward, cam ? g->kd->medium.anisotropy : 0.0f, ph);
@@ -361,12 +368,9 @@ void vsd_record_grid_bake_view_pair(const vsd_krecord_grid *g, const float *reco
     vsd_krecord_grid g2 = lights_only(g, light_trans2, local_trans2);
     bake_job job = {g, record_pos, out, out2 ? &g2 : NULL, out2, NULL};
     phase_table table;
-    sub_light_dirs probe = {0};
-    /* (the table takes the same weights as the records would: with sub-lights where there
-     * is memory for them) */
-    const int use_subs = sub_light_dirs_make(g, &probe) == 0 && probe.n > 0;
-    free(probe.x);
-    if (phase_table_make(g, use_subs, threads, &table)) job.table = &table;
+    /* the table takes the weights the records would: their sub-lights' sums where they have
+     * some (a row without memory for them fails the table, and the records take their own) */
+    if (phase_table_make(g, g->sub_count > 0, threads, &table)) job.table = &table;
     if (vsd_cpu_run_items((g->record_count + 255) / 256, threads, bake_items, &job, "record bake") != VSD_OK)
         /* (the pool cannot fail without cancel) */
         bake_range(g, record_pos, &g->kd->camera, job.table, 0, g->record_count, out, job.g2, out2);

@@ -83,28 +83,28 @@ vsd_status vsd_method_render_view(vsd_frame_ctx *ctx, vsd_framebuffer *fb, int n
                 snprintf(ctx->info + used, ctx->info_len - used, "%sview_spacing=%d view_traced=%.3f", used ? " " : "",
                          eff.spacing, permille / 1000.0);
         }
-        vsd_accum_free(&acc);
         /* a view stopped half way leaves no pixels of the last one (the film is not cleared
          * before a render: renderer.c) */
         if (st) vsd_framebuffer_clear(fb);
-        *samples = n * n;
-        return st;
-    }
-    if ((st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen))) return st;
-    if (device) {
-        st = stratified_device(ctx, &acc, n, pass, to_device, kernel, err, errlen);
     } else {
-        sp.pass = pass;
-        sp.kernel = kernel;
-        sp.acc = &acc;
-        sp.n = n;
-        vsd_method_tile_job(&job, ctx, fb, stratified_tile, &sp, pass->stage);
-        st = vsd_cpu_run_tiles(&job);
-        if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
+        if ((st = vsd_accum_init(&acc, ctx->accum_store, ctx->threads, fb->width, fb->height, err, errlen))) return st;
+        if (device) {
+            st = stratified_device(ctx, &acc, n, pass, to_device, kernel, err, errlen);
+        } else {
+            sp.pass = pass;
+            sp.kernel = kernel;
+            sp.acc = &acc;
+            sp.n = n;
+            vsd_method_tile_job(&job, ctx, fb, stratified_tile, &sp, pass->stage);
+            st = vsd_cpu_run_tiles(&job);
+            if (st == VSD_ERR_CANCELLED) vsd_fail(st, err, errlen, "render cancelled");
+        }
+        /* a cancelled render still resolves the tiles or bands it finished */
+        if (!st || st == VSD_ERR_CANCELLED)
+            vsd_accum_resolve(&acc, n * n, ctx->scene->film.transparent, ctx->threads, fb);
+        else
+            vsd_framebuffer_clear(fb);
     }
-    /* a cancelled render still resolves the tiles or bands it finished */
-    if (!st || st == VSD_ERR_CANCELLED)
-        vsd_accum_resolve(&acc, n * n, ctx->scene->film.transparent, ctx->threads, fb);
     vsd_accum_free(&acc);
     *samples = n * n;
     return st;

@@ -23,14 +23,17 @@ static void zero_rows(void *user, int y0, int unused0, int y1, int unused1)
     memset(z->v + (size_t)y0 * z->per_row, 0, (size_t)(y1 - y0) * z->per_row * sizeof(double));
 }
 
-vsd_status vsd_accum_borrow(vsd_accum *a, vsd_accum_store *store, int width, int height, char *err, size_t errlen)
+/* a->v: the store's memory (grown when too small), or without a store a buffer of its own,
+ * zeroed by calloc when `zero_own` (fresh pages are zero already) */
+static vsd_status take_sums(vsd_accum *a, vsd_accum_store *store, int zero_own, int width, int height, char *err,
+                            size_t errlen)
 {
     size_t doubles = (size_t)width * height * VSD_ACC_N;
     a->width = width;
     a->height = height;
     a->borrowed = store != NULL;
     if (!store) {
-        a->v = malloc(doubles * sizeof(double));
+        a->v = zero_own ? calloc(doubles, sizeof(double)) : malloc(doubles * sizeof(double));
     } else {
         if (store->doubles < doubles) {
             vsd_accum_store_free(store);
@@ -43,21 +46,17 @@ vsd_status vsd_accum_borrow(vsd_accum *a, vsd_accum_store *store, int width, int
     return VSD_OK;
 }
 
+vsd_status vsd_accum_borrow(vsd_accum *a, vsd_accum_store *store, int width, int height, char *err, size_t errlen)
+{
+    return take_sums(a, store, 0, width, height, err, errlen);
+}
+
 vsd_status vsd_accum_init(vsd_accum *a, vsd_accum_store *store, int threads, int width, int height, char *err,
                           size_t errlen)
 {
     zero_job z;
-    vsd_status st;
-    if (!store) {
-        /* a buffer of its own: calloc's fresh pages are zero already */
-        a->width = width;
-        a->height = height;
-        a->borrowed = 0;
-        if (!(a->v = calloc((size_t)width * height * VSD_ACC_N, sizeof(double))))
-            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "no memory for a %dx%d accumulation buffer", width, height);
-        return VSD_OK;
-    }
-    if ((st = vsd_accum_borrow(a, store, width, height, err, errlen))) return st;
+    vsd_status st = take_sums(a, store, 1, width, height, err, errlen);
+    if (st || !store) return st;
     z.v = a->v;
     z.per_row = (size_t)width * VSD_ACC_N;
     if (vsd_cpu_run_items(height, threads, zero_rows, &z, "clearing the sums") != VSD_OK)
