@@ -13,3 +13,4 @@ vsd_add_test(test_lights SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_lights.c LIBS 
 # lbl's first flight along 98 directions: the homogeneous medium's fluence, energy against
 # the box's geometry, births with a direction, the escape at a face against the half-space.
 vsd_add_test(test_lbl_first_flight SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_lbl_first_flight.c LABELS unit lbl)
+vsd_add_test(test_lbl_sweep SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_lbl_sweep.c LABELS unit lbl)

@@ -8,7 +8,8 @@
  *                     vsd/lighting.h, rebuilt only when the map's content changes), the
  *                     scene's suns among them, and its point and spot lights; the
  *                     marching pass (§III-B, lbl_march.h): each light's transmittance at
- *                     every cell (rays from a point light's position); the first-scattered
+ *                     every cell (rays from a point light's position; a directional
+ *                     light's by one sweep of the cells, lbl_sweep.h); the first-scattered
  *                     light deposited per cell; beyond the paper its first flight to the
  *                     next collision along 98 directions (lbl_first_flight.h), what collides
  *                     there born again as the lattice's source; the diffusion pass (§III-C, lbl_lattice.h)
@@ -44,6 +45,7 @@
 #include "lbl_exchange.h"
 #include "lbl_delta_m.h"
 #include "lbl_first_flight.h"
+#include "lbl_sweep.h"
 #include "src/lighting/radiance_cache.h"
 #include "device/cpu/cpu_tiles.h"
 #include "src/grids/volume_groups.h"
@@ -61,7 +63,7 @@
 static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, cell_shape, escape, exchange, delta_m, first_flight;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, light_march, cell_shape, escape, exchange, delta_m, first_flight;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -72,6 +74,8 @@ static const char *const lbl_phase_names[] = {"isotropic", "hg", NULL};
 /* in VSD_LBL_CELL_FACES.. order */
 static const char *const lbl_cell_light_names[] = {"faces", "path", NULL};
 enum { LBL_DEPOSIT_CENTRE, LBL_DEPOSIT_LOST };
+static const char *const lbl_light_march_names[] = {"rays", "sweep", NULL};
+enum { LBL_MARCH_RAYS, LBL_MARCH_SWEEP };
 static const char *const lbl_deposit_names[] = {"centre", "lost", NULL};
 enum { LBL_SHAPE_CUBES, LBL_SHAPE_BOXES };
 static const char *const lbl_shape_names[] = {"cubes", "boxes", NULL};
@@ -148,6 +152,11 @@ static const vsd_option_spec lbl_option_rows[] = {
      "marching: what a cell scatters out of a directional light's rays, the paper's albedo E T p lambda^2 with the "
      "rays' T at its centre, or albedo E times the power the rays lost in it (exact for thick cells; lbl_march.h)",
      offsetof(lbl_options, light_deposit), 0, NULL, NULL},
+    {"light_march", VSD_OPT_CHOICE, 0, 0, LBL_MARCH_SWEEP, lbl_light_march_names,
+     "marching: each directional light's transmittance to the cells by the paper's parallel rays (ray_spacing, "
+     "light_step), or by one sweep of the cells' layers across its direction (lbl_sweep.h; about 3x cheaper); point and "
+     "spot lights, refraction and a ray history always take the rays",
+     offsetof(lbl_options, light_march), 0, NULL, NULL},
     {"cell_shape", VSD_OPT_CHOICE, 0, 0, LBL_SHAPE_BOXES, lbl_shape_names,
      "diffusion, with cell_light \"path\": every cell taken as the cube of its volume (as the paper's lattice), or as "
      "the box it is, light crossing sigma times each axis's own edge (docs/methods/lbl.md, \"Cells that are not "
@@ -902,6 +911,21 @@ static void local_falloff(const lbl_state *s, float *local_trans)
         }
 }
 
+/* The lights through the cells of `grid` (lbl_march.h's contract): the directional ones by
+ * sweeps of the cells (light_march "sweep", lbl_sweep.h) where no refraction bends them and
+ * no ray history overlaps them with the diffusion, the rest by the paper's rays. */
+static vsd_status march_rays_or_sweep(const lbl_state *s, const vsd_lbl_grid *grid, const float *lights, int count,
+                                      const float *points, int point_count, int threads, const vsd_lbl_march_out *out,
+                                      vsd_lbl_overlap *overlap, char *err, size_t errlen)
+{
+    const int sweep = s->opt.light_march == LBL_MARCH_SWEEP && !grid->refract && !overlap;
+    vsd_status st =
+        sweep ? vsd_lbl_sweep_lights(grid, lights, count, s->rg.cell_record, s->rg.count, threads, out, err, errlen) : VSD_OK;
+    return st ? st
+              : vsd_lbl_march_lights(grid, lights, sweep ? 0 : count, points, point_count, (float)s->opt.ray_spacing,
+                                     (float)s->opt.light_step, s->rg.cell_record, threads, out, overlap, err, errlen);
+}
+
 /* Every light marched through the cells of `grid` into the records, for each of its media
  * (out[0]: grid->sigma's, out[1]: grid->sigma2's): T into trans and point_trans (the point
  * and spot lights' falloff applied), the power the rays lost into lost (or NULL), then the
@@ -912,9 +936,8 @@ static void local_falloff(const lbl_state *s, float *local_trans)
 static vsd_status march_lights(lbl_state *s, const vsd_frame_ctx *ctx, const vsd_lbl_grid *grid,
                                const vsd_lbl_march_out *out, vsd_lbl_overlap *overlap, char *err, size_t errlen)
 {
-    vsd_status st = vsd_lbl_march_lights(grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
-                                         (float)s->opt.ray_spacing, (float)s->opt.light_step, s->rg.cell_record,
-                                         ctx->threads, out, overlap, err, errlen);
+    vsd_status st = march_rays_or_sweep(s, grid, s->dir_lights, s->dir_count, s->local_lights, s->local_count,
+                                        ctx->threads, out, overlap, err, errlen);
     int m;
     if (st) return st;
     for (m = 0; m < (grid->sigma2 ? 2 : 1); m++) {
@@ -1343,8 +1366,7 @@ static vsd_status receive_exchange(lbl_state *p, const vsd_frame_ctx *pc, float 
     grid.sigma2 = trans_true ? p->sigma : NULL;
     {
         const vsd_lbl_march_out out[2] = {{trans, lost, &points_trans}, {trans_true, NULL, &points_trans}};
-        st = vsd_lbl_march_lights(&grid, lights, k_count, NULL, 0, (float)p->opt.ray_spacing,
-                                  (float)p->opt.light_step, p->rg.cell_record, pc->threads, out, NULL, err, errlen);
+        st = march_rays_or_sweep(p, &grid, lights, k_count, NULL, 0, pc->threads, out, NULL, err, errlen);
     }
     if (st == VSD_OK) {
         receive_job j = {p,      p->lat_albedo, trans, lost, trans_true ? trans_true : trans, (const float(*)[6])shares,
