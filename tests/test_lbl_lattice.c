@@ -32,7 +32,12 @@
  *  11. the surface escape: nothing deep in the medium or in empty space, and at a flat
  *      face exactly the 98 directions' quadrature of the box (computed here from the
  *      geometry), and the half-space's escape less the lattice's one axis within 10% where
- *      that quadrature holds (x >= 1; it is 21% low for thin cells). */
+ *      that quadrature holds (x >= 1; it is 21% low for thin cells);
+ *  12. delta-M on the lattice keeps the infinite medium's absorption;
+ *  13. a solve skips the rows of cells that neither collide nor have a source (their
+ *      photons pass unchanged): its fluence equals, bit for bit, that of the stepper, which
+ *      collides every cell, after as many steps, on a medium with empty space around it,
+ *      an anisotropic phase and a source per direction. */
 #include "test_common.h"
 #include "src/common/clock.h"
 #include "methods/lbl/lbl_lattice.h"
@@ -962,6 +967,63 @@ static void test_escape(void)
     free(keep);
 }
 
+static void test_empty_rows(void)
+{
+    enum { M = 20 };
+    const int32_t res[3] = {M, M, M};
+    const size_t n = (size_t)M * M * M;
+    const float albedo[3] = {0.9f, 0.8f, 0.7f};
+    float *col = calloc(n, sizeof *col), *source = calloc(18 * n, sizeof *source), *a = malloc(3 * n * sizeof *a),
+          *b = malloc(3 * n * sizeof *b);
+    vsd_lbl_lattice la, lb;
+    vsd_lbl_stepper *st = NULL;
+    vsd_lbl_diffusion_stats stats;
+    size_t c, empty_rows = 0, differ = 0;
+    int x, y, z, i;
+    memset(&la, 0, sizeof la);
+    memset(&lb, 0, sizeof lb);
+    if (!col || !source || !a || !b) goto done;
+    /* a slab of medium in x 5..14, y 4..9, z 6..15, a source along +x in two of its cells
+     * and one in empty space (so a row with only a source is collided too) */
+    for (z = 6; z < 16; z++)
+        for (y = 4; y < 10; y++)
+            for (x = 5; x < 15; x++) col[((size_t)z * M + y) * M + x] = 0.4f;
+    for (i = 0; i < 3; i++) {
+        source[(size_t)i * n + ((size_t)8 * M + 6) * M + 7] = 1.0f;
+        source[(size_t)(3 + i) * n + ((size_t)12 * M + 8) * M + 12] = 0.5f;
+        source[(size_t)i * n + ((size_t)2 * M + 17) * M + 3] = 0.25f;
+    }
+    for (c = 0; c < n; c += M) {
+        int any = 0;
+        for (x = 0; x < M; x++) any |= col[c + x] != 0.0f;
+        empty_rows += !any;
+    }
+    CHECK(vsd_lbl_lattice_init(&la, res, NULL, NULL, 0) == VSD_OK && vsd_lbl_lattice_init(&lb, res, NULL, NULL, 0) == VSD_OK);
+    vsd_lbl_lattice_set_cell_light(&la, VSD_LBL_CELL_PATH);
+    vsd_lbl_lattice_set_cell_light(&lb, VSD_LBL_CELL_PATH);
+    vsd_lbl_lattice_set_phase(&la, 0.5f, 0.05f, 0.1125f);
+    vsd_lbl_lattice_set_phase(&lb, 0.5f, 0.05f, 0.1125f);
+    vsd_lbl_lattice_set_source_per_direction(&la);
+    vsd_lbl_lattice_set_source_per_direction(&lb);
+    /* tolerance 0: the solve runs its 24 steps */
+    CHECK(vsd_lbl_diffuse(&la, col, albedo, source, 0.0, 24, 1, a, &stats, NULL, 0) == VSD_OK && stats.steps == 24);
+    CHECK(vsd_lbl_stepper_new(&lb, col, albedo, source, &st, NULL, 0) == VSD_OK);
+    CHECK(st && vsd_lbl_stepper_run(st, 24, 1) == VSD_OK);
+    vsd_lbl_stepper_free(st);
+    /* no steps: the fluence of the state the stepper left */
+    CHECK(vsd_lbl_diffuse(&lb, col, albedo, source, 0.0, 0, 1, b, &stats, NULL, 0) == VSD_OK && stats.steps == 0);
+    for (c = 0; c < 3 * n; c++) differ += a[c] != b[c];
+    printf("[13] %zu of %d rows without medium: the skipping solve and the stepper differ in %zu of %zu values "
+           "(fluence at the source %.4f)\n",
+           empty_rows, M * M, differ, 3 * n, (double)a[((size_t)8 * M + 6) * M + 7]);
+    CHECK_MSG(empty_rows > (size_t)M * M / 2, "only %zu empty rows: the test skips nothing", empty_rows);
+    CHECK_MSG(differ == 0 && a[((size_t)8 * M + 6) * M + 7] > 0.0f, "the skipping solve differs in %zu values", differ);
+done:
+    vsd_lbl_lattice_free(&la);
+    vsd_lbl_lattice_free(&lb);
+    free(col), free(source), free(a), free(b);
+}
+
 int main(void)
 {
     test_readout();
@@ -993,5 +1055,6 @@ int main(void)
         const vsd_lbl_layout q18 = {0, 1};
         test_infinite_medium(&q18, VSD_LBL_CELL_FACES, 0.6f, NULL, "[7] D3Q18");
     }
+    test_empty_rows();
     return test_finish("test_lbl_lattice");
 }

@@ -96,6 +96,13 @@ typedef struct step_job {
     /* [CH][cells] (path in the cell, a lattice with albedo_cells): each cell's albedo times
      * its keep, which then stands for albedo[ch] * keep */
     float *akeep;
+    /* [rows of x] or NULL (every row): 1 where a cell of the row collides (p > 0) or has a
+     * source; a cell without either passes its photons unchanged, post = f to the bit
+     * (path in the cell: p_a = 0 on every axis, so nothing collides, nothing is born,
+     * nothing leaves but what came), and the collision skips the rows of such cells
+     * (collide_runs; whole rows, so its loops keep their length). Set for a whole solve,
+     * whose source is fixed; a stepper's source grows during the march: it has none. */
+    uint8_t *active;
 } step_job;
 
 /* The light in a cell with its photons' path (cell_light "path"; the paper's step is the
@@ -337,6 +344,27 @@ static void collide_anisotropic_faces(step_job *j, int ch, size_t c0, size_t n)
 /* Collision of the nodes in slices [z0, z1): post = Theta f + S / 6 (the paper's
  * isotropic step), or with the phase or the path in the cell. Loops run along the nodes
  * (contiguous per direction and channel) so the compiler vectorises them. */
+/* One channel's collision of nodes [c0, c0 + n) (whole rows) with the path in the cell,
+ * over the runs of active rows only (job.active); the rows between copy their populations. */
+static void collide_runs(step_job *j, int ch, size_t c0, size_t n)
+{
+    const size_t cells = j->l->cells, nx = (size_t)j->l->res[0], r1 = (c0 + n) / nx;
+    size_t r = c0 / nx;
+    int i;
+    while (r < r1) {
+        size_t a = r, b;
+        while (a < r1 && !j->active[a]) a++;
+        if (a > r)
+            for (i = 0; i < DIRS; i++) {
+                const size_t o = ((size_t)i * CH + ch) * cells;
+                memcpy(j->post + o + r * nx, j->l->f + o + r * nx, (a - r) * nx * sizeof *j->post);
+            }
+        for (b = a; b < r1 && j->active[b]; b++) {}
+        if (b > a) collide_path(j, ch, a * nx, (b - a) * nx);
+        r = b;
+    }
+}
+
 static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
 {
     step_job *j = arg;
@@ -352,7 +380,8 @@ static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
         const float a6 = j->albedo[ch] / 6.0f;
         const float *src = j->source ? j->source + (size_t)ch * cells + c0 : NULL;
         if (j->l->cell_light == VSD_LBL_CELL_PATH) {
-            collide_path(j, ch, c0, n);
+            if (j->active) collide_runs(j, ch, c0, n);
+            else collide_path(j, ch, c0, n);
             continue;
         }
         if (j->l->anisotropic) {
@@ -460,6 +489,7 @@ static int step_job_init(step_job *job, vsd_lbl_lattice *l, const float *collide
 
 static void step_job_free(step_job *job)
 {
+    free(job->active);
     free(job->post);
     free(job->gain);
     free(job->recollide);
@@ -655,6 +685,18 @@ static double probe_fluence(const vsd_lbl_lattice *l, float *probes, int first, 
     return s;
 }
 
+/* job.active for a solve of collide and source (left NULL, every row collided, when out of
+ * memory: the same result). */
+static void mark_active(const vsd_lbl_lattice *l, step_job *job, const float *collide, const float *source)
+{
+    const size_t cells = l->cells, nx = (size_t)l->res[0], arrays = source ? (l->anisotropic ? (size_t)DIRS * CH : (size_t)CH) : 0;
+    size_t c, q;
+    if (!(job->active = calloc(cells / nx, 1))) return;
+    for (c = 0; c < cells; c++) job->active[c / nx] |= collide[c] != 0.0f;
+    for (q = 0; q < arrays; q++)
+        for (c = 0; c < cells; c++) job->active[c / nx] |= source[q * cells + c] != 0.0f;
+}
+
 vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,
                            double tolerance, int max_steps, int threads, float *fluence, vsd_lbl_diffusion_stats *stats,
                            char *err, size_t errlen)
@@ -673,6 +715,7 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
         step_job_free(&job);
         return st;
     }
+    if (!copies_material(l) && l->cell_light == VSD_LBL_CELL_PATH) mark_active(l, &job, collide, source);
     probes = malloc(((l->cells + 6) / 7) * CH * sizeof *probes);
     if (!probes) {
         step_job_free(&job);
