@@ -341,9 +341,6 @@ static void collide_anisotropic_faces(step_job *j, int ch, size_t c0, size_t n)
     }
 }
 
-/* Collision of the nodes in slices [z0, z1): post = Theta f + S / 6 (the paper's
- * isotropic step), or with the phase or the path in the cell. Loops run along the nodes
- * (contiguous per direction and channel) so the compiler vectorises them. */
 /* One channel's collision of nodes [c0, c0 + n) (whole rows) with the path in the cell,
  * over the runs of active rows only (job.active); the rows between copy their populations. */
 static void collide_runs(step_job *j, int ch, size_t c0, size_t n)
@@ -365,6 +362,9 @@ static void collide_runs(step_job *j, int ch, size_t c0, size_t n)
     }
 }
 
+/* Collision of the nodes in slices [z0, z1): post = Theta f + S / 6 (the paper's
+ * isotropic step), or with the phase or the path in the cell. Loops run along the nodes
+ * (contiguous per direction and channel) so the compiler vectorises them. */
 static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
 {
     step_job *j = arg;
@@ -689,12 +689,18 @@ static double probe_fluence(const vsd_lbl_lattice *l, float *probes, int first, 
  * memory: the same result). */
 static void mark_active(const vsd_lbl_lattice *l, step_job *job, const float *collide, const float *source)
 {
-    const size_t cells = l->cells, nx = (size_t)l->res[0], arrays = source ? (l->anisotropic ? (size_t)DIRS * CH : (size_t)CH) : 0;
-    size_t c, q;
-    if (!(job->active = calloc(cells / nx, 1))) return;
-    for (c = 0; c < cells; c++) job->active[c / nx] |= collide[c] != 0.0f;
-    for (q = 0; q < arrays; q++)
-        for (c = 0; c < cells; c++) job->active[c / nx] |= source[q * cells + c] != 0.0f;
+    const size_t cells = l->cells, nx = (size_t)l->res[0], rows = cells / nx;
+    const size_t arrays = source ? (l->anisotropic ? (size_t)DIRS * CH : (size_t)CH) : 0;
+    size_t r, q, x;
+    if (!(job->active = malloc(rows))) return;
+    for (r = 0; r < rows; r++) {
+        const size_t c0 = r * nx;
+        int any = 0;
+        for (x = 0; x < nx && !any; x++) any = collide[c0 + x] != 0.0f;
+        for (q = 0; q < arrays && !any; q++)
+            for (x = 0; x < nx && !any; x++) any = source[q * cells + c0 + x] != 0.0f;
+        job->active[r] = (uint8_t)any;
+    }
 }
 
 vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float albedo[3], const float *source,

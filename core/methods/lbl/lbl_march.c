@@ -253,25 +253,32 @@ static float *lattice_values(float lo, float hi, float d, int *n)
     return v;
 }
 
+int vsd_lbl_light_travel(const vsd_lbl_grid *g, const float *light, float u[3], double *len)
+{
+    double v[3];
+    int ax;
+    /* away from the light: -w in the grid */
+    for (ax = 0; ax < 3; ax++)
+        v[ax] = -(g->to_grid[3 * ax] * light[0] + g->to_grid[3 * ax + 1] * light[1] + g->to_grid[3 * ax + 2] * light[2]);
+    *len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(*len > 0.0) || !isfinite(*len)) return 0;
+    for (ax = 0; ax < 3; ax++) u[ax] = (float)(v[ax] / *len);
+    return 1;
+}
+
 /* The parallel rays of directional light k: a square lattice `spacing` apart across -w_k
  * over the grid's bounding sphere. */
 static int rays_directional(const march_job *j, int k, light_rays *r, float *t_begin)
 {
     const vsd_lbl_grid *g = j->g;
-    const float *l = j->lights + 8 * (size_t)k;
-    double v[3], len;
+    double len;
     float radius;
     int ax;
     memset(r, 0, sizeof *r);
-    /* the rays travel away from the light: -w in the grid */
-    for (ax = 0; ax < 3; ax++)
-        v[ax] = -(g->to_grid[3 * ax] * l[0] + g->to_grid[3 * ax + 1] * l[1] + g->to_grid[3 * ax + 2] * l[2]);
-    len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     *t_begin = 0.0f;
-    if (!(len > 0.0)) return 1;   /* no rays */
+    if (!vsd_lbl_light_travel(g, j->lights + 8 * (size_t)k, r->u, &len)) return 1;   /* no rays */
     /* a grid step of `step` along u is step / len world units long */
     r->world_step = (float)(j->step / len);
-    for (ax = 0; ax < 3; ax++) r->u[ax] = (float)(v[ax] / len);
     {
         const float *u = r->u;
         float h[3] = {fabsf(u[0]) < 0.9f ? 1.0f : 0.0f, fabsf(u[0]) < 0.9f ? 0.0f : 1.0f, 0.0f}, d, n;

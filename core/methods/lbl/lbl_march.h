@@ -50,6 +50,12 @@ typedef struct vsd_lbl_grid {
     const float *empty_d2;
 } vsd_lbl_grid;
 
+/* A directional light's travel through g (light: kernel layout, its direction toward the
+ * light first): u, the unit direction in grid units, away from the light, and len, the grid
+ * units per world unit along it (a grid length d along u is d / len world units). 0 when the
+ * light has no direction. The march's parallel rays and the sweeps (lbl_sweep.h) share it. */
+int vsd_lbl_light_travel(const vsd_lbl_grid *g, const float *light, float u[3], double *len);
+
 /* The squared distance map of vsd_lbl_grid.empty_d2 into d2 [cells]: 0 where sigma > 0 or
  * cell_record >= 0. Returns 0 when out of memory. */
 int vsd_lbl_empty_distance(const int32_t res[3], const float *sigma, const int32_t *cell_record, int threads,

@@ -24,28 +24,22 @@ typedef struct axis_layout {
 typedef struct sweep_job {
     const vsd_lbl_grid *g;
     const float *lights;
-    int light_count, media, lost;  /* lost: the outputs want the lost power */
+    int light_count, media;
     axis_layout axes[3];           /* sigma NULL: no light sweeps along that axis */
     int32_t record_count;
     int k0, batch;                 /* this batch: lights [k0, k0 + batch) */
-    float *vals;                   /* [BATCH][2 * media][record_count]: T, then lost, per medium */
+    float *vals;                   /* [BATCH][2 * media][record_count]: T, then lost (where that
+                                      medium's output wants it), per medium */
     const vsd_lbl_march_out *out;
     int failed;
 } sweep_job;
 
-/* Light k's travel in the grid, u (unit, grid units), and the world length of a grid unit
+/* Light k's travel in the grid (vsd_lbl_light_travel) and the world length of a grid unit
  * along it; 0 for a light with no direction. */
 static int light_travel(const sweep_job *j, int k, float u[3], float *world_per_grid)
 {
-    const vsd_lbl_grid *g = j->g;
-    const float *l = j->lights + 8 * (size_t)k;
-    double v[3], len;
-    int ax;
-    for (ax = 0; ax < 3; ax++)
-        v[ax] = -(g->to_grid[3 * ax] * l[0] + g->to_grid[3 * ax + 1] * l[1] + g->to_grid[3 * ax + 2] * l[2]);
-    len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!(len > 0.0) || !isfinite(len)) return 0;
-    for (ax = 0; ax < 3; ax++) u[ax] = (float)(v[ax] / len);
+    double len;
+    if (!vsd_lbl_light_travel(j->g, j->lights + 8 * (size_t)k, u, &len)) return 0;
     *world_per_grid = (float)(1.0 / len);
     return 1;
 }
@@ -61,8 +55,9 @@ static void layout_free(axis_layout *x)
     memset(x, 0, sizeof *x);
 }
 
-/* The cells of g re-laid along axis a; 0 when out of memory. */
-static int layout_build(const vsd_lbl_grid *g, int media, int a, axis_layout *x)
+/* The cells of g, sigma and their records (cell_record), re-laid along axis a; 0 when out of
+ * memory. */
+static int layout_build(const vsd_lbl_grid *g, const int32_t *cell_record, int media, int a, axis_layout *x)
 {
     const size_t n = (size_t)g->res[0] * g->res[1] * g->res[2];
     const int32_t *res = g->res;
@@ -84,23 +79,9 @@ static int layout_build(const vsd_lbl_grid *g, int media, int a, axis_layout *x)
                 from = ((size_t)c[2] * res[1] + c[1]) * res[0] + c[0];
                 x->sigma[0][to] = g->sigma[from];
                 if (media > 1) x->sigma[1][to] = g->sigma2[from];
-                x->rec[to] = -1;
+                x->rec[to] = cell_record[from];
             }
     return 1;
-}
-
-/* The record of every re-laid cell (the grid's cell_record, laid out as the sigmas). */
-static void layout_records(const vsd_lbl_grid *g, const int32_t *cell_record, axis_layout *x)
-{
-    const int32_t *res = g->res;
-    int32_t A, P, Q;
-    for (A = 0; A < x->na; A++)
-        for (Q = 0; Q < x->nq; Q++)
-            for (P = 0; P < x->np; P++) {
-                int32_t c[3];
-                c[x->a] = A, c[x->p] = P, c[x->q] = Q;
-                x->rec[((size_t)A * x->nq + Q) * x->np + P] = cell_record[((size_t)c[2] * res[1] + c[1]) * res[0] + c[0]];
-            }
 }
 
 /* e^x for x <= 0 in plain float arithmetic the compiler vectorises along a row (libm's expf
@@ -217,7 +198,7 @@ static void sweep_light(const sweep_job *j, int k, float *vals, float *scratch)
             const float *sg = x->sigma[m] + layer;
             const float *t_was = rp[m].t[cur], *s_was = rp[m].sigma[cur];
             float *t_now = rp[m].t[cur ^ 1], *s_now = rp[m].sigma[cur ^ 1];
-            float *v_t = vals + 2 * m * recs, *v_lost = j->lost ? vals + (2 * m + 1) * recs : NULL;
+            float *v_t = vals + 2 * m * recs, *v_lost = j->out[m].lost ? vals + (2 * m + 1) * recs : NULL;
             for (Q = 0; Q < x->nq; Q++)
                 memcpy(pad + (size_t)(Q + 1) * ps + 1, sg + (size_t)Q * x->np, sizeof *sg * (size_t)x->np);
             /* slot (b, c) came from (b - sp, c - sq), in [-1, np + 1] x [-1, nq + 1]: the
@@ -299,7 +280,6 @@ vsd_status vsd_lbl_sweep_lights(const vsd_lbl_grid *g, const float *lights, int 
     j.lights = lights;
     j.light_count = light_count;
     j.media = g->sigma2 ? 2 : 1;
-    j.lost = out[0].lost != NULL || (j.media > 1 && out[1].lost != NULL);
     j.record_count = record_count;
     j.out = out;
     /* the layouts the lights' dominant axes ask for */
@@ -308,8 +288,7 @@ vsd_status vsd_lbl_sweep_lights(const vsd_lbl_grid *g, const float *lights, int 
         if (!light_travel(&j, k, u, &wpg)) continue;
         a = dominant_axis(u);
         if (j.axes[a].sigma[0]) continue;
-        if (!layout_build(g, j.media, a, &j.axes[a])) st = VSD_ERR_NOMEM;
-        else layout_records(g, cell_record, &j.axes[a]);
+        if (!layout_build(g, cell_record, j.media, a, &j.axes[a])) st = VSD_ERR_NOMEM;
     }
     if (!st && !(j.vals = malloc((size_t)BATCH * 2 * j.media * (size_t)record_count * sizeof *j.vals))) st = VSD_ERR_NOMEM;
     for (j.k0 = 0; j.k0 < light_count && !st; j.k0 += BATCH) {
