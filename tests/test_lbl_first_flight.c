@@ -161,6 +161,103 @@ static void test_surface(double x, double half_space)
            half_space, at_face / half_space, axes);
 }
 
+/* [5]'s reference: lbl_first_flight.h's recurrence along each vector and cone, in double */
+static double ref_paths[18 * CELLS], ref_births[18 * CELLS];
+
+static void reference_flight(const vsd_lbl_first_flight *in)
+{
+    static double pout[3 * CELLS], hit[18 * CELLS];
+    vsd_lbl_directions dirs;
+    double cone_share[6] = {0};
+    int v, i, b, ch;
+    vsd_lbl_directions_make(in->shape, &dirs);
+    memset(ref_paths, 0, sizeof ref_paths);
+    memset(hit, 0, sizeof hit);
+    for (v = 0; v < VSD_LBL_VECTORS; v++)
+        for (i = 0; i < 6; i++) cone_share[i] += dirs.share[v] * dirs.cone[v][i];
+    for (v = 0; v < VSD_LBL_VECTORS; v++) {
+        const int *d = dirs.d[v];
+        int32_t start[3], step[3], x, y, z;
+        vsd_lbl_sweep_order(in->res, d, start, step);
+        for (z = start[2]; z >= 0 && z < N; z += step[2])
+            for (y = start[1]; y >= 0 && y < N; y += step[1])
+                for (x = start[0]; x >= 0 && x < N; x += step[0]) {
+                    const size_t c = AT(x, y, z);
+                    const int ux = x - d[0], uy = y - d[1], uz = z - d[2];
+                    const int inside = ux >= 0 && uy >= 0 && uz >= 0 && ux < N && uy < N && uz < N;
+                    const double xo = sigma[c] * dirs.len[v] * in->cell_world;
+                    const double tr = exp(-xo), e = xo > 1e-5 ? -expm1(-xo) / xo : 1.0 - xo / 2,
+                                 h = xo > 1e-5 ? (1.0 - e) / xo : 0.5 - xo / 6;
+                    for (ch = 0; ch < 3; ch++) {
+                        const double p_in = inside ? pout[(size_t)ch * CELLS + AT(ux, uy, uz)] : 0.0;
+                        double src = 0.0;
+                        for (b = 0; b < 6; b++)
+                            src += source[((size_t)b * 3 + ch) * CELLS + c] * dirs.share[v] * dirs.cone[v][b] / cone_share[b];
+                        pout[(size_t)ch * CELLS + c] = p_in * tr + src * e;
+                        for (i = 0; i < 6; i++) {
+                            ref_paths[((size_t)i * 3 + ch) * CELLS + c] += dirs.cone[v][i] * dirs.len[v] * (p_in * e + src * h);
+                            hit[((size_t)i * 3 + ch) * CELLS + c] += dirs.cone[v][i] * (p_in * (1.0 - tr) + src * (1.0 - e));
+                        }
+                    }
+                }
+    }
+    for (ch = 0; ch < 3; ch++)
+        for (size_t c = 0; c < CELLS; c++) {
+            double sum = 0.0;
+            for (i = 0; i < 6; i++) sum += hit[((size_t)i * 3 + ch) * CELLS + c];
+            for (i = 0; i < 6; i++) {
+                const double own = hit[((size_t)i * 3 + ch) * CELLS + c], back = hit[((size_t)(i ^ 1) * 3 + ch) * CELLS + c];
+                ref_births[((size_t)i * 3 + ch) * CELLS + c] =
+                    in->albedo[ch] * (in->side * (sum - own - back) + in->forward * own + in->backward * back);
+            }
+        }
+}
+
+/* the largest difference of a against b over the largest of b */
+static double worst(const float *a, const double *b, size_t count)
+{
+    double diff = 0.0, top = 0.0;
+    size_t c;
+    for (c = 0; c < count; c++) {
+        diff = fmax(diff, fabs(a[c] - b[c]));
+        top = fmax(top, fabs(b[c]));
+    }
+    return top > 0.0 ? diff / top : diff;
+}
+
+static void test_lumpy(void)
+{
+    static const double boxes[3] = {1.3, 1.0, 1.0 / 1.3};
+    static float paths1[18 * CELLS], births1[18 * CELLS];
+    vsd_lbl_first_flight in = setup(0.0, boxes, 1);
+    char err[256];
+    unsigned rng = 12345u;
+    double wp, wb;
+    size_t c;
+    int differ = 0;
+    for (c = 0; c < CELLS; c++) {
+        const int x = (int)(c % N), z = (int)(c / ((size_t)N * N));
+        rng = rng * 1664525u + 1013904223u;
+        /* a third empty, the rest from optical depth 1e-4 to 3 per cell, thicker with z */
+        sigma[c] = (rng >> 8) % 3 == 0 ? 0.0f : (float)(1e-3 * pow(10.0, 4.5 * ((rng >> 12) % 1000) / 1000.0) * (1 + z) / N / 0.1);
+        if (x > 20 && x < 24) sigma[c] = 0.0f;   /* a gap of empty cells across the box */
+    }
+    for (c = 0; c < 18 * CELLS; c++) {
+        rng = rng * 1664525u + 1013904223u;
+        source[c] = (rng >> 8) % 5 == 0 ? (float)((rng >> 12) % 1000) / 1000.0f : 0.0f;
+    }
+    in.albedo[0] = 0.9f, in.albedo[1] = 0.6f, in.albedo[2] = 0.3f;
+    in.forward = 0.5f, in.backward = 0.1f, in.side = 0.1f;
+    reference_flight(&in);
+    CHECK(vsd_lbl_first_flight_run(&in, 3, births, paths, err, sizeof err) == VSD_OK);
+    wp = worst(paths, ref_paths, 18 * CELLS), wb = worst(births, ref_births, 18 * CELLS);
+    CHECK_MSG(wp < 2e-5 && wb < 2e-5, "[5] a lumpy medium against the recurrence in double: paths %.3g, births %.3g", wp, wb);
+    printf("[5] a lumpy medium against the recurrence in double: paths %.3g, births %.3g of the largest\n", wp, wb);
+    CHECK(vsd_lbl_first_flight_run(&in, 1, births1, paths1, err, sizeof err) == VSD_OK);
+    for (c = 0; c < 18 * CELLS; c++) differ += paths1[c] != paths[c] || births1[c] != births[c];
+    CHECK_MSG(differ == 0, "[5] 1 and 3 threads: %d values differ", differ);
+}
+
 int main(void)
 {
     static const double boxes[3] = {1.6, 1.0, 1.0 / 1.6};
@@ -175,5 +272,6 @@ int main(void)
     test_surface(0.3, 0.33326);   /* E_3(0.3) = 0.30004 */
     test_surface(1.0, 0.19515);   /* E_3(1) = 0.10969 */
     test_surface(3.0, 0.081845);  /* E_3(3) = 0.0089306 */
+    test_lumpy();
     return test_finish("test_lbl_first_flight");
 }

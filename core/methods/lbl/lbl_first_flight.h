@@ -16,13 +16,20 @@
  * lattice's collisions and the view's readout take it) travels the line of cells one vector apart;
  * each cell owns a segment of the vector's length, of optical depth x = sigma len:
  *     P_out = P_in e^-x + S_v e,     e = (1 - e^-x) / x (a birth at a uniform point)
- *     collisions = P_in (1 - e^-x) + S_v (1 - e)
+ *     collisions = P_in (1 - e^-x) + S_v (1 - e)  = x path / len
  *     path = len (P_in e + S_v (1 - e) / x)
  * exact in total (every birth collides or leaves the box), and in a uniform medium the
  * path per cell is S / sigma, the fluence of the first flight. The collisions are born
  * again with the albedo and the lattice's cone phase (forward, backward, side shares of the
  * cone they arrived in): the source the lattice then diffuses. The paths, per cone, are the
- * first flight's light for the view (added to vsd_lbl_lattice_node_means' populations). */
+ * first flight's light for the view (added to vsd_lbl_lattice_node_means' populations).
+ *
+ * One sweep per vector serves every cone it falls in (its light is the same in each, only
+ * weighed by its part of the cone), row by row of cells along x with its own vectorised
+ * exp (lbl_exp.h); the collisions are taken from the paths at the end (sigma lambda times
+ * them), not kept per sweep. The threads share each vector's sweep: rows that light along it
+ * passes between form chains, and whole chains go to one thread, so the result is the same
+ * bit for bit on any number of threads. */
 #ifndef VSD_LBL_FIRST_FLIGHT_H
 #define VSD_LBL_FIRST_FLIGHT_H
 #include <stdint.h>

@@ -1,4 +1,5 @@
 #include "lbl_sweep.h"
+#include "lbl_exp.h"
 #include "device/cpu/cpu_tiles.h"
 #include <math.h>
 #include <stdlib.h>
@@ -84,23 +85,6 @@ static int layout_build(const vsd_lbl_grid *g, const int32_t *cell_record, int m
     return 1;
 }
 
-/* e^x for x <= 0 in plain float arithmetic the compiler vectorises along a row (libm's expf
- * is a call per cell, most of a scalar sweep's time): 2^(x log2 e) split into an integer
- * power, set in the exponent's bits, and a degree-6 polynomial of 2^f on [0, 1) (fitted
- * for the least largest relative error), within 1e-7 of e^x; below e^-87 it is 0's neighbour e^-87 (T that small lights nothing). */
-static inline float exp_nonpositive(float x)
-{
-    const float t = (x > -87.0f ? x : -87.0f) * 1.44269504f;   /* (fmaxf does not vectorise) */
-    const int32_t i = (int32_t)t;                /* toward 0: i >= t */
-    const int32_t n = i - (t < (float)i);       /* floor */
-    const float f = t - (float)n;
-    const float p = 1.0f + f * (0.693147004f + f * (0.240229398f + f * (0.0554859675f + f * (0.00967222173f +
-                                f * (0.00125117775f + f * 0.000214204862f)))));
-    union { int32_t i; float f; } scale;
-    scale.i = (n + 127) << 23;
-    return p * scale.f;
-}
-
 /* The rays of one medium, one per slot of a plane of (np + 3) x (nq + 3) (a border of one
  * slot, T 1 and sigma 0, that stays: the light entering from beside the box), two copies:
  * the layer before and this one. Slot (b, c) of the interior [0, np] x [0, nq] holds the
@@ -122,7 +106,7 @@ static void rays_row(size_t np, const float w[4], float half_l, const float *res
     for (b = 0; b <= np; b++) {
         const float sg = w0 * pad[b] + w1 * pad[b + 1] + w2 * pad[b + pad_stride] + w3 * pad[b + pad_stride + 1];
         s_now[b] = sg;
-        t_now[b] = t_was[b] * exp_nonpositive(half_l * (s_was[b] + sg));
+        t_now[b] = t_was[b] * vsd_lbl_exp_nonpositive(half_l * (s_was[b] + sg));
     }
 }
 
@@ -140,7 +124,7 @@ static void cells_row(size_t np, const float r[4], float l_world, const float *r
         t_out[P] = r0 * t_ray[P] + r1 * t_ray[P + 1] + r2 * t_ray[P + ray_stride] + r3 * t_ray[P + ray_stride + 1];
     if (!lost) return;
     for (P = 0; P < np; P++) {
-        const float x = sc[P] * l_world < 80.0f ? sc[P] * l_world : 80.0f, h = exp_nonpositive(-0.5f * x);
+        const float x = sc[P] * l_world < 80.0f ? sc[P] * l_world : 80.0f, h = vsd_lbl_exp_nonpositive(-0.5f * x);
         const float thin = sc[P] * (1.0f + x * x * (1.0f / 24.0f)), thick = (1.0f / h - h) * inv_l;
         lost[P] = t_out[P] * (x < 1e-2f ? thin : thick);
     }
