@@ -655,6 +655,25 @@ static float node_mean_sum(const vsd_lbl_lattice *l, const float *collide, const
     return v;
 }
 
+/* The solve's fluence at the nodes of slices [z0, z1) (items): each node on its own. */
+typedef struct fluence_job {
+    const vsd_lbl_lattice *l;
+    const float *collide, *albedo, *source;
+    float *fluence;
+} fluence_job;
+
+static void fluence_slices(void *user, int z0, int y0, int z1, int y1)
+{
+    const fluence_job *j = user;
+    const size_t cells = j->l->cells, slice = (size_t)j->l->res[0] * j->l->res[1];
+    size_t c;
+    int ch;
+    (void)y0, (void)y1;
+    for (ch = 0; ch < CH; ch++)
+        for (c = (size_t)z0 * slice; c < (size_t)z1 * slice; c++)
+            j->fluence[(size_t)ch * cells + c] = node_mean_sum(j->l, j->collide, j->albedo, j->source, ch, c);
+}
+
 double vsd_lbl_lattice_total(const vsd_lbl_lattice *l, int ch)
 {
     double s = 0.0;
@@ -711,8 +730,7 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     float *probes;
     step_job job;
     vsd_status st = VSD_OK;
-    size_t c;
-    int k, ch;
+    int k;
     const int per = l->layout.block_steps > 0 ? l->layout.block_steps : 1;
     int next_check = per > 8 ? per : 8;
     memset(stats, 0, sizeof *stats);
@@ -753,8 +771,12 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     }
     step_job_free(&job);
     free(probes);
-    for (ch = 0; ch < CH; ch++)
-        for (c = 0; c < l->cells; c++) fluence[(size_t)ch * l->cells + c] = node_mean_sum(l, collide, albedo, source, ch, c);
+    {
+        /* (0.08-0.14 s at 64^3 on one thread: each node's means solve its cell's births) */
+        fluence_job fj = {l, collide, albedo, source, fluence};
+        vsd_status fs = vsd_cpu_run_items(l->res[2], threads, fluence_slices, &fj, "lbl diffusion");
+        if (fs && !st) st = vsd_fail(fs, err, errlen, "lbl: the fluence's threads failed");
+    }
     stats->seconds = vsd_clock_seconds() - t0;
     return st;
 }
