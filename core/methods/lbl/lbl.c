@@ -358,7 +358,7 @@ static vsd_f3 cell_sample(const lbl_state *s, int32_t x, int32_t y, int32_t z, i
     return grid_point(s, x + (k / 9 + 0.5) / 3.0, y + (k / 3 % 3 + 0.5) / 3.0, z + (k % 3 + 0.5) / 3.0);
 }
 
-/* The cells of slices [z0, z1) (items of vsd_cpu_run_items), each on its own: a frame's
+/* The cells of slices [z0, z1) (items of vsd_cpu_run_each), each on its own: a frame's
  * 27 lookups per cell took 0.3 s on one thread at 64^3. */
 typedef struct cells_job {
     lbl_state *s;
@@ -438,7 +438,7 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the albedos of %zu cells", n);
     {
         cells_job job = {s, ctx};
-        if ((st = vsd_cpu_run_items(s->rg.res[2], ctx->threads, cell_sigma_slices, &job, "lbl cells")))
+        if ((st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, cell_sigma_slices, &job, "lbl cells")))
             return vsd_fail(st, err, errlen, "lbl: the cells' threads failed");
     }
     if (!(s->empty_d2 = malloc(n * sizeof *s->empty_d2)) ||
@@ -625,7 +625,7 @@ static void deposit(lbl_state *s, const vsd_frame_ctx *ctx, const float *trans, 
     }
     j.qe = qe;
     /* (the pool fails only when cancelled, which this stage is not) */
-    (void)vsd_cpu_run_items(s->rg.res[2], ctx->threads, deposit_slices, &j, "lbl deposit");
+    (void)vsd_cpu_run_each(s->rg.res[2], ctx->threads, deposit_slices, &j, "lbl deposit");
     if (vsd_group_emits(&ctx->kd, vsd_ctx_group(ctx))) {
         emission_source(s, ctx);
         add_emission(s);
@@ -728,7 +728,7 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the populations of %zu records", recs);
     {
         cells_job job = {s, ctx};
-        vsd_status st = vsd_cpu_run_items(s->rg.res[2], ctx->threads, population_slices, &job, "lbl readout");
+        vsd_status st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, population_slices, &job, "lbl readout");
         return st ? vsd_fail(st, err, errlen, "lbl: the readout's threads failed") : VSD_OK;
     }
 }
@@ -835,7 +835,7 @@ static void albedo_slices(void *user, int z0, int y0, int z1, int y1)
 static vsd_status mix_albedo_cells(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
     cells_job job = {s, ctx};
-    vsd_status st = vsd_cpu_run_items(s->rg.res[2], ctx->threads, albedo_slices, &job, "lbl cells");
+    vsd_status st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, albedo_slices, &job, "lbl cells");
     return st ? vsd_fail(st, err, errlen, "lbl: the cells' threads failed") : VSD_OK;
 }
 
@@ -1034,7 +1034,7 @@ static void forward_items(void *user, int x0, int y0, int x1, int y1)
 static void forward_light(lbl_state *s, int threads)
 {
     /* (the pool fails only when cancelled, which this stage is not) */
-    (void)vsd_cpu_run_items((s->rg.count + 4095) / 4096, threads, forward_items, s, "lbl forward light");
+    (void)vsd_cpu_run_each((s->rg.count + 4095) / 4096, threads, forward_items, s, "lbl forward light");
 }
 
 /* The cells as the light march reads them (lbl_march.h). */
@@ -1450,7 +1450,7 @@ static vsd_status receive_exchange(lbl_state *p, const vsd_frame_ctx *pc, float 
         receive_job j = {p,      p->lat_albedo, trans, lost, trans_true ? trans_true : trans, (const float(*)[6])shares,
                          once_s, once_e, per_view};
         /* (the pool fails only when cancelled, which this stage is not) */
-        if (vsd_cpu_run_items(p->rg.res[2], pc->threads, receive_slices, &j, "light between groups") != VSD_OK)
+        if (vsd_cpu_run_each(p->rg.res[2], pc->threads, receive_slices, &j, "light between groups") != VSD_OK)
             receive_slices(&j, 0, 0, p->rg.res[2], 1);
     }
     free(lights), free(trans), free(lost), free(shares), free(trans_true);

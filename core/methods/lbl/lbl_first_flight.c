@@ -300,12 +300,12 @@ vsd_status vsd_lbl_first_flight_run(const vsd_lbl_first_flight *in, int threads,
         st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the first flight of %zu cells", j.cells);
     } else {
         memset(paths, 0, (size_t)CONES * CH * j.cells * sizeof *paths);
-        st = vsd_cpu_run_items(in->res[2], threads, mark_born, &j, "lbl first flight");
+        st = vsd_cpu_run_each(in->res[2], threads, mark_born, &j, "lbl first flight");
         if (!st) st = sweep_vectors(&j, threads);
         r.j = &j;
         r.births = births;
         /* after every sweep has read the source: births may overwrite it */
-        if (births && !st) st = vsd_cpu_run_items(in->res[2], threads, rebirth_slices, &r, "lbl first flight");
+        if (births && !st) st = vsd_cpu_run_each(in->res[2], threads, rebirth_slices, &r, "lbl first flight");
         if (st == VSD_ERR_NOMEM)
             st = vsd_fail(st, err, errlen, "lbl: no memory for the first flight of %zu cells", j.cells);
         else if (st)

@@ -443,8 +443,8 @@ static void stream_slices(void *arg, int z0, int y0, int z1, int y1)
 /* one step: the z slices collide, then stream, on the CPU pool */
 static vsd_status run_step(step_job *job, int threads)
 {
-    vsd_status st = vsd_cpu_run_items(job->l->res[2], threads, collide_slices, job, "lbl diffusion");
-    return st ? st : vsd_cpu_run_items(job->l->res[2], threads, stream_slices, job, "lbl diffusion");
+    vsd_status st = vsd_cpu_run_each(job->l->res[2], threads, collide_slices, job, "lbl diffusion");
+    return st ? st : vsd_cpu_run_each(job->l->res[2], threads, stream_slices, job, "lbl diffusion");
 }
 
 /* A step job over l with its scratch (post-collision populations, per-node sums) and, with
@@ -774,7 +774,7 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
     {
         /* (0.08-0.14 s at 64^3 on one thread: each node's means solve its cell's births) */
         fluence_job fj = {l, collide, albedo, source, fluence};
-        vsd_status fs = vsd_cpu_run_items(l->res[2], threads, fluence_slices, &fj, "lbl diffusion");
+        vsd_status fs = vsd_cpu_run_each(l->res[2], threads, fluence_slices, &fj, "lbl diffusion");
         if (fs && !st) st = vsd_fail(fs, err, errlen, "lbl: the fluence's threads failed");
     }
     stats->seconds = vsd_clock_seconds() - t0;

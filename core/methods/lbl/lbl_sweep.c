@@ -277,12 +277,12 @@ vsd_status vsd_lbl_sweep_lights(const vsd_lbl_grid *g, const float *lights, int 
     if (!st && !(j.vals = malloc((size_t)BATCH * 2 * j.media * (size_t)record_count * sizeof *j.vals))) st = VSD_ERR_NOMEM;
     for (j.k0 = 0; j.k0 < light_count && !st; j.k0 += BATCH) {
         j.batch = light_count - j.k0 < BATCH ? light_count - j.k0 : BATCH;
-        if ((st = vsd_cpu_run_items(j.batch, threads, sweep_items, &j, "lbl light sweeps"))) break;
+        if ((st = vsd_cpu_run_each(j.batch, threads, sweep_items, &j, "lbl light sweeps"))) break;
         if (j.failed) {
             st = VSD_ERR_NOMEM;
             break;
         }
-        st = vsd_cpu_run_items((record_count + 4095) / 4096, threads, store_items, &j, "lbl light sweeps");
+        st = vsd_cpu_run_each((record_count + 4095) / 4096, threads, store_items, &j, "lbl light sweeps");
     }
     free(j.vals);
     for (a = 0; a < 3; a++) layout_free(&j.axes[a]);
