@@ -899,11 +899,11 @@ static const double *lattice_cell_shape(const lbl_state *s)
 }
 
 /* *keep (allocated on first use) = the surface escape's keep through sigma (lbl_escape.h). */
-static vsd_status escape_keep(const lbl_state *s, const float *sigma, float **keep, char *err, size_t errlen)
+static vsd_status escape_keep(const lbl_state *s, const float *sigma, int threads, float **keep, char *err, size_t errlen)
 {
     const size_t n = cell_count(s);
     if ((!*keep && !(*keep = malloc(n * sizeof **keep))) ||
-        !vsd_lbl_escape_keep(s->rg.res, sigma, s->cell_world, lattice_cell_shape(s), *keep)) {
+        !vsd_lbl_escape_keep(s->rg.res, sigma, s->cell_world, lattice_cell_shape(s), threads, *keep)) {
         free(*keep), *keep = NULL;
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the surface escape of %zu cells", n);
     }
@@ -911,9 +911,9 @@ static vsd_status escape_keep(const lbl_state *s, const float *sigma, float **ke
 }
 
 /* s->keep, the escape through the cells' own medium, made when first read (surface_escape on). */
-static vsd_status own_keep(lbl_state *s, char *err, size_t errlen)
+static vsd_status own_keep(lbl_state *s, int threads, char *err, size_t errlen)
 {
-    return s->opt.escape && !s->keep ? escape_keep(s, s->sigma, &s->keep, err, errlen) : VSD_OK;
+    return s->opt.escape && !s->keep ? escape_keep(s, s->sigma, threads, &s->keep, err, errlen) : VSD_OK;
 }
 
 /* The medium the lattice solves: the cells' own, or with delta-M (lbl_delta_m.h) the scaled
@@ -929,7 +929,7 @@ static vsd_status lattice_medium(lbl_state *s, const vsd_frame_ctx *ctx, char *e
     memcpy(s->lat_albedo, albedo, sizeof albedo);
     if (!s->opt.delta_m || s->opt.lattice_phase != LBL_PHASE_HG || s->opt.readout != LBL_READOUT_PHASE ||
         !s->source_dirs || !(g > 0.0f) || s->opt.history > 0 || !one_phase(ctx)) {
-        vsd_status st = own_keep(s, err, errlen);
+        vsd_status st = own_keep(s, ctx->threads, err, errlen);
         s->lat_keep = s->keep;
         return st;
     }
@@ -951,7 +951,7 @@ static vsd_status lattice_medium(lbl_state *s, const vsd_frame_ctx *ctx, char *e
          * With the true medium's escape the lattice kept too much of it: cloud256's rims
          * were bright (docs/methods/lbl.md, "The escape through the scaled medium"). */
         if (!s->dm_keep || memcmp(s->dm_keep_sigma, s->dm_sigma, n * sizeof *s->dm_sigma)) {
-            vsd_status st = escape_keep(s, s->dm_sigma, &s->dm_keep, err, errlen);
+            vsd_status st = escape_keep(s, s->dm_sigma, ctx->threads, &s->dm_keep, err, errlen);
             if (!st && !s->dm_keep_sigma && !(s->dm_keep_sigma = malloc(n * sizeof *s->dm_keep_sigma)))
                 st = vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for delta-M's medium of %zu cells", n);
             if (st) {
@@ -1268,7 +1268,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, &layout, err, errlen))) return st;
         vsd_lbl_lattice_set_cell_light(&s->lattice_e, s->opt.cell_light);
         vsd_lbl_lattice_set_cell_shape(&s->lattice_e, lattice_cell_shape(s));
-        if ((st = own_keep(s, err, errlen))) return st;
+        if ((st = own_keep(s, ctx->threads, err, errlen))) return st;
         vsd_lbl_lattice_set_keep(&s->lattice_e, s->keep);
         if ((st = vsd_lbl_diffuse(&s->lattice_e, s->collide, no_scattering, s->source_e, s->opt.tolerance,
                                   s->opt.max_steps, ctx->threads, s->fluence_e, &stats_e, err, errlen)))

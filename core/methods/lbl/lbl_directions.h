@@ -35,4 +35,26 @@ static inline void vsd_lbl_sweep_order(const int32_t res[3], const int d[3], int
     for (a = 0; a < 3; a++) start[a] = d[a] < 0 ? res[a] - 1 : 0, step[a] = d[a] < 0 ? -1 : 1;
 }
 
+/* Light along d (or against it) reaches the row of cells along x at (y, z) from row
+ * (y - d1, z - d2) alone (or y + d1, z + d2), shifted by d0 along it: the rows of one key
+ * y d2 - z d1 form chains that no light leaves, so a sweep may deal whole chains to its
+ * threads, each row then needing nothing from another thread. A vector along x (d1 = d2 = 0)
+ * chains each row to itself. The row's class of `classes`: its key modulo them. */
+static inline int vsd_lbl_row_class(const int d[3], int32_t y, int32_t z, int32_t ny, int classes)
+{
+    const int32_t key = d[1] == 0 && d[2] == 0 ? z * ny + y : y * d[2] - z * d[1];
+    /* classes a power of two (vsd_lbl_row_classes): the key's low bits, negative keys too,
+     * with no division per row */
+    return (int)((uint32_t)key & (uint32_t)(classes - 1));
+}
+
+/* The classes a sweep on `threads` (resolved) deals out: a power of two, four or more a
+ * thread, so a thread that finishes early takes another. */
+static inline int vsd_lbl_row_classes(int threads)
+{
+    int c = 1;
+    while (c < 4 * threads) c *= 2;
+    return c;
+}
+
 #endif

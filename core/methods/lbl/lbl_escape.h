@@ -21,7 +21,10 @@
 #include <stdint.h>
 
 /* keep[cells] from sigma[cells] (per world unit, x fastest) and the cube-equivalent cell edge
- * (world units). Returns 0 when out of memory. */
-int vsd_lbl_escape_keep(const int32_t res[3], const float *sigma, double cell_world, const double *shape, float *keep);
+ * (world units), on `threads` (0 = all): each vector's sweep by rows of cells along x, whole
+ * chains of them per thread (vsd_lbl_row_class), the same result on any thread count.
+ * Returns 0 when out of memory. */
+int vsd_lbl_escape_keep(const int32_t res[3], const float *sigma, double cell_world, const double *shape, int threads,
+                        float *keep);
 
 #endif

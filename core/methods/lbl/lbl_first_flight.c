@@ -9,10 +9,6 @@
 
 enum { CONES = 6, CH = 3 };
 
-/* A vector's sweep deals its rows out in more classes than threads (below), so a thread
- * that finishes early takes another. */
-enum { CLASSES_PER_THREAD = 4 };
-
 /* One vector's sweep: its step, the cones its births come from (its part of each: for
  * births with a direction, its solid angle in the cone over the cone's; for isotropic
  * births, held as cone 0, its solid angle over 4pi) and the cones its light arrives in (its
@@ -102,14 +98,6 @@ static void row_cells_along(int32_t nx, int dx, const float *sigma, float step, 
     }
 }
 
-/* Light along vector d reaches the row of cells (y, z) from row (y - d1, z - d2) alone,
- * shifted by d0 along it: the rows whose key y d2 - z d1 is the same form chains that no
- * light leaves. A vector along x (d1 = d2 = 0) chains each row to itself. */
-static long long row_key(const int d[3], int32_t y, int32_t z, int32_t ny)
-{
-    return d[1] == 0 && d[2] == 0 ? (long long)z * ny + y : (long long)y * d[2] - (long long)z * d[1];
-}
-
 /* Row (y, z) of the plan's sweep; scratch: [3][3][nx]. */
 static void sweep_row(flight_job *j, int32_t y, int32_t z, float *scratch)
 {
@@ -156,7 +144,7 @@ static void sweep_row(flight_job *j, int32_t y, int32_t z, float *scratch)
     }
 }
 
-/* Classes [x0, x1) of the plan's rows (a row's class: its key modulo the classes), each
+/* Classes [x0, x1) of the plan's rows (vsd_lbl_row_class: chains no light leaves), each
  * swept in the vector's order: a row after the row its light comes from. */
 static void sweep_classes(void *user, int x0, int y0, int x1, int y1)
 {
@@ -175,8 +163,7 @@ static void sweep_classes(void *user, int x0, int y0, int x1, int y1)
     for (c = x0; c < x1; c++)
         for (z = start[2]; z >= 0 && z < res[2]; z += dir[2])
             for (y = start[1]; y >= 0 && y < res[1]; y += dir[1]) {
-                const long long k = row_key(d, y, z, res[1]) % j->classes;
-                if ((k < 0 ? k + j->classes : k) == c) sweep_row(j, y, z, scratch);
+                if (vsd_lbl_row_class(d, y, z, res[1], j->classes) == c) sweep_row(j, y, z, scratch);
             }
     free(scratch);
 }
@@ -266,7 +253,7 @@ static vsd_status sweep_vectors(flight_job *j, int threads)
         vsd_status st;
         plan_vector(j, v);
         if (!j->plan.births) continue;
-        j->classes = t * CLASSES_PER_THREAD;
+        j->classes = vsd_lbl_row_classes(t);
         if ((st = vsd_cpu_run_each(j->classes, t, sweep_classes, j, "lbl first flight"))) return st;
         if (j->failed) return VSD_ERR_NOMEM;
     }
