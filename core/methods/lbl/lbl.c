@@ -358,34 +358,39 @@ static vsd_f3 cell_sample(const lbl_state *s, int32_t x, int32_t y, int32_t z, i
     return grid_point(s, x + (k / 9 + 0.5) / 3.0, y + (k / 3 % 3 + 0.5) / 3.0, z + (k % 3 + 0.5) / 3.0);
 }
 
-/* The cells of slices [z0, z1) (items of vsd_cpu_run_each), each on its own: a frame's
- * 27 lookups per cell took 0.3 s on one thread at 64^3. */
+/* The cells of slices [z0, z1) (items of vsd_cpu_run_each), each on its own by `cell`: a
+ * frame's 27 lookups per cell took 0.3 s on one thread at 64^3. */
 typedef struct cells_job {
     lbl_state *s;
     const vsd_frame_ctx *ctx;
+    void (*cell)(const struct cells_job *j, int32_t x, int32_t y, int32_t z, size_t c);
 } cells_job;
 
-/* sigma_t of each cell, the mean of its 27 samples, and its collision probability */
-static void cell_sigma_slices(void *user, int z0, int y0, int z1, int y1)
+static void cell_slices(void *user, int z0, int y0, int z1, int y1)
 {
     const cells_job *j = user;
-    lbl_state *s = j->s;
-    const uint32_t group = vsd_ctx_group(j->ctx);
+    const int32_t *res = j->s->rg.res;
     int32_t x, y, z;
     size_t c;
     (void)y0, (void)y1;
-    for (z = z0, c = (size_t)z0 * s->rg.res[1] * s->rg.res[0]; z < z1; z++)
-        for (y = 0; y < s->rg.res[1]; y++)
-            for (x = 0; x < s->rg.res[0]; x++, c++) {
-                double sum = 0.0;
-                int k;
-                for (k = 0; k < 27; k++) sum += vsd_group_sigma(&j->ctx->kd, group, cell_sample(s, x, y, z, k));
-                /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite
-                 * here: inf - inf in the trilinear lookups would turn the light into NaN; a
-                 * cell of 1e20 per unit length is opaque all the same */
-                s->sigma[c] = (float)fmin(sum / 27.0, 1e20);
-                s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
-            }
+    for (z = z0, c = (size_t)z0 * res[1] * res[0]; z < z1; z++)
+        for (y = 0; y < res[1]; y++)
+            for (x = 0; x < res[0]; x++, c++) j->cell(j, x, y, z, c);
+}
+
+/* sigma_t of a cell, the mean of its 27 samples, and its collision probability */
+static void cell_sigma(const cells_job *j, int32_t x, int32_t y, int32_t z, size_t c)
+{
+    lbl_state *s = j->s;
+    const uint32_t group = vsd_ctx_group(j->ctx);
+    double sum = 0.0;
+    int k;
+    for (k = 0; k < 27; k++) sum += vsd_group_sigma(&j->ctx->kd, group, cell_sample(s, x, y, z, k));
+    /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite here: inf -
+     * inf in the trilinear lookups would turn the light into NaN; a cell of 1e20 per unit
+     * length is opaque all the same */
+    s->sigma[c] = (float)fmin(sum / 27.0, 1e20);
+    s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
 }
 
 /* A part's frame stage (below) reads its group's media: its grid covers the group, its
@@ -437,8 +442,8 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
         !(s->albedo_cells = malloc(3 * n * sizeof *s->albedo_cells)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the albedos of %zu cells", n);
     {
-        cells_job job = {s, ctx};
-        if ((st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, cell_sigma_slices, &job, "lbl cells")))
+        cells_job job = {s, ctx, cell_sigma};
+        if ((st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, cell_slices, &job, "lbl cells")))
             return vsd_fail(st, err, errlen, "lbl: the cells' threads failed");
     }
     if (!(s->empty_d2 = malloc(n * sizeof *s->empty_d2)) ||
@@ -727,7 +732,7 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
     if (!(s->ms6 = malloc(18 * recs * sizeof *s->ms6)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the populations of %zu records", recs);
     {
-        cells_job job = {s, ctx};
+        cells_job job = {s, ctx, NULL};
         vsd_status st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, population_slices, &job, "lbl readout");
         return st ? vsd_fail(st, err, errlen, "lbl: the readout's threads failed") : VSD_OK;
     }
@@ -810,32 +815,24 @@ static vsd_status readout_view(lbl_state *s, const vsd_frame_ctx *ctx, int with_
  * 27 samples as the cells' extinction (the medium's own where no volume has density). The
  * albedos are lighting-stage inputs: an edit of one volume's albedo reaches this, not the
  * frame stage. */
-static void albedo_slices(void *user, int z0, int y0, int z1, int y1)
+static void cell_albedo(const cells_job *j, int32_t x, int32_t y, int32_t z, size_t c)
 {
-    const cells_job *j = user;
     lbl_state *s = j->s;
     const size_t n = cell_count(s);
     const vsd_f3 own = j->ctx->kd.medium.albedo;
-    int32_t x, y, z;
-    size_t c;
-    (void)y0, (void)y1;
-    for (z = z0, c = (size_t)z0 * s->rg.res[1] * s->rg.res[0]; z < z1; z++)
-        for (y = 0; y < s->rg.res[1]; y++)
-            for (x = 0; x < s->rg.res[0]; x++, c++) {
-                double sum = 0.0, scatter[3] = {0.0, 0.0, 0.0};
-                int k;
-                for (k = 0; k < 27; k++)
-                    sum += vsd_group_scattering(&j->ctx->kd, j->ctx->part.group, cell_sample(s, x, y, z, k), scatter);
-                s->albedo_cells[c] = (float)(sum > 0.0 ? scatter[0] / sum : own.x);
-                s->albedo_cells[n + c] = (float)(sum > 0.0 ? scatter[1] / sum : own.y);
-                s->albedo_cells[2 * n + c] = (float)(sum > 0.0 ? scatter[2] / sum : own.z);
-            }
+    double sum = 0.0, scatter[3] = {0.0, 0.0, 0.0};
+    int k;
+    for (k = 0; k < 27; k++)
+        sum += vsd_group_scattering(&j->ctx->kd, j->ctx->part.group, cell_sample(s, x, y, z, k), scatter);
+    s->albedo_cells[c] = (float)(sum > 0.0 ? scatter[0] / sum : own.x);
+    s->albedo_cells[n + c] = (float)(sum > 0.0 ? scatter[1] / sum : own.y);
+    s->albedo_cells[2 * n + c] = (float)(sum > 0.0 ? scatter[2] / sum : own.z);
 }
 
 static vsd_status mix_albedo_cells(lbl_state *s, const vsd_frame_ctx *ctx, char *err, size_t errlen)
 {
-    cells_job job = {s, ctx};
-    vsd_status st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, albedo_slices, &job, "lbl cells");
+    cells_job job = {s, ctx, cell_albedo};
+    vsd_status st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, cell_slices, &job, "lbl cells");
     return st ? vsd_fail(st, err, errlen, "lbl: the cells' threads failed") : VSD_OK;
 }
 
