@@ -688,32 +688,29 @@ static vsd_status split_scene_lights(lbl_state *s, const vsd_kernel_data *kd, in
     return *suns < VSD_RECORDS_MAX_LIGHTS ? VSD_OK : VSD_ERR_INTERNAL;
 }
 
-/* The records of slices [z0, z1) (items): readout_populations' ms6, each on its own (the
+/* A cell's record's six populations for readout_populations (ms6), each on its own (the
  * means of a node solve its cell's births: 0.06-0.08 s on one thread at 64^3). */
-static void population_slices(void *user, int z0, int y0, int z1, int y1)
+static void cell_populations(const cells_job *j, int32_t x, int32_t y, int32_t z, size_t c)
 {
-    lbl_state *s = ((const cells_job *)user)->s;
-    const size_t n = cell_count(s), slice = (size_t)s->rg.res[0] * s->rg.res[1];
+    lbl_state *s = j->s;
+    const size_t n = cell_count(s);
     const double k = 6.0 / (s->cell_world * s->cell_world) / (4.0 * PI_D);
-    size_t c;
-    (void)y0, (void)y1;
-    for (c = (size_t)z0 * slice; c < (size_t)z1 * slice; c++) {
-        int32_t rec = s->rg.cell_record[c];
-        int i, a;
-        if (rec < 0) continue;
-        for (a = 0; a < 3; a++) {
-            float m[6], me[6] = {0};
-            vsd_lbl_lattice_node_means(&s->lattice, s->lat_collide, s->lat_albedo, s->source, a, c, m);
-            if (s->fluence_e && s->ff_paths_e)
-                for (i = 0; i < 6; i++) me[i] = s->ff_paths_e[((size_t)i * 3 + a) * n + c];
-            else if (s->fluence_e && s->lattice_e.f)
-                vsd_lbl_lattice_node_means(&s->lattice_e, s->collide, no_scattering, s->source_e, a, c, me);
-            if (s->ff_paths)
-                for (i = 0; i < 6; i++) m[i] += s->ff_paths[((size_t)i * 3 + a) * n + c];
-            for (i = 0; i < 6; i++) {
-                double f = (double)m[i] - me[i];
-                s->ms6[18 * (size_t)rec + 3 * i + a] = (float)(f > 0.0 ? f * k : 0.0);
-            }
+    const int32_t rec = s->rg.cell_record[c];
+    int i, a;
+    (void)x, (void)y, (void)z;
+    if (rec < 0) return;
+    for (a = 0; a < 3; a++) {
+        float m[6], me[6] = {0};
+        vsd_lbl_lattice_node_means(&s->lattice, s->lat_collide, s->lat_albedo, s->source, a, c, m);
+        if (s->fluence_e && s->ff_paths_e)
+            for (i = 0; i < 6; i++) me[i] = s->ff_paths_e[((size_t)i * 3 + a) * n + c];
+        else if (s->fluence_e && s->lattice_e.f)
+            vsd_lbl_lattice_node_means(&s->lattice_e, s->collide, no_scattering, s->source_e, a, c, me);
+        if (s->ff_paths)
+            for (i = 0; i < 6; i++) m[i] += s->ff_paths[((size_t)i * 3 + a) * n + c];
+        for (i = 0; i < 6; i++) {
+            double f = (double)m[i] - me[i];
+            s->ms6[18 * (size_t)rec + 3 * i + a] = (float)(f > 0.0 ? f * k : 0.0);
         }
     }
 }
@@ -732,8 +729,8 @@ static vsd_status readout_populations(lbl_state *s, const vsd_frame_ctx *ctx, co
     if (!(s->ms6 = malloc(18 * recs * sizeof *s->ms6)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the populations of %zu records", recs);
     {
-        cells_job job = {s, ctx, NULL};
-        vsd_status st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, population_slices, &job, "lbl readout");
+        cells_job job = {s, ctx, cell_populations};
+        vsd_status st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, cell_slices, &job, "lbl readout");
         return st ? vsd_fail(st, err, errlen, "lbl: the readout's threads failed") : VSD_OK;
     }
 }

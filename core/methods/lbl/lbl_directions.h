@@ -48,6 +48,18 @@ static inline int vsd_lbl_row_class(const int d[3], int32_t y, int32_t z, int32_
     return (int)((uint32_t)key & (uint32_t)(classes - 1));
 }
 
+/* The rows of chain class c of `classes` of a sweep along `order` (the light's d, or -d for a
+ * sweep that needs cell c + d first), in that sweep's order: row(user, y, z) for each. */
+static inline void vsd_lbl_class_rows(const int32_t res[3], const int order[3], int classes, int c,
+                                      void (*row)(void *user, int32_t y, int32_t z), void *user)
+{
+    int32_t start[3], step[3], y, z;
+    vsd_lbl_sweep_order(res, order, start, step);
+    for (z = start[2]; z >= 0 && z < res[2]; z += step[2])
+        for (y = start[1]; y >= 0 && y < res[1]; y += step[1])
+            if (vsd_lbl_row_class(order, y, z, res[1], classes) == c) row(user, y, z);
+}
+
 /* The classes a sweep on `threads` (resolved) deals out: a power of two, four or more a
  * thread, so a thread that finishes early takes another. */
 static inline int vsd_lbl_row_classes(int threads)

@@ -11,7 +11,7 @@ typedef struct escape_job {
     const float *sigma;
     double cell_world;
     vsd_lbl_directions dirs;
-    int v, classes, failed;
+    int v, classes;
     float *tau, *sphere, *axes; /* [cells]: the optical depth out along the vector; the sums */
 } escape_job;
 
@@ -74,6 +74,8 @@ static void escape_row(escape_job *j, int32_t y, int32_t z)
         for (x = 0; x < nx; x++) sphere[x] += share * vsd_lbl_exp_nonpositive(-tau[x]);
 }
 
+static void class_row(void *user, int32_t y, int32_t z) { escape_row(user, y, z); }
+
 /* Classes [x0, x1) of vector v's rows, each in its sweep's order: a row after the row its
  * step reaches (cell c + d before cell c). */
 static void escape_classes(void *user, int x0, int y0, int x1, int y1)
@@ -81,14 +83,9 @@ static void escape_classes(void *user, int x0, int y0, int x1, int y1)
     escape_job *j = user;
     const int *d = j->dirs.d[j->v];
     const int out[3] = {-d[0], -d[1], -d[2]};
-    int32_t start[3], dir[3], y, z;
     int c;
     (void)y0, (void)y1;
-    vsd_lbl_sweep_order(j->res, out, start, dir);
-    for (c = x0; c < x1; c++)
-        for (z = start[2]; z >= 0 && z < j->res[2]; z += dir[2])
-            for (y = start[1]; y >= 0 && y < j->res[1]; y += dir[1])
-                if (vsd_lbl_row_class(d, y, z, j->res[1], j->classes) == c) escape_row(j, y, z);
+    for (c = x0; c < x1; c++) vsd_lbl_class_rows(j->res, out, j->classes, c, class_row, j);
 }
 
 int vsd_lbl_escape_keep(const int32_t res[3], const float *sigma, double cell_world, const double *shape, int threads,

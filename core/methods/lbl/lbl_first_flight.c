@@ -144,28 +144,32 @@ static void sweep_row(flight_job *j, int32_t y, int32_t z, float *scratch)
     }
 }
 
-/* Classes [x0, x1) of the plan's rows (vsd_lbl_row_class: chains no light leaves), each
+/* One thread's rows: the job and its scratch. */
+typedef struct row_ctx {
+    flight_job *j;
+    float *scratch;
+} row_ctx;
+
+static void class_row(void *user, int32_t y, int32_t z)
+{
+    const row_ctx *r = user;
+    sweep_row(r->j, y, z, r->scratch);
+}
+
+/* Classes [x0, x1) of the plan's rows (vsd_lbl_class_rows: chains no light leaves), each
  * swept in the vector's order: a row after the row its light comes from. */
 static void sweep_classes(void *user, int x0, int y0, int x1, int y1)
 {
-    flight_job *j = user;
-    const int32_t *res = j->in->res;
-    const int *d = j->plan.d;
-    float *scratch = malloc((size_t)3 * CH * res[0] * sizeof *scratch);
-    int32_t start[3], dir[3], y, z;
+    row_ctx r = {user, NULL};
+    const int32_t *res = r.j->in->res;
     int c;
     (void)y0, (void)y1;
-    if (!scratch) {
-        j->failed = 1;
+    if (!(r.scratch = malloc((size_t)3 * CH * res[0] * sizeof *r.scratch))) {
+        r.j->failed = 1;
         return;
     }
-    vsd_lbl_sweep_order(res, d, start, dir);
-    for (c = x0; c < x1; c++)
-        for (z = start[2]; z >= 0 && z < res[2]; z += dir[2])
-            for (y = start[1]; y >= 0 && y < res[1]; y += dir[1]) {
-                if (vsd_lbl_row_class(d, y, z, res[1], j->classes) == c) sweep_row(j, y, z, scratch);
-            }
-    free(scratch);
+    for (c = x0; c < x1; c++) vsd_lbl_class_rows(res, r.j->plan.d, r.j->classes, c, class_row, &r);
+    free(r.scratch);
 }
 
 static void plan_vector(flight_job *j, int v)
@@ -249,11 +253,11 @@ static vsd_status sweep_vectors(flight_job *j, int threads)
 {
     const int t = vsd_cpu_thread_count(threads);
     int v;
+    j->classes = vsd_lbl_row_classes(t);
     for (v = 0; v < VSD_LBL_VECTORS; v++) {
         vsd_status st;
         plan_vector(j, v);
         if (!j->plan.births) continue;
-        j->classes = vsd_lbl_row_classes(t);
         if ((st = vsd_cpu_run_each(j->classes, t, sweep_classes, j, "lbl first flight"))) return st;
         if (j->failed) return VSD_ERR_NOMEM;
     }
