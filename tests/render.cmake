@@ -21,3 +21,6 @@ vsd_add_test(test_reference_cache SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_refer
              LABELS integration render slow TIMEOUT 900)
 # The half-resolution volume and the density levels of shgrid's records and constellation's shadow grid.
 vsd_add_test(test_density_levels SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_density_levels.c LIBS vsd_render LABELS unit render)
+# The CPU pool's wavefront order (device/cpu/cpu_wavefront.h, lbl's Gauss-Seidel lattice):
+# dependencies held on several grids and thread counts, the same bits on any thread count.
+vsd_add_test(test_cpu_wavefront SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test_cpu_wavefront.c LIBS vsd_render LABELS unit render)

@@ -58,6 +58,9 @@ static const struct {
     {"constellation", "lights", "8", "fewer lights: a fraction of the shadow work"},
     {"constellation", "shadow_grid", "16", "shadows grid: 16^3 records instead of the automatic grid"},
     {"lbl", "lights", "8", "fewer lights: an eighth of the marching"},
+    {"lbl", "tolerance", "1e-6",
+     "the diffusion solved to 1e-6, not 1e-3: the lattice's two orders then agree to float rounding (at 1e-3 they "
+     "differ by 1.8e-5, their distances from the steady state); a few more steps on 16^3 cells"},
     {"lbl", "cells", "16", "16^3 lattice cells instead of 64^3: the diffusion in milliseconds"},
     {"shgrid", "grid", "8", "8^3 records instead of a cell per 4 voxels"},
     {"shgrid", "directions", "48", "48 HEALPix directions per record instead of 192"},
@@ -90,6 +93,9 @@ static const struct {
 } declared[] = {
     {"lbl", "leaps", "false", "",
      "the same result by design, only faster (\"the same result; 0 = march every step\"): equality IS the check"},
+    {"lbl", "lattice_order", "jacobi", "",
+     "the same steady state reached by another iteration (lbl_lattice.h): with both solves run to the tolerance "
+     "above, equality IS the check; test_lbl_lattice [14] counts the steps each takes"},
     {"lbl", "exchange", "false", "",
      "light between near groups of volumes (lbl_exchange.h): this scene has one volume, so nothing is sent and "
      "nothing may change; test_volumes renders its effect on three volumes and a cloud beside a smoke"},

@@ -42,7 +42,8 @@ vsd_status vsd_cpu_run_tiles(const vsd_tile_job *job);
 vsd_status vsd_cpu_run_items(int count, int threads, vsd_tile_fn fn, void *user, const char *stage);
 
 /* fn over items [0, count) one item per call: for lists of a few large items (crm's sweep
- * per direction), which ranges of VSD_TILE_SIZE would hand to one thread. */
+ * per direction), which ranges of VSD_TILE_SIZE would hand to one thread. Items are handed
+ * out in increasing order, each to the next thread free (cpu_wavefront.c relies on it). */
 vsd_status vsd_cpu_run_each(int count, int threads, vsd_tile_fn fn, void *user, const char *stage);
 
 /* The thread count a request for `threads` (0 = all) resolves to: vsd_cpu_thread_count,

@@ -63,7 +63,7 @@
 static const float no_scattering[3] = {0.0f, 0.0f, 0.0f};
 
 typedef struct lbl_options {
-    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, light_march, cell_shape, escape, exchange, delta_m, first_flight;
+    int lights, cells, max_steps, interp, pixel_samples, view_bake, block_steps, lattice, leaps, history, sub_lights, readout, lattice_phase, cell_light, light_deposit, light_march, cell_shape, escape, exchange, delta_m, first_flight, lattice_order;
     double ray_spacing, light_step, tolerance, slice, early_termination;
     vsd_view_sampling view;
 } lbl_options;
@@ -73,6 +73,8 @@ static const char *const lbl_readout_names[] = {"isotropic", "phase", NULL};
 static const char *const lbl_phase_names[] = {"isotropic", "hg", NULL};
 /* in VSD_LBL_CELL_FACES.. order */
 static const char *const lbl_cell_light_names[] = {"faces", "path", NULL};
+/* in VSD_LBL_ORDER_JACOBI.. order */
+static const char *const lbl_order_names[] = {"jacobi", "gauss-seidel", NULL};
 enum { LBL_DEPOSIT_CENTRE, LBL_DEPOSIT_LOST };
 static const char *const lbl_light_march_names[] = {"rays", "sweep", NULL};
 enum { LBL_MARCH_RAYS, LBL_MARCH_SWEEP };
@@ -148,6 +150,11 @@ static const vsd_option_spec lbl_option_rows[] = {
      "there leaving whole, or each photon's path through the cell, born light crossing the rest of it (global "
      "D3Q6 lattice; lbl_lattice.h, docs/methods/lbl.md)",
      offsetof(lbl_options, cell_light), 0, NULL, .when = lbl_on_global_d3q6},
+    {"lattice_order", VSD_OPT_CHOICE, 0, 0, VSD_LBL_ORDER_GAUSS_SEIDEL, lbl_order_names,
+     "diffusion: every node steps from the last step's populations (the paper's jacobi), or the rows of nodes in "
+     "turn, each colliding with what the rows before it sent it in the same step (gauss-seidel: the same steady "
+     "state in about half the steps; global D3Q6 lattice; lbl_lattice.h)",
+     offsetof(lbl_options, lattice_order), 0, NULL, .when = lbl_on_global_d3q6},
     {"light_deposit", VSD_OPT_CHOICE, 0, 0, LBL_DEPOSIT_LOST, lbl_deposit_names,
      "marching: what a cell scatters out of a directional light's rays, the paper's albedo E T p lambda^2 with the "
      "rays' T at its centre, or albedo E times the power the rays lost in it (exact for thick cells; lbl_march.h)",
@@ -1175,6 +1182,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     /* the lattice first: with a ray history it steps while the rays march */
     if ((st = vsd_lbl_lattice_init(&s->lattice, s->rg.res, &layout, err, errlen))) return st;
     vsd_lbl_lattice_set_cell_light(&s->lattice, s->opt.cell_light);
+    vsd_lbl_lattice_set_order(&s->lattice, s->opt.lattice_order);
     vsd_lbl_lattice_set_cell_shape(&s->lattice, lattice_cell_shape(s));
     if ((st = lattice_medium(s, ctx, err, errlen))) return st;
     vsd_lbl_lattice_set_keep(&s->lattice, s->lat_keep);
@@ -1261,6 +1269,7 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
         vsd_lbl_diffusion_stats stats_e;
         if ((st = vsd_lbl_lattice_init(&s->lattice_e, s->rg.res, &layout, err, errlen))) return st;
         vsd_lbl_lattice_set_cell_light(&s->lattice_e, s->opt.cell_light);
+        vsd_lbl_lattice_set_order(&s->lattice_e, s->opt.lattice_order);
         vsd_lbl_lattice_set_cell_shape(&s->lattice_e, lattice_cell_shape(s));
         if ((st = own_keep(s, ctx->threads, err, errlen))) return st;
         vsd_lbl_lattice_set_keep(&s->lattice_e, s->keep);

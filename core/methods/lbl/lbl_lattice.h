@@ -61,12 +61,21 @@ typedef struct vsd_lbl_lattice {
     double shape[3];         /* each axis's cell edge over the cube-equivalent edge (product 1; path only) */
     const float *keep;       /* [cells] or NULL (vsd_lbl_lattice_set_keep; the caller's array) */
     const float *albedo_cells; /* [3][cells] or NULL (vsd_lbl_lattice_set_albedo_cells) */
+    int order;               /* VSD_LBL_ORDER_*, global D3Q6 only (vsd_lbl_lattice_set_order) */
 } vsd_lbl_lattice;
 
 /* The light in a cell (global D3Q6 only): the paper's step (FACES: photons counted at the
  * face they arrive at, what is born in the cell — scattered or the source — leaves it
  * whole), or each photon's path through the cell (PATH: vsd_lbl_lattice_node_means). */
 enum { VSD_LBL_CELL_FACES = 0, VSD_LBL_CELL_PATH = 1 };
+
+/* The order of a step's nodes (global D3Q6 only): every node from the last step's
+ * populations at once (JACOBI, the paper's lattice-Boltzmann step, and the lattice's own
+ * until set), or the rows of nodes in turn, each colliding with what the rows before it
+ * sent it in the same step (GAUSS_SEIDEL, lbl_lattice.c: the same steady state in about
+ * half the steps). */
+enum { VSD_LBL_ORDER_JACOBI = 0, VSD_LBL_ORDER_GAUSS_SEIDEL = 1 };
+void vsd_lbl_lattice_set_order(vsd_lbl_lattice *l, int order);
 
 typedef struct vsd_lbl_diffusion_stats {
     int steps;
