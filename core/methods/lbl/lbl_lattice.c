@@ -494,8 +494,9 @@ static void push_row(step_job *j, int32_t y, int32_t z)
     }
 }
 
-/* Run u of slice v in the step's order (forward: slice v, rows [u, u + 1) ORDER_ROWS;
- * backward: both mirrored) collides, then streams. */
+/* Run u of slice v in the step's order collides, then streams: forward, rows
+ * [u ORDER_ROWS, (u + 1) ORDER_ROWS) of slice v; backward, the slice and the rows
+ * mirrored (slice nz - 1 - v, counted from the last row). */
 static void order_run(void *user, int u, int v)
 {
     step_job *j = user;
@@ -511,7 +512,8 @@ static void order_run(void *user, int u, int v)
     for (y = y0; y < y1; y++) push_row(j, y, z);
 }
 
-/* one step: the z slices collide, then stream, on the CPU pool */
+/* One step on the CPU pool: in Gauss-Seidel order the runs of rows in wavefront order,
+ * else (Jacobi) every z slice collides, then every slice streams. */
 static vsd_status run_step(step_job *job, int threads)
 {
     vsd_status st;
@@ -827,7 +829,7 @@ vsd_status vsd_lbl_diffuse(vsd_lbl_lattice *l, const float *collide, const float
      * convergence test runs every 8 steps or every iteration, whichever is longer */
     for (k = 0; k < max_steps; k += per) {
         if ((st = advance(l, &job, albedo, threads))) {
-            st = vsd_fail(st, err, errlen, "lbl diffusion cancelled");
+            st = vsd_fail(st, err, errlen, "lbl diffusion stopped: %s", vsd_status_str(st));
             break;
         }
         stats->steps = k + per;
