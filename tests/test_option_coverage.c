@@ -59,8 +59,8 @@ static const struct {
     {"constellation", "shadow_grid", "16", "shadows grid: 16^3 records instead of the automatic grid"},
     {"lbl", "lights", "8", "fewer lights: an eighth of the marching"},
     {"lbl", "tolerance", "1e-6",
-     "the diffusion solved to 1e-6, not 1e-3: the lattice's two orders then agree to float rounding (at 1e-3 they "
-     "differ by 1.8e-5, their distances from the steady state); a few more steps on 16^3 cells"},
+     "the diffusion solved to 1e-6, not the default 3e-3: the lattice's two orders then agree to float rounding (at "
+     "1e-3 they differ by 1.8e-5, their distances from the steady state); a few more steps on 16^3 cells"},
     {"lbl", "cells", "16", "16^3 lattice cells instead of 64^3: the diffusion in milliseconds"},
     {"shgrid", "grid", "8", "8^3 records instead of a cell per 4 voxels"},
     {"shgrid", "directions", "48", "48 HEALPix directions per record instead of 192"},

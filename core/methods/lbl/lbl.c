@@ -119,7 +119,7 @@ static const vsd_option_spec lbl_option_rows[] = {
      "(the paper's ray history k, Fig. 1a; its best was 16); 0 = march every light, then diffuse (faster on the CPU: "
      "docs/methods/lbl.md, Table I)",
      offsetof(lbl_options, history), 0, NULL, NULL},
-    {"tolerance", VSD_OPT_NUMBER, 1e-7, 0.1, 1e-3, NULL,
+    {"tolerance", VSD_OPT_NUMBER, 1e-7, 0.1, 3e-3, NULL,
      "diffusion: stop when the probes' fluence has less than this (relative) still to change",
      offsetof(lbl_options, tolerance), 0, NULL, NULL},
     {"max_steps", VSD_OPT_INT, 8, 100000, 4000, NULL, "diffusion: at most this many lattice steps",
