@@ -153,7 +153,7 @@ static const vsd_option_spec lbl_option_rows[] = {
     {"lattice_order", VSD_OPT_CHOICE, 0, 0, VSD_LBL_ORDER_GAUSS_SEIDEL, lbl_order_names,
      "diffusion: every node steps from the last step's populations (the paper's jacobi), or the rows of nodes in "
      "turn, each colliding with what the rows before it sent it in the same step (gauss-seidel: the same steady "
-     "state in about half the steps; global D3Q6 lattice; lbl_lattice.h)",
+     "state in a quarter to a third fewer steps; global D3Q6 lattice; lbl_lattice.h)",
      offsetof(lbl_options, lattice_order), 0, NULL, .when = lbl_on_global_d3q6},
     {"light_deposit", VSD_OPT_CHOICE, 0, 0, LBL_DEPOSIT_LOST, lbl_deposit_names,
      "marching: what a cell scatters out of a directional light's rays, the paper's albedo E T p lambda^2 with the "

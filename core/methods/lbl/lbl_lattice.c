@@ -413,6 +413,19 @@ static void collide_slices(void *arg, int z0, int y0, int z1, int y1)
     collide_cells(j, (size_t)z0 * slice, (size_t)(z1 - z0) * slice);
 }
 
+/* A row's populations along +x (sign > 0) or -x moved on one node: dst[x] = src[x - sign],
+ * 0 where that is outside the row. Both orders' streaming take their rows' x shift here. */
+static void shift_row_x(float *dst, const float *src, int32_t nx, int32_t sign)
+{
+    if (sign > 0) {
+        dst[0] = 0.0f;
+        memcpy(dst + 1, src, sizeof(float) * (size_t)(nx - 1));
+    } else {
+        memcpy(dst, src + 1, sizeof(float) * (size_t)(nx - 1));
+        dst[nx - 1] = 0.0f;
+    }
+}
+
 /* Streaming into slices [z0, z1): f_i(x) = post_i(x - c_i), 0 from outside the lattice. */
 static void stream_slices(void *arg, int z0, int y0, int z1, int y1)
 {
@@ -431,13 +444,7 @@ static void stream_slices(void *arg, int z0, int y0, int z1, int y1)
                     size_t row = ((size_t)z * ny + y) * nx;
                     int32_t sy = y, sz = z;
                     if (dir_axis[i] == 0) {
-                        if (dir_sign[i] > 0) {
-                            dst[row] = 0.0f;
-                            memcpy(dst + row + 1, src + row, sizeof(float) * (size_t)(nx - 1));
-                        } else {
-                            memcpy(dst + row, src + row + 1, sizeof(float) * (size_t)(nx - 1));
-                            dst[row + nx - 1] = 0.0f;
-                        }
+                        shift_row_x(dst + row, src + row, nx, dir_sign[i]);
                         continue;
                     }
                     if (dir_axis[i] == 1) sy = y - dir_sign[i];
@@ -481,15 +488,8 @@ static void push_row(step_job *j, int32_t y, int32_t z)
         for (ch = 0; ch < CH; ch++) {
             float *dst = j->l->f + ((size_t)i * CH + ch) * cells;
             const float *src = j->post + ((size_t)i * CH + ch) * cells + row;
-            if (dir_axis[i] != 0) {
-                memcpy(dst + ((size_t)tz * ny + ty) * nx, src, sizeof(float) * (size_t)nx);
-            } else if (dir_sign[i] > 0) {
-                dst[row] = 0.0f;
-                memcpy(dst + row + 1, src, sizeof(float) * (size_t)(nx - 1));
-            } else {
-                memcpy(dst + row, src + 1, sizeof(float) * (size_t)(nx - 1));
-                dst[row + nx - 1] = 0.0f;
-            }
+            if (dir_axis[i] != 0) memcpy(dst + ((size_t)tz * ny + ty) * nx, src, sizeof(float) * (size_t)nx);
+            else shift_row_x(dst + row, src, nx, dir_sign[i]);
         }
     }
 }

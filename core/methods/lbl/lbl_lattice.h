@@ -72,8 +72,8 @@ enum { VSD_LBL_CELL_FACES = 0, VSD_LBL_CELL_PATH = 1 };
 /* The order of a step's nodes (global D3Q6 only): every node from the last step's
  * populations at once (JACOBI, the paper's lattice-Boltzmann step, and the lattice's own
  * until set), or the rows of nodes in turn, each colliding with what the rows before it
- * sent it in the same step (GAUSS_SEIDEL, lbl_lattice.c: the same steady state in about
- * half the steps). */
+ * sent it in the same step (GAUSS_SEIDEL, lbl_lattice.c: the same steady state in
+ * a quarter to a third fewer steps). */
 enum { VSD_LBL_ORDER_JACOBI = 0, VSD_LBL_ORDER_GAUSS_SEIDEL = 1 };
 void vsd_lbl_lattice_set_order(vsd_lbl_lattice *l, int order);
 
