@@ -248,6 +248,36 @@ static void test_rules(void)
 
 static const cJSON *item(const cJSON *o, const char *key) { return cJSON_GetObjectItemCaseSensitive(o, key); }
 
+/* A method's preview_options in the catalog: an object, the descriptor's own; render.options
+ * its table accepts (vsd_options_parse, as a scene's), each set away from its default (an
+ * override that changes nothing would only cost the viewport a second renderer). */
+static void check_preview_options(const cJSON *m, const vsd_method *desc)
+{
+    const cJSON *p = item(m, "preview_options"), *o, *row;
+    void *parsed;
+    char err[512];
+    CHECK_MSG(cJSON_IsObject(p), "%s: preview_options is not an object", desc->name);
+    if (!cJSON_IsObject(p)) return;
+    CHECK_MSG(!desc->preview_options == !p->child, "%s: preview_options {} against the descriptor's", desc->name);
+    if (!desc->preview_options) return;
+    parsed = calloc(1, desc->options.struct_size);
+    CHECK(parsed != NULL);
+    CHECK_MSG(parsed && vsd_options_parse(&desc->options, desc->name, desc->preview_options, parsed, err, sizeof err) ==
+                            VSD_OK,
+              "%s: preview_options refused: %s", desc->name, err);
+    free(parsed);
+    cJSON_ArrayForEach(o, p) {
+        int found = 0;
+        cJSON_ArrayForEach(row, item(m, "options")) {
+            if (strcmp(item(row, "key")->valuestring, o->string) != 0) continue;
+            found = 1;
+            CHECK_MSG(!cJSON_Compare(item(row, "default"), o, 1), "%s: preview option %s is its default", desc->name,
+                      o->string);
+        }
+        CHECK_MSG(found, "%s: preview option %s is not in its table", desc->name, o->string);
+    }
+}
+
 /* The catalog: every registered method once, in the registry's order, with a label, a
  * summary, its capabilities as its descriptor declares them, and the same option table as
  * vsd_method_options_json; one method per role, the final default being the scene file's
@@ -289,12 +319,15 @@ static void test_catalog(void)
                           sc.render.method);
             } else if (!strcmp(role->valuestring, "viewport_default")) {
                 viewports++;
-                /* the viewport is to look like the final render: more than single scattering */
+                /* the viewport is to look like the final render: more than single scattering;
+                 * and a material edit is to show soon (issue 32): a quick first look */
                 CHECK(desc->caps & VSD_METHOD_CAP_MULTIPLE_SCATTERING);
+                CHECK_MSG(desc->preview_options != NULL, "viewport default %s has no preview_options", mname);
             } else CHECK_MSG(0, "%s: unknown role %s", mname, role->valuestring);
         }
         CHECK_MSG(cJSON_Compare(item(m, "options"), item(tables, mname), 1), "%s: catalog options differ", mname);
         CHECK_MSG(vsd_option_rules_invalid(&desc->options, why, sizeof why) == 0, "%s: %s", mname, why);
+        check_preview_options(m, desc);
     }
     CHECK_MSG(*name == NULL, "the catalog lacks %s", *name ? *name : "");
     CHECK(finals == 1 && viewports == 1);

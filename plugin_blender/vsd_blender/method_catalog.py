@@ -31,7 +31,7 @@ INT_LIMIT = 2 ** 31 - 1
 
 def catalog():
     """[method, ...] as loaded (each {"name", "label", "summary", "capabilities", "roles",
-    "options"}), or None."""
+    "options", "preview_options"}), or None."""
     return _state["catalog"]
 
 
@@ -70,6 +70,15 @@ def labels_with(capability):
     """'A and B', 'A, B and C': the labels of the methods with the capability, for warnings."""
     found = [label(n) for n in with_capability(capability)]
     return " and ".join(found) if len(found) < 3 else ", ".join(found[:-1]) + " and " + found[-1]
+
+
+def preview_options(name):
+    """The render.options vsd gives method `name` for a quick first look at a changed scene
+    (its "preview_options": lbl's lighting on half the cells), {} when it has none or the
+    catalog predates them."""
+    m = _method(name)
+    p = m.get("preview_options") if m else None
+    return dict(p) if isinstance(p, dict) else {}
 
 
 def default_for(role):

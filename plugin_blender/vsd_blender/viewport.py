@@ -31,7 +31,7 @@ import bpy
 import gpu
 from gpu_extras.presets import draw_texture_2d
 
-from . import colour, connection, mapping, vsd_client
+from . import colour, connection, mapping, method_catalog, vsd_client
 from .engine import redraw_viewports
 
 LOG = bool(os.environ.get("VSD_PREVIEW_LOG"))
@@ -144,7 +144,7 @@ class Preview(object):
         self.error = None
         self.gen = 0
         self.key = None
-        self.request = None       # (key, scene dict, files, sizes, settings, time)
+        self.request = None       # (key, scene dict, files, [(w, h, options over the scene's)], settings, time)
         self.result = None        # (key, w, h, exr bytes, final, time of the request, warnings)
         self.images = []          # loaded results; the last one is drawn
         self.image_info = {}      # image name -> (final, time of the request, key)
@@ -237,9 +237,15 @@ class Preview(object):
                 pct = scene.vsd.viewport_resolution / 100.0
                 fw, fh = max(1, int(w * pct)), max(1, int(h * pct))
                 start = max(1, scene.vsd.viewport_start_scale)
-                first = start > 1 and not (view_only and not self.first_pass_pays(sc["render"]["method"]))
-                sizes = [(max(1, fw // start), max(1, fh // start))] if first else []
-                sizes.append((fw, fh))
+                method = sc["render"]["method"]
+                first = start > 1 and not (view_only and not self.first_pass_pays(method))
+                # a changed scene (a material edit, a new frame) waits for its lighting, not
+                # for its pixels: its first pass also takes the method's quick lighting
+                # (lbl: half the cells, an eighth of the work), kept by the daemon as a
+                # renderer of its own beside the full one
+                quick = {} if view_only else method_catalog.preview_options(method)
+                sizes = [(max(1, fw // start), max(1, fh // start), quick)] if first else []
+                sizes.append((fw, fh, {}))
                 with self.lock:
                     self.request = (key, sc, files, sizes, self.settings, time.monotonic())
                     self.lock.notify_all()
@@ -341,15 +347,24 @@ class Preview(object):
         c = connection.client(settings)
         names = connection.upload(c, files)
         sc = mapping.with_blobs(sc, names)
-        for i, (w, h) in enumerate(sizes):
+        options = dict(sc["render"].get("options", {}))
+        for i, (w, h, quick) in enumerate(sizes):
             if self._superseded():
                 return
             sc["film"]["width"], sc["film"]["height"] = w, h
+            if options or quick:
+                sc["render"]["options"] = dict(options, **quick)
+            else:
+                sc["render"].pop("options", None)   # the full pass: not the quick one's
+            if i == 0:   # what the tests check: the quick options on the first pass only
+                connection.status["preview_quick"] = dict(quick)
+            if i == len(sizes) - 1:
+                connection.status["preview_final_options"] = dict(sc["render"].get("options", {}))
             t0 = time.monotonic()
             res = c.render(sc, frame=sc["frames"]["start"], cancel=self._superseded)
             t1 = time.monotonic()
             final = i == len(sizes) - 1
-            if res.cache.get("preparation"):
+            if res.cache.get("preparation") and not quick:
                 self.pass_times.setdefault(sc["render"]["method"], {})["full" if final else "low"] = t1 - t0
             warns = res.info.get("warnings")
             warns = ["vsd daemon: %s" % warns] if isinstance(warns, str) and warns else []
@@ -361,7 +376,8 @@ class Preview(object):
                 connection.status["preview_fps"] = 1.0 / max(1e-6, t1 - t0)
                 connection.status["preview_prepared"] = bool(res.cache.get("preparation"))
             if LOG:
-                print("vsd preview: %dx%d in %.3fs (%.1f fps, %s, preparation %s)%s" % (
+                print("vsd preview: %dx%d in %.3fs (%.1f fps, %s%s, preparation %s)%s" % (
                     w, h, t1 - t0, 1.0 / max(1e-6, t1 - t0), sc["render"]["method"],
+                    (" quick %s" % json.dumps(quick, sort_keys=True) if quick else ""),
                     "cached" if res.cache.get("preparation") else "new",
                     " final, %.3fs after the change" % (t1 - t_req) if final else ""), flush=True)

@@ -218,7 +218,7 @@ def main():
             sc["output"]["passes"] = ["Combined"]
             files = p.base.files()
             t_req = time.monotonic()
-            p.process((("k",), sc, files, [(32, 18)], p.settings, t_req))
+            p.process((("k",), sc, files, [(32, 18, {})], p.settings, t_req))
             check(p.result is not None and p.error is None, "the preview rendered (%s)" % p.error)
             p.load_result()
             img = p.images[-1] if p.images else None

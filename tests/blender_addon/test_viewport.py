@@ -116,6 +116,13 @@ CHANGES = [
 ]
 
 
+def quick_first(label):
+    """Whether change `label` must show a first image before its full one: a material edit
+    or a new frame (they wait for the lighting) on a viewport method with preview_options."""
+    catalog = common.addon_module("method_catalog")
+    return label.split(":")[0] in ("material", "frame +1") and bool(catalog.preview_options(state["method"]))
+
+
 def apply_change(i):
     """Make change i and forget the last preview. The mean colour of the image on screen
     before the change is remembered: the add-on sets status["preview_image"] only when it
@@ -144,7 +151,8 @@ def orbit(view3d, degrees):
 def forget_preview():
     """Forget the last preview, so that the next one seen is the new view's or scene's."""
     st = state["connection"].status
-    for k in ("preview_fps", "preview_prepared", "preview_latency", "preview_first_latency", "preview_image"):
+    for k in ("preview_fps", "preview_prepared", "preview_latency", "preview_first_latency", "preview_image",
+              "preview_quick", "preview_final_options"):
         st[k] = None
 
 
@@ -348,6 +356,15 @@ def _step():
             after = image_mean_rgb(bpy.data.images[st["preview_image"]])
             moved = before is not None and abs(after - before) > 1e-3 * max(abs(before), 1e-9)
             check(moved, "%s: a new picture on screen (mean RGB %.6g, before the change %s)" % (label, after, before))
+            if quick_first(label):
+                # the change's first pass is lit on the method's quick lighting (its
+                # preview_options: lbl's half the cells), kept by the daemon beside the full one
+                want = common.addon_module("method_catalog").preview_options(state["method"])
+                check(st.get("preview_quick") == want,
+                      "%s: the first pass asked for the quick lighting %s (sent %s)" % (label, want, st.get("preview_quick")))
+                final = st.get("preview_final_options", {})
+                check(all(final.get(k) != v for k, v in want.items()),
+                      "%s: the full pass is lit in full (its options %s)" % (label, final))
             print("preview benchmark: %s: %.3f s from the change to its full-resolution image on screen%s" % (
                 label, st["preview_latency"], "" if st.get("preview_first_latency") is None else
                 " (%.3f s to the 1/N-resolution one)" % st["preview_first_latency"]), flush=True)

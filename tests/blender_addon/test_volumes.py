@@ -401,7 +401,7 @@ def main():
                 sc = json.loads(json.dumps(p.base.scene))
                 sc["camera"] = mapping.build_scene(dg, camera=scene.camera, size=(32, 18)).scene["camera"]
                 sc["output"]["passes"] = ["Combined"]
-                p.process((("k",), sc, p.base.files(), [(32, 18)], p.settings, 0.0))
+                p.process((("k",), sc, p.base.files(), [(32, 18, {})], p.settings, 0.0))
                 res = p.result
                 check(res is not None and p.error is None and len(sc["volumes"]) == 4 and
                       sc["render"].get("method") == expected,

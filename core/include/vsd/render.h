@@ -144,7 +144,9 @@ unsigned vsd_method_capabilities(const char *name);
 
 /* Every method as JSON, in registry order: [{"name", "label", "summary", "capabilities":
  * {"multiple_scattering": bool, ...}, "roles": ["final_default" | "viewport_default"],
- * "options": [rows as vsd_method_options_json]}, ...]: what `vsd methods --json` prints
+ * "options": [rows as vsd_method_options_json], "preview_options": {key: value, ...} (the
+ * render.options of a quick first look at a changed scene, {} when the method has none)},
+ * ...]: what `vsd methods --json` prints
  * and the daemon's HELLO carries as "method_catalog" (docs/protocol.md). Malloc'd; free()
  * it. NULL when out of memory. */
 char *vsd_method_catalog_json(void);

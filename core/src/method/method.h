@@ -74,6 +74,11 @@ typedef struct vsd_method {
     const char *summary;               /* one line: the paper and what it does */
     unsigned caps;                     /* VSD_METHOD_CAP_* */
     unsigned roles;                    /* VSD_METHOD_ROLE_* */
+    /* render.options for a quick first look at a changed scene, as a JSON object of this
+     * method's own keys (NULL: none): the add-on's viewport renders its first, 1/N-size pass
+     * of a material edit or a new frame with them while the full lighting is still to come
+     * (issue 32: the lighting stage, not the view, is what a material edit waits for). */
+    const char *preview_options;
     vsd_option_table options;          /* render.options: the one table of keys, types, ranges */
     vsd_status (*create)(void **state, const vsd_scene *scene, const void *options, char *err, size_t errlen);
     vsd_status (*prepare_frame)(void *state, vsd_frame_ctx *ctx, char *err, size_t errlen);

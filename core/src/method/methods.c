@@ -147,6 +147,8 @@ static cJSON *method_json(const vsd_method *m)
     for (b = 0; roles && b < sizeof role_names / sizeof role_names[0]; b++)
         if ((m->roles >> b) & 1u) cJSON_AddItemToArray(roles, cJSON_CreateString(role_names[b]));
     cJSON_AddItemToObject(o, "options", (cJSON *)vsd_options_table_json(&m->options));
+    cJSON_AddItemToObject(o, "preview_options",
+                          m->preview_options ? cJSON_Parse(m->preview_options) : cJSON_CreateObject());
     return o;
 }
 
