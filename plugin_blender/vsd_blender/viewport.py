@@ -351,6 +351,7 @@ class Preview(object):
         for i, (w, h, quick) in enumerate(sizes):
             if self._superseded():
                 return
+            final = i == len(sizes) - 1
             sc["film"]["width"], sc["film"]["height"] = w, h
             if options or quick:
                 sc["render"]["options"] = dict(options, **quick)
@@ -358,12 +359,11 @@ class Preview(object):
                 sc["render"].pop("options", None)   # the full pass: not the quick one's
             if i == 0:   # what the tests check: the quick options on the first pass only
                 connection.status["preview_quick"] = dict(quick)
-            if i == len(sizes) - 1:
+            if final:
                 connection.status["preview_final_options"] = dict(sc["render"].get("options", {}))
             t0 = time.monotonic()
             res = c.render(sc, frame=sc["frames"]["start"], cancel=self._superseded)
             t1 = time.monotonic()
-            final = i == len(sizes) - 1
             if res.cache.get("preparation") and not quick:
                 self.pass_times.setdefault(sc["render"]["method"], {})["full" if final else "low"] = t1 - t0
             warns = res.info.get("warnings")

@@ -105,22 +105,16 @@ def _set_strength(v):
     bpy.context.scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = v
 
 
-# (what changes, how, the file the new preview must upload, or None). Scene frame 1 shows
+# (what changes, how, the file the new preview must upload, or None, whether it changes the
+# lighting: then its first pass takes the method's preview_options). Scene frame 1 shows
 # fluid_data_0020.vdb (frame offset 19), so frame 2 needs fluid_data_0021.vdb, which the
 # daemon has not seen yet.
 CHANGES = [
-    ("material: Principled Volume Density 8 -> 4", lambda: _set_density(4.0), None),
+    ("material: Principled Volume Density 8 -> 4", lambda: _set_density(4.0), None, True),
     ("frame +1", lambda: bpy.context.scene.frame_set(bpy.context.scene.frame_current + 1),
-     lambda: os.path.join("smoke64", "fluid_data_%04d.vdb" % (FRAME_OFFSET + 2))),
-    ("world: Background Strength -> 0.6", lambda: _set_strength(0.6), None),
+     lambda: os.path.join("smoke64", "fluid_data_%04d.vdb" % (FRAME_OFFSET + 2)), True),
+    ("world: Background Strength -> 0.6", lambda: _set_strength(0.6), None, False),
 ]
-
-
-def quick_first(label):
-    """Whether change `label` must show a first image before its full one: a material edit
-    or a new frame (they wait for the lighting) on a viewport method with preview_options."""
-    catalog = common.addon_module("method_catalog")
-    return label.split(":")[0] in ("material", "frame +1") and bool(catalog.preview_options(state["method"]))
 
 
 def apply_change(i):
@@ -348,7 +342,7 @@ def _step():
             return finish()
         return 0.25
     if s == 7:  # material, frame and world changes each start a new preview
-        label, _, new_file = CHANGES[state["change"]]
+        label, _, new_file, relit = CHANGES[state["change"]]
         if preview_ready(st):
             # not check(True): preview_fps alone is also set by a render of the old request
             # still in flight (a stale preview); the drawn image must be this change's
@@ -356,13 +350,13 @@ def _step():
             after = image_mean_rgb(bpy.data.images[st["preview_image"]])
             moved = before is not None and abs(after - before) > 1e-3 * max(abs(before), 1e-9)
             check(moved, "%s: a new picture on screen (mean RGB %.6g, before the change %s)" % (label, after, before))
-            if quick_first(label):
+            want = common.addon_module("method_catalog").preview_options(state["method"])
+            if relit and want:
                 # the change's first pass is lit on the method's quick lighting (its
                 # preview_options: lbl's half the cells), kept by the daemon beside the full one
-                want = common.addon_module("method_catalog").preview_options(state["method"])
                 check(st.get("preview_quick") == want,
                       "%s: the first pass asked for the quick lighting %s (sent %s)" % (label, want, st.get("preview_quick")))
-                final = st.get("preview_final_options", {})
+                final = st.get("preview_final_options") or {}
                 check(all(final.get(k) != v for k, v in want.items()),
                       "%s: the full pass is lit in full (its options %s)" % (label, final))
             print("preview benchmark: %s: %.3f s from the change to its full-resolution image on screen%s" % (
