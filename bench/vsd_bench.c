@@ -36,7 +36,7 @@
 #include "vsd/image.h"
 #include "vsd/render.h"
 #include "vsd/scene.h"
-#include "run_logged.h"
+#include "bench_cycles.h"
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -373,77 +373,14 @@ static int compute_reference(const char *scene_path, const char *name, const cha
 
 /* ---- Cycles ---------------------------------------------------------------------------- */
 
-/* "MM:SS.ss" or "HH:MM:SS.ss" -> seconds */
-static double parse_clock(const char *s)
+static void run_cycles(const char *scene_path, const char *name, const options *o, bench_cycles_result *cr)
 {
-    double parts[3] = {0, 0, 0};
-    int n = 0;
-    while (*s && n < 3) {
-        char *end;
-        parts[n++] = strtod(s, &end);
-        if (*end != ':') break;
-        s = end + 1;
-    }
-    if (n == 3) return parts[0] * 3600 + parts[1] * 60 + parts[2];
-    if (n == 2) return parts[0] * 60 + parts[1];
-    return parts[0];
-}
-
-typedef struct cycles_result {
-    int ok, samples;
-    double render, sync, wall;
-} cycles_result;
-
-static void run_cycles(const char *scene_path, const char *name, const options *o, cycles_result *cr)
-{
-    char out[PATHLEN + 64], log[PATHLEN + 64], tjson[PATHLEN + 64], s_w[16], s_h[16], s_spp[16], val[64], err[256];
-    char *argv[24];
-    int n = 0, rc;
-    double t0 = vsd_clock_seconds();
-    memset(cr, 0, sizeof *cr);
+    char out[PATHLEN + 64], log[PATHLEN + 64], tjson[PATHLEN + 64];
     snprintf(out, sizeof out, "%s/%s_cycles.exr", o->cache_dir, name);
     snprintf(log, sizeof log, "%s/%s_cycles.log", o->cache_dir, name);
     snprintf(tjson, sizeof tjson, "%s/%s_cycles.json", o->cache_dir, name);
-    snprintf(s_w, sizeof s_w, "%d", o->width);
-    snprintf(s_h, sizeof s_h, "%d", o->height);
-    snprintf(s_spp, sizeof s_spp, "%d", o->spp);
-    unlink(out);
-    argv[n++] = (char *)o->blender;
-    argv[n++] = "--background";
-    argv[n++] = "--factory-startup";
-    argv[n++] = "--python-exit-code";
-    argv[n++] = "1";
-    argv[n++] = "--python";
-    argv[n++] = (char *)o->script;
-    argv[n++] = "--";
-    argv[n++] = "--scene";
-    argv[n++] = (char *)scene_path;
-    argv[n++] = "--out";
-    argv[n++] = out;
-    argv[n++] = "--width";
-    argv[n++] = s_w;
-    argv[n++] = "--height";
-    argv[n++] = s_h;
-    argv[n++] = "--samples";
-    argv[n++] = s_spp;
-    argv[n++] = "--time-json";
-    argv[n++] = tjson;
-    argv[n] = NULL;
     fprintf(stderr, "[%s] Cycles: %dx%d, %d spp (log %s)\n", name, o->width, o->height, o->spp, log);
-    rc = run_logged(argv, log);
-    cr->wall = vsd_clock_seconds() - t0;
-    if (rc != 0 || access(out, R_OK) != 0) {
-        fprintf(stderr, "[%s] Cycles failed (status %d), see %s\n", name, rc, log);
-        return;
-    }
-    cr->samples = o->spp;
-    if (vsd_exr_read_attr(out, "cycles.ViewLayer.render_time", val, sizeof val, err, sizeof err) == VSD_OK)
-        cr->render = parse_clock(val);
-    if (vsd_exr_read_attr(out, "cycles.ViewLayer.synchronization_time", val, sizeof val, err, sizeof err) == VSD_OK)
-        cr->sync = parse_clock(val);
-    if (vsd_exr_read_attr(out, "cycles.ViewLayer.samples", val, sizeof val, err, sizeof err) == VSD_OK)
-        cr->samples = atoi(val);
-    cr->ok = cr->render > 0;
+    bench_run_cycles(o->blender, o->script, scene_path, out, log, tjson, o->width, o->height, o->spp, 0, cr);
 }
 
 /* ---- the table ------------------------------------------------------------------------- */
@@ -563,7 +500,7 @@ int main(int argc, char **argv)
     for (i = 0; i < nscenes; i++) {
         char scene_path[PATHLEN], hash[32], exr[PATHLEN + 64], js[PATHLEN + 64], err[1024];
         reference ref;
-        cycles_result cyc;
+        bench_cycles_result cyc;
         const char *const *m;
         memset(&ref, 0, sizeof ref);
         memset(&cyc, 0, sizeof cyc);

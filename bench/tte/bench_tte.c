@@ -30,7 +30,16 @@
  * reference (e.g. --set render.options.step=0.0156).
  * --reference-caches none,lbl (default none): the `reference` rows once per value of its
  * render.options.cache (issue 33), shown as "reference+lbl"; the cache's lighting is in the
- * cold time and not scaled (it does not grow with the film), the paths are. */
+ * cold time and not scaled (it does not grow with the film), the paths are.
+ * --cycles-spp 16,32,64 (default none): Blender Cycles (--blender, default the one CMake
+ * found; tests/cycles/cycles_scene.py with the cross-check's settings) renders the scene at
+ * the evaluation film with each sample count, one row "cycles" each, its error against the
+ * same converged reference and its own path-tracing time (the EXR header's render_time)
+ * scaled to the timing film as the reference's is; its cold time adds Cycles' scene sync.
+ * Issue 33's equal-error speed-up over Cycles is read off these rows and the reference's
+ * (bench/tte/plot_tte.py prints it). */
+#define _POSIX_C_SOURCE 200809L
+#include "bench_cycles.h"
 #include "vsd/clock.h"
 #include "vsd/compare.h"
 #include "vsd/image.h"
@@ -50,7 +59,7 @@
 #define MAX_SETS 8
 
 typedef struct tte_opts {
-    const char *data, *scenes, *methods, *cache, *csv, *spp_list, *ref_caches;
+    const char *data, *scenes, *methods, *cache, *csv, *spp_list, *ref_caches, *cycles_spp, *blender, *cycles_script;
     const char *sets[MAX_SETS];   /* --set key=value overrides for the methods (not the reference) */
     int set_count;
     int width, height, eval_w, eval_h, ref_spp, threads;
@@ -121,12 +130,18 @@ static double render_timed(const tte_opts *o, const vsd_scene *sc, vsd_renderer 
     return vsd_clock_seconds() - t.start;
 }
 
-static double block_error(const vsd_framebuffer *a, const float *ref, int pass, int w, int h)
+/* rel. RMSE over 4x4 blocks of one pass's RGB (img and ref in the pass's channel layout) */
+static double pass_error(const float *img, const float *ref, int pass, int w, int h)
 {
     double e = NAN;
     int ch = vsd_pass_channels((vsd_pass)pass);
-    if (!ref || vsd_block_rel_rmse(a->pass[pass], ref, w, h, 3, ch, BLOCK, &e, NULL, 0)) return NAN;
+    if (!img || !ref || vsd_block_rel_rmse(img, ref, w, h, 3, ch, BLOCK, &e, NULL, 0)) return NAN;
     return e;
+}
+
+static double block_error(const vsd_framebuffer *a, const float *ref, int pass, int w, int h)
+{
+    return pass_error(a->pass[pass], ref, pass, w, h);
 }
 
 /* ---- the converged reference ----------------------------------------------------------- */
@@ -147,7 +162,9 @@ static unsigned long long file_fnv(const char *path)
     return h;
 }
 
-static int read_reference(const char *exr, int w, int h, reference *ref)
+/* Combined, VolumeDir and VolumeInd of a multilayer EXR (vsd's or Blender's names) at w x h;
+ * want_noise: a cached reference, which carries its noise in the header. */
+static int read_reference(const char *exr, int w, int h, int want_noise, reference *ref)
 {
     static const struct { int pass, channels; const char *name; } passes[] = {
         {VSD_PASS_COMBINED, 4, "Combined"}, {VSD_PASS_VOLUME_DIR, 3, "VolumeDir"}, {VSD_PASS_VOLUME_IND, 3, "VolumeInd"}};
@@ -157,7 +174,7 @@ static int read_reference(const char *exr, int w, int h, reference *ref)
     int c, i, k, ok;
     if (vsd_exr_read(exr, &img, err, sizeof err) != VSD_OK) return 0;
     ok = img->width == w && img->height == h &&
-         vsd_exr_read_attr(exr, "vsd/bench_ref_noise", noise, sizeof noise, err, sizeof err) == VSD_OK;
+         (!want_noise || vsd_exr_read_attr(exr, "vsd/bench_ref_noise", noise, sizeof noise, err, sizeof err) == VSD_OK);
     for (k = 0; k < 3 && ok; k++) {
         float *dst = ref->pass[passes[k].pass] = malloc(sizeof(float) * passes[k].channels * (size_t)w * h);
         ok = dst != NULL;
@@ -168,7 +185,7 @@ static int read_reference(const char *exr, int w, int h, reference *ref)
             for (i = 0; ok && i < w * h; i++) dst[passes[k].channels * i + c] = p[i];
         }
     }
-    if (ok) ref->noise = atof(noise);
+    if (ok && want_noise) ref->noise = atof(noise);
     vsd_exr_image_destroy(img);
     return ok;
 }
@@ -184,7 +201,7 @@ static int get_reference(const tte_opts *o, const char *scene, reference *ref)
     snprintf(path, sizeof path, "%s/scenes/%s.json", o->data, scene);
     mkdir(o->cache, 0755);
     snprintf(exr, sizeof exr, "%s/tte_%s_%dx%d_%dspp_%016llx.exr", o->cache, scene, w, h, 2 * n, file_fnv(path));
-    if (read_reference(exr, w, h, ref)) return 1;
+    if (read_reference(exr, w, h, 1, ref)) return 1;
     fprintf(stderr, "[%s] converged reference: 2 x %d spp at %dx%d -> %s\n", scene, n, w, h, exr);
     for (i = 0; i < 2 && ok; i++) {
         vsd_renderer *r = NULL;
@@ -213,7 +230,7 @@ static int get_reference(const tte_opts *o, const char *scene, reference *ref)
         wo.attrs = &attr;
         wo.attr_count = 1;
         if (vsd_exr_write(exr, half[0], &wo, err, sizeof err) != VSD_OK) fprintf(stderr, "bench_tte: %s\n", err);
-        ok = read_reference(exr, w, h, ref);
+        ok = read_reference(exr, w, h, 1, ref);
     }
     vsd_framebuffer_destroy(half[0]);
     vsd_framebuffer_destroy(half[1]);
@@ -300,6 +317,37 @@ static void measure_reference(const tte_opts *o, const char *scene, int spp, con
     vsd_framebuffer_destroy(fb);
 }
 
+/* Cycles at the evaluation film with spp samples: errors against the converged reference,
+ * its path-tracing time scaled to the timing film (as the reference's), cold = sync + that. */
+static void measure_cycles(const tte_opts *o, const char *scene, int spp, const reference *ref, row *out)
+{
+    char path[1024], exr[1200], log[1200], tjson[1200];
+    bench_cycles_result cr;
+    reference img;
+    double scale = ((double)o->width * o->height) / ((double)o->eval_w * o->eval_h);
+    memset(out, 0, sizeof *out);
+    memset(&img, 0, sizeof img);
+    out->spp = spp;
+    out->cold = out->camera = out->lighting = out->frame = out->err_comb = out->err_vdir = out->err_vind = NAN;
+    snprintf(path, sizeof path, "%s/scenes/%s.json", o->data, scene);
+    snprintf(exr, sizeof exr, "%s/tte_%s_cycles_%dspp.exr", o->cache, scene, spp);
+    snprintf(log, sizeof log, "%s/tte_%s_cycles_%dspp.log", o->cache, scene, spp);
+    snprintf(tjson, sizeof tjson, "%s/tte_%s_cycles_%dspp.json", o->cache, scene, spp);
+    fprintf(stderr, "[%s] Cycles: %dx%d, %d spp (log %s)\n", scene, o->eval_w, o->eval_h, spp, log);
+    bench_run_cycles(o->blender, o->cycles_script, path, exr, log, tjson, o->eval_w, o->eval_h, spp, 7, &cr);
+    if (!cr.ok || cr.samples != spp || !read_reference(exr, o->eval_w, o->eval_h, 0, &img)) {
+        fprintf(stderr, "[%s] Cycles: no usable image (samples %d), see %s\n", scene, cr.samples, log);
+        free_reference(&img);
+        return;
+    }
+    out->camera = out->lighting = out->frame = cr.render * scale;
+    out->cold = cr.sync + out->camera;
+    out->err_comb = pass_error(img.pass[VSD_PASS_COMBINED], ref->pass[VSD_PASS_COMBINED], VSD_PASS_COMBINED, o->eval_w, o->eval_h);
+    out->err_vdir = pass_error(img.pass[VSD_PASS_VOLUME_DIR], ref->pass[VSD_PASS_VOLUME_DIR], VSD_PASS_VOLUME_DIR, o->eval_w, o->eval_h);
+    out->err_vind = pass_error(img.pass[VSD_PASS_VOLUME_IND], ref->pass[VSD_PASS_VOLUME_IND], VSD_PASS_VOLUME_IND, o->eval_w, o->eval_h);
+    free_reference(&img);
+}
+
 static void cell(char *buf, size_t len, double s, double limit)
 {
     if (isnan(s)) snprintf(buf, len, "n/a");
@@ -335,6 +383,9 @@ static int parse(int argc, char **argv, tte_opts *o)
     o->cache = VSD_BENCH_CACHE;
     o->spp_list = "16,64,256,1024";
     o->ref_caches = "none";
+    o->cycles_spp = "";
+    o->blender = VSD_BENCH_BLENDER;
+    o->cycles_script = VSD_BENCH_CYCLES_SCRIPT;
     o->width = 1280;
     o->height = 720;
     o->eval_w = 320;
@@ -351,6 +402,8 @@ static int parse(int argc, char **argv, tte_opts *o)
         else if (!strcmp(a, "--csv")) o->csv = v;
         else if (!strcmp(a, "--spp-list")) o->spp_list = v;
         else if (!strcmp(a, "--reference-caches")) o->ref_caches = v;
+        else if (!strcmp(a, "--cycles-spp")) o->cycles_spp = v;
+        else if (!strcmp(a, "--blender")) o->blender = v;
         else if (!strcmp(a, "--width")) o->width = atoi(v);
         else if (!strcmp(a, "--height")) o->height = atoi(v);
         else if (!strcmp(a, "--eval-width")) o->eval_w = atoi(v);
@@ -371,6 +424,7 @@ int main(int argc, char **argv)
 {
     tte_opts o;
     char scenes[1024], methods[512], spps[256], caches[256], *sp, *mp, *pp, *cp, *sv, *mv, *pv, *cv;
+    char cycles[256];
     FILE *csv = NULL;
     memset(&o, 0, sizeof o);
     if (!parse(argc, argv, &o)) return 2;
@@ -399,6 +453,11 @@ int main(int argc, char **argv)
                 measure_reference(&o, sv, atoi(pv), cv, &ref, &rw);
                 print_row(&o, csv, sv, label, &rw, 1);
             }
+        }
+        snprintf(cycles, sizeof cycles, "%s", o.cycles_spp);
+        for (pv = strtok_r(cycles, ",", &pp); pv; pv = strtok_r(NULL, ",", &pp)) {
+            measure_cycles(&o, sv, atoi(pv), &ref, &rw);
+            print_row(&o, csv, sv, "cycles", &rw, 1);
         }
         snprintf(methods, sizeof methods, "%s", o.methods);
         for (mv = strtok_r(methods, ",", &mp); mv; mv = strtok_r(NULL, ",", &mp)) {
