@@ -143,6 +143,35 @@ static void test_edit(void)
         CHECK_MSG(d < 0.01, "warm-started VolumeInd differs from a fresh solve by %.4f", d);
         CHECK_MSG(c < 1e-6, "VolumeDir differs from a fresh renderer by %g", c);
     }
+    /* a density edit re-lights on the kept frame stage (density_in_lighting): the image a
+       fresh renderer of the edited scene gives */
+    vsd_framebuffer_destroy(fresh);
+    fresh = NULL;
+    sc.volumes[0].medium.density *= 1.25f;
+    CHECK(vsd_renderer_set_scene(r, &sc, err, sizeof err) == VSD_OK);
+    if (!test_render(r, 24, &fb, &st)) goto done;
+    printf("[3b] density x1.25: frame stage %s, lighting stage %s\n", st.reframed ? "ran" : "kept",
+           st.relit ? "ran" : "kept");
+    CHECK_MSG(!st.reframed && st.relit, "a density edit: reframed %d, relit %d (want 0, 1)", st.reframed, st.relit);
+    fresh = test_render_fresh(&sc, NULL, NULL, NULL, 24, NULL);
+    if (fresh) {
+        double d = test_rel_err(fb, fresh, VSD_PASS_VOLUME_IND), c = test_rel_err(fb, fresh, VSD_PASS_VOLUME_DIR);
+        printf("    against a fresh renderer: VolumeInd %.5f, VolumeDir %.2g\n", d, c);
+        CHECK_MSG(d < 0.01, "VolumeInd after a density edit differs from a fresh solve by %.4f", d);
+        CHECK_MSG(c < 1e-6, "VolumeDir after a density edit differs from a fresh renderer by %g", c);
+    }
+    /* density 0 empties every cell: a frame stage of its own (the cells' emptiness is the
+       frame's) */
+    sc.volumes[0].medium.density = 0.0f;
+    CHECK(vsd_renderer_set_scene(r, &sc, err, sizeof err) == VSD_OK);
+    if (!test_render(r, 24, &fb, &st)) goto done;
+    CHECK_MSG(st.reframed, "density 0 kept the frame stage of a non-empty medium");
+    {
+        const size_t k = (size_t)fb->width * fb->height * 3;
+        float most = 0.0f;
+        for (size_t i = 0; i < k; i++) most = fmaxf(most, fb->pass[VSD_PASS_VOLUME_DIR][i]);
+        CHECK_MSG(most == 0.0f, "density 0 still scatters: VolumeDir up to %g", most);
+    }
 done:
     vsd_framebuffer_destroy(fb);
     vsd_framebuffer_destroy(fresh);

@@ -52,6 +52,8 @@ typedef struct vsd_render_stats {
     char method_info[512];       /* the method's own figures, "key=value ..." (crm: RBFs, fit) */
     int relit;                   /* 1: the lighting stage ran (a new frame or a lighting change); 0: the
                                     prepared lighting served (a view change, or the map's strength alone) */
+    int reframed;                /* 1: the frame stage ran (a new frame, volume, transform, or a density
+                                    edit for a method that reads the density only in its frame stage) */
     float strength_scale;        /* the radiance passes' scale for a change of the map's strength alone
                                     (nothing else lights the scene: no scene lights, no emission), 1 else */
     char warnings[512];          /* what in the input looks wrong but renders ("" = nothing) */

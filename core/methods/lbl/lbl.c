@@ -201,6 +201,12 @@ typedef struct lbl_state {
     vsd_record_grid rg;
     float *sigma;                 /* [cells] sigma_t per world unit */
     float *collide;               /* [cells] collision probability per lattice step */
+    /* one volume: [cells] the cells' mean of the density grid itself (medium.density 1), from
+     * which sigma and collide are made for the density they hold (sigma_density), so that a
+     * density edit re-lights without a new frame stage (density_in_lighting); NULL for a
+     * part, whose cells sum their group's media */
+    float *field;
+    float sigma_density;
     float *empty_d2;              /* [cells] squared distance to the medium (lbl_march.h) */
     /* [cells] what the lattice keeps of each birth (lbl_escape.h) through the cells' own
      * medium, or NULL: made by the first lighting that reads it (with delta-M and no
@@ -323,6 +329,8 @@ static void free_frame(lbl_state *s)
     vsd_record_grid_free(&s->rg);
     free(s->sigma);
     free(s->collide);
+    free(s->field);
+    s->field = NULL;
     free(s->empty_d2);
     free(s->keep);
     free(s->dm_keep);
@@ -386,6 +394,11 @@ static void cell_slices(void *user, int z0, int y0, int z1, int y1)
 }
 
 /* sigma_t of a cell, the mean of its 27 samples, and its collision probability */
+/* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite here: inf - inf
+ * in the trilinear lookups would turn the light into NaN; a cell of 1e20 per unit length is
+ * opaque all the same */
+#define LBL_SIGMA_MAX 1e20
+
 static void cell_sigma(const cells_job *j, int32_t x, int32_t y, int32_t z, size_t c)
 {
     lbl_state *s = j->s;
@@ -393,11 +406,30 @@ static void cell_sigma(const cells_job *j, int32_t x, int32_t y, int32_t z, size
     double sum = 0.0;
     int k;
     for (k = 0; k < 27; k++) sum += vsd_group_sigma(&j->ctx->kd, group, cell_sample(s, x, y, z, k));
-    /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite here: inf -
-     * inf in the trilinear lookups would turn the light into NaN; a cell of 1e20 per unit
-     * length is opaque all the same */
-    s->sigma[c] = (float)fmin(sum / 27.0, 1e20);
+    s->sigma[c] = (float)fmin(sum / 27.0, LBL_SIGMA_MAX);
     s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
+}
+
+/* One volume: the cell's mean of the grid itself (the job's kd at density 1). */
+static void cell_field(const cells_job *j, int32_t x, int32_t y, int32_t z, size_t c)
+{
+    lbl_state *s = j->s;
+    double sum = 0.0;
+    int k;
+    for (k = 0; k < 27; k++) sum += vsd_kvolume_at(&j->ctx->kd.density, cell_sample(s, x, y, z, k));
+    s->field[c] = (float)fmin(sum / 27.0, LBL_SIGMA_MAX);
+}
+
+/* One volume: sigma and collide for medium.density `density` from the cells' field. */
+static void apply_density(lbl_state *s, float density)
+{
+    const size_t n = cell_count(s);
+    size_t c;
+    for (c = 0; c < n; c++) {
+        s->sigma[c] = (float)fmin((double)density * s->field[c], LBL_SIGMA_MAX);
+        s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
+    }
+    s->sigma_density = density;
 }
 
 /* A part's frame stage (below) reads its group's media: its grid covers the group, its
@@ -448,7 +480,17 @@ static vsd_status lbl_prepare_frame(void *state, vsd_frame_ctx *ctx, char *err, 
     if (ctx->part.active && (ctx->part.group & ~(1u << ctx->part.volume)) &&
         !(s->albedo_cells = malloc(3 * n * sizeof *s->albedo_cells)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for the albedos of %zu cells", n);
-    {
+    if (!ctx->part.active) {
+        /* one volume: the grid's own means, the density applied to them (apply_density) */
+        vsd_frame_ctx unit = *ctx;
+        cells_job job = {s, &unit, cell_field};
+        unit.kd.density.scale = 1.0f;
+        if (!(s->field = malloc(n * sizeof *s->field)))
+            return vsd_fail(VSD_ERR_NOMEM, err, errlen, "lbl: no memory for %zu cells", n);
+        if ((st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, cell_slices, &job, "lbl cells")))
+            return vsd_fail(st, err, errlen, "lbl: the cells' threads failed");
+        apply_density(s, ctx->kd.density.scale);
+    } else {
         cells_job job = {s, ctx, cell_sigma};
         if ((st = vsd_cpu_run_each(s->rg.res[2], ctx->threads, cell_slices, &job, "lbl cells")))
             return vsd_fail(st, err, errlen, "lbl: the cells' threads failed");
@@ -1121,6 +1163,14 @@ static vsd_status lbl_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
             return st;
         return exchange_between_groups(s, ctx, err, errlen);
     }
+    if (s->field && ctx->kd.density.scale != s->sigma_density) {
+        /* a density edit (density_in_lighting): the cells' medium for the new density, and
+           what the escape kept through the old one made again when read (dm_keep follows
+           delta-M's medium by itself) */
+        apply_density(s, ctx->kd.density.scale);
+        free(s->keep);
+        s->keep = NULL;
+    }
     if (s->albedo_cells && (st = mix_albedo_cells(s, ctx, err, errlen))) return st;
     if ((st = split_scene_lights(s, &ctx->kd, &suns))) return vsd_fail(st, err, errlen, "lbl: internal: too many lights");
     /* the record grid's per-ray weights hold VSD_RECORDS_MAX_LIGHTS directional lights,
@@ -1609,6 +1659,7 @@ const vsd_method vsd_method_lbl = {
      * a density edit on smoke128 at 264x166 1.6 -> 0.37 s, Combined 2.9 -> 3.0% (smoke128),
      * 9.3 -> 10.2% (cloud256), 3.5 -> 5.9% (rot_lowalb) at 160x90 (docs/methods/lbl.md) */
     .preview_options = "{\"cells\": 32}",
+    .density_in_lighting = 1,   /* the cells' field kept, the density applied per lighting */
     .options = VSD_OPTION_TABLE(lbl_option_rows, lbl_options),
     .create = lbl_create,
     .prepare_frame = lbl_prepare_frame,

@@ -89,6 +89,10 @@ typedef struct vsd_method {
     /* 1: renders refraction in a scene of several volumes where one of them refracts (the
      * others' rays bend through that one's field; vsd_method_check_volumes) */
     int refraction_among_volumes;
+    /* 1: the frame stage reads only whether the medium's density is > 0, the lighting stage
+     * its value (one volume): an edit of medium.density re-lights without preparing the
+     * frame again (issue 32: a density edit in the viewport). 0: density is a frame key. */
+    int density_in_lighting;
     /* After the lighting stage: the method's light scattered at least once, as a P1 radiance
      * field for `reference`'s control variate (render.options.cache, issue 33;
      * src/lighting/radiance_cache.h). NULL for a method that has no multiple scattering to

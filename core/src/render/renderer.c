@@ -348,7 +348,9 @@ static int strength_scales(const vsd_scene *sc)
 
 /* The frame key: every volume's grids, density, ior and matrix. The lighting key adds
  * the map, the lights and every volume's material, and the map's strength unless the image
- * scales with it (strength_scales). Long scenes hash rather than list. */
+ * scales with it (strength_scales). A method whose frame stage reads only whether the
+ * density is > 0 (density_in_lighting, one volume) finds the density's value in the
+ * lighting key instead. Long scenes hash rather than list. */
 static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key, uint64_t *volume_keys)
 {
     const vsd_scene *sc = &r->scene;
@@ -359,13 +361,15 @@ static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key
         const vsd_scene_volume *sv = &sc->volumes[v];
         const vsd_scene_medium *m = &sv->medium;
         char part[KEY_LEN + 512];
-        int n = snprintf(part, sizeof part, "%d:%s|%g|%g|", v, r->volumes[v].key, m->density, m->ior);
+        const int lit_density = r->method->density_in_lighting && sc->volume_count == 1;
+        int n = snprintf(part, sizeof part, "%d:%s|%g|%g|", v, r->volumes[v].key,
+                         lit_density ? (double)(m->density > 0.0f) : (double)m->density, m->ior);
         for (int i = 0; i < 16 && n < (int)sizeof part - 32; i++) n += snprintf(part + n, sizeof part - n, "%.9g,", sv->matrix[i]);
         XXH3_64bits_update(fh, part, strlen(part));
         volume_keys[v] = XXH3_64bits(part, strlen(part));
-        n = snprintf(part, sizeof part, "%d:%g,%g,%g|%g|%g,%g,%g|%g;", v, m->albedo[0], m->albedo[1], m->albedo[2],
+        n = snprintf(part, sizeof part, "%d:%g,%g,%g|%g|%g,%g,%g|%g|%g;", v, m->albedo[0], m->albedo[1], m->albedo[2],
                      m->anisotropy, m->emission_color[0], m->emission_color[1], m->emission_color[2],
-                     m->emission_strength);
+                     m->emission_strength, lit_density ? m->density : 0.0f);
         XXH3_64bits_update(lh, part, (size_t)n);
     }
     unsigned long long fk = XXH3_64bits_digest(fh), lk = XXH3_64bits_digest(lh);
@@ -534,6 +538,7 @@ static vsd_status render_on(vsd_renderer *r, vsd_cuda *cuda, int frame, vsd_fram
     st = render_keyed(r, cuda, &ctx, &plan, fbp, stats, err, errlen);
     r->scene.environment.strength = asked;
     stats->relit = plan.lighting_changed;
+    stats->reframed = plan.frame_changed;
     stats->strength_scale = scale;
     if (st == VSD_OK && scale != 1.0f) scale_radiance(*fbp, scale);
     return st;
