@@ -50,29 +50,7 @@ static inline void bench_run_cycles(const char *blender, const char *script, con
     snprintf(s_seed, sizeof s_seed, "%d", seed);
     unlink(out);
     argv[n++] = (char *)blender;
-    argv[n++] = "--background";
-    argv[n++] = "--factory-startup";
-    argv[n++] = "--python-exit-code";
-    argv[n++] = "1";
-    argv[n++] = "--python";
-    argv[n++] = (char *)script;
-    argv[n++] = "--";
-    argv[n++] = "--scene";
-    argv[n++] = (char *)scene_path;
-    argv[n++] = "--out";
-    argv[n++] = (char *)out;
-    argv[n++] = "--width";
-    argv[n++] = s_w;
-    argv[n++] = "--height";
-    argv[n++] = s_h;
-    argv[n++] = "--samples";
-    argv[n++] = s_spp;
-    if (seed) {
-        argv[n++] = "--seed";
-        argv[n++] = s_seed;
-    }
-    argv[n++] = "--time-json";
-    argv[n++] = (char *)tjson;
+    n = cycles_scene_args(argv, n, script, scene_path, out, s_w, s_h, s_spp, seed ? s_seed : NULL, tjson);
     argv[n] = NULL;
     rc = run_logged(argv, log);
     cr->wall = vsd_clock_seconds() - t0;

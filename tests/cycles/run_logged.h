@@ -33,4 +33,38 @@ static inline int run_logged(char *const argv[], const char *log)
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
 }
 
+/* Appends to argv[n..] Blender's headless arguments and cycles_scene.py's common ones (the
+ * script, the scene, the EXR out, the film, the samples, the seed when not NULL, the timings'
+ * JSON); returns the new n. The caller puts the Blender command first and may add more of
+ * the script's options after (--frame, --step-rate ...), then argv[n] = NULL. */
+static inline int cycles_scene_args(char **argv, int n, const char *script, const char *scene, const char *out,
+                                    const char *width, const char *height, const char *samples, const char *seed,
+                                    const char *time_json)
+{
+    argv[n++] = "--background";
+    argv[n++] = "--factory-startup";
+    argv[n++] = "--python-exit-code";
+    argv[n++] = "1";
+    argv[n++] = "--python";
+    argv[n++] = (char *)script;
+    argv[n++] = "--";
+    argv[n++] = "--scene";
+    argv[n++] = (char *)scene;
+    argv[n++] = "--out";
+    argv[n++] = (char *)out;
+    argv[n++] = "--width";
+    argv[n++] = (char *)width;
+    argv[n++] = "--height";
+    argv[n++] = (char *)height;
+    argv[n++] = "--samples";
+    argv[n++] = (char *)samples;
+    if (seed) {
+        argv[n++] = "--seed";
+        argv[n++] = (char *)seed;
+    }
+    argv[n++] = "--time-json";
+    argv[n++] = (char *)time_json;
+    return n;
+}
+
 #endif
