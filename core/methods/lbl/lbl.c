@@ -393,12 +393,13 @@ static void cell_slices(void *user, int z0, int y0, int z1, int y1)
             for (x = 0; x < res[0]; x++, c++) j->cell(j, x, y, z, c);
 }
 
-/* sigma_t of a cell, the mean of its 27 samples, and its collision probability */
 /* a corrupt grid's absurd values (scale x 3e38 overflows to inf) stay finite here: inf - inf
  * in the trilinear lookups would turn the light into NaN; a cell of 1e20 per unit length is
  * opaque all the same */
 #define LBL_SIGMA_MAX 1e20
 
+/* A part's cell: sigma_t, the mean of its 27 samples of its group's media, and its collision
+ * probability. */
 static void cell_sigma(const cells_job *j, int32_t x, int32_t y, int32_t z, size_t c)
 {
     lbl_state *s = j->s;
