@@ -37,21 +37,19 @@ def time_at_error(pts, err):
 
 
 def curve(rows, scene, method, key):
-    return [(float(r["camera"]), float(r[key])) for r in rows if r["scene"] == scene and r["method"] == method
+    """(time, error, spp) of a method's measured rows on a scene (the failed or timed-out left out)."""
+    return [(float(r["camera"]), float(r[key]), int(r["spp"])) for r in rows if r["scene"] == scene and r["method"] == method
             and float(r["camera"]) > 0 and float(r[key]) > 0 and not math.isnan(float(r[key]))]
 
 
 def print_speedups(rows):
     for scene in dict.fromkeys(r["scene"] for r in rows):
         for m in [m for m in dict.fromkeys(r["method"] for r in rows) if m.startswith("reference")]:
-            ref = curve(rows, scene, m, "err_combined")
-            for r in rows:
-                if r["scene"] != scene or r["method"] != "cycles" or not (float(r["camera"]) > 0):
-                    continue
-                t_c, e_c = float(r["camera"]), float(r["err_combined"])
+            ref = [(t, e) for t, e, _ in curve(rows, scene, m, "err_combined")]
+            for t_c, e_c, spp in curve(rows, scene, "cycles", "err_combined"):
                 t_r = time_at_error(ref, e_c)
-                print("%s: Cycles %s spp, Combined %.2f%% in %.1f s; %s reaches it in %s: %s" % (
-                    scene, r["spp"], 100 * e_c, t_c, m, "%.1f s" % t_r if t_r else "(outside its sample counts)",
+                print("%s: Cycles %d spp, Combined %.2f%% in %.1f s; %s reaches it in %s: %s" % (
+                    scene, spp, 100 * e_c, t_c, m, "%.1f s" % t_r if t_r else "(outside its sample counts)",
                     "%.1fx faster" % (t_c / t_r) if t_r else "n/a"))
 
 
@@ -68,9 +66,7 @@ def main(argv):
             ax = axes[row][col]
             lines = [m for m in dict.fromkeys(r["method"] for r in rows) if m.startswith("reference") or m == "cycles"]
             for m in lines:
-                ref = [r for r in rows if r["scene"] == scene and r["method"] == m]
-                pts = [(float(r["camera"]), float(r[key]), int(r["spp"])) for r in ref
-                       if float(r["camera"]) > 0 and float(r[key]) > 0 and not math.isnan(float(r[key]))]
+                pts = curve(rows, scene, m, key)
                 if not pts:
                     continue
                 style = {"reference": ("-", "black", "reference (path tracer)"),

@@ -357,11 +357,11 @@ static void make_keys(const vsd_renderer *r, char *frame_key, char *lighting_key
     XXH3_state_t *fh = XXH3_createState(), *lh = XXH3_createState();
     XXH3_64bits_reset(fh);
     XXH3_64bits_reset(lh);
+    const int lit_density = r->method->density_in_lighting && sc->volume_count == 1;
     for (int v = 0; v < sc->volume_count; v++) {
         const vsd_scene_volume *sv = &sc->volumes[v];
         const vsd_scene_medium *m = &sv->medium;
         char part[KEY_LEN + 512];
-        const int lit_density = r->method->density_in_lighting && sc->volume_count == 1;
         int n = snprintf(part, sizeof part, "%d:%s|%g|%g|", v, r->volumes[v].key,
                          lit_density ? (double)(m->density > 0.0f) : (double)m->density, m->ior);
         for (int i = 0; i < 16 && n < (int)sizeof part - 32; i++) n += snprintf(part + n, sizeof part - n, "%.9g,", sv->matrix[i]);
