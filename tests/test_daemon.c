@@ -74,14 +74,16 @@ static int cache_flag(const cJSON *info, const char *name)
     return cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(info, "cache"), name));
 }
 
-/* In-process render of the same scene with the files themselves. */
-static vsd_framebuffer *render_local(const char *vol, const char *env, double cam_x, int w, int h)
+/* In-process render of the same scene with the files themselves, by a new renderer into a
+ * new film. */
+static vsd_framebuffer *render_local_with(const char *vol, const char *env, double cam_x, int w, int h,
+                                          const char *method_opts)
 {
     char json[4096], err[1024];
     vsd_scene sc;
     vsd_renderer *r = NULL;
     vsd_framebuffer *fb = NULL;
-    scene_json(json, sizeof json, vol, env, cam_x, w, h, RAYMARCH);
+    scene_json(json, sizeof json, vol, env, cam_x, w, h, method_opts);
     if (vsd_scene_parse(json, "", NULL, 0, &sc, err, sizeof err) ||
         vsd_renderer_create(&sc, NULL, &r, err, sizeof err) || vsd_renderer_render(r, 1, &fb, NULL, err, sizeof err)) {
         fprintf(stderr, "local render: %s\n", err);
@@ -90,6 +92,11 @@ static vsd_framebuffer *render_local(const char *vol, const char *env, double ca
     }
     vsd_renderer_destroy(r);
     return fb;
+}
+
+static vsd_framebuffer *render_local(const char *vol, const char *env, double cam_x, int w, int h)
+{
+    return render_local_with(vol, env, cam_x, w, h, RAYMARCH);
 }
 
 
@@ -443,6 +450,36 @@ int main(int argc, char **argv)
                 cJSON_Delete(info);
             } else CHECK_MSG(0, "render: %s", err);
             vsdc_result_free(&res);
+        }
+    }
+    /* a film kept with its renderer (cache.h, vsdd_cache_keep_film): a renderer's next
+     * render goes into its last one's film ("cache": {"film": true}) when the size is the
+     * same, and its image is a new renderer's in a new film bit for bit, lbl's adaptive view
+     * (every 4th pixel traced, the blocks between interpolated) included: nothing of the last
+     * camera's picture is left in it. A film of another size is made anew. */
+    {
+        static const char lbl[] = "\"method\":\"lbl\",\"options\":{\"cells\":16,\"view_spacing\":4}";
+        static const struct {
+            double cam_x;
+            int w, h, film;
+        } steps[] = {{0.5, 96, 54, 0}, {1.5, 96, 54, 1}, {1.0, 64, 36, 0}, {1.5, 64, 36, 1}};
+        int s;
+        for (s = 0; s < 4; s++) {
+            vsd_framebuffer *want = render_local_with(g_vol[0], g_env, steps[s].cam_x, steps[s].w, steps[s].h, lbl);
+            char tag[32];
+            scene_json(scene, sizeof scene, vb[0], eb, steps[s].cam_x, steps[s].w, steps[s].h, lbl);
+            snprintf(tag, sizeof tag, "film%d", s);
+            if (want && render_remote(c, scene, 1, &res, err, sizeof err) == 0) {
+                cJSON *info = result_info(&res);
+                long diff = test_exr_bytes_diff(res.exr, res.exr_len, want, g_dir, tag);
+                CHECK_MSG(diff == 0, "film step %d (%dx%d): %ld values differ from a new renderer's", s, steps[s].w,
+                          steps[s].h, diff);
+                CHECK_MSG(cache_flag(info, "film") == steps[s].film, "film step %d: cache.film %d, expected %d (%s)", s,
+                          cache_flag(info, "film"), steps[s].film, res.json);
+                cJSON_Delete(info);
+                vsdc_result_free(&res);
+            } else CHECK_MSG(0, "film step %d: %s", s, want ? err : "the local render failed");
+            vsd_framebuffer_destroy(want);
         }
     }
 

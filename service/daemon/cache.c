@@ -100,6 +100,7 @@ static void free_entry(vsdd_cache *k, vsdd_entry *e)
     case ENT_ENV: vsd_env_destroy(e->env); break;
     case ENT_SLOT:
         vsd_renderer_destroy(e->slot->r);
+        vsd_framebuffer_destroy(e->slot->film);
         for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin_locked(k, e->slot->pins[i]);
         free(e->slot);
         break;

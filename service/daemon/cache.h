@@ -73,6 +73,18 @@ typedef void (*vsdd_slot_progress_fn)(void *user, const char *stage, float fract
  * pins in every case (kept by a new slot, released on a hit or a failure); returns 0 or
  * -vsd_status. The slot is in use until vsdd_cache_release_slot. */
 enum { VSDD_SLOT_NEW = 0, VSDD_SLOT_HIT = 1, VSDD_SLOT_TAKEN_OVER = 2 };
+/* The film (every pass's pixels) a slot's last job rendered into, handed to its next job:
+ * the renderer writes every pixel of every pass, so a kept film gives the same image as a
+ * new one, and a new 1280x720 film is 63 MB of fresh pages whose first touch cost about
+ * 0.1 s of every camera change through the daemon (docs/daemon-bench.md, "A film kept
+ * with its renderer"). take: out of the slot (NULL when it keeps none), the job owns it.
+ * keep: the job's film back into the slot, counted with the renderer's bytes (made room for
+ * as a renderer's growth is), unless the slot keeps one already or will not be kept;
+ * *film is NULL when kept. Both while the job holds the slot. */
+vsd_framebuffer *vsdd_cache_take_film(vsdd_cache *k, vsdd_slot *s);
+void vsdd_cache_keep_film(vsdd_cache *k, vsdd_slot *s, vsd_framebuffer **film);
+/* A film's bytes at width x height: every pass's channels in float. */
+int64_t vsdd_film_bytes(int width, int height);
 int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const char *family, const vsd_scene *scene,
                         vsdd_entry *pins[VSDD_SLOT_PINS],
                         vsdd_slot_progress_fn progress, volatile int *cancel, vsdd_slot **out, int *hit, char *msg,

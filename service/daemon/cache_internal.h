@@ -32,6 +32,8 @@ struct vsdd_slot {
     int64_t held;                     /* heap bytes the renderer was seen to keep (sum of the
                                          allocator's in-use growth over its create and renders) */
     uint64_t heap_start;              /* the heap in use at the render's begin */
+    vsd_framebuffer *film;            /* the last job's film, kept for the next (vsdd_cache_keep_film);
+                                         counted in held while here */
 };
 
 struct vsdd_cache {

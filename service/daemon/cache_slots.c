@@ -108,6 +108,46 @@ void vsdd_cache_render_end(vsdd_cache *k, vsdd_slot *s, int64_t framebuffer_byte
     vsdd_unlock(&k->lock);
 }
 
+int64_t vsdd_film_bytes(int width, int height)
+{
+    int64_t channels = 0;
+    int p;
+    for (p = 0; p < VSD_PASS_COUNT; p++) channels += vsd_pass_channels((vsd_pass)p);
+    return (int64_t)width * height * channels * (int64_t)sizeof(float);
+}
+
+static int64_t film_bytes_of(const vsd_framebuffer *fb)
+{
+    return fb ? vsdd_film_bytes(fb->width, fb->height) : 0;
+}
+
+vsd_framebuffer *vsdd_cache_take_film(vsdd_cache *k, vsdd_slot *s)
+{
+    vsd_framebuffer *fb;
+    vsdd_lock(&k->lock);
+    fb = s->film;
+    s->film = NULL;
+    /* the job's now, as a film it made would be (vsdd_cache_render_end leaves it out) */
+    s->held -= film_bytes_of(fb);
+    if (s->held < 0) s->held = 0;
+    vsdd_unlock(&k->lock);
+    return fb;
+}
+
+void vsdd_cache_keep_film(vsdd_cache *k, vsdd_slot *s, vsd_framebuffer **film)
+{
+    vsdd_lock(&k->lock);
+    if (*film && !s->film && !s->self->uncached) {
+        s->film = *film;
+        *film = NULL;
+        s->held += film_bytes_of(s->film);
+        /* room for it as for a renderer's growth: idle entries evicted, or the renderer
+         * counted outside the budget and not kept (its film freed with it) */
+        grow_entry(k, s->self, (uint64_t)s->held);
+    }
+    vsdd_unlock(&k->lock);
+}
+
 /* Lock held. Wait until a new renderer of `est` bytes is admitted: room in the memory
  * budget (reserved, *cached = 1), or no other renderer busy (it renders alone outside the
  * budget, *cached = 0). The jobs waiting here hold only their inputs' pins, and busy

@@ -47,7 +47,11 @@ void vsdd_run_job(vsdd_daemon *d, const vsdd_job_info *j, int worker)
     if (rc == VSDD_STEP_OK) rc = vsdd_step_render(run);
     if (rc == VSDD_STEP_OK) rc = vsdd_step_reply(run);
     report_outcome(run, rc);
-    if (run->slot) vsdd_cache_release_slot(d->cache, run->slot, 1);
+    if (run->slot) {
+        /* the next job of this renderer renders into this one's film (cache.h) */
+        if (rc == VSDD_STEP_OK) vsdd_cache_keep_film(d->cache, run->slot, &run->fb);
+        vsdd_cache_release_slot(d->cache, run->slot, 1);
+    }
     for (i = 0; i < VSDD_SLOT_PINS; i++) vsdd_cache_unpin(d->cache, run->pins[i]);
     cJSON_Delete(run->extra);
     vsd_framebuffer_destroy(run->fb);

@@ -183,12 +183,19 @@ int vsdd_step_render(vsdd_run *run)
     use->last_fraction = 0;
     vsdd_cancel_watch(j->cancel, &use->cancel);
     {
-        /* the framebuffer the render makes is the job's (freed after the reply), not the
-         * renderer's */
-        int64_t fb_bytes = run->fb ? 0 : (int64_t)run->sc.film.width * run->sc.film.height * 17 * (int64_t)sizeof(float);
+        /* the film is the job's until it is kept with the slot after the reply
+         * (vsdd_cache_keep_film), so what the render grows it by is not the renderer's */
+        int64_t film_before;
+        if (!run->fb) {
+            run->fb = vsdd_cache_take_film(run->d->cache, run->slot);
+            run->film_hit = run->fb && run->fb->width == run->sc.film.width && run->fb->height == run->sc.film.height;
+        }
+        film_before = run->fb ? vsdd_film_bytes(run->fb->width, run->fb->height) : 0;
         vsdd_cache_render_begin(run->d->cache, run->slot);
         st = vsd_renderer_render(vsdd_slot_renderer(run->slot), run->frame, &run->fb, &run->stats, err, sizeof err);
-        vsdd_cache_render_end(run->d->cache, run->slot, run->fb ? fb_bytes : 0, st == VSD_OK);
+        vsdd_cache_render_end(run->d->cache, run->slot,
+                              (run->fb ? vsdd_film_bytes(run->fb->width, run->fb->height) : 0) - film_before,
+                              st == VSD_OK);
     }
     reason = vsdd_cancel_unwatch(j->cancel);
     use->job = NULL;

@@ -80,6 +80,7 @@ static cJSON *result_json(const vsdd_run *run, size_t exr_len, size_t png_len, c
     /* a renderer of another frame of these volumes, handed the ones that changed */
     cJSON_AddItemToObject(cache, "renderer_taken_over", cJSON_CreateBool(run->slot_hit == VSDD_SLOT_TAKEN_OVER));
     cJSON_AddItemToObject(cache, "preparation", cJSON_CreateBool(run->prep_hit));
+    cJSON_AddItemToObject(cache, "film", cJSON_CreateBool(run->film_hit));
     list = cJSON_AddArrayToObject(cache, "volumes");
     for (v = 0; v < sc->volume_count; v++) {
         cJSON *one = cJSON_CreateObject();

@@ -28,7 +28,7 @@ typedef struct vsdd_run {
     int hits[VSDD_SLOT_PINS];
     /* render */
     vsdd_slot *slot;
-    int slot_hit, prep_hit, cancel_reason;
+    int slot_hit, prep_hit, film_hit, cancel_reason; /* film_hit: rendered into the slot's kept film */
     vsd_framebuffer *fb;
     vsd_render_stats stats;
     /* the outcome when not OK; extra: fields added to the ERROR (e.g. "missing"), owned */
