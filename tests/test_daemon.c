@@ -16,6 +16,7 @@
 #include "vsd/render.h"
 #include <cjson/cJSON.h>
 #include <errno.h>
+#include <math.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdlib.h>
@@ -292,6 +293,46 @@ static cJSON *stats_of(const char *sock)
     free(json);
     vsdc_close(c);
     return o;
+}
+
+/* A daemon with --cache-mb `mb` renders lbl at 400x400 three times (the camera moved): each
+ * result's cache.renderer and cache.film into flags[3][2]; *used: STATS used_bytes after the
+ * first (the map, the volume, the renderer and any film it keeps). 0, or -1 when it failed. */
+static int film_budget_run(const char *name, long mb, int flags[3][2], double *used)
+{
+    static const char lbl[] = "\"method\":\"lbl\",\"options\":{\"cells\":16}";
+    test_daemon d = {0};
+    char mbs[32], err[1024], scene[4096], vb[128], eb[128];
+    const char *extra[] = {"--cache-mb", mbs, "--max-size", "512", NULL};
+    vsdc *c = NULL;
+    int k, rc = -1;
+    snprintf(mbs, sizeof mbs, "%ld", mb);
+    if (test_daemon_start(&d, g_vsd, g_dir, name, NULL, NULL, extra)) return -1;
+    if (vsdc_connect(d.sock, NULL, &c, err, sizeof err) == 0 &&
+        vsdc_upload_file(c, g_vol[0], vb, sizeof vb, NULL, err, sizeof err) == 0 &&
+        vsdc_upload_file(c, g_env, eb, sizeof eb, NULL, err, sizeof err) == 0) {
+        for (k = 0; k < 3; k++) {
+            vsdc_result res;
+            cJSON *info;
+            scene_json(scene, sizeof scene, vb, eb, 0.5 + 0.5 * k, 400, 400, lbl);
+            if (render_remote(c, scene, 1, &res, err, sizeof err)) break;
+            info = result_info(&res);
+            flags[k][0] = cache_flag(info, "renderer");
+            flags[k][1] = cache_flag(info, "film");
+            cJSON_Delete(info);
+            vsdc_result_free(&res);
+            if (k == 0) {
+                cJSON *st = stats_of(d.sock);
+                *used = jnum(st, "cache", "used_bytes");
+                cJSON_Delete(st);
+            }
+        }
+        rc = k == 3 ? 0 : -1;
+    }
+    if (rc) fprintf(stderr, "film budget run %s: %s\n", name, err);
+    vsdc_close(c);
+    test_daemon_stop(&d);
+    return rc;
 }
 
 int main(int argc, char **argv)
@@ -946,6 +987,36 @@ int main(int argc, char **argv)
             waitpid(p, &status, 0);
             CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 2);
         }
+    }
+
+    /* a kept film never costs a renderer its place: it is kept only into room the memory
+     * budget has free. A first daemon measures what the map, the volume and the renderer
+     * hold (STATS used_bytes less the film it keeps); with a budget of that plus half a
+     * film the renderer stays cached and its film is not kept, with that plus two films it
+     * is. (Counting the film by making room for it, as a renderer's growth is, evicted the
+     * renderer at the first budget.) */
+    {
+        int flags[3][2], p, k;
+        double used = 0, film = 0, base;
+        for (p = 0; p < VSD_PASS_COUNT; p++) film += 400.0 * 400.0 * vsd_pass_channels((vsd_pass)p) * sizeof(float);
+        if (film_budget_run("fb_probe", 2048, flags, &used) == 0) {
+            CHECK_MSG(flags[1][0] && flags[1][1], "a roomy budget keeps the renderer and its film (%d %d)", flags[1][0],
+                      flags[1][1]);
+            base = used - film;
+            printf("film budget: %.1f MB held besides a %.1f MB film\n", base / 1048576.0, film / 1048576.0);
+            if (film_budget_run("fb_tight", (long)ceil((base + 0.5 * film) / 1048576.0), flags, &used) == 0)
+                for (k = 1; k < 3; k++)
+                    CHECK_MSG(flags[k][0] && !flags[k][1],
+                              "budget for the renderer and half a film, render %d: renderer %d film %d (expected 1 0)", k,
+                              flags[k][0], flags[k][1]);
+            else CHECK_MSG(0, "the tight budget's daemon failed");
+            if (film_budget_run("fb_room", (long)ceil((base + 2.0 * film) / 1048576.0), flags, &used) == 0)
+                for (k = 1; k < 3; k++)
+                    CHECK_MSG(flags[k][0] && flags[k][1],
+                              "budget for the renderer and two films, render %d: renderer %d film %d (expected 1 1)", k,
+                              flags[k][0], flags[k][1]);
+            else CHECK_MSG(0, "the roomy budget's daemon failed");
+        } else CHECK_MSG(0, "the probe daemon failed");
     }
 
     vsd_framebuffer_destroy(ref);

@@ -78,9 +78,9 @@ enum { VSDD_SLOT_NEW = 0, VSDD_SLOT_HIT = 1, VSDD_SLOT_TAKEN_OVER = 2 };
  * new one, and a new 1280x720 film is 63 MB of fresh pages whose first touch cost about
  * 0.1 s of every camera change through the daemon (docs/daemon-bench.md, "A film kept
  * with its renderer"). take: out of the slot (NULL when it keeps none), the job owns it.
- * keep: the job's film back into the slot, counted with the renderer's bytes (made room for
- * as a renderer's growth is), unless the slot keeps one already or will not be kept;
- * *film is NULL when kept. Both while the job holds the slot. */
+ * keep: the job's film back into the slot, counted with the renderer's bytes, when the
+ * memory budget has room for it without evicting anything and the slot keeps none already
+ * and will be kept; *film is NULL when kept. Both while the job holds the slot. */
 vsd_framebuffer *vsdd_cache_take_film(vsdd_cache *k, vsdd_slot *s);
 void vsdd_cache_keep_film(vsdd_cache *k, vsdd_slot *s, vsd_framebuffer **film);
 /* A film's bytes at width x height: every pass's channels in float. */

@@ -138,12 +138,16 @@ void vsdd_cache_keep_film(vsdd_cache *k, vsdd_slot *s, vsd_framebuffer **film)
 {
     vsdd_lock(&k->lock);
     if (*film && !s->film && !s->self->uncached) {
-        s->film = *film;
-        *film = NULL;
-        s->held += film_bytes_of(s->film);
-        /* room for it as for a renderer's growth: idle entries evicted, or the renderer
-         * counted outside the budget and not kept (its film freed with it) */
-        grow_entry(k, s->self, (uint64_t)s->held);
+        const uint64_t after = (uint64_t)s->held + (uint64_t)film_bytes_of(*film);
+        const uint64_t more = after > s->self->bytes ? after - s->self->bytes : 0;
+        /* only into room the budget has free: a film saves its first touch, a few hundredths
+         * of a second, and is not worth evicting an idle renderer, volume or map for */
+        if (k->used + k->reserved + more <= k->cfg->cache_bytes) {
+            s->film = *film;
+            *film = NULL;
+            s->held = (int64_t)after;
+            grow_entry(k, s->self, after);
+        }
     }
     vsdd_unlock(&k->lock);
 }
