@@ -83,8 +83,8 @@ enum { VSDD_SLOT_NEW = 0, VSDD_SLOT_HIT = 1, VSDD_SLOT_TAKEN_OVER = 2 };
  * and will be kept; *film is NULL when kept. Both while the job holds the slot. */
 vsd_framebuffer *vsdd_cache_take_film(vsdd_cache *k, vsdd_slot *s);
 void vsdd_cache_keep_film(vsdd_cache *k, vsdd_slot *s, vsd_framebuffer **film);
-/* A film's bytes at width x height: every pass's channels in float. */
-int64_t vsdd_film_bytes(int width, int height);
+/* A film's bytes: every pass's channels in float (0 for NULL). */
+int64_t vsdd_film_bytes(const vsd_framebuffer *film);
 int vsdd_cache_get_slot(vsdd_cache *k, const char *key, const char *family, const vsd_scene *scene,
                         vsdd_entry *pins[VSDD_SLOT_PINS],
                         vsdd_slot_progress_fn progress, volatile int *cancel, vsdd_slot **out, int *hit, char *msg,

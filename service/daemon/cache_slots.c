@@ -108,17 +108,13 @@ void vsdd_cache_render_end(vsdd_cache *k, vsdd_slot *s, int64_t framebuffer_byte
     vsdd_unlock(&k->lock);
 }
 
-int64_t vsdd_film_bytes(int width, int height)
+int64_t vsdd_film_bytes(const vsd_framebuffer *film)
 {
     int64_t channels = 0;
     int p;
+    if (!film) return 0;
     for (p = 0; p < VSD_PASS_COUNT; p++) channels += vsd_pass_channels((vsd_pass)p);
-    return (int64_t)width * height * channels * (int64_t)sizeof(float);
-}
-
-static int64_t film_bytes_of(const vsd_framebuffer *fb)
-{
-    return fb ? vsdd_film_bytes(fb->width, fb->height) : 0;
+    return (int64_t)film->width * film->height * channels * (int64_t)sizeof(float);
 }
 
 vsd_framebuffer *vsdd_cache_take_film(vsdd_cache *k, vsdd_slot *s)
@@ -128,7 +124,7 @@ vsd_framebuffer *vsdd_cache_take_film(vsdd_cache *k, vsdd_slot *s)
     fb = s->film;
     s->film = NULL;
     /* the job's now, as a film it made would be (vsdd_cache_render_end leaves it out) */
-    s->held -= film_bytes_of(fb);
+    s->held -= vsdd_film_bytes(fb);
     if (s->held < 0) s->held = 0;
     vsdd_unlock(&k->lock);
     return fb;
@@ -138,7 +134,7 @@ void vsdd_cache_keep_film(vsdd_cache *k, vsdd_slot *s, vsd_framebuffer **film)
 {
     vsdd_lock(&k->lock);
     if (*film && !s->film && !s->self->uncached) {
-        const uint64_t after = (uint64_t)s->held + (uint64_t)film_bytes_of(*film);
+        const uint64_t after = (uint64_t)s->held + (uint64_t)vsdd_film_bytes(*film);
         const uint64_t more = after > s->self->bytes ? after - s->self->bytes : 0;
         /* only into room the budget has free: a film saves its first touch, a few hundredths
          * of a second, and is not worth evicting an idle renderer, volume or map for */

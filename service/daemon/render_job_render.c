@@ -190,12 +190,10 @@ int vsdd_step_render(vsdd_run *run)
             run->fb = vsdd_cache_take_film(run->d->cache, run->slot);
             run->film_hit = run->fb && run->fb->width == run->sc.film.width && run->fb->height == run->sc.film.height;
         }
-        film_before = run->fb ? vsdd_film_bytes(run->fb->width, run->fb->height) : 0;
+        film_before = vsdd_film_bytes(run->fb);
         vsdd_cache_render_begin(run->d->cache, run->slot);
         st = vsd_renderer_render(vsdd_slot_renderer(run->slot), run->frame, &run->fb, &run->stats, err, sizeof err);
-        vsdd_cache_render_end(run->d->cache, run->slot,
-                              (run->fb ? vsdd_film_bytes(run->fb->width, run->fb->height) : 0) - film_before,
-                              st == VSD_OK);
+        vsdd_cache_render_end(run->d->cache, run->slot, vsdd_film_bytes(run->fb) - film_before, st == VSD_OK);
     }
     reason = vsdd_cancel_unwatch(j->cancel);
     use->job = NULL;

@@ -398,8 +398,15 @@ static void cell_slices(void *user, int z0, int y0, int z1, int y1)
  * opaque all the same */
 #define LBL_SIGMA_MAX 1e20
 
-/* A part's cell: sigma_t, the mean of its 27 samples of its group's media, and its collision
- * probability. */
+/* Cell c's extinction per unit length, capped (above), and its collision probability per
+ * lattice step. */
+static void set_cell_medium(lbl_state *s, size_t c, double sigma)
+{
+    s->sigma[c] = (float)fmin(sigma, LBL_SIGMA_MAX);
+    s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
+}
+
+/* A part's cell: sigma_t, the mean of its 27 samples of its group's media. */
 static void cell_sigma(const cells_job *j, int32_t x, int32_t y, int32_t z, size_t c)
 {
     lbl_state *s = j->s;
@@ -407,8 +414,7 @@ static void cell_sigma(const cells_job *j, int32_t x, int32_t y, int32_t z, size
     double sum = 0.0;
     int k;
     for (k = 0; k < 27; k++) sum += vsd_group_sigma(&j->ctx->kd, group, cell_sample(s, x, y, z, k));
-    s->sigma[c] = (float)fmin(sum / 27.0, LBL_SIGMA_MAX);
-    s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
+    set_cell_medium(s, c, sum / 27.0);
 }
 
 /* One volume: the cell's mean of the grid itself (the job's kd at density 1). */
@@ -426,10 +432,7 @@ static void apply_density(lbl_state *s, float density)
 {
     const size_t n = cell_count(s);
     size_t c;
-    for (c = 0; c < n; c++) {
-        s->sigma[c] = (float)fmin((double)density * s->field[c], LBL_SIGMA_MAX);
-        s->collide[c] = (float)(1.0 - exp(-s->sigma[c] * s->cell_world));
-    }
+    for (c = 0; c < n; c++) set_cell_medium(s, c, (double)density * s->field[c]);
     s->sigma_density = density;
 }
 
