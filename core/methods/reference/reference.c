@@ -20,7 +20,7 @@ typedef struct reference_options {
 /* The methods that can give their light as a cache (method.h's radiance_cache hook): any
  * other value, a single-scattering method's name too, is refused by the option checker,
  * naming the value and these. */
-static const char *const reference_cache_names[] = {"none", "lbl", NULL};
+static const char *const reference_cache_names[] = {"none", "lbl", "crm", NULL};
 static const vsd_option_when reference_on_cache[] = {{"cache", 1, 0, "none"}, {NULL, 0, 0, NULL}};
 
 static const vsd_option_spec reference_option_rows[] = {
@@ -28,7 +28,7 @@ static const vsd_option_spec reference_option_rows[] = {
      "path length limit in scattering events (Russian roulette ends most paths long before)",
      offsetof(reference_options, max_bounces), 0, NULL, NULL},
     {"cache", VSD_OPT_CHOICE, 0, 0, 0, reference_cache_names,
-     "a fast method's multiple scattering (lbl) as a control variate: the paths estimate the difference between the "
+     "a fast method's multiple scattering (lbl or crm) as a control variate: the paths estimate the difference between the "
      "true light and the method's, so they converge to the same image, with less noise where the method is close "
      "(docs/methods/reference.md: it does not pay yet)",
      offsetof(reference_options, cache), 0, NULL, NULL},

@@ -65,6 +65,40 @@ vsd_status vsd_radiance_cache_from_records(const vsd_record_grid *rg, const floa
     return VSD_OK;
 }
 
+vsd_status vsd_radiance_cache_from_sh(const int32_t res[3], const vsd_affine *node_to_world, const float *sh,
+                                      vsd_radiance_cache *out, char *err, size_t errlen)
+{
+    const size_t nodes = (size_t)res[0] * res[1] * res[2];
+    const float y0 = (float)(0.5 / sqrt(PI_D)), c1 = (float)sqrt(3.0 / (4.0 * PI_D));
+    double n2w[16], w2n[16];
+    size_t n;
+    int a, ch;
+    float *p1;
+    memset(out, 0, sizeof *out);
+    if (nodes == 0) return VSD_OK;
+    for (a = 0; a < 12; a++) n2w[a] = node_to_world->m[a];
+    n2w[12] = n2w[13] = n2w[14] = 0.0;
+    n2w[15] = 1.0;
+    if (!vsd_mat4_invert(n2w, w2n))
+        return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "radiance cache: the nodes' transform is singular");
+    if (!(p1 = calloc(nodes * VSD_CACHE_FLOATS, sizeof *p1)))
+        return vsd_fail(VSD_ERR_NOMEM, err, errlen, "radiance cache: no memory for %zu nodes", nodes);
+    for (n = 0; n < nodes; n++)
+        for (ch = 0; ch < 3; ch++) {
+            const float *L = sh + (n * 3 + (size_t)ch) * 4;
+            float *v = p1 + VSD_CACHE_FLOATS * n;
+            v[ch] = y0 * L[0];
+            v[3 + ch] = -c1 * L[3];
+            v[6 + ch] = -c1 * L[1];
+            v[9 + ch] = c1 * L[2];
+        }
+    out->k.p1 = p1;
+    /* the cache's cell (i, j, k) has its centre at (i, j, k) + 0.5: node (i, j, k) */
+    for (a = 0; a < 12; a++) out->k.world_to_grid.m[a] = (float)w2n[a] + (a % 4 == 3 ? 0.5f : 0.0f);
+    memcpy(out->k.dims, res, sizeof out->k.dims);
+    return VSD_OK;
+}
+
 void vsd_radiance_cache_free(vsd_radiance_cache *c)
 {
     free((void *)c->k.p1);

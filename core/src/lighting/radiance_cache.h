@@ -19,6 +19,14 @@ typedef struct vsd_radiance_cache {
  * direction. Cells without a record read 0. */
 vsd_status vsd_radiance_cache_from_records(const vsd_record_grid *rg, const float *cones, const float *iso,
                                            vsd_radiance_cache *out, char *err, size_t errlen);
+/* From radiance in SH bands 0-1 on a grid of nodes (crm's): sh [nodes][3][4], per node
+ * (x fastest) and colour channel the coefficients of the radiance as a function of the
+ * direction the light travels, in kernel_sh.h's real basis; node (i, j, k) sits at world
+ * node_to_world(i, j, k), and the cache reads the nodes trilinearly between them. The
+ * radiance arriving from w travels along -w, so a = L_00 y_0 and B = sqrt(3 / 4pi)
+ * (-L_11, -L_1-1, L_10). */
+vsd_status vsd_radiance_cache_from_sh(const int32_t res[3], const vsd_affine *node_to_world, const float *sh,
+                                      vsd_radiance_cache *out, char *err, size_t errlen);
 void vsd_radiance_cache_free(vsd_radiance_cache *c);
 
 #endif
