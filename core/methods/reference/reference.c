@@ -30,7 +30,7 @@ static const vsd_option_spec reference_option_rows[] = {
     {"cache", VSD_OPT_CHOICE, 0, 0, 0, reference_cache_names,
      "a fast method's multiple scattering (lbl or crm) as a control variate: the paths estimate the difference between the "
      "true light and the method's, so they converge to the same image, with less noise where the method is close "
-     "(docs/methods/reference.md: it does not pay yet)",
+     "(docs/methods/reference.md: crm's cuts a cloud's variance a fifth, for a little more time per sample)",
      offsetof(reference_options, cache), 0, NULL, NULL},
     {"survival", VSD_OPT_NUMBER, 1e-3, 1, 1, NULL,
      "with a cache: from the second scattering on, a path goes on with probability sqrt(survival x its throughput) "
