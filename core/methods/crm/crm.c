@@ -216,10 +216,6 @@ typedef struct crm_state {
     vsd_crm_sky sky;              /* sky_view "sum": the sky's pixels and transmittance for the view */
     double *sky_dirs;             /* [3 * opt.directions] the sky's HEALPix directions */
     float light_g;
-    /* the medium's albedo and g, and the nodes' place in the world, at the last lighting:
-     * what turns the nodes' J_ms into radiance for reference's cache (crm_radiance_cache) */
-    double lit_albedo[3], lit_g;
-    vsd_affine lit_node_to_world;
     /* lighting (§5.3-5.4) */
     vsd_crm_od_table *table;
     double *j_ss, *j_ms, *l_m0;   /* per centre; l_m0 warm-starts the next solve */
@@ -731,9 +727,6 @@ static vsd_status crm_prepare_lighting(void *state, vsd_frame_ctx *ctx, char *er
     albedo[0] = ctx->kd.medium.albedo.x;
     albedo[1] = ctx->kd.medium.albedo.y;
     albedo[2] = ctx->kd.medium.albedo.z;
-    memcpy(s->lit_albedo, albedo, sizeof albedo);
-    s->lit_g = g;
-    if ((st = node_to_world(s, ctx, &s->lit_node_to_world, err, errlen))) return st;
     /* the sky the node grid's SH carries: the map less its bright texels, which become
      * exact lights (crm_lights.h); the paper's forms at the centres see the whole map */
     if (s->opt.single == SINGLE_GRID &&
@@ -1077,11 +1070,14 @@ static void crm_destroy(void *state)
  * band 1 over albedo g; where |g| < 1e-3 J holds nothing of the light's direction (the
  * orders keep band 0 alone at g = 0) and the cache is isotropic. The cache need only be
  * near the truth: reference's estimate is unbiased with any. */
-static vsd_status crm_radiance_cache(void *state, vsd_radiance_cache *out, char *err, size_t errlen)
+static vsd_status crm_radiance_cache(void *state, const vsd_frame_ctx *ctx, vsd_radiance_cache *out, char *err,
+                                     size_t errlen)
 {
     const crm_state *s = state;
     const size_t nodes = (size_t)s->nodes.res[0] * s->nodes.res[1] * s->nodes.res[2];
-    const double g = s->lit_g;
+    const double g = ctx->kd.medium.anisotropy,
+                 albedo[3] = {ctx->kd.medium.albedo.x, ctx->kd.medium.albedo.y, ctx->kd.medium.albedo.z};
+    vsd_affine n2w;
     size_t i;
     float *sh;
     vsd_status st;
@@ -1090,20 +1086,21 @@ static vsd_status crm_radiance_cache(void *state, vsd_radiance_cache *out, char 
                         "render.options.cache: crm's cache covers one volume so far (the scene has %d)", s->parts.count);
     memset(out, 0, sizeof *out);
     if (!s->nodes.nodes || nodes == 0) return VSD_OK;   /* an empty volume: a cache of nothing */
+    if ((st = node_to_world(s, ctx, &n2w, err, errlen))) return st;
     if (!(sh = malloc(nodes * 12 * sizeof *sh)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "crm: no memory for the cache of %zu nodes", nodes);
     for (i = 0; i < nodes; i++) {
         int c, l;
         for (c = 0; c < 3; c++) {
             const float *j = s->nodes.nodes + i * CRM_NODE_FLOATS + 3 * CRM_SS_N + c * CRM_MS_N;
-            const double a = s->lit_albedo[c];
+            const double a = albedo[c];
             float *L = sh + (i * 3 + (size_t)c) * 4;
             const int lit = (s->nodes.valid[i] & CRM_NODE_MULTIPLE) && a > 0.0;
             L[0] = lit ? (float)(j[0] / a) : 0.0f;
             for (l = 1; l < 4; l++) L[l] = lit && fabs(g) >= 1e-3 ? (float)(j[l] / (a * g)) : 0.0f;
         }
     }
-    st = vsd_radiance_cache_from_sh(s->nodes.res, &s->lit_node_to_world, sh, out, err, errlen);
+    st = vsd_radiance_cache_from_sh(s->nodes.res, &n2w, sh, out, err, errlen);
     free(sh);
     return st;
 }

@@ -1633,9 +1633,11 @@ static void lbl_destroy(void *state)
  * radiances where the readout keeps them (ms6), else its isotropic fluence / 4pi. With
  * delta-M these are the scaled problem's: what the lattice carries without HG's forward
  * peak (the cache need only be near the truth: reference's estimate is unbiased with any). */
-static vsd_status lbl_radiance_cache(void *state, vsd_radiance_cache *out, char *err, size_t errlen)
+static vsd_status lbl_radiance_cache(void *state, const vsd_frame_ctx *ctx, vsd_radiance_cache *out, char *err,
+                                     size_t errlen)
 {
     const lbl_state *s = state;
+    (void)ctx;   /* its record grid has the cells' place in the world */
     if (s->parts.count > 0)
         return vsd_fail(VSD_ERR_UNSUPPORTED, err, errlen,
                         "render.options.cache: lbl's cache covers one volume so far (the scene has %d)", s->parts.count);

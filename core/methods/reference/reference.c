@@ -107,7 +107,7 @@ static vsd_status reference_prepare_lighting(void *state, vsd_frame_ctx *ctx, ch
     if (s->cache_method->prepare_lighting &&
         (st = s->cache_method->prepare_lighting(s->cache_state, ctx, err, errlen)))
         return st;
-    if ((st = s->cache_method->radiance_cache(s->cache_state, &s->cache, err, errlen))) return st;
+    if ((st = s->cache_method->radiance_cache(s->cache_state, ctx, &s->cache, err, errlen))) return st;
     s->cache.k.survival = (float)s->opt.survival;
     return VSD_OK;
 }

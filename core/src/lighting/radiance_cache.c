@@ -10,12 +10,23 @@
 #define FACE_FIRST_MOMENT 1.7408395
 #define PI_D 3.14159265358979323846
 
+/* The 4x4 inverse of affine map a (both row-major), 0 when a is singular. */
+static int invert_affine(const vsd_affine *a, double inv[16])
+{
+    double m[16];
+    int i;
+    for (i = 0; i < 12; i++) m[i] = a->m[i];
+    m[12] = m[13] = m[14] = 0.0;
+    m[15] = 1.0;
+    return vsd_mat4_invert(m, inv);
+}
+
 vsd_status vsd_radiance_cache_from_records(const vsd_record_grid *rg, const float *cones, const float *iso,
                                            vsd_radiance_cache *out, char *err, size_t errlen)
 {
     const size_t cells = (size_t)rg->res[0] * rg->res[1] * rg->res[2];
     const double b_scale = 3.0 * FACE_FIRST_MOMENT / (4.0 * PI_D);
-    double g2w[16], w2g[16];
+    double g2w[16];
     vsd_f3 axis[3];
     size_t c;
     int a;
@@ -25,10 +36,7 @@ vsd_status vsd_radiance_cache_from_records(const vsd_record_grid *rg, const floa
     float *p1 = calloc(cells * VSD_CACHE_FLOATS, sizeof *p1);
     if (!p1) return vsd_fail(VSD_ERR_NOMEM, err, errlen, "radiance cache: no memory for %zu cells", cells);
     /* each grid axis's direction in the world: the columns of grid -> world */
-    for (a = 0; a < 12; a++) w2g[a] = rg->world_to_grid.m[a];
-    w2g[12] = w2g[13] = w2g[14] = 0.0;
-    w2g[15] = 1.0;
-    if (!vsd_mat4_invert(w2g, g2w)) {
+    if (!invert_affine(&rg->world_to_grid, g2w)) {
         free(p1);
         return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "radiance cache: the grid's transform is singular");
     }
@@ -70,16 +78,13 @@ vsd_status vsd_radiance_cache_from_sh(const int32_t res[3], const vsd_affine *no
 {
     const size_t nodes = (size_t)res[0] * res[1] * res[2];
     const float y0 = (float)(0.5 / sqrt(PI_D)), c1 = (float)sqrt(3.0 / (4.0 * PI_D));
-    double n2w[16], w2n[16];
+    double w2n[16];
     size_t n;
     int a, ch;
     float *p1;
     memset(out, 0, sizeof *out);
     if (nodes == 0) return VSD_OK;
-    for (a = 0; a < 12; a++) n2w[a] = node_to_world->m[a];
-    n2w[12] = n2w[13] = n2w[14] = 0.0;
-    n2w[15] = 1.0;
-    if (!vsd_mat4_invert(n2w, w2n))
+    if (!invert_affine(node_to_world, w2n))
         return vsd_fail(VSD_ERR_INTERNAL, err, errlen, "radiance cache: the nodes' transform is singular");
     if (!(p1 = calloc(nodes * VSD_CACHE_FLOATS, sizeof *p1)))
         return vsd_fail(VSD_ERR_NOMEM, err, errlen, "radiance cache: no memory for %zu nodes", nodes);

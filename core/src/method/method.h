@@ -95,9 +95,11 @@ typedef struct vsd_method {
     int density_in_lighting;
     /* After the lighting stage: the method's light scattered at least once, as a P1 radiance
      * field for `reference`'s control variate (render.options.cache, issue 33;
-     * src/lighting/radiance_cache.h). NULL for a method that has no multiple scattering to
-     * give. */
-    vsd_status (*radiance_cache)(void *state, struct vsd_radiance_cache *out, char *err, size_t errlen);
+     * src/lighting/radiance_cache.h), with the frame it was lit for (the medium and the
+     * volume's transform, which the method need not keep for this). NULL for a method that
+     * has no multiple scattering to give. */
+    vsd_status (*radiance_cache)(void *state, const vsd_frame_ctx *ctx, struct vsd_radiance_cache *out, char *err,
+                                 size_t errlen);
 } vsd_method;
 
 /* Whether m renders sc's volumes[]: an error naming the methods that do when there are
